@@ -1,0 +1,2 @@
+//! `cobalt`: the command line of the cobalt workspace.
+fn main() {}
