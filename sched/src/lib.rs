@@ -1,1 +1,72 @@
-//! placeholder
+//! Cost-based scheduling of irregular tasks across heterogeneous devices.
+//!
+//! Estimate what each task will cost ([`CostEstimator`]), let a [`Policy`] assign the tasks
+//! to devices of different speeds, and run them on real devices ([`Runtime`], one host thread
+//! per [`Executor`]) or on virtual ones ([`Simulation`], with launch latency and faults).
+//! The method is the cost-based static balancing of Rincón-Nigro (2012, University of Houston): sort tasks by
+//! decreasing estimated cost and give each to the device that would finish it first (LPT,
+//! within 4/3 of optimal), so a single launch per device balances almost as well as a
+//! dynamic queue without its per-task dispatch cost.
+//!
+//! # Example
+//!
+//! Depending on `sched` from another crate: describe a device, estimate, run.
+//!
+//! ```
+//! use std::ops::Range;
+//! use sched::{CostEstimator, DeviceError, Executor, Policy, Runtime};
+//!
+//! /// A device that counts primes in a range of integers.
+//! struct PrimeCounter { speed: f64 }
+//!
+//! impl Executor<Range<usize>> for PrimeCounter {
+//!     type Output = usize;
+//!     fn run(&mut self, task: &Range<usize>) -> Result<usize, DeviceError> {
+//!         Ok(task.clone().filter(|&n| n > 1 && (2..n).take_while(|d| d * d <= n).all(|d| n % d != 0)).count())
+//!     }
+//!     fn speed(&self) -> f64 { self.speed }
+//! }
+//!
+//! // Work grows with the numbers tested: a cheap estimate of each task's cost.
+//! let estimate = |t: &Range<usize>| (t.start..t.end).map(|n| (n as f64).sqrt()).sum::<f64>();
+//! let tasks = sched::split_ranges(20_000, 500);
+//! let costs = estimate.estimate_timed(&tasks)?.costs;
+//!
+//! let mut devices = [PrimeCounter { speed: 1.0 }, PrimeCounter { speed: 2.0 }];
+//! let run = Runtime::new(Policy::StaticLpt).run(&tasks, &costs, &mut devices)?;
+//! assert_eq!(run.outputs.iter().sum::<usize>(), 2262);
+//! assert_eq!(run.launches, vec![1, 1]); // a static plan launches once per device
+//! # Ok::<(), sched::SchedError>(())
+//! ```
+//!
+//! The [`bounds`] module states each policy's guarantee and a lower bound on the optimum;
+//! [`exact`] computes the optimum of small instances, against which the guarantees are
+//! property-tested.
+
+pub mod bounds;
+mod cost;
+mod dispatch;
+mod error;
+pub mod exact;
+mod executor;
+mod load;
+mod plan;
+mod policy;
+mod runtime;
+mod simulate;
+mod speeds;
+mod task;
+mod timeline;
+
+pub use cost::{ByItems, CostEstimator, Costs, Estimate, Uniform};
+pub use dispatch::Dispatch;
+pub use error::{DeviceFailure, SchedError};
+pub use executor::{DeviceError, Executor, Sink};
+pub use load::Load;
+pub use plan::Plan;
+pub use policy::{HybridDispatch, Policy, QueueDispatch, StaticDispatch, plan_equal, plan_lpt};
+pub use runtime::{RunReport, Runtime};
+pub use simulate::{Fault, SimReport, Simulation};
+pub use speeds::Speeds;
+pub use task::{Task, split_ranges};
+pub use timeline::{Metrics, Span, Timeline};

@@ -1,0 +1,157 @@
+use std::time::Instant;
+
+use crate::{Load, SchedError, Task};
+
+/// Validated task costs: finite and non-negative, in any unit (seconds, node visits…).
+///
+/// Only the ratios between costs matter to a policy; the simulator reads them as time.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Costs(Vec<f64>);
+
+impl Costs {
+    /// Checks every cost; the error names the first bad one.
+    pub fn new(costs: Vec<f64>) -> Result<Self, SchedError> {
+        if let Some((task, &value)) = costs
+            .iter()
+            .enumerate()
+            .find(|(_, c)| !(c.is_finite() && **c >= 0.0))
+        {
+            return Err(SchedError::BadCost { task, value });
+        }
+        Ok(Costs(costs))
+    }
+
+    /// `n` tasks of cost 1: the thesis's "regular mode", where every task looks the same.
+    pub fn uniform(n: usize) -> Self {
+        Costs(vec![1.0; n])
+    }
+
+    /// The costs, in task order.
+    pub fn as_slice(&self) -> &[f64] {
+        &self.0
+    }
+
+    /// Number of tasks.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// True when there are no tasks.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    /// The exact total.
+    pub fn total(&self) -> Load {
+        Load::sum(self.0.iter().copied())
+    }
+
+    /// Task indices sorted by decreasing cost, ties by index: the order of LPT and of a
+    /// cost-sorted queue.
+    pub fn decreasing_order(&self) -> Vec<u32> {
+        let mut order: Vec<u32> = (0..self.0.len() as u32).collect();
+        // Costs are validated finite, so `total_cmp` is the numeric order here; a stable
+        // sort keeps ties in index order, which makes plans reproducible.
+        order.sort_by(|&a, &b| self.0[b as usize].total_cmp(&self.0[a as usize]));
+        order
+    }
+}
+
+impl std::ops::Index<usize> for Costs {
+    type Output = f64;
+    fn index(&self, task: usize) -> &f64 {
+        &self.0[task]
+    }
+}
+
+/// Estimates what each task will cost before it runs.
+///
+/// One required method. An estimator may sample (the reduced traversal of 1/8 of a task's
+/// rays) and may be wrong; policies only need the order and rough ratios to be right.
+pub trait CostEstimator<T: Task> {
+    /// One cost per task, in task order, in any consistent unit.
+    fn estimate(&self, tasks: &[T]) -> Vec<f64>;
+
+    /// Estimates, validates and times the estimate, so its overhead can be reported.
+    fn estimate_timed(&self, tasks: &[T]) -> Result<Estimate, SchedError> {
+        let start = Instant::now();
+        let raw = self.estimate(tasks);
+        let seconds = start.elapsed().as_secs_f64();
+        if raw.len() != tasks.len() {
+            return Err(SchedError::LengthMismatch {
+                what: "estimator returned a cost per task",
+                expected: tasks.len(),
+                got: raw.len(),
+            });
+        }
+        Ok(Estimate {
+            costs: Costs::new(raw)?,
+            seconds,
+        })
+    }
+}
+
+/// Estimated costs and the time it took to get them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Estimate {
+    /// The validated costs.
+    pub costs: Costs,
+    /// Wall time of the estimation, in seconds: the estimation overhead.
+    pub seconds: f64,
+}
+
+/// Every task costs the same: the regular (cost-free) mode of the thesis.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Uniform;
+
+impl<T: Task> CostEstimator<T> for Uniform {
+    fn estimate(&self, tasks: &[T]) -> Vec<f64> {
+        vec![1.0; tasks.len()]
+    }
+}
+
+/// A task costs its number of items: a good estimate when items cost about the same.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ByItems;
+
+impl<T: Task> CostEstimator<T> for ByItems {
+    fn estimate(&self, tasks: &[T]) -> Vec<f64> {
+        tasks.iter().map(|t| t.items() as f64).collect()
+    }
+}
+
+/// Any closure from a task to its cost is an estimator.
+impl<T: Task, F: Fn(&T) -> f64> CostEstimator<T> for F {
+    fn estimate(&self, tasks: &[T]) -> Vec<f64> {
+        tasks.iter().map(self).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rejects_bad_costs_by_index() {
+        for bad in [f64::NAN, f64::INFINITY, -1.0, f64::NEG_INFINITY] {
+            let err = Costs::new(vec![1.0, bad]).unwrap_err();
+            assert!(matches!(err, SchedError::BadCost { task: 1, .. }), "{err}");
+        }
+        assert!(Costs::new(vec![0.0, 1e-300, 1e300]).is_ok());
+    }
+
+    #[test]
+    fn closure_estimators_are_timed_and_checked() {
+        let tasks = crate::split_ranges(10, 3);
+        let est = (|t: &std::ops::Range<usize>| t.len() as f64 * 2.0).estimate_timed(&tasks);
+        assert_eq!(est.unwrap().costs.as_slice(), &[6.0, 6.0, 6.0, 2.0]);
+        let bad = (|_: &std::ops::Range<usize>| f64::NAN).estimate_timed(&tasks);
+        assert!(matches!(bad, Err(SchedError::BadCost { task: 0, .. })));
+    }
+
+    #[test]
+    fn decreasing_order_is_stable() {
+        let c = Costs::new(vec![1.0, 3.0, 1.0, 3.0]).unwrap();
+        assert_eq!(c.decreasing_order(), vec![1, 3, 0, 2]);
+    }
+}

@@ -1,0 +1,55 @@
+use crate::{Costs, Load, Speeds};
+
+/// A static assignment: for each device, the tasks it runs, in launch order.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Plan {
+    devices: Vec<Vec<u32>>,
+}
+
+impl Plan {
+    /// A plan from per-device task lists.
+    pub fn from_lists(devices: Vec<Vec<u32>>) -> Self {
+        Plan { devices }
+    }
+
+    /// The tasks of `device`, in the order it runs them.
+    pub fn tasks(&self, device: usize) -> &[u32] {
+        &self.devices[device]
+    }
+
+    /// Number of devices the plan covers.
+    pub fn devices(&self) -> usize {
+        self.devices.len()
+    }
+
+    /// The device of each task, in task order; `u32::MAX` for a task the plan leaves out.
+    pub fn assignment(&self, tasks: usize) -> Vec<u32> {
+        let mut out = vec![u32::MAX; tasks];
+        for (d, list) in self.devices.iter().enumerate() {
+            for &t in list {
+                out[t as usize] = d as u32;
+            }
+        }
+        out
+    }
+
+    /// When each device finishes if costs are exact: `Σ cost / speed`, summed exactly.
+    pub fn finish_times(&self, costs: &Costs, speeds: &Speeds) -> Vec<f64> {
+        self.devices
+            .iter()
+            .enumerate()
+            .map(|(d, list)| {
+                list.iter()
+                    .fold(Load::ZERO, |l, &t| l.plus(costs[t as usize] / speeds[d]))
+                    .value()
+            })
+            .collect()
+    }
+
+    /// The latest finish time: the plan's makespan with exact costs and no dispatch latency.
+    pub fn makespan(&self, costs: &Costs, speeds: &Speeds) -> f64 {
+        self.finish_times(costs, speeds)
+            .into_iter()
+            .fold(0.0, f64::max)
+    }
+}

@@ -1,0 +1,114 @@
+//! Scheduling policies. Design notes, with the bounds each one carries, are in `README.md`.
+
+mod central_queue;
+mod hybrid;
+mod lpt;
+mod static_dispatch;
+mod static_equal;
+
+use std::fmt;
+use std::str::FromStr;
+
+pub use central_queue::QueueDispatch;
+pub use hybrid::HybridDispatch;
+pub use lpt::plan_lpt;
+pub use static_dispatch::StaticDispatch;
+pub use static_equal::plan_equal;
+
+use crate::{Costs, Dispatch, Plan, SchedError, Speeds};
+
+/// How tasks are assigned to devices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
+pub enum Policy {
+    /// The thesis's regular static scheme: each device gets a contiguous share of the tasks,
+    /// proportional to its speed, whatever they cost. One launch per device.
+    StaticEqual,
+    /// Longest processing time first: tasks in decreasing cost, each to the device where it
+    /// would finish earliest. One launch per device. ≤ (4/3 − 1/(3m))·OPT on identical
+    /// devices, ≤ (1 + √3/3)·OPT on devices of different speeds.
+    StaticLpt,
+    /// A central queue in task order; an idle device takes the next task. One launch per
+    /// task. A list schedule: ≤ (2 − 1/m)·OPT.
+    QueueFifo,
+    /// A central queue in decreasing cost. One launch per task.
+    QueueSorted,
+    /// An LPT plan whose devices launch their queues in halves; an idle device steals the
+    /// smallest remaining tasks of the most loaded one, but only as many as it can finish
+    /// before that device would. Never worse than `StaticLpt` with exact costs and no
+    /// latency, and robust to wrong estimates.
+    Hybrid,
+}
+
+impl Policy {
+    /// Every policy, in the order reports list them.
+    pub const ALL: [Policy; 5] = [
+        Policy::StaticEqual,
+        Policy::StaticLpt,
+        Policy::QueueFifo,
+        Policy::QueueSorted,
+        Policy::Hybrid,
+    ];
+
+    /// The policy's command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Policy::StaticEqual => "static-equal",
+            Policy::StaticLpt => "static-lpt",
+            Policy::QueueFifo => "queue-fifo",
+            Policy::QueueSorted => "queue-sorted",
+            Policy::Hybrid => "hybrid",
+        }
+    }
+
+    /// True for policies that plan everything up front and launch once per device.
+    pub fn is_static(self) -> bool {
+        matches!(self, Policy::StaticEqual | Policy::StaticLpt)
+    }
+
+    /// The up-front plan of a static policy, or the starting plan of `Hybrid`; `None` for the
+    /// queues, which decide at run time.
+    pub fn plan(self, costs: &Costs, speeds: &Speeds) -> Option<Plan> {
+        match self {
+            Policy::StaticEqual => Some(plan_equal(costs.len(), speeds)),
+            Policy::StaticLpt | Policy::Hybrid => Some(plan_lpt(costs, speeds)),
+            Policy::QueueFifo | Policy::QueueSorted => None,
+        }
+    }
+
+    /// The run-time state of this policy for one workload: the planning step.
+    pub fn dispatcher<'a>(self, costs: &'a Costs, speeds: &Speeds) -> Box<dyn Dispatch + 'a> {
+        match self {
+            Policy::StaticEqual | Policy::StaticLpt => {
+                let plan = self.plan(costs, speeds).unwrap_or_else(|| unreachable!());
+                Box::new(StaticDispatch::new(plan, costs))
+            }
+            Policy::QueueFifo => Box::new(QueueDispatch::fifo(costs)),
+            Policy::QueueSorted => Box::new(QueueDispatch::sorted(costs)),
+            Policy::Hybrid => Box::new(HybridDispatch::new(costs, speeds)),
+        }
+    }
+}
+
+impl fmt::Display for Policy {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Policy {
+    type Err = SchedError;
+
+    /// Accepts the command-line names and short forms: `equal`, `lpt`, `fifo`, `sorted`.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s.trim().to_ascii_lowercase().as_str() {
+            "static-equal" | "equal" | "static" => Policy::StaticEqual,
+            "static-lpt" | "lpt" => Policy::StaticLpt,
+            "queue-fifo" | "fifo" | "queue" => Policy::QueueFifo,
+            "queue-sorted" | "sorted" => Policy::QueueSorted,
+            "hybrid" => Policy::Hybrid,
+            _ => return Err(SchedError::UnknownPolicy(s.to_owned())),
+        })
+    }
+}

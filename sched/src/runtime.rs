@@ -1,0 +1,268 @@
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::{Condvar, Mutex, MutexGuard};
+use std::time::Instant;
+
+use crate::{
+    Costs, DeviceError, DeviceFailure, Dispatch, Executor, Metrics, Policy, SchedError, Sink, Span,
+    Speeds, Task, Timeline,
+};
+
+/// Runs a workload on real executors, one host thread per device.
+///
+/// ```
+/// use sched::{Costs, DeviceError, Executor, Policy, Runtime};
+/// use std::ops::Range;
+///
+/// struct Summer;
+/// impl Executor<Range<usize>> for Summer {
+///     type Output = usize;
+///     fn run(&mut self, task: &Range<usize>) -> Result<usize, DeviceError> {
+///         Ok(task.clone().sum())
+///     }
+/// }
+///
+/// let tasks = sched::split_ranges(1000, 64);
+/// let costs = Costs::new(tasks.iter().map(|t| t.len() as f64).collect())?;
+/// let run = Runtime::new(Policy::Hybrid).run(&tasks, &costs, &mut [Summer, Summer])?;
+/// assert_eq!(run.outputs.iter().sum::<usize>(), (0..1000).sum());
+/// # Ok::<(), sched::SchedError>(())
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct Runtime {
+    policy: Policy,
+}
+
+/// What a real run produced and how it went.
+#[derive(Debug)]
+pub struct RunReport<O> {
+    /// One output per task, in task order.
+    pub outputs: Vec<O>,
+    /// Every delivered task: device, start and end, in seconds from the start of dispatch.
+    pub timeline: Timeline,
+    /// Makespan, busy and idle time, balance efficiency.
+    pub metrics: Metrics,
+    /// Time spent planning (building the policy's dispatcher), before any device started.
+    pub plan_seconds: f64,
+    /// Per device: time spent asking the policy for work, lock waits included.
+    pub dispatch_seconds: Vec<f64>,
+    /// Launches per device.
+    pub launches: Vec<u64>,
+    /// Devices that failed; their unfinished tasks were re-run by the others.
+    pub failures: Vec<DeviceFailure>,
+    /// Task runs lost to failures and run again.
+    pub reruns: u64,
+}
+
+struct State<'a, O> {
+    dispatch: Box<dyn Dispatch + 'a>,
+    outputs: Vec<Option<O>>,
+    delivered: usize,
+    spans: Vec<Span>,
+    failures: Vec<DeviceFailure>,
+    reruns: u64,
+}
+
+struct Shared<'a, O> {
+    state: Mutex<State<'a, O>>,
+    // Signalled when a failure releases work or the last output arrives.
+    changed: Condvar,
+    start: Instant,
+}
+
+impl<'a, O> Shared<'a, O> {
+    fn lock(&self) -> MutexGuard<'_, State<'a, O>> {
+        // A panic never happens while the lock is held (executors run unlocked), so a
+        // poisoned lock still holds consistent state.
+        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn seconds(&self, t: Instant) -> f64 {
+        t.saturating_duration_since(self.start).as_secs_f64()
+    }
+}
+
+impl Runtime {
+    /// A runtime that schedules with `policy`.
+    pub fn new(policy: Policy) -> Self {
+        Runtime { policy }
+    }
+
+    /// Runs every task exactly once across `executors` and returns their outputs in task
+    /// order. Speeds come from [`Executor::speed`]. A device that errors or panics is retired
+    /// and its unfinished tasks go to the others; only if every device fails is the run an
+    /// error, naming each failure.
+    pub fn run<T, E>(
+        &self,
+        tasks: &[T],
+        costs: &Costs,
+        executors: &mut [E],
+    ) -> Result<RunReport<E::Output>, SchedError>
+    where
+        T: Task,
+        E: Executor<T>,
+    {
+        if costs.len() != tasks.len() {
+            return Err(SchedError::LengthMismatch {
+                what: "one cost per task",
+                expected: tasks.len(),
+                got: costs.len(),
+            });
+        }
+        let speeds = Speeds::new(executors.iter().map(|e| e.speed()).collect())?;
+        let names: Vec<String> = executors.iter().map(|e| e.name()).collect();
+        let m = executors.len();
+
+        let planning = Instant::now();
+        let dispatch = self.policy.dispatcher(costs, &speeds);
+        let plan_seconds = planning.elapsed().as_secs_f64();
+
+        let shared = Shared {
+            state: Mutex::new(State {
+                dispatch,
+                outputs: (0..tasks.len()).map(|_| None).collect(),
+                delivered: 0,
+                spans: Vec::with_capacity(tasks.len()),
+                failures: Vec::new(),
+                reruns: 0,
+            }),
+            changed: Condvar::new(),
+            start: Instant::now(),
+        };
+        let per_device: Vec<(f64, u64)> = crossbeam::thread::scope(|scope| {
+            let handles: Vec<_> = executors
+                .iter_mut()
+                .enumerate()
+                .map(|(d, exec)| {
+                    let shared = &shared;
+                    let name = &names[d];
+                    scope.spawn(move |_| device_loop(d, name, exec, tasks, shared))
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or((0.0, 0)))
+                .collect()
+        })
+        .unwrap_or_else(|_| vec![(0.0, 0); m]);
+
+        let state = shared.state.into_inner().unwrap_or_else(|p| p.into_inner());
+        let n = tasks.len();
+        if state.delivered < n {
+            return Err(SchedError::AllDevicesFailed {
+                devices: m,
+                tasks: n,
+                unfinished: n - state.delivered,
+                failures: state.failures,
+            });
+        }
+        let timeline = Timeline {
+            devices: m,
+            spans: state.spans,
+        };
+        Ok(RunReport {
+            outputs: state.outputs.into_iter().flatten().collect(),
+            metrics: timeline.metrics(),
+            timeline,
+            plan_seconds,
+            dispatch_seconds: per_device.iter().map(|p| p.0).collect(),
+            launches: per_device.iter().map(|p| p.1).collect(),
+            failures: state.failures,
+            reruns: state.reruns,
+        })
+    }
+}
+
+/// One device's thread. The order it looks for work in is the policy's (see `Dispatch`);
+/// here it only waits when there is none, runs launches unlocked and delivers their outputs.
+/// Returns its dispatch time and launch count.
+fn device_loop<T: Task, E: Executor<T>>(
+    device: usize,
+    name: &str,
+    exec: &mut E,
+    tasks: &[T],
+    shared: &Shared<'_, E::Output>,
+) -> (f64, u64) {
+    let mut launch = Vec::new();
+    let mut dispatch_seconds = 0.0;
+    let mut launches = 0;
+    loop {
+        let asked = Instant::now();
+        let mut state = shared.lock();
+        loop {
+            if state.delivered == tasks.len() {
+                return (dispatch_seconds + asked.elapsed().as_secs_f64(), launches);
+            }
+            launch.clear();
+            state.dispatch.next(device, &mut launch);
+            if !launch.is_empty() {
+                break;
+            }
+            state = shared
+                .changed
+                .wait(state)
+                .unwrap_or_else(|p| p.into_inner());
+        }
+        drop(state);
+        dispatch_seconds += asked.elapsed().as_secs_f64();
+        launches += 1;
+
+        let batch: Vec<&T> = launch.iter().map(|&t| &tasks[t as usize]).collect();
+        let mut sink = Sink::new(batch.len());
+        let started = Instant::now();
+        let result = catch_unwind(AssertUnwindSafe(|| exec.run_batch(&batch, &mut sink)));
+        let failure = match result {
+            Ok(Ok(())) if sink.len() == batch.len() => None,
+            Ok(Ok(())) => Some(DeviceError::msg(format!(
+                "returned {} outputs for a batch of {}",
+                sink.len(),
+                batch.len()
+            ))),
+            Ok(Err(e)) => Some(e),
+            Err(panic) => Some(DeviceError::msg(format!(
+                "panicked: {}",
+                panic_message(&*panic)
+            ))),
+        };
+
+        let mut state = shared.lock();
+        let mut from = shared.seconds(started);
+        let outputs = sink.into_outputs();
+        let done = outputs.len();
+        for (&task, (output, at)) in launch.iter().zip(outputs) {
+            let end = shared.seconds(at);
+            state.spans.push(Span {
+                device: device as u32,
+                task,
+                start: from,
+                end,
+            });
+            from = end;
+            state.outputs[task as usize] = Some(output);
+        }
+        state.delivered += done;
+        if let Some(error) = failure {
+            let undone = &launch[done..];
+            state.reruns += undone.len() as u64;
+            state.dispatch.fail(device, undone);
+            state.failures.push(DeviceFailure {
+                device,
+                name: name.to_owned(),
+                reason: error.to_string(),
+                orphaned: undone.len(),
+            });
+            shared.changed.notify_all();
+            return (dispatch_seconds, launches);
+        }
+        if state.delivered == tasks.len() {
+            shared.changed.notify_all();
+        }
+    }
+}
+
+fn panic_message(panic: &(dyn std::any::Any + Send)) -> &str {
+    panic
+        .downcast_ref::<&str>()
+        .copied()
+        .or_else(|| panic.downcast_ref::<String>().map(String::as_str))
+        .unwrap_or("(no message)")
+}
