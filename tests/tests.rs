@@ -1,1 +1,18 @@
-mod placeholder {}
+//! cobalt's integration tests: one binary, one module per concern.
+
+// Seeded randomness shared by the modules below.
+mod testkit;
+
+// Makespan guarantees of the policies against the exact optimum, and exactly-once delivery
+// in the simulator, on random small instances.
+mod policies;
+
+// The threaded runtime: exactly-once outputs under injected errors and panics, and agreement
+// with the simulator on static plans.
+mod runtime;
+
+// Costs and sizes at the extremes: 1e-12..1e12, a million equal tasks, 1024 devices.
+mod extremes;
+
+// The `cobalt schedule` command line: its output contract and its errors.
+mod cli;

@@ -22,6 +22,12 @@ pub enum SchedError {
         /// The rejected value.
         value: f64,
     },
+    /// More tasks than a `u32` index can name.
+    #[error("{tasks} tasks: at most {} are supported", u32::MAX)]
+    TooManyTasks {
+        /// How many were given.
+        tasks: usize,
+    },
     /// A dispatch latency is NaN, infinite or negative.
     #[error("dispatch latency {value} is invalid: it must be finite and non-negative")]
     BadLatency {

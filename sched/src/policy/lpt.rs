@@ -3,6 +3,9 @@ use std::collections::BinaryHeap;
 
 use crate::{Costs, Load, Plan, Speeds};
 
+/// Devices of one speed, as a min-heap of (finish time, device).
+type SpeedGroup = (f64, BinaryHeap<Reverse<(Load, u32)>>);
+
 /// Longest processing time first, generalised to devices of different speeds: tasks in
 /// decreasing cost, each to the device where it would *finish* earliest (ties to the lower
 /// index). On identical devices this is Graham's LPT.
@@ -11,7 +14,7 @@ use crate::{Costs, Load, Plan, Speeds};
 /// O(n log n + n·(k + log m)) for `k` distinct speeds: a million tasks on 1024 identical
 /// devices plan in tens of milliseconds.
 pub fn plan_lpt(costs: &Costs, speeds: &Speeds) -> Plan {
-    let mut groups: Vec<(f64, BinaryHeap<Reverse<(Load, u32)>>)> = Vec::new();
+    let mut groups: Vec<SpeedGroup> = Vec::new();
     for (d, &s) in speeds.as_slice().iter().enumerate() {
         let entry = Reverse((Load::ZERO, d as u32));
         match groups.iter_mut().find(|(gs, _)| *gs == s) {
@@ -31,9 +34,10 @@ pub fn plan_lpt(costs: &Costs, speeds: &Speeds) -> Plan {
             })
             .min_by(|a, b| a.1.cmp(&b.1))
             .unwrap_or_else(|| unreachable!("validated speeds name at least one device"));
-        let heap = &mut groups[group].1;
-        heap.pop();
-        heap.push(Reverse(finish));
+        // Replacing the top in place costs one sift-down instead of a pop and a push.
+        if let Some(mut top) = groups[group].1.peek_mut() {
+            *top = Reverse(finish);
+        }
         lists[finish.1 as usize].push(task);
     }
     Plan::from_lists(lists)
