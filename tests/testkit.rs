@@ -1,12 +1,12 @@
 //! Seeded randomness for the tests that are not proptest's: SplitMix64, with the seed taken
 //! from `COBALT_SEED` when set, so a failure can be replayed.
 
-pub struct Rng(u64);
+pub(crate) struct Rng(u64);
 
 impl Rng {
     /// A generator seeded from `COBALT_SEED`, or from `default`; prints the seed so a failing
     /// run can be repeated.
-    pub fn from_env(default: u64) -> Self {
+    pub(crate) fn from_env(default: u64) -> Self {
         let seed = std::env::var("COBALT_SEED")
             .ok()
             .and_then(|s| s.parse().ok())
@@ -15,7 +15,7 @@ impl Rng {
         Rng(seed)
     }
 
-    pub fn next_u64(&mut self) -> u64 {
+    pub(crate) fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -24,15 +24,15 @@ impl Rng {
     }
 
     /// Uniform in `[0, 1)`.
-    pub fn unit(&mut self) -> f64 {
+    pub(crate) fn unit(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
     }
 
-    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+    pub(crate) fn range(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.unit()
     }
 
-    pub fn below(&mut self, n: usize) -> usize {
+    pub(crate) fn below(&mut self, n: usize) -> usize {
         (self.next_u64() % n as u64) as usize
     }
 }
