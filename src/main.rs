@@ -1,2 +1,67 @@
-//! `cobalt`: the command line of the cobalt workspace.
-fn main() {}
+//! `cobalt`: cost-balanced scheduling of irregular workloads, from the command line.
+
+mod bench;
+mod error;
+mod input;
+mod schedule;
+
+use std::io::Write;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+use crate::error::CliError;
+
+#[derive(Debug, Parser)]
+#[command(name = "cobalt", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run the benchmark matrix of policies, task sizes and devices; print a table.
+    Bench(bench::Args),
+    /// Plan task costs on devices with a policy; print makespan, lower bound and assignment.
+    Schedule(schedule::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Bench(args) => bench::run(args),
+        Command::Schedule(args) => schedule::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("cobalt: error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// Prints one JSON object on standard output.
+fn print_json(value: &impl serde::Serialize) -> Result<(), CliError> {
+    let text = serde_json::to_string(value).map_err(|e| CliError::Write(e.to_string()))?;
+    print_text(&format!("{text}\n"))
+}
+
+/// Prints text on standard output; a closed pipe is an error, not a panic.
+fn print_text(text: &str) -> Result<(), CliError> {
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())
+        .and_then(|()| out.flush())
+        .map_err(|e| CliError::Write(e.to_string()))
+}
+
+/// Writes a whole file through a temporary sibling and a rename, so a failure never leaves a
+/// half-written file where a good one was.
+fn write_file(path: &std::path::Path, bytes: &[u8]) -> Result<(), CliError> {
+    let err = |e: std::io::Error| CliError::Write(format!("{}: {e}", path.display()));
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".partial");
+    std::fs::write(&tmp, bytes).map_err(err)?;
+    std::fs::rename(&tmp, path).map_err(err)
+}

@@ -1,7 +1,7 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use crate::{Costs, Load, Metrics, Policy, SchedError, Span, Speeds, Timeline};
+use crate::{Costs, DeviceFailure, Load, Metrics, Policy, SchedError, Span, Speeds, Timeline};
 
 /// A device that stops at a given time: what it is running then is lost and re-run elsewhere.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -141,6 +141,7 @@ impl Simulation {
         let mut dead = vec![false; m];
         let mut undone: Vec<Vec<u32>> = vec![Vec::new(); m];
         let mut waiting: Vec<u32> = Vec::new();
+        let mut failures = Vec::new();
         let mut spans = Vec::new();
         let mut launch = Vec::new();
 
@@ -152,6 +153,12 @@ impl Simulation {
             if kind == Kind::Fault {
                 dead[du] = true;
                 reruns += undone[du].len() as u64;
+                failures.push(DeviceFailure {
+                    device: du,
+                    name: format!("simulated device {du}"),
+                    reason: format!("fault at {}", now.value()),
+                    orphaned: undone[du].len(),
+                });
                 dispatch.fail(du, &undone[du]);
                 for w in waiting.drain(..) {
                     events.push(Reverse((now, Kind::Ready, w)));
@@ -203,7 +210,7 @@ impl Simulation {
                 devices: m,
                 tasks: n,
                 unfinished: n - delivered,
-                failures: Vec::new(),
+                failures,
             });
         }
         Ok(SimReport {

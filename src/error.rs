@@ -1,0 +1,40 @@
+use std::path::PathBuf;
+
+/// Why a command could not run. Each names the input at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    /// A file could not be read.
+    #[error("{path}: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// What the system said.
+        source: std::io::Error,
+    },
+    /// A line of an input file is not what it should be.
+    #[error("{path}:{line}: {message}")]
+    Line {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A command-line value is malformed.
+    #[error("--{flag} {value:?}: {message}")]
+    Arg {
+        /// The flag, without dashes.
+        flag: &'static str,
+        /// The value given.
+        value: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The scheduler rejected the input.
+    #[error(transparent)]
+    Sched(#[from] sched::SchedError),
+    /// Output could not be written.
+    #[error("writing output: {0}")]
+    Write(String),
+}

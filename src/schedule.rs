@@ -1,0 +1,170 @@
+//! `cobalt schedule`: plan a list of task costs with a policy and report the result.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use sched::bounds::{guarantee, lower_bound};
+use sched::{Costs, Fault, Policy, Simulation, Speeds};
+use serde::Serialize;
+
+use crate::error::CliError;
+use crate::input::{parse_list, read_costs};
+
+/// Arguments of `cobalt schedule`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// File with one non-negative task cost per line (`-` for standard input).
+    #[arg(long)]
+    costs: PathBuf,
+    /// Relative device speeds, comma-separated: `1,1,2.5` is two devices and one 2.5× faster.
+    #[arg(long, default_value = "1")]
+    speeds: String,
+    /// static-equal, static-lpt (lpt), queue-fifo (fifo), queue-sorted (sorted) or hybrid.
+    #[arg(long, default_value = "static-lpt")]
+    policy: Policy,
+    /// Time every launch waits before its first task, in cost units.
+    #[arg(long, default_value_t = 0.0)]
+    latency: f64,
+    /// Actual costs, one per line, if they differ from the estimates in `--costs`.
+    #[arg(long)]
+    actual: Option<PathBuf>,
+    /// Device failures, `DEVICE@TIME`, comma-separated: `1@0.5` stops device 1 at time 0.5.
+    #[arg(long)]
+    fail: Option<String>,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct Report {
+    policy: Policy,
+    tasks: usize,
+    devices: usize,
+    speeds: Vec<f64>,
+    latency: f64,
+    makespan: f64,
+    lower_bound: f64,
+    /// makespan / lower_bound (1 when both are 0).
+    ratio: f64,
+    /// The factor of the optimum this policy is proven to stay within here, if any (none
+    /// with latency, faults or actual costs that differ from the estimates).
+    guarantee: Option<f64>,
+    balance_efficiency: f64,
+    busy: Vec<f64>,
+    launches: Vec<u64>,
+    reruns: u64,
+    plan_seconds: f64,
+    simulate_seconds: f64,
+    /// The device that ran each task, in input order.
+    assignment: Vec<u32>,
+}
+
+/// Runs the command and prints its report.
+pub fn run(args: Args) -> Result<(), CliError> {
+    let estimated = Costs::new(read_costs(&args.costs)?)?;
+    let actual = match &args.actual {
+        Some(path) => Costs::new(read_costs(path)?)?,
+        None => estimated.clone(),
+    };
+    let speeds = Speeds::new(parse_list("speeds", &args.speeds)?)?;
+    let faults = parse_faults(args.fail.as_deref())?;
+    // The proven factors hold for exact estimates, no latency and no failures.
+    let ideal = faults.is_empty() && args.latency == 0.0 && estimated == actual;
+    let mut sim = Simulation::new(args.policy, speeds.clone()).latency(args.latency);
+    for fault in faults {
+        sim = sim.fault(fault);
+    }
+
+    let planning = Instant::now();
+    drop(args.policy.dispatcher(&estimated, &speeds));
+    let plan_seconds = planning.elapsed().as_secs_f64();
+    let simulating = Instant::now();
+    let result = sim.run_actual(&estimated, &actual)?;
+    let simulate_seconds = simulating.elapsed().as_secs_f64();
+
+    let bound = lower_bound(&actual, &speeds);
+    let makespan = result.metrics.makespan;
+    let report = Report {
+        policy: args.policy,
+        tasks: estimated.len(),
+        devices: speeds.len(),
+        speeds: speeds.as_slice().to_vec(),
+        latency: args.latency,
+        makespan,
+        lower_bound: bound,
+        ratio: if bound > 0.0 { makespan / bound } else { 1.0 },
+        guarantee: guarantee(args.policy, &speeds).filter(|_| ideal),
+        balance_efficiency: result.metrics.balance_efficiency,
+        busy: result.metrics.busy,
+        launches: result.launches,
+        reruns: result.reruns,
+        plan_seconds,
+        simulate_seconds,
+        assignment: result.assignment,
+    };
+    if args.json {
+        crate::print_json(&report)
+    } else {
+        crate::print_text(&table(&report))
+    }
+}
+
+fn parse_faults(text: Option<&str>) -> Result<Vec<Fault>, CliError> {
+    let Some(text) = text else {
+        return Ok(Vec::new());
+    };
+    text.split(',')
+        .map(|item| {
+            let bad = |message: &str| CliError::Arg {
+                flag: "fail",
+                value: text.to_owned(),
+                message: format!("{:?} {message}", item.trim()),
+            };
+            let (device, at) = item
+                .trim()
+                .split_once('@')
+                .ok_or_else(|| bad("is not DEVICE@TIME"))?;
+            let device = device
+                .parse()
+                .map_err(|_| bad("does not start with a device index"))?;
+            let at: f64 = at.parse().map_err(|_| bad("does not end with a time"))?;
+            if !(at.is_finite() && at >= 0.0) {
+                return Err(bad("has a time that is not finite and non-negative"));
+            }
+            Ok(Fault { device, at })
+        })
+        .collect()
+}
+
+fn table(r: &Report) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let guarantee = r
+        .guarantee
+        .map_or(String::from("no proven factor here"), |g| {
+            format!("proven ≤ {g:.4} × optimum")
+        });
+    // Writing to a String cannot fail.
+    let _ = writeln!(out, "policy        {}", r.policy);
+    let _ = writeln!(out, "tasks         {} on {} devices", r.tasks, r.devices);
+    let _ = writeln!(out, "makespan      {}", r.makespan);
+    let _ = writeln!(
+        out,
+        "lower bound   {}  (makespan / bound = {:.4}; {guarantee})",
+        r.lower_bound, r.ratio
+    );
+    let _ = writeln!(out, "balance       {:.2} %", 100.0 * r.balance_efficiency);
+    let _ = writeln!(out, "reruns        {}\n", r.reruns);
+    let _ = writeln!(out, "| device | speed | tasks | busy | launches |");
+    let _ = writeln!(out, "|---:|---:|---:|---:|---:|");
+    for d in 0..r.devices {
+        let tasks = r.assignment.iter().filter(|&&a| a as usize == d).count();
+        let _ = writeln!(
+            out,
+            "| {d} | {} | {tasks} | {:.6} | {} |",
+            r.speeds[d], r.busy[d], r.launches[d]
+        );
+    }
+    out
+}
