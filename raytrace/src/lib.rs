@@ -1,1 +1,51 @@
-//! Ray tracing on the CPU and GPU, scheduled by `sched`. (Work in progress: see issue 3.)
+//! Ray tracing workload of cobalt: scenes, a BVH shared by CPU and GPU, and robust traversal.
+//!
+//! The pieces, in the order data flows through them (see `DESIGN.md`):
+//! - [`Scene`] (from an OBJ file or a built-in generator, via [`SceneSource`]) keeps only what the
+//!   shader needs ([`SceneNeeds`]);
+//! - [`Bvh`] is built by obvhs ([`BuildPreset`]) and flattened into one GPU-uploadable [`Node`]
+//!   layout plus a [`BvhTriangle`] array in leaf order;
+//! - rays ([`Ray`], [`RayBatch`]) are traced by closest-hit, any-hit, counting and the thesis's
+//!   reduced traversal ([`traverse`]); the ray/triangle test is watertight and the ray/box test
+//!   conservative, and secondary rays are spawned without self-intersection ([`spawn`]).
+//!
+//! ## Example
+//!
+//! ```
+//! use raytrace::{Bvh, BuildPreset, Ray, SceneNeeds, SceneSource};
+//!
+//! let scene = SceneSource::parse("builtin:cornell:0.2")?.load(SceneNeeds::AO)?;
+//! let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
+//! let c = scene.bounds().center();
+//! let ray = Ray::new(c, glam::Vec3::new(0.0, -1.0, 0.0));
+//! let hit = bvh.closest_hit(&ray).expect("the floor is below the centre");
+//! assert!(hit.t > 0.0);
+//! # Ok::<(), raytrace::Error>(())
+//! ```
+
+mod aabb;
+pub mod builtin;
+pub mod bvh;
+mod error;
+mod obj;
+mod ray;
+mod rng;
+mod scene;
+pub mod spawn;
+pub mod testkit;
+#[cfg(test)]
+mod tests;
+pub mod traverse;
+mod triangle;
+
+pub use aabb::Aabb;
+pub use bvh::{BuildPreset, BuildReport, Bvh, BvhTriangle, Node};
+pub use error::Error;
+pub use ray::{Hit, HitBatch, Ray, RayBatch};
+pub use rng::Rng;
+pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};
+pub use traverse::Counts;
+pub use triangle::{RayShear, intersect_watertight};
+
+/// Result alias for this crate's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;

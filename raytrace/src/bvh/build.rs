@@ -1,0 +1,296 @@
+//! Building with obvhs (PLOC, reinsertion, leaf collapse, optional spatial pre-splits), then
+//! flattening depth-first into sibling pairs with triangles gathered in leaf order.
+
+use std::str::FromStr;
+use std::time::Instant;
+
+use glam::Vec3A;
+use obvhs::{
+    BvhBuildParams, aabb::Aabb as OAabb, bvh2::leaf_collapser::collapse,
+    bvh2::reinsertion::ReinsertionOptimizer, ploc::PlocBuilder, splits::split_aabbs_preset,
+    triangle::Triangle,
+};
+
+use super::{Bvh, BvhTriangle, MAX_DEPTH, Node};
+use crate::{Error, Result, Scene};
+
+/// obvhs's build presets, from fastest build to best trees. The trade (build time against
+/// trace speed) is measured by the bench; `Medium` is obvhs's "about embree's build time".
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BuildPreset {
+    /// PLOC with search radius 1, one triangle per leaf, no optimisation.
+    Fastest,
+    /// Plus a little reinsertion and leaf collapse.
+    VeryFast,
+    /// Wider PLOC search.
+    Fast,
+    /// obvhs's default balance.
+    #[default]
+    Medium,
+    /// Spatial pre-splits of large triangles and more reinsertion.
+    Slow,
+    /// The best trees obvhs builds.
+    VerySlow,
+}
+
+impl BuildPreset {
+    /// All presets, fastest build first.
+    pub const ALL: [Self; 6] = [
+        Self::Fastest,
+        Self::VeryFast,
+        Self::Fast,
+        Self::Medium,
+        Self::Slow,
+        Self::VerySlow,
+    ];
+
+    /// The obvhs parameters.
+    pub fn params(self) -> BvhBuildParams {
+        match self {
+            Self::Fastest => BvhBuildParams::fastest_build(),
+            Self::VeryFast => BvhBuildParams::very_fast_build(),
+            Self::Fast => BvhBuildParams::fast_build(),
+            Self::Medium => BvhBuildParams::medium_build(),
+            Self::Slow => BvhBuildParams::slow_build(),
+            Self::VerySlow => BvhBuildParams::very_slow_build(),
+        }
+    }
+
+    /// The CLI name (`fastest`, `very-fast`, `fast`, `medium`, `slow`, `very-slow`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Fastest => "fastest",
+            Self::VeryFast => "very-fast",
+            Self::Fast => "fast",
+            Self::Medium => "medium",
+            Self::Slow => "slow",
+            Self::VerySlow => "very-slow",
+        }
+    }
+}
+
+impl FromStr for BuildPreset {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|p| p.name() == s || p.name().replace('-', "_") == s)
+            .ok_or_else(|| {
+                format!(
+                    "unknown BVH preset `{s}` (fastest, very-fast, fast, medium, slow, very-slow)"
+                )
+            })
+    }
+}
+
+/// What the build did and how good the tree is.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BuildReport {
+    /// The preset used.
+    pub preset: BuildPreset,
+    /// obvhs's core build time (PLOC, splits, reinsertion, collapse), seconds.
+    pub build_seconds: f64,
+    /// Everything: triangle boxes, build and flattening, seconds.
+    pub total_seconds: f64,
+    /// SAH cost with unit node and triangle costs: `(sum of inner areas + sum of leaf areas
+    /// times their triangle counts) / root area`. Lower is better; comparable across presets.
+    pub sah_cost: f64,
+    /// Node count.
+    pub nodes: usize,
+    /// Leaf count.
+    pub leaves: usize,
+    /// Triangle references in leaves (more than the triangles with spatial splits).
+    pub leaf_triangles: usize,
+    /// Degenerate triangles left out.
+    pub degenerate_skipped: usize,
+    /// Whether large triangles were split (a triangle may then sit in several leaves).
+    pub spatial_splits: bool,
+}
+
+fn v3a(p: glam::Vec3) -> Vec3A {
+    Vec3A::new(p.x, p.y, p.z)
+}
+
+impl Bvh {
+    /// Builds over the scene's non-degenerate triangles.
+    ///
+    /// Errors only when the tree is deeper than [`MAX_DEPTH`].
+    pub fn build(scene: &Scene, preset: BuildPreset) -> Result<Self> {
+        let start = Instant::now();
+        let params = preset.params();
+        // obvhs wants dense indices 0..n into the primitives it is given, so it gets only the
+        // non-degenerate triangles and `ids` maps its indices back to primitive ids.
+        let ids: Vec<u32> = (0..scene.len() as u32)
+            .filter(|&i| !scene.is_degenerate(i as usize))
+            .collect();
+        let degenerate_skipped = scene.len() - ids.len();
+        let tris: Vec<Triangle> = ids
+            .iter()
+            .map(|&i| {
+                let [a, b, c] = scene.vertices(i as usize);
+                Triangle {
+                    v0: v3a(a),
+                    v1: v3a(b),
+                    v2: v3a(c),
+                }
+            })
+            .collect();
+        let mut indices: Vec<u32> = (0..ids.len() as u32).collect();
+        let mut aabbs: Vec<OAabb> = tris.iter().map(Triangle::aabb).collect();
+
+        let mut report = BuildReport {
+            preset,
+            degenerate_skipped,
+            spatial_splits: params.pre_split,
+            ..Default::default()
+        };
+        if ids.is_empty() {
+            // Nothing to hit: one empty leaf whose (inverted) box no ray enters.
+            let empty = Node {
+                min: [f32::MAX; 3],
+                index: 0,
+                max: [f32::MIN; 3],
+                count: 0,
+            };
+            report.nodes = 1;
+            report.total_seconds = start.elapsed().as_secs_f64();
+            return Ok(Self {
+                nodes: vec![empty],
+                tris: Vec::new(),
+                depth: 1,
+                report,
+            });
+        }
+
+        let core = Instant::now();
+        if ids.len() == 1 {
+            // obvhs stores a lone primitive's id in the root instead of an index into
+            // `primitive_indices`; one leaf is all there is to build anyway.
+            let prim = ids[0];
+            let t = &tris[0];
+            let b = t.aabb();
+            report.build_seconds = core.elapsed().as_secs_f64();
+            report.nodes = 1;
+            report.leaves = 1;
+            report.leaf_triangles = 1;
+            report.sah_cost = 1.0;
+            report.spatial_splits = false;
+            report.total_seconds = start.elapsed().as_secs_f64();
+            return Ok(Self {
+                nodes: vec![Node {
+                    min: b.min.to_array(),
+                    index: 0,
+                    max: b.max.to_array(),
+                    count: 1,
+                }],
+                tris: vec![BvhTriangle {
+                    v0: t.v0.to_array(),
+                    prim,
+                    v1: t.v1.to_array(),
+                    pad1: 0,
+                    v2: t.v2.to_array(),
+                    pad2: 0,
+                }],
+                depth: 1,
+                report,
+            });
+        }
+        if params.pre_split {
+            let (mut largest, mut sum) = (0f32, 0f32);
+            for b in &aabbs {
+                largest = largest.max(b.half_area());
+                sum += b.half_area();
+            }
+            let avg = sum / aabbs.len() as f32;
+            split_aabbs_preset(&mut aabbs, &mut indices, &tris, avg, largest);
+        }
+        let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
+            params.ploc_search_distance,
+            &aabbs,
+            indices,
+            params.sort_precision,
+            params.search_depth_threshold,
+        );
+        bvh2.uses_spatial_splits = params.pre_split;
+        let mut reinsertion = ReinsertionOptimizer::default();
+        reinsertion.run(&mut bvh2, params.reinsertion_batch_ratio, None);
+        collapse(
+            &mut bvh2,
+            params.max_prims_per_leaf.clamp(1, 255),
+            params.collapse_traversal_cost,
+        );
+        reinsertion.run(
+            &mut bvh2,
+            params.reinsertion_batch_ratio
+                * params.post_collapse_reinsertion_batch_ratio_multiplier,
+            None,
+        );
+        report.build_seconds = core.elapsed().as_secs_f64();
+
+        // Flatten depth-first; each inner node's children are allocated as an adjacent pair.
+        let src = &bvh2.nodes;
+        let to_node = |n: &obvhs::bvh2::node::Bvh2Node, index: u32, count: u32| Node {
+            min: n.aabb().min.to_array(),
+            index,
+            max: n.aabb().max.to_array(),
+            count,
+        };
+        let mut nodes: Vec<Node> = Vec::with_capacity(src.len());
+        let mut out_tris: Vec<BvhTriangle> = Vec::with_capacity(aabbs.len());
+        nodes.push(Node::default());
+        let mut depth = 0usize;
+        let mut stack: Vec<(usize, usize, usize)> = vec![(0, 0, 1)];
+        while let Some((s, d, level)) = stack.pop() {
+            depth = depth.max(level);
+            let n = &src[s];
+            if n.is_leaf() {
+                let first = out_tris.len() as u32;
+                for k in n.first_index..n.first_index + n.prim_count {
+                    let local = bvh2.primitive_indices[k as usize] as usize;
+                    let (t, prim) = (&tris[local], ids[local]);
+                    out_tris.push(BvhTriangle {
+                        v0: t.v0.to_array(),
+                        prim,
+                        v1: t.v1.to_array(),
+                        pad1: 0,
+                        v2: t.v2.to_array(),
+                        pad2: 0,
+                    });
+                }
+                nodes[d] = to_node(n, first, n.prim_count);
+            } else {
+                let l = nodes.len();
+                nodes.push(Node::default());
+                nodes.push(Node::default());
+                nodes[d] = to_node(n, l as u32, 0);
+                let c = n.first_index as usize;
+                stack.push((c + 1, l + 1, level + 1));
+                stack.push((c, l, level + 1));
+            }
+        }
+        if depth > MAX_DEPTH {
+            return Err(Error::BvhTooDeep {
+                depth,
+                max: MAX_DEPTH,
+            });
+        }
+
+        let root_area = nodes[0].aabb().half_area().max(f32::MIN_POSITIVE) as f64;
+        let mut sah = 0.0f64;
+        for n in &nodes {
+            let a = n.aabb().half_area() as f64;
+            sah += if n.is_leaf() { a * n.count as f64 } else { a };
+            report.leaves += n.is_leaf() as usize;
+        }
+        report.sah_cost = sah / root_area;
+        report.nodes = nodes.len();
+        report.leaf_triangles = out_tris.len();
+        report.total_seconds = start.elapsed().as_secs_f64();
+        Ok(Self {
+            nodes,
+            tris: out_tris,
+            depth,
+            report,
+        })
+    }
+}

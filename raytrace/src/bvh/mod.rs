@@ -1,0 +1,54 @@
+//! The bounding volume hierarchy: built by obvhs ([`build`]), flattened into [`Node`]s and
+//! [`BvhTriangle`]s in leaf order ([`node`]), and checked ([`validate`]).
+
+pub mod build;
+pub mod node;
+pub mod validate;
+
+pub use build::{BuildPreset, BuildReport};
+pub use node::{BvhTriangle, Node};
+pub use validate::{ValidationReport, validate};
+
+/// Deepest tree the traversal stack supports; deeper builds fail with
+/// [`crate::Error::BvhTooDeep`] rather than overflow.
+pub const MAX_DEPTH: usize = 256;
+
+/// A flattened binary BVH over a scene's non-degenerate triangles.
+///
+/// The node array and the triangle array are the whole structure: the CPU traverses them and a
+/// GPU uploads them unchanged. Fields are private so the invariants that traversal relies on
+/// (checked by [`validate`]) cannot be broken after the build.
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    pub(crate) nodes: Vec<Node>,
+    pub(crate) tris: Vec<BvhTriangle>,
+    pub(crate) depth: usize,
+    pub(crate) report: BuildReport,
+}
+
+impl Bvh {
+    /// Nodes; node 0 is the root.
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// Triangles in leaf order (a triangle can appear more than once with spatial splits).
+    pub fn triangles(&self) -> &[BvhTriangle] {
+        &self.tris
+    }
+
+    /// Depth of the tree (a lone root leaf has depth 1).
+    pub fn depth(&self) -> usize {
+        self.depth
+    }
+
+    /// How the build went.
+    pub fn report(&self) -> &BuildReport {
+        &self.report
+    }
+
+    /// The scene bounds as the root box sees them.
+    pub fn bounds(&self) -> crate::Aabb {
+        self.nodes[0].aabb()
+    }
+}

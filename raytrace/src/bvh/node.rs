@@ -1,0 +1,62 @@
+//! The flat node and triangle layouts that the CPU traverses and the GPU uploads unchanged.
+
+use bytemuck::{Pod, Zeroable};
+
+/// A BVH node, 32 bytes: `#[repr(C)]`, `Pod`, and laid out like the WGSL struct
+/// `struct Node { min: vec3<f32>, index: u32, max: vec3<f32>, count: u32 }` (a `vec3<f32>` has
+/// 16-byte alignment there, so `index` and `count` fill the padding exactly).
+///
+/// An inner node (`count == 0`) has its children at `index` and `index + 1`; a leaf
+/// (`count > 0`) owns triangles `index .. index + count` of [`crate::Bvh::triangles`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Node {
+    /// Box minimum.
+    pub min: [f32; 3],
+    /// Left child (inner) or first triangle (leaf).
+    pub index: u32,
+    /// Box maximum.
+    pub max: [f32; 3],
+    /// Triangle count; zero for an inner node.
+    pub count: u32,
+}
+
+const _: () = assert!(size_of::<Node>() == 32);
+
+impl Node {
+    /// True for a leaf.
+    #[inline(always)]
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+
+    /// The box.
+    pub fn aabb(&self) -> crate::Aabb {
+        crate::Aabb {
+            min: self.min.into(),
+            max: self.max.into(),
+        }
+    }
+}
+
+/// A triangle in BVH leaf order, 48 bytes (three WGSL `vec4`s): the exact scene vertices (the
+/// watertight test needs the shared vertices bit for bit, not edges) and the original
+/// primitive id in the padding of the first.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BvhTriangle {
+    /// Vertex 0.
+    pub v0: [f32; 3],
+    /// Primitive id (triangle index in the scene file).
+    pub prim: u32,
+    /// Vertex 1.
+    pub v1: [f32; 3],
+    /// Unused (keeps the GPU layout of a `vec4`).
+    pub pad1: u32,
+    /// Vertex 2.
+    pub v2: [f32; 3],
+    /// Unused.
+    pub pad2: u32,
+}
+
+const _: () = assert!(size_of::<BvhTriangle>() == 48);

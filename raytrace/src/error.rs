@@ -1,0 +1,85 @@
+//! The one error type of the crate: every variant names the input that was wrong.
+
+use std::path::PathBuf;
+
+/// Why a scene could not be loaded or a BVH built. Messages name the file and, where one exists,
+/// the 1-based line, so a user can open the file at the fault.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The file could not be opened or read.
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// A line could not be parsed (garbled or truncated file).
+    #[error("{path}:{line}: {what}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with the line.
+        what: String,
+    },
+    /// A vertex coordinate is NaN or infinite (or overflows `f32`).
+    #[error("{path}:{line}: vertex coordinate `{text}` is not a finite number")]
+    NonFinite {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// The offending token as written.
+        text: String,
+    },
+    /// A face refers to a vertex that does not exist (yet).
+    #[error(
+        "{path}:{line}: vertex index {index} is out of range ({count} vertices defined so far)"
+    )]
+    IndexOutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// The index as written (1-based, or negative for relative).
+        index: i64,
+        /// Vertices defined before this line.
+        count: usize,
+    },
+    /// The scene has no triangle at all (degenerate ones would count).
+    #[error("{name}: the scene has no triangles")]
+    EmptyScene {
+        /// File path or built-in name.
+        name: String,
+    },
+    /// tobj rejected the file in a way our line scan did not foresee.
+    #[error("{path}: OBJ error: {source}")]
+    Obj {
+        /// The file.
+        path: PathBuf,
+        /// tobj's reason.
+        source: tobj::LoadError,
+    },
+    /// The scene argument names no known built-in or has a bad detail value.
+    #[error("bad scene `{arg}`: {why}")]
+    SceneArg {
+        /// The argument as given.
+        arg: String,
+        /// What is wrong with it.
+        why: String,
+    },
+    /// The BVH is deeper than the traversal stack allows.
+    #[error("BVH depth {depth} exceeds the traversal stack ({max})")]
+    BvhTooDeep {
+        /// Depth of the built tree.
+        depth: usize,
+        /// The largest depth traversal supports.
+        max: usize,
+    },
+    /// `bvh::validate` found a broken invariant.
+    #[error("invalid BVH: {0}")]
+    InvalidBvh(String),
+}

@@ -1,0 +1,184 @@
+//! Rays, single and as a structure of arrays, and the hits they produce.
+
+use glam::Vec3;
+
+/// One ray: points `origin + t * dir` for `tmin <= t <= tmax`. `dir` need not be normalised;
+/// `t` is measured in units of its length.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Where the ray starts.
+    pub origin: Vec3,
+    /// Direction (any length but zero; a zero direction never hits).
+    pub dir: Vec3,
+    /// Smallest accepted hit distance.
+    pub tmin: f32,
+    /// Largest accepted hit distance.
+    pub tmax: f32,
+}
+
+impl Ray {
+    /// A ray over `[0, +inf]`.
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        Self {
+            origin,
+            dir,
+            tmin: 0.0,
+            tmax: f32::INFINITY,
+        }
+    }
+
+    /// A ray over `[tmin, tmax]`.
+    pub fn with_range(origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Self {
+        Self {
+            origin,
+            dir,
+            tmin,
+            tmax,
+        }
+    }
+
+    /// The point at distance `t`.
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + t * self.dir
+    }
+}
+
+/// A closest or any hit: distance, primitive id (the scene's triangle index) and the barycentric
+/// weights of vertices 1 and 2 (vertex 0 gets `1 - u - v`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Distance along the ray, in units of the direction's length.
+    pub t: f32,
+    /// Triangle index in scene (file) order.
+    pub prim: u32,
+    /// Barycentric weight of vertex 1.
+    pub u: f32,
+    /// Barycentric weight of vertex 2.
+    pub v: f32,
+}
+
+/// Rays as a structure of arrays: the layout of `cobalt trace`'s binary files, of GPU buffers,
+/// and of tasks that are ranges of a generation's rays.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RayBatch {
+    /// Origin x.
+    pub ox: Vec<f32>,
+    /// Origin y.
+    pub oy: Vec<f32>,
+    /// Origin z.
+    pub oz: Vec<f32>,
+    /// Direction x.
+    pub dx: Vec<f32>,
+    /// Direction y.
+    pub dy: Vec<f32>,
+    /// Direction z.
+    pub dz: Vec<f32>,
+    /// Smallest accepted distance.
+    pub tmin: Vec<f32>,
+    /// Largest accepted distance.
+    pub tmax: Vec<f32>,
+}
+
+impl RayBatch {
+    /// An empty batch with room for `n` rays.
+    pub fn with_capacity(n: usize) -> Self {
+        let v = || Vec::with_capacity(n);
+        Self {
+            ox: v(),
+            oy: v(),
+            oz: v(),
+            dx: v(),
+            dy: v(),
+            dz: v(),
+            tmin: v(),
+            tmax: v(),
+        }
+    }
+
+    /// Number of rays.
+    pub fn len(&self) -> usize {
+        self.ox.len()
+    }
+
+    /// True when there are no rays.
+    pub fn is_empty(&self) -> bool {
+        self.ox.is_empty()
+    }
+
+    /// Appends a ray.
+    pub fn push(&mut self, r: &Ray) {
+        self.ox.push(r.origin.x);
+        self.oy.push(r.origin.y);
+        self.oz.push(r.origin.z);
+        self.dx.push(r.dir.x);
+        self.dy.push(r.dir.y);
+        self.dz.push(r.dir.z);
+        self.tmin.push(r.tmin);
+        self.tmax.push(r.tmax);
+    }
+
+    /// Ray `i`.
+    ///
+    /// # Panics
+    /// Panics if `i >= self.len()` or the columns have different lengths.
+    #[inline]
+    pub fn get(&self, i: usize) -> Ray {
+        Ray {
+            origin: Vec3::new(self.ox[i], self.oy[i], self.oz[i]),
+            dir: Vec3::new(self.dx[i], self.dy[i], self.dz[i]),
+            tmin: self.tmin[i],
+            tmax: self.tmax[i],
+        }
+    }
+
+    /// True when all eight columns have the same length (batch functions panic otherwise).
+    pub fn is_consistent(&self) -> bool {
+        let n = self.ox.len();
+        [
+            &self.oy, &self.oz, &self.dx, &self.dy, &self.dz, &self.tmin, &self.tmax,
+        ]
+        .iter()
+        .all(|c| c.len() == n)
+    }
+}
+
+impl FromIterator<Ray> for RayBatch {
+    fn from_iter<I: IntoIterator<Item = Ray>>(iter: I) -> Self {
+        let iter = iter.into_iter();
+        let mut b = Self::with_capacity(iter.size_hint().0);
+        for r in iter {
+            b.push(&r);
+        }
+        b
+    }
+}
+
+/// Results of a batch, as a structure of arrays matching `cobalt trace`'s hit files:
+/// `t = +inf` and `prim = u32::MAX` on a miss.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HitBatch {
+    /// Hit distance, `+inf` on a miss.
+    pub t: Vec<f32>,
+    /// Primitive id, [`HitBatch::MISS`] on a miss.
+    pub prim: Vec<u32>,
+}
+
+impl HitBatch {
+    /// The primitive id written for a miss.
+    pub const MISS: u32 = u32::MAX;
+
+    /// Hit `i` as an option.
+    pub fn get(&self, i: usize) -> Option<(f32, u32)> {
+        (self.prim[i] != Self::MISS).then(|| (self.t[i], self.prim[i]))
+    }
+
+    /// Number of rays.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// True when empty.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+}

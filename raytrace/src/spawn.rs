@@ -1,0 +1,126 @@
+//! Spawning secondary rays without self-intersection, as pbrt-v4 does (Pharr, Jakob and
+//! Humphreys, *Physically Based Rendering* 4th ed., section 6.8.6; the same idea as Wächter
+//! and Binder, "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems
+//! ch. 6): compute the hit point from barycentrics with a conservative bound on its rounding
+//! error, push it along the geometric normal just past that bound, on the side the new ray
+//! leaves to, and round the result away from the surface. The spawned ray then starts strictly
+//! on its side of the triangle's plane and cannot hit that triangle again.
+
+use glam::Vec3;
+
+use crate::{Hit, Ray, Scene};
+
+/// pbrt's `gamma(n) = n u / (1 - n u)` with `u` the unit roundoff: a bound on the relative
+/// error of `n` chained floating-point operations.
+#[inline]
+pub fn gamma(n: i32) -> f32 {
+    let u = f32::EPSILON * 0.5;
+    n as f32 * u / (1.0 - n as f32 * u)
+}
+
+/// The smallest float greater than `v` (`+inf` stays).
+#[inline]
+pub fn next_float_up(v: f32) -> f32 {
+    if v.is_infinite() && v > 0.0 {
+        return v;
+    }
+    let v = if v == 0.0 { 0.0 } else { v }; // -0.0 becomes +0.0
+    let bits = v.to_bits();
+    f32::from_bits(if v >= 0.0 { bits + 1 } else { bits - 1 })
+}
+
+/// The largest float smaller than `v` (`-inf` stays).
+#[inline]
+pub fn next_float_down(v: f32) -> f32 {
+    if v.is_infinite() && v < 0.0 {
+        return v;
+    }
+    let v = if v == 0.0 { -0.0 } else { v }; // +0.0 becomes -0.0
+    let bits = v.to_bits();
+    f32::from_bits(if v <= 0.0 { bits + 1 } else { bits - 1 })
+}
+
+/// A point on a surface with the bound of its rounding error and the unit geometric normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    /// The computed point.
+    pub p: Vec3,
+    /// Per-axis bound on `|p - exact point|`.
+    pub error: Vec3,
+    /// Unit geometric normal (of the triangle's winding).
+    pub normal: Vec3,
+}
+
+impl SurfacePoint {
+    /// A ray from this point in direction `dir` over `(0, tmax]`, with the origin offset so the
+    /// surface cannot be hit again.
+    pub fn spawn_ray(&self, dir: Vec3, tmax: f32) -> Ray {
+        Ray::with_range(offset_ray_origin(self, dir), dir, 0.0, tmax)
+    }
+
+    /// A ray towards `target` (a light), ending just short of it: `t = 1` is the target, and
+    /// the range stops at `1 - shadow epsilon` as pbrt's `SpawnRayTo` does.
+    pub fn spawn_ray_to(&self, target: Vec3) -> Ray {
+        let o = offset_ray_origin(self, target - self.p);
+        Ray::with_range(o, target - o, 0.0, 1.0 - 1e-4)
+    }
+}
+
+/// The ray origin for leaving `sp` in direction `w`: `p` moved along the normal by
+/// `dot(|n|, error)` to `w`'s side, then each coordinate rounded one float further away.
+pub fn offset_ray_origin(sp: &SurfacePoint, w: Vec3) -> Vec3 {
+    let n = sp.normal;
+    let d = n.abs().dot(sp.error);
+    let mut offset = d * n;
+    if w.dot(n) < 0.0 {
+        offset = -offset;
+    }
+    let mut po = sp.p + offset;
+    let (o, p) = (offset.to_array(), po.as_mut());
+    for k in 0..3 {
+        if o[k] > 0.0 {
+            p[k] = next_float_up(p[k]);
+        } else if o[k] < 0.0 {
+            p[k] = next_float_down(p[k]);
+        }
+    }
+    po
+}
+
+impl Scene {
+    /// The hit point of `hit` from its barycentrics, with pbrt's error bound
+    /// (`gamma(7) * sum |b_i p_i|`, one more `gamma` for `b0 = 1 - u - v`) and the unit
+    /// geometric normal.
+    pub fn surface_point(&self, hit: &Hit) -> SurfacePoint {
+        let [p0, p1, p2] = self.vertices(hit.prim as usize);
+        let b0 = (1.0 - hit.u - hit.v).max(0.0);
+        let (b1, b2) = (hit.u, hit.v);
+        let p = b0 * p0 + b1 * p1 + b2 * p2;
+        let abs_sum = (b0 * p0).abs() + (b1 * p1).abs() + (b2 * p2).abs();
+        let error = gamma(8) * abs_sum;
+        let normal = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+        SurfacePoint { p, error, normal }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn next_float_steps_one_ulp_across_zero() {
+        assert_eq!(next_float_up(0.0), f32::from_bits(1));
+        assert_eq!(next_float_up(-0.0), f32::from_bits(1));
+        assert_eq!(next_float_down(0.0), -f32::from_bits(1));
+        assert_eq!(next_float_up(1.0), 1.0 + f32::EPSILON);
+        assert_eq!(next_float_down(-1.0), -1.0 - f32::EPSILON);
+        assert_eq!(next_float_up(f32::INFINITY), f32::INFINITY);
+        assert!(next_float_down(1.0) < 1.0);
+    }
+
+    #[test]
+    fn gamma_bounds() {
+        assert!(gamma(3) > 3.0 * f32::EPSILON * 0.5);
+        assert!(gamma(3) < 2e-7);
+    }
+}

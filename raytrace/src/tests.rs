@@ -1,0 +1,6 @@
+//! Unit tests of the whole pipeline (scene → BVH → traversal), kept in one module so the
+//! crate builds one test binary.
+
+mod bvh;
+mod obj;
+mod robustness;

@@ -1,0 +1,121 @@
+// BVH build over every preset, validation (and that it catches breakage), built-in scenes.
+
+use glam::Vec3;
+
+use crate::builtin::{Builtin, MeshBuilder};
+use crate::bvh::validate;
+use crate::testkit;
+use crate::{BuildPreset, Bvh, Ray, SceneNeeds, SceneSource};
+
+#[test]
+fn every_preset_builds_a_valid_tree() {
+    let scene = SceneSource::parse("builtin:forest:0.05")
+        .unwrap()
+        .load(SceneNeeds::AO)
+        .unwrap();
+    let mut sah = Vec::new();
+    for p in BuildPreset::ALL {
+        let bvh = Bvh::build(&scene, p).unwrap();
+        let v = validate(&bvh, &scene).unwrap_or_else(|e| panic!("{p:?}: {e}"));
+        assert_eq!(v.triangles, scene.len() - scene.report.degenerate, "{p:?}");
+        let r = bvh.report();
+        assert!(r.sah_cost > 1.0 && r.sah_cost.is_finite(), "{p:?} {r:?}");
+        assert_eq!(r.nodes, bvh.nodes().len());
+        sah.push(r.sah_cost);
+        assert_eq!(p.name().parse::<BuildPreset>().unwrap(), p);
+    }
+    // Better presets should not make clearly worse trees than the fastest one.
+    assert!(sah[5] < sah[0], "{sah:?}");
+}
+
+#[test]
+fn validation_catches_broken_trees() {
+    let scene = testkit::icosphere(2, Vec3::ZERO, 1.0);
+    let good = Bvh::build(&scene, BuildPreset::Medium).unwrap();
+    validate(&good, &scene).unwrap();
+
+    let mut b = good.clone();
+    let l = b.nodes[0].index as usize;
+    b.nodes[l].max[0] += 10.0; // child sticks out of the root
+    assert!(validate(&b, &scene).is_err());
+
+    let mut b = good.clone();
+    let leaf = b.nodes.iter().position(|n| n.is_leaf()).unwrap();
+    b.nodes[leaf].min[1] = b.nodes[leaf].max[1]; // leaf box no longer holds its triangles
+    assert!(validate(&b, &scene).is_err());
+
+    let mut b = good.clone();
+    b.tris[0].prim = b.tris[1].prim; // one triangle twice, another missing
+    assert!(validate(&b, &scene).is_err());
+
+    let mut b = good.clone();
+    b.nodes[0].index = 0; // a cycle
+    assert!(validate(&b, &scene).is_err());
+}
+
+#[test]
+fn tiny_and_empty_trees() {
+    let mut m = MeshBuilder::default();
+    m.tri_points(Vec3::ZERO, Vec3::X, Vec3::Y, 0);
+    let one = testkit::scene_of("one", m).unwrap();
+    let bvh = Bvh::build(&one, BuildPreset::Fastest).unwrap();
+    validate(&bvh, &one).unwrap();
+    let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z);
+    assert_eq!(bvh.closest_hit(&r).map(|h| h.prim), Some(0));
+    assert_eq!(bvh.reduced_traversal(&r).nodes, 1);
+
+    let mut m = MeshBuilder::default();
+    m.tri_points(Vec3::ZERO, Vec3::X, Vec3::X * 2.0, 0);
+    m.tri_points(Vec3::Y, Vec3::Y, Vec3::Y, 0);
+    let flat = testkit::scene_of("flat", m).unwrap();
+    let bvh = Bvh::build(&flat, BuildPreset::Medium).unwrap();
+    validate(&bvh, &flat).unwrap();
+    assert_eq!(bvh.report().degenerate_skipped, 2);
+    let r = Ray::new(Vec3::new(1.0, 0.0, 1.0), -Vec3::Z);
+    assert!(bvh.closest_hit(&r).is_none());
+    assert_eq!(bvh.reduced_traversal(&r), Default::default());
+}
+
+#[test]
+fn builtins_are_deterministic_and_sized() {
+    let forest = Builtin::Forest.generate(1.0, SceneNeeds::AO).unwrap();
+    assert!(
+        (100_000..=200_000).contains(&forest.len()),
+        "forest has {} triangles",
+        forest.len()
+    );
+    // A huge range of sizes: ground triangles vs grass blades and leaves.
+    let areas: Vec<f32> = (0..forest.len())
+        .map(|i| forest.geometric_normal(i).length())
+        .collect();
+    let max = areas.iter().copied().fold(0.0, f32::max);
+    let min = areas
+        .iter()
+        .copied()
+        .filter(|&a| a > 0.0)
+        .fold(f32::MAX, f32::min);
+    assert!(max / min > 1e4, "area range {min} .. {max}");
+    let again = Builtin::Forest.generate(1.0, SceneNeeds::AO).unwrap();
+    assert_eq!(forest.positions, again.positions);
+
+    let hair = Builtin::Hairball.generate(0.1, SceneNeeds::AO).unwrap();
+    assert_eq!(hair.len(), 200 * 504);
+    let bvh = Bvh::build(&hair, BuildPreset::Medium).unwrap();
+    validate(&bvh, &hair).unwrap();
+
+    let cornell = Builtin::Cornell.generate(1.0, SceneNeeds::WHITTED).unwrap();
+    assert_eq!(cornell.material_ids.len(), cornell.len());
+    assert!(cornell.materials.iter().any(|m| m.reflectance > 0.9));
+    assert!(
+        cornell
+            .materials
+            .iter()
+            .any(|m| m.emission.max_element() > 0.0)
+    );
+    assert_eq!(cornell.lights.len(), 1);
+    let plain = Builtin::Hairball
+        .generate(0.01, SceneNeeds::WHITTED)
+        .unwrap();
+    assert_eq!(plain.materials, vec![crate::Material::default()]);
+    assert_eq!(plain.lights.len(), 1);
+}

@@ -1,0 +1,340 @@
+//! Stack-based traversal of the flat [`Bvh`], near child first (pbrt-v4's
+//! `BVHAggregate::Intersect`, with sibling pairs tested together).
+//!
+//! Four queries share one loop, specialised at compile time:
+//! - [`Bvh::closest_hit`]: the nearest hit;
+//! - [`Bvh::any_hit`]: the first hit found, for shadow and AO rays (early exit);
+//! - [`Bvh::closest_hit_counted`]: the nearest hit plus the cost the thesis models, nodes
+//!   visited `B` and triangle tests `T`;
+//! - [`Bvh::reduced_traversal`]: the thesis's *reduced traversal* (section 3.3): boxes only,
+//!   never fetching a triangle, so the ray is never shortened; `B` counts the nodes it enters
+//!   and `T` the triangles of the leaves it reaches. This is the cost estimator's probe.
+//!
+//! `B` counts nodes *entered* (the root, if its box is hit, and every child whose box is hit);
+//! entering an inner node costs two child box tests, entering a leaf `count` triangle tests.
+//!
+//! The ray/box test is Ize's conservative one ("Robust BVH Ray Traversal", JCGT 2013): the far
+//! distance is scaled by `1 + 2 gamma(3)` so rounding never culls a box the ray touches.
+//! Zero direction components (either sign) give infinite inverse directions; where that
+//! meets an origin exactly on a slab plane (`0 * inf = NaN`) the NaN is ignored, treating the
+//! closed slab as containing the ray.
+//!
+//! Batch versions run over a [`RayBatch`] with rayon, in chunks.
+
+use bytemuck::{Pod, Zeroable};
+use rayon::prelude::*;
+
+use crate::bvh::Bvh;
+use crate::spawn::gamma;
+use crate::triangle::{RayShear, intersect_watertight};
+use crate::{Hit, HitBatch, Ray, RayBatch};
+
+/// Cost counters of one ray: nodes entered `B` and triangles tested (or, in the reduced
+/// traversal, triangles in reached leaves) `T`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct Counts {
+    /// `B`: nodes entered.
+    pub nodes: u32,
+    /// `T`: triangle tests.
+    pub tris: u32,
+}
+
+impl std::ops::AddAssign for Counts {
+    fn add_assign(&mut self, o: Self) {
+        self.nodes += o.nodes;
+        self.tris += o.tris;
+    }
+}
+
+const CLOSEST: u8 = 0;
+const ANY: u8 = 1;
+const COUNTED: u8 = 2;
+const REDUCED: u8 = 3;
+
+/// Rays per rayon work item: enough to amortise scheduling, small enough to balance.
+const CHUNK: usize = 256;
+
+/// Ize's scale of the far distance: `1 + 2 gamma(3)`.
+fn far_scale() -> f32 {
+    1.0 + 2.0 * gamma(3)
+}
+
+/// `max` that keeps `acc` when `x` is NaN (one `maxss` on x86).
+#[inline(always)]
+fn max_keep(acc: f32, x: f32) -> f32 {
+    if x > acc { x } else { acc }
+}
+
+/// `min` that keeps `acc` when `x` is NaN.
+#[inline(always)]
+fn min_keep(acc: f32, x: f32) -> f32 {
+    if x < acc { x } else { acc }
+}
+
+/// The per-ray part of the box test.
+struct BoxRay {
+    org: [f32; 3],
+    inv: [f32; 3],
+    /// Index of the near plane in a node viewed as `[f32; 8]` (`min` at 0..3, `max` at 4..7).
+    near: [usize; 3],
+    scale: f32,
+}
+
+impl BoxRay {
+    #[inline(always)]
+    fn new(r: &Ray) -> Self {
+        let d = r.dir.to_array();
+        let sel = |k: usize| if d[k].is_sign_negative() { 4 + k } else { k };
+        Self {
+            org: r.origin.to_array(),
+            inv: [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]],
+            near: [sel(0), sel(1), sel(2)],
+            scale: far_scale(),
+        }
+    }
+
+    /// Entry distance if the ray meets the node's box within `[tmin, tmax]`.
+    #[inline(always)]
+    fn hit(&self, node: &crate::Node, tmin: f32, tmax: f32) -> Option<f32> {
+        let b: &[f32; 8] = bytemuck::cast_ref(node);
+        let (o, inv, n) = (&self.org, &self.inv, &self.near);
+        // `n[k] ^ 4` flips between the min and max plane of axis k.
+        let tx0 = (b[n[0]] - o[0]) * inv[0];
+        let tx1 = (b[n[0] ^ 4] - o[0]) * inv[0];
+        let ty0 = (b[n[1]] - o[1]) * inv[1];
+        let ty1 = (b[n[1] ^ 4] - o[1]) * inv[1];
+        let tz0 = (b[n[2]] - o[2]) * inv[2];
+        let tz1 = (b[n[2] ^ 4] - o[2]) * inv[2];
+        let t0 = max_keep(max_keep(max_keep(tmin, tx0), ty0), tz0);
+        let t1 = min_keep(min_keep(min_keep(f32::INFINITY, tx1), ty1), tz1) * self.scale;
+        let t1 = if t1 < tmax { t1 } else { tmax };
+        (t0 <= t1).then_some(t0)
+    }
+}
+
+impl Bvh {
+    /// The nearest hit in `[ray.tmin, ray.tmax]`, if any.
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        self.run::<CLOSEST>(ray).0
+    }
+
+    /// Some hit in range (the first found), for occlusion queries; stops at the first.
+    #[inline]
+    pub fn any_hit(&self, ray: &Ray) -> Option<Hit> {
+        self.run::<ANY>(ray).0
+    }
+
+    /// True when anything blocks the ray within its range.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.any_hit(ray).is_some()
+    }
+
+    /// The nearest hit and the work it took (`B`, `T`); the hit equals [`Bvh::closest_hit`]'s.
+    #[inline]
+    pub fn closest_hit_counted(&self, ray: &Ray) -> (Option<Hit>, Counts) {
+        self.run::<COUNTED>(ray)
+    }
+
+    /// The thesis's reduced traversal: boxes only, no triangle fetched; see the module docs.
+    #[inline]
+    pub fn reduced_traversal(&self, ray: &Ray) -> Counts {
+        self.run::<REDUCED>(ray).1
+    }
+
+    #[inline(always)]
+    fn run<const MODE: u8>(&self, ray: &Ray) -> (Option<Hit>, Counts) {
+        if self.depth <= 64 {
+            self.traverse::<MODE, 64>(ray)
+        } else {
+            self.traverse::<MODE, { crate::bvh::MAX_DEPTH }>(ray)
+        }
+    }
+
+    #[inline(always)]
+    fn traverse<const MODE: u8, const STACK: usize>(&self, ray: &Ray) -> (Option<Hit>, Counts) {
+        let mut counts = Counts::default();
+        let Some(shear) = RayShear::new(ray.origin, ray.dir) else {
+            return (None, counts);
+        };
+        // NaN-safe: a NaN or empty range traces nothing.
+        if ray.tmin.partial_cmp(&ray.tmax).is_none_or(|o| o.is_gt()) {
+            return (None, counts);
+        }
+        let tmin = ray.tmin;
+        let mut best_t = ray.tmax;
+        let mut best: Option<Hit> = None;
+        let boxes = BoxRay::new(ray);
+        let nodes = &self.nodes[..];
+        let tris = &self.tris[..];
+        if boxes.hit(&nodes[0], tmin, best_t).is_none() {
+            return (None, counts);
+        }
+        let mut stack = [0u32; STACK];
+        let mut sp = 0usize;
+        let mut i = 0usize;
+        loop {
+            let node = &nodes[i];
+            if MODE == COUNTED || MODE == REDUCED {
+                counts.nodes += 1;
+            }
+            if node.is_leaf() {
+                if MODE == REDUCED {
+                    counts.tris += node.count;
+                } else {
+                    let first = node.index as usize;
+                    for t in &tris[first..first + node.count as usize] {
+                        if MODE == COUNTED {
+                            counts.tris += 1;
+                        }
+                        if let Some((t_hit, u, v)) =
+                            intersect_watertight(&shear, &t.v0, &t.v1, &t.v2, tmin, best_t)
+                        {
+                            // Ties keep the first found, so results are deterministic.
+                            if best.is_none() || t_hit < best_t {
+                                best_t = t_hit;
+                                best = Some(Hit {
+                                    t: t_hit,
+                                    prim: t.prim,
+                                    u,
+                                    v,
+                                });
+                                if MODE == ANY {
+                                    return (best, counts);
+                                }
+                            }
+                        }
+                    }
+                }
+            } else {
+                let l = node.index as usize;
+                let hl = boxes.hit(&nodes[l], tmin, best_t);
+                let hr = boxes.hit(&nodes[l + 1], tmin, best_t);
+                match (hl, hr) {
+                    (Some(a), Some(b)) => {
+                        let (near, far) = if a <= b { (l, l + 1) } else { (l + 1, l) };
+                        // The stack never holds more than depth - 1 entries (validated).
+                        stack[sp] = far as u32;
+                        sp += 1;
+                        i = near;
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        i = l;
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        i = l + 1;
+                        continue;
+                    }
+                    (None, None) => {}
+                }
+            }
+            if sp == 0 {
+                break;
+            }
+            sp -= 1;
+            i = stack[sp] as usize;
+        }
+        (best, counts)
+    }
+}
+
+fn check(rays: &RayBatch) {
+    assert!(
+        rays.is_consistent(),
+        "RayBatch columns have different lengths"
+    );
+}
+
+fn hits_of<F>(rays: &RayBatch, f: F) -> HitBatch
+where
+    F: Fn(&Ray) -> Option<Hit> + Sync,
+{
+    check(rays);
+    let n = rays.len();
+    let mut out = HitBatch {
+        t: vec![f32::INFINITY; n],
+        prim: vec![HitBatch::MISS; n],
+    };
+    out.t
+        .par_chunks_mut(CHUNK)
+        .zip(out.prim.par_chunks_mut(CHUNK))
+        .enumerate()
+        .for_each(|(c, (ts, ps))| {
+            for (k, (t, p)) in ts.iter_mut().zip(ps.iter_mut()).enumerate() {
+                if let Some(h) = f(&rays.get(c * CHUNK + k)) {
+                    *t = h.t;
+                    *p = h.prim;
+                }
+            }
+        });
+    out
+}
+
+/// Closest hits of all rays, in parallel.
+///
+/// # Panics
+/// Panics if the batch's columns have different lengths.
+pub fn closest_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
+    hits_of(rays, |r| bvh.closest_hit(r))
+}
+
+/// Any hits of all rays, in parallel (`t` is the distance of the hit found).
+///
+/// # Panics
+/// Panics if the batch's columns have different lengths.
+pub fn any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
+    hits_of(rays, |r| bvh.any_hit(r))
+}
+
+/// Closest hits and per-ray counts, in parallel.
+///
+/// # Panics
+/// Panics if the batch's columns have different lengths.
+pub fn closest_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts>) {
+    check(rays);
+    let n = rays.len();
+    let mut counts = vec![Counts::default(); n];
+    let mut out = HitBatch {
+        t: vec![f32::INFINITY; n],
+        prim: vec![HitBatch::MISS; n],
+    };
+    out.t
+        .par_chunks_mut(CHUNK)
+        .zip(out.prim.par_chunks_mut(CHUNK))
+        .zip(counts.par_chunks_mut(CHUNK))
+        .enumerate()
+        .for_each(|(c, ((ts, ps), cs))| {
+            for k in 0..ts.len() {
+                let (h, cnt) = bvh.closest_hit_counted(&rays.get(c * CHUNK + k));
+                cs[k] = cnt;
+                if let Some(h) = h {
+                    ts[k] = h.t;
+                    ps[k] = h.prim;
+                }
+            }
+        });
+    (out, counts)
+}
+
+/// Reduced-traversal counts of the rays in `range` (a task), in parallel.
+///
+/// # Panics
+/// Panics if `range` is out of bounds or the batch's columns have different lengths.
+pub fn reduced_counts(bvh: &Bvh, rays: &RayBatch, range: std::ops::Range<usize>) -> Vec<Counts> {
+    check(rays);
+    assert!(range.end <= rays.len(), "range beyond the batch");
+    let mut counts = vec![Counts::default(); range.len()];
+    counts
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(c, cs)| {
+            for (k, out) in cs.iter_mut().enumerate() {
+                *out = bvh.reduced_traversal(&rays.get(range.start + c * CHUNK + k));
+            }
+        });
+    counts
+}
