@@ -24,8 +24,10 @@
 //! ```
 
 mod aabb;
+pub mod ao;
 pub mod builtin;
 pub mod bvh;
+pub mod camera;
 mod error;
 mod obj;
 mod ray;
@@ -40,6 +42,7 @@ mod triangle;
 
 pub use aabb::Aabb;
 pub use bvh::{BuildPreset, BuildReport, Bvh, BvhTriangle, Node};
+pub use camera::{Camera, PrimaryRays};
 pub use error::Error;
 pub use ray::{Hit, HitBatch, Ray, RayBatch};
 pub use rng::Rng;

@@ -429,3 +429,37 @@ fn spawned_rays_never_hit_their_own_surface() {
         assert_eq!(escaped, 0, "(COBALT_SEED={seed})");
     }
 }
+
+#[test]
+fn ao_rays_leave_their_surface() {
+    use crate::{Camera, SceneNeeds, SceneSource, ao};
+    let scene = SceneSource::parse("builtin:cornell:0.3")
+        .unwrap()
+        .load(SceneNeeds::AO)
+        .unwrap();
+    let bvh = build(&scene);
+    let primary = Camera::thesis(&scene.bounds(), 1).primary_rays(48, 48);
+    let hits = closest_hits(&bvh, &primary.rays);
+    let n_hits = (0..hits.len()).filter(|&i| hits.get(i).is_some()).count();
+    assert!(n_hits > 48 * 24, "{n_hits}");
+    let ao = ao::ao_rays(&scene, &primary.rays, &hits, 32, 0.5, 7);
+    assert_eq!(ao.rays.len(), n_hits * 32);
+    assert!(ao.rays.tmax.iter().all(|&t| t == 0.5));
+    let ao_hits = closest_hits(&bvh, &ao.rays);
+    for i in 0..ao.rays.len() {
+        if let Some((t, p)) = ao_hits.get(i) {
+            let src = hits.prim[ao.source[i] as usize];
+            // Coplanar neighbours of a flat wall cannot be hit either.
+            assert!(
+                p != src && t > 0.0,
+                "AO ray {i} hit its own triangle {p} at {t}"
+            );
+            let n = scene.geometric_normal(src as usize);
+            let m = scene.geometric_normal(p as usize);
+            assert!(
+                n.cross(m).length() > 0.0 || t > 1e-3,
+                "AO ray {i} hit a coplanar neighbour"
+            );
+        }
+    }
+}

@@ -1,0 +1,100 @@
+//! Ambient-occlusion rays: for each primary hit, `n` cosine-weighted directions from the
+//! Halton sequence (bases 2 and 3), scrambled per pixel by a random rotation (Cranley–Patterson),
+//! length-limited, spawned without self-intersection.
+
+use glam::Vec3;
+
+use crate::triangle::{RayShear, intersect_watertight};
+use crate::{Hit, HitBatch, RayBatch, Rng, Scene};
+
+/// The radical inverse of `i` in `base`: the Halton sequence's coordinate.
+pub fn radical_inverse(mut i: u32, base: u32) -> f32 {
+    let inv = 1.0 / base as f32;
+    let (mut f, mut r) = (inv, 0.0f32);
+    while i > 0 {
+        r += f * (i % base) as f32;
+        i /= base;
+        f *= inv;
+    }
+    r.min(1.0 - f32::EPSILON / 2.0)
+}
+
+/// Cosine-weighted direction on the hemisphere around `n` from a point `(u1, u2)` of the unit
+/// square (Malley's method: uniform disk, projected up).
+pub fn cosine_hemisphere(n: Vec3, u1: f32, u2: f32) -> Vec3 {
+    let r = u1.sqrt();
+    let phi = std::f32::consts::TAU * u2;
+    let (t, b) = n.any_orthonormal_pair();
+    let z = (1.0 - u1).max(0.0).sqrt();
+    (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize_or(n)
+}
+
+/// AO rays and where they came from.
+#[derive(Clone, Debug, Default)]
+pub struct AoRays {
+    /// The rays, `samples` consecutive per source hit.
+    pub rays: RayBatch,
+    /// Index of the primary ray each came from.
+    pub source: Vec<u32>,
+}
+
+/// Generates `samples` AO rays of length `max_distance` for each hit in `hits` (rays that
+/// missed spawn none). The hemisphere faces the side the primary ray came from. `seed`
+/// chooses the per-ray scrambling.
+pub fn ao_rays(
+    scene: &Scene,
+    primary: &RayBatch,
+    hits: &HitBatch,
+    samples: u32,
+    max_distance: f32,
+    seed: u64,
+) -> AoRays {
+    let mut out = AoRays::default();
+    let halton: Vec<(f32, f32)> = (0..samples)
+        .map(|i| (radical_inverse(i + 1, 2), radical_inverse(i + 1, 3)))
+        .collect();
+    for i in 0..hits.len() {
+        let Some((t, prim)) = hits.get(i) else {
+            continue;
+        };
+        let r = primary.get(i);
+        // A HitBatch keeps no barycentrics: one more watertight test of the hit triangle gives
+        // exactly the traversal's (t, u, v).
+        let [p0, p1, p2] = scene.vertices(prim as usize).map(|v| v.to_array());
+        let Some((t, u, v)) = RayShear::new(r.origin, r.dir)
+            .and_then(|s| intersect_watertight(&s, &p0, &p1, &p2, r.tmin, r.tmax.max(t)))
+        else {
+            continue;
+        };
+        let sp = scene.surface_point(&Hit { t, prim, u, v });
+        let n = sp.normal;
+        let facing = if n.dot(r.dir) < 0.0 { n } else { -n };
+        let mut rng = Rng::new(seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let (s1, s2) = (rng.f32(), rng.f32());
+        for &(h1, h2) in &halton {
+            let d = cosine_hemisphere(facing, (h1 + s1).fract(), (h2 + s2).fract());
+            out.rays.push(&sp.spawn_ray(d, max_distance));
+            out.source.push(i as u32);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn halton_and_cosine_weighting() {
+        assert_eq!(radical_inverse(1, 2), 0.5);
+        assert_eq!(radical_inverse(3, 2), 0.75);
+        assert!((radical_inverse(1, 3) - 1.0 / 3.0).abs() < 1e-7);
+        // Mean cosine of a cosine-weighted hemisphere is 2/3.
+        let n = Vec3::new(0.3, -0.5, 0.8).normalize();
+        let mean: f32 = (1..=4096)
+            .map(|i| cosine_hemisphere(n, radical_inverse(i, 2), radical_inverse(i, 3)).dot(n))
+            .sum::<f32>()
+            / 4096.0;
+        assert!((mean - 2.0 / 3.0).abs() < 0.01, "{mean}");
+    }
+}

@@ -1,0 +1,150 @@
+//! Pinhole cameras and primary rays in Morton (Z-curve) order, so that consecutive rays (and so
+//! the tasks cut from them) cover compact image regions and stay coherent.
+
+use glam::Vec3;
+
+use crate::{Aabb, Ray, RayBatch};
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub eye: Vec3,
+    /// Point looked at.
+    pub at: Vec3,
+    /// Up direction (need not be exactly perpendicular to the view).
+    pub up: Vec3,
+    /// Vertical field of view, degrees.
+    pub fov_y_degrees: f32,
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `at`, +Y up, 60° vertical field of view.
+    pub fn look_at(eye: Vec3, at: Vec3) -> Self {
+        Self {
+            eye,
+            at,
+            up: Vec3::Y,
+            fov_y_degrees: 60.0,
+        }
+    }
+
+    /// The thesis's camera `index` (0..=3): four positions at the maximum Y of the scene's
+    /// bounding box, looking at its centre.
+    ///
+    /// Our choice of the four: above the four quadrants, `x = c.x ± 0.45 ext.x`,
+    /// `z = c.z ± 0.45 ext.z` (90 % of the way from the centre towards each top corner, in the
+    /// order `(-,-), (+,-), (+,+), (-,+)`), at `y = max.y - 0.001 ext.y`, just under the top so
+    /// a camera in a closed room (Conference, Sibenik) is inside the ceiling, not on it.
+    /// `index` is taken modulo 4.
+    pub fn thesis(bounds: &Aabb, index: usize) -> Self {
+        let c = bounds.center();
+        let e = bounds.extent();
+        let (sx, sz) = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)][index % 4];
+        let eye = Vec3::new(
+            c.x + sx * 0.45 * e.x,
+            bounds.max.y - 0.001 * e.y,
+            c.z + sz * 0.45 * e.z,
+        );
+        let mut cam = Self::look_at(eye, c);
+        if (c - eye)
+            .normalize_or_zero()
+            .cross(Vec3::Y)
+            .length_squared()
+            < 1e-6
+        {
+            cam.up = Vec3::Z; // looking straight down
+        }
+        cam
+    }
+
+    /// The ray through pixel `(x, y)` (`y = 0` is the top row), through the pixel centre.
+    pub fn ray(&self, x: u32, y: u32, width: u32, height: u32) -> Ray {
+        let fwd = (self.at - self.eye).normalize_or(Vec3::NEG_Z);
+        let right = fwd.cross(self.up).normalize_or(Vec3::X);
+        let up = right.cross(fwd);
+        let h = (self.fov_y_degrees.to_radians() * 0.5).tan();
+        let w = h * width as f32 / height as f32;
+        let px = ((x as f32 + 0.5) / width as f32 * 2.0 - 1.0) * w;
+        let py = (1.0 - (y as f32 + 0.5) / height as f32 * 2.0) * h;
+        Ray::new(self.eye, (fwd + px * right + py * up).normalize())
+    }
+
+    /// One ray per pixel in Morton order; `pixels[i]` is ray `i`'s pixel index `y * width + x`.
+    pub fn primary_rays(&self, width: u32, height: u32) -> PrimaryRays {
+        let order = morton_order(width, height);
+        let rays = order
+            .iter()
+            .map(|&p| self.ray(p % width, p / width, width, height))
+            .collect();
+        PrimaryRays {
+            rays,
+            pixels: order,
+        }
+    }
+}
+
+/// Primary rays and the pixel each came from.
+#[derive(Clone, Debug, Default)]
+pub struct PrimaryRays {
+    /// The rays, in Morton order.
+    pub rays: RayBatch,
+    /// Pixel index (`y * width + x`) of each ray.
+    pub pixels: Vec<u32>,
+}
+
+/// Interleaves the low 16 bits of `v` with zeros.
+fn spread(v: u32) -> u32 {
+    let mut x = v & 0xFFFF;
+    x = (x | (x << 8)) & 0x00FF_00FF;
+    x = (x | (x << 4)) & 0x0F0F_0F0F;
+    x = (x | (x << 2)) & 0x3333_3333;
+    (x | (x << 1)) & 0x5555_5555
+}
+
+/// Pixel indices `y * width + x` of a `width x height` image in Z-curve order (for sizes that
+/// are not powers of two, the curve over the enclosing square with outside pixels skipped).
+///
+/// # Panics
+/// Panics if a side exceeds 65536.
+pub fn morton_order(width: u32, height: u32) -> Vec<u32> {
+    assert!(width <= 1 << 16 && height <= 1 << 16, "image too large");
+    let mut keyed: Vec<(u32, u32)> = (0..height)
+        .flat_map(|y| (0..width).map(move |x| (spread(x) | (spread(y) << 1), y * width + x)))
+        .collect();
+    keyed.sort_unstable_by_key(|&(k, _)| k);
+    keyed.into_iter().map(|(_, p)| p).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_order_is_a_z_curve_permutation() {
+        assert_eq!(morton_order(2, 2), vec![0, 1, 2, 3]);
+        assert_eq!(&morton_order(4, 4)[..8], &[0, 1, 4, 5, 2, 3, 6, 7]);
+        let mut o = morton_order(13, 7);
+        o.sort_unstable();
+        assert_eq!(o, (0..91).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn thesis_cameras_look_at_the_centre_from_the_top() {
+        let b = Aabb {
+            min: Vec3::new(-1.0, 0.0, -2.0),
+            max: Vec3::new(1.0, 3.0, 2.0),
+        };
+        let mut eyes = Vec::new();
+        for i in 0..4 {
+            let c = Camera::thesis(&b, i);
+            assert!((c.eye.y - 3.0).abs() < 0.01 && c.eye.y < 3.0);
+            assert_eq!(c.at, b.center());
+            let mid = c.ray(50, 50, 101, 101);
+            assert!(mid.dir.dot((b.center() - c.eye).normalize()) > 0.9999);
+            eyes.push(c.eye);
+        }
+        eyes.dedup();
+        assert_eq!(eyes.len(), 4);
+    }
+}
