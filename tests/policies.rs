@@ -43,8 +43,11 @@ proptest! {
     fn lpt_within_four_thirds_on_identical_devices(c in costs(10), m in 1usize..=4) {
         let (costs, speeds) = (Costs::new(c).unwrap(), Speeds::identical(m).unwrap());
         let opt = optimal_makespan(&costs, &speeds);
-        let lpt = makespan(Policy::StaticLpt, &costs, &speeds);
-        prop_assert!(within(lpt, lpt_identical_factor(m), opt), "LPT {lpt} vs OPT {opt} on {m}");
+        // A cost-sorted queue on identical devices with exact costs makes LPT's choices.
+        for policy in [Policy::StaticLpt, Policy::QueueSorted, Policy::Hybrid] {
+            let got = makespan(policy, &costs, &speeds);
+            prop_assert!(within(got, lpt_identical_factor(m), opt), "{policy} {got} vs OPT {opt} on {m}");
+        }
         prop_assert!(opt >= lower_bound(&costs, &speeds) * (1.0 - EPS));
     }
 

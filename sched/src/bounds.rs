@@ -41,9 +41,11 @@ pub fn guarantee(policy: crate::Policy, speeds: &Speeds) -> Option<f64> {
     use crate::Policy::*;
     let m = speeds.len();
     match (policy, speeds.are_identical()) {
-        (StaticLpt | Hybrid, true) => Some(lpt_identical_factor(m)),
+        // A cost-sorted queue on identical devices hands the next largest task to the least
+        // loaded device: LPT's choices.
+        (StaticLpt | Hybrid | QueueSorted, true) => Some(lpt_identical_factor(m)),
         (StaticLpt | Hybrid, false) => Some(LPT_UNIFORM_FACTOR),
-        (QueueFifo | QueueSorted, true) => Some(list_factor(m)),
+        (QueueFifo, true) => Some(list_factor(m)),
         _ => None,
     }
 }
