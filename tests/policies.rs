@@ -37,7 +37,7 @@ fn within(value: f64, factor: f64, opt: f64) -> bool {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(400))]
+    #![proptest_config(ProptestConfig::with_cases(2000))]
 
     #[test]
     fn lpt_within_four_thirds_on_identical_devices(c in costs(10), m in 1usize..=4) {
