@@ -76,9 +76,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
         sim = sim.fault(fault);
     }
 
-    let planning = Instant::now();
-    drop(args.policy.dispatcher(&estimated, &speeds));
-    let plan_seconds = planning.elapsed().as_secs_f64();
     let simulating = Instant::now();
     let result = sim.run_actual(&estimated, &actual)?;
     let simulate_seconds = simulating.elapsed().as_secs_f64();
@@ -99,7 +96,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         busy: result.metrics.busy,
         launches: result.launches,
         reruns: result.reruns,
-        plan_seconds,
+        plan_seconds: result.plan_seconds,
         simulate_seconds,
         assignment: result.assignment,
     };

@@ -46,6 +46,8 @@ pub struct SimReport {
     pub launches: Vec<u64>,
     /// Task runs lost to faults and run again.
     pub reruns: u64,
+    /// Wall time the policy took to plan (build its dispatcher), in real seconds.
+    pub plan_seconds: f64,
     /// Every delivered task, if recording was asked for.
     pub timeline: Option<Timeline>,
 }
@@ -122,7 +124,9 @@ impl Simulation {
             fault_at[f.device] = fault_at[f.device].min(f.at.max(0.0));
         }
 
+        let planning = std::time::Instant::now();
         let mut dispatch = self.policy.dispatcher(estimated, &self.speeds);
+        let plan_seconds = planning.elapsed().as_secs_f64();
         let mut events: BinaryHeap<Reverse<(Load, Kind, u32)>> = (0..m as u32)
             .map(|d| Reverse((Load::ZERO, Kind::Ready, d)))
             .collect();
@@ -218,6 +222,7 @@ impl Simulation {
             assignment,
             launches,
             reruns,
+            plan_seconds,
             timeline: self.record.then_some(Timeline { devices: m, spans }),
         })
     }
