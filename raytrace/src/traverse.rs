@@ -100,12 +100,13 @@ impl BoxRay {
         let b: &[f32; 8] = bytemuck::cast_ref(node);
         let (o, inv, n) = (&self.org, &self.inv, &self.near);
         // `n[k] ^ 4` flips between the min and max plane of axis k.
-        let tx0 = (b[n[0]] - o[0]) * inv[0];
-        let tx1 = (b[n[0] ^ 4] - o[0]) * inv[0];
-        let ty0 = (b[n[1]] - o[1]) * inv[1];
-        let ty1 = (b[n[1] ^ 4] - o[1]) * inv[1];
-        let tz0 = (b[n[2]] - o[2]) * inv[2];
-        let tz1 = (b[n[2] ^ 4] - o[2]) * inv[2];
+        // `& 7` proves the index in bounds (it already is), so no check is emitted.
+        let tx0 = (b[n[0] & 7] - o[0]) * inv[0];
+        let tx1 = (b[(n[0] ^ 4) & 7] - o[0]) * inv[0];
+        let ty0 = (b[n[1] & 7] - o[1]) * inv[1];
+        let ty1 = (b[(n[1] ^ 4) & 7] - o[1]) * inv[1];
+        let tz0 = (b[n[2] & 7] - o[2]) * inv[2];
+        let tz1 = (b[(n[2] ^ 4) & 7] - o[2]) * inv[2];
         let t0 = max_keep(max_keep(max_keep(tmin, tx0), ty0), tz0);
         let t1 = min_keep(min_keep(min_keep(f32::INFINITY, tx1), ty1), tz1) * self.scale;
         let t1 = if t1 < tmax { t1 } else { tmax };
@@ -169,14 +170,21 @@ impl Bvh {
         let boxes = BoxRay::new(ray);
         let nodes = &self.nodes[..];
         let tris = &self.tris[..];
+        if tris.is_empty() {
+            // The empty tree's lone node is not a pair parent; never walk it.
+            return (None, counts);
+        }
         if boxes.hit(&nodes[0], tmin, best_t).is_none() {
             return (None, counts);
         }
-        let mut stack = [0u32; STACK];
+        let mut stack = [(0u32, 0f32); STACK];
         let mut sp = 0usize;
         let mut i = 0usize;
         loop {
-            let node = &nodes[i];
+            // SAFETY: `i` is 0 or a child index read from an inner node; `validate`'s invariants
+            // (established by `Bvh::build`, and the fields are private) put every child pair
+            // `index, index + 1` inside `nodes`.
+            let node = unsafe { nodes.get_unchecked(i) };
             if MODE == COUNTED || MODE == REDUCED {
                 counts.nodes += 1;
             }
@@ -185,7 +193,9 @@ impl Bvh {
                     counts.tris += node.count;
                 } else {
                     let first = node.index as usize;
-                    for t in &tris[first..first + node.count as usize] {
+                    // SAFETY: leaves own `index .. index + count` of `tris` (validated invariant).
+                    let leaf = unsafe { tris.get_unchecked(first..first + node.count as usize) };
+                    for t in leaf {
                         if MODE == COUNTED {
                             counts.tris += 1;
                         }
@@ -210,13 +220,15 @@ impl Bvh {
                 }
             } else {
                 let l = node.index as usize;
-                let hl = boxes.hit(&nodes[l], tmin, best_t);
-                let hr = boxes.hit(&nodes[l + 1], tmin, best_t);
+                // SAFETY: an inner node's children `l, l + 1` are in `nodes` (validated).
+                let (nl, nr) = unsafe { (nodes.get_unchecked(l), nodes.get_unchecked(l + 1)) };
+                let hl = boxes.hit(nl, tmin, best_t);
+                let hr = boxes.hit(nr, tmin, best_t);
                 match (hl, hr) {
                     (Some(a), Some(b)) => {
-                        let (near, far) = if a <= b { (l, l + 1) } else { (l + 1, l) };
+                        let (near, far, t_far) = if a <= b { (l, l + 1, b) } else { (l + 1, l, a) };
                         // The stack never holds more than depth - 1 entries (validated).
-                        stack[sp] = far as u32;
+                        stack[sp] = (far as u32, t_far);
                         sp += 1;
                         i = near;
                         continue;
@@ -232,13 +244,20 @@ impl Bvh {
                     (None, None) => {}
                 }
             }
-            if sp == 0 {
-                break;
+            // Pop the next node, skipping those now beyond the nearest hit (exactly what
+            // re-testing their box against the shortened ray would decide).
+            loop {
+                if sp == 0 {
+                    return (best, counts);
+                }
+                sp -= 1;
+                let (next, t_near) = stack[sp];
+                if t_near <= best_t {
+                    i = next as usize;
+                    break;
+                }
             }
-            sp -= 1;
-            i = stack[sp] as usize;
         }
-        (best, counts)
     }
 }
 

@@ -71,9 +71,11 @@ pub fn intersect_watertight(
 ) -> Option<(f32, f32, f32)> {
     let (kx, ky, kz) = (s.kx, s.ky, s.kz);
     let o = &s.org;
-    let a = [v0[0] - o[0], v0[1] - o[1], v0[2] - o[2]];
-    let b = [v1[0] - o[0], v1[1] - o[1], v1[2] - o[2]];
-    let c = [v2[0] - o[0], v2[1] - o[1], v2[2] - o[2]];
+    // Four lanes so that `k & 3` indexing needs no bounds check (k < 3 by construction).
+    let (kx, ky, kz) = (kx & 3, ky & 3, kz & 3);
+    let a = [v0[0] - o[0], v0[1] - o[1], v0[2] - o[2], 0.0];
+    let b = [v1[0] - o[0], v1[1] - o[1], v1[2] - o[2], 0.0];
+    let c = [v2[0] - o[0], v2[1] - o[1], v2[2] - o[2], 0.0];
     let ax = a[kx] - s.sx * a[kz];
     let ay = a[ky] - s.sy * a[kz];
     let bx = b[kx] - s.sx * b[kz];
