@@ -21,6 +21,21 @@ pub enum CliError {
         /// What is wrong with it.
         message: String,
     },
+    /// A record of a binary input file is malformed.
+    #[error("{path}: {what} {index}: {message}")]
+    Record {
+        /// The file.
+        path: PathBuf,
+        /// What a record is (a ray…).
+        what: &'static str,
+        /// 0-based record index.
+        index: usize,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A scene could not be loaded or its BVH built.
+    #[error(transparent)]
+    Scene(#[from] raytrace::Error),
     /// A command-line value is malformed.
     #[error("--{flag} {value:?}: {message}")]
     Arg {

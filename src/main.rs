@@ -4,6 +4,7 @@ mod bench;
 mod error;
 mod input;
 mod schedule;
+mod trace;
 
 use std::io::Write;
 use std::process::ExitCode;
@@ -25,6 +26,8 @@ enum Command {
     Bench(bench::Args),
     /// Plan task costs on devices with a policy; print makespan, lower bound and assignment.
     Schedule(schedule::Args),
+    /// Trace binary rays through a scene's BVH; write binary hits and print timings.
+    Trace(trace::Args),
 }
 
 fn main() -> ExitCode {
@@ -32,6 +35,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Bench(args) => bench::run(args),
         Command::Schedule(args) => schedule::run(args),
+        Command::Trace(args) => trace::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -16,3 +16,6 @@ mod extremes;
 
 // The `cobalt schedule` command line: its output contract and its errors.
 mod cli;
+
+// `cobalt trace`: hits against an independent f64 reference, the file formats, bad rays.
+mod trace;

@@ -1,0 +1,191 @@
+//! `cobalt trace`: binary rays in, binary hits out, JSON timing: the contract any external
+//! tool can check our hits and speed against (DESIGN.md, "Command line").
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use raytrace::{BuildPreset, Bvh, HitBatch, RayBatch, SceneNeeds, SceneSource, traverse};
+use serde::Serialize;
+
+use crate::error::CliError;
+
+/// Bytes per ray in a ray file: `f32 × 8`, `ox oy oz dx dy dz tmin tmax`, little-endian.
+const RAY_BYTES: usize = 32;
+
+/// Which device traces.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Device {
+    /// All CPU cores (rayon).
+    Cpu,
+    /// The wgpu pipeline (issue 5; not built yet).
+    Gpu,
+}
+
+/// Arguments of `cobalt trace`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// An OBJ file, or `builtin:forest|hairball|cornell[:detail]`.
+    #[arg(long)]
+    scene: String,
+    /// Rays: little-endian `f32 × 8` per ray (`ox oy oz dx dy dz tmin tmax`).
+    #[arg(long)]
+    rays: PathBuf,
+    /// Hits: 8 bytes per ray, `f32 t` (+inf on a miss) and `u32 prim` (0xFFFFFFFF on a miss).
+    #[arg(long)]
+    out: PathBuf,
+    /// Stop at any hit (shadow-ray semantics); `t` is then the distance of the hit found.
+    #[arg(long)]
+    any_hit: bool,
+    /// The device that traces.
+    #[arg(long, value_enum, default_value = "cpu")]
+    device: Device,
+    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
+    #[arg(long, default_value = "medium")]
+    preset: String,
+    /// Print one JSON object with the timings.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct Report {
+    scene: String,
+    triangles: usize,
+    preset: String,
+    device: &'static str,
+    any_hit: bool,
+    rays: usize,
+    hits: usize,
+    /// Traversal only.
+    seconds: f64,
+    mrays_per_s: f64,
+    build_seconds: f64,
+    sah_cost: f64,
+    load_seconds: f64,
+    threads: usize,
+}
+
+/// Runs the command: every input is read and checked before anything is written.
+pub fn run(args: Args) -> Result<(), CliError> {
+    if args.device == Device::Gpu {
+        return Err(CliError::Arg {
+            flag: "device",
+            value: "gpu".into(),
+            message: "the GPU pipeline is not built yet (issue 5); use --device cpu".into(),
+        });
+    }
+    let preset: BuildPreset = args.preset.parse().map_err(|e: String| CliError::Arg {
+        flag: "preset",
+        value: args.preset.clone(),
+        message: e,
+    })?;
+    let loading = Instant::now();
+    let scene = SceneSource::parse(&args.scene)?.load(SceneNeeds::AO)?;
+    let load_seconds = loading.elapsed().as_secs_f64();
+    let rays = read_rays(&args.rays)?;
+    let bvh = Bvh::build(&scene, preset)?;
+
+    let tracing = Instant::now();
+    let hits = if args.any_hit {
+        traverse::any_hits(&bvh, &rays)
+    } else {
+        traverse::closest_hits(&bvh, &rays)
+    };
+    let seconds = tracing.elapsed().as_secs_f64();
+    crate::write_file(&args.out, &encode_hits(&hits))?;
+
+    let report = Report {
+        scene: args.scene.clone(),
+        triangles: scene.len(),
+        preset: args.preset.clone(),
+        device: "cpu",
+        any_hit: args.any_hit,
+        rays: rays.len(),
+        hits: hits.prim.iter().filter(|&&p| p != u32::MAX).count(),
+        seconds,
+        mrays_per_s: rays.len() as f64 / seconds.max(1e-12) / 1e6,
+        build_seconds: bvh.report().build_seconds,
+        sah_cost: bvh.report().sah_cost,
+        load_seconds,
+        threads: rayon::current_num_threads(),
+    };
+    if args.json {
+        crate::print_json(&report)
+    } else {
+        crate::print_text(&format!(
+            "{} rays ({} hit) on {} ({} triangles): {:.3} s, {:.2} MRays/s; BVH {} built in {:.3} s\n",
+            report.rays,
+            report.hits,
+            report.scene,
+            report.triangles,
+            report.seconds,
+            report.mrays_per_s,
+            report.preset,
+            report.build_seconds
+        ))
+    }
+}
+
+/// Reads and checks a ray file; the error names the file, the ray and the bad value.
+fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
+    let bytes = std::fs::read(path).map_err(|source| CliError::Read {
+        path: path.to_owned(),
+        source,
+    })?;
+    let bad = |ray: usize, message: String| CliError::Record {
+        path: path.to_owned(),
+        what: "ray",
+        index: ray,
+        message,
+    };
+    if bytes.len() % RAY_BYTES != 0 {
+        return Err(bad(
+            bytes.len() / RAY_BYTES,
+            format!(
+                "truncated: the file has {} bytes, not a multiple of {RAY_BYTES}",
+                bytes.len()
+            ),
+        ));
+    }
+    let n = bytes.len() / RAY_BYTES;
+    let mut rays = RayBatch::with_capacity(n);
+    const FIELDS: [&str; 8] = ["ox", "oy", "oz", "dx", "dy", "dz", "tmin", "tmax"];
+    for (i, record) in bytes.chunks_exact(RAY_BYTES).enumerate() {
+        let mut v = [0f32; 8];
+        for (k, word) in record.chunks_exact(4).enumerate() {
+            v[k] = f32::from_le_bytes([word[0], word[1], word[2], word[3]]);
+        }
+        // Origins and directions must be finite; tmax may be +inf (an unbounded ray).
+        if let Some(k) = (0..8).find(|&k| v[k].is_nan() || (k < 7 && v[k].is_infinite())) {
+            return Err(bad(i, format!("{} is {}", FIELDS[k], v[k])));
+        }
+        if v[3] == 0.0 && v[4] == 0.0 && v[5] == 0.0 {
+            return Err(bad(i, "direction is zero".into()));
+        }
+        if !(v[6] >= 0.0 && v[6] <= v[7]) {
+            return Err(bad(
+                i,
+                format!("tmin {} must be in [0, tmax = {}]", v[6], v[7]),
+            ));
+        }
+        rays.ox.push(v[0]);
+        rays.oy.push(v[1]);
+        rays.oz.push(v[2]);
+        rays.dx.push(v[3]);
+        rays.dy.push(v[4]);
+        rays.dz.push(v[5]);
+        rays.tmin.push(v[6]);
+        rays.tmax.push(v[7]);
+    }
+    Ok(rays)
+}
+
+fn encode_hits(hits: &HitBatch) -> Vec<u8> {
+    let mut out = Vec::with_capacity(hits.len() * 8);
+    for (t, prim) in hits.t.iter().zip(&hits.prim) {
+        let t = if *prim == u32::MAX { f32::INFINITY } else { *t };
+        out.extend_from_slice(&t.to_le_bytes());
+        out.extend_from_slice(&prim.to_le_bytes());
+    }
+    out
+}

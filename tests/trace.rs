@@ -1,0 +1,231 @@
+use std::fmt::Write as _;
+use std::process::Command;
+
+use crate::testkit::Rng;
+
+type V = [f64; 3];
+
+fn sub(a: V, b: V) -> V {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: V, b: V) -> V {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn dot(a: V, b: V) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Möller–Trumbore in f64: the independent reference, knowing nothing of our BVH.
+fn intersect(o: V, d: V, [a, b, c]: [V; 3]) -> Option<f64> {
+    let (e1, e2) = (sub(b, a), sub(c, a));
+    let p = cross(d, e2);
+    let det = dot(e1, p);
+    if det.abs() < 1e-300 {
+        return None;
+    }
+    let s = sub(o, a);
+    let u = dot(s, p) / det;
+    let q = cross(s, e1);
+    let v = dot(d, q) / det;
+    let t = dot(e2, q) / det;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then_some(t)
+}
+
+/// Random triangles and quads written as OBJ text, with one degenerate face, and the
+/// triangles in the id order DESIGN.md specifies (file order after fan triangulation).
+fn random_obj(rng: &mut Rng, faces: usize) -> (String, Vec<[V; 3]>) {
+    let mut text = String::from("# random soup\n");
+    let mut tris = Vec::new();
+    let mut verts = 0;
+    for f in 0..faces {
+        let c = [
+            rng.range(-10.0, 10.0),
+            rng.range(-10.0, 10.0),
+            rng.range(-10.0, 10.0),
+        ];
+        let corners = if f % 5 == 0 { 4 } else { 3 };
+        let mut p: Vec<V> = (0..corners)
+            .map(|_| {
+                [
+                    c[0] + rng.range(-1.5, 1.5),
+                    c[1] + rng.range(-1.5, 1.5),
+                    c[2] + rng.range(-1.5, 1.5),
+                ]
+            })
+            .collect();
+        if f == 7 {
+            p[2] = p[1]; // degenerate: keeps its id, never hit
+        }
+        if corners == 4 {
+            // Keep the quad planar so both fan triangles are well defined.
+            p[3] = [
+                p[0][0] + p[2][0] - p[1][0],
+                p[0][1] + p[2][1] - p[1][1],
+                p[0][2] + p[2][2] - p[1][2],
+            ];
+        }
+        for v in &p {
+            let _ = writeln!(text, "v {} {} {}", v[0] as f32, v[1] as f32, v[2] as f32);
+        }
+        let idx: Vec<String> = (1..=corners).map(|k| (verts + k).to_string()).collect();
+        let _ = writeln!(text, "f {}", idx.join(" "));
+        verts += corners;
+        // Reference geometry from the f32 values the file holds.
+        let q: Vec<V> = p.iter().map(|v| v.map(|x| x as f32 as f64)).collect();
+        for k in 1..corners - 1 {
+            tris.push([q[0], q[k], q[k + 1]]);
+        }
+    }
+    (text, tris)
+}
+
+#[test]
+fn trace_matches_an_f64_reference_and_the_id_contract() {
+    let mut rng = Rng::from_env(17);
+    let dir = std::env::temp_dir().join(format!("cobalt-trace-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (obj, tris) = random_obj(&mut rng, 400);
+    let scene = dir.join("soup.obj");
+    std::fs::write(&scene, obj).unwrap();
+
+    let n = 20_000;
+    let mut bytes = Vec::with_capacity(n * 32);
+    let mut rays = Vec::with_capacity(n);
+    for i in 0..n {
+        let o = [
+            rng.range(-12.0, 12.0),
+            rng.range(-12.0, 12.0),
+            rng.range(-12.0, 12.0),
+        ];
+        let mut d = [
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        ];
+        if i % 10 == 0 {
+            d = [0.0, 0.0, if i % 20 == 0 { 1.0 } else { -1.0 }]; // axis-parallel
+        }
+        let (o32, d32) = (o.map(|x| x as f32), d.map(|x| x as f32));
+        for x in o32.iter().chain(&d32).chain(&[0.0, f32::INFINITY]) {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
+        rays.push((o32.map(f64::from), d32.map(f64::from)));
+    }
+    let rays_path = dir.join("rays.bin");
+    std::fs::write(&rays_path, &bytes).unwrap();
+    let hits_path = dir.join("hits.bin");
+
+    let out = Command::new(env!("CARGO_BIN_EXE_cobalt"))
+        .args([
+            "trace",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--rays",
+            rays_path.to_str().unwrap(),
+        ])
+        .args(["--out", hits_path.to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["rays"], n);
+    assert_eq!(report["triangles"], tris.len());
+    for key in ["seconds", "mrays_per_s", "build_seconds"] {
+        assert!(report[key].as_f64().unwrap() >= 0.0, "{key}");
+    }
+
+    let hits = std::fs::read(&hits_path).unwrap();
+    assert_eq!(hits.len(), n * 8);
+    // The external check's criteria: hit/miss and t (1e-4 relative) agree on ≥ 99.9 % of rays;
+    // and the primitive ids follow file order after fan triangulation.
+    let (mut agree, mut same_prim, mut hit_count) = (0, 0, 0);
+    for (i, (o, d)) in rays.iter().enumerate() {
+        let t = f32::from_le_bytes(hits[i * 8..i * 8 + 4].try_into().unwrap());
+        let prim = u32::from_le_bytes(hits[i * 8 + 4..i * 8 + 8].try_into().unwrap());
+        let want = tris
+            .iter()
+            .enumerate()
+            .filter_map(|(p, tri)| intersect(*o, *d, *tri).map(|t| (t, p as u32)))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        match want {
+            None => {
+                let miss = prim == u32::MAX && t == f32::INFINITY;
+                agree += usize::from(miss);
+                same_prim += usize::from(miss);
+            }
+            Some((wt, wp)) => {
+                hit_count += 1;
+                agree += usize::from(prim != u32::MAX && ((t as f64) - wt).abs() <= 1e-4 * wt);
+                same_prim += usize::from(prim == wp);
+            }
+        }
+    }
+    eprintln!(
+        "{agree} of {n} rays agree in hit and t, {same_prim} in primitive id ({hit_count} hits)"
+    );
+    assert!(hit_count > n / 20, "the test must exercise hits");
+    assert!(agree as f64 >= 0.999 * n as f64, "{agree} of {n} agree");
+    assert!(
+        same_prim as f64 >= 0.999 * n as f64,
+        "{same_prim} of {n} have the reference's id"
+    );
+}
+
+#[test]
+fn trace_rejects_bad_rays_and_writes_nothing() {
+    let dir = std::env::temp_dir().join(format!("cobalt-trace-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let ray = |v: [f32; 8]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let good = ray([0.0, 5.0, 0.0, 0.0, -1.0, 0.0, 0.0, f32::INFINITY]);
+    let cases: Vec<(Vec<u8>, &str)> = vec![
+        (good[..20].to_vec(), "ray 0: truncated"),
+        (
+            [
+                good.clone(),
+                ray([f32::NAN, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 1.0]),
+            ]
+            .concat(),
+            "ray 1: ox is NaN",
+        ),
+        (
+            ray([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]),
+            "ray 0: direction is zero",
+        ),
+        (
+            ray([0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 1.0]),
+            "ray 0: tmin 2 must be in [0, tmax = 1]",
+        ),
+    ];
+    for (k, (bytes, expected)) in cases.into_iter().enumerate() {
+        let rays = dir.join(format!("bad{k}.bin"));
+        std::fs::write(&rays, bytes).unwrap();
+        let hits = dir.join(format!("hits{k}.bin"));
+        let out = Command::new(env!("CARGO_BIN_EXE_cobalt"))
+            .args([
+                "trace",
+                "--scene",
+                "builtin:cornell:0.2",
+                "--rays",
+                rays.to_str().unwrap(),
+                "--out",
+                hits.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(expected) && err.contains(&format!("bad{k}.bin")),
+            "{err} lacks {expected}"
+        );
+        assert!(!hits.exists(), "nothing may be written on bad input");
+    }
+}
