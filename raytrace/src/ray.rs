@@ -167,6 +167,14 @@ impl HitBatch {
     /// The primitive id written for a miss.
     pub const MISS: u32 = u32::MAX;
 
+    /// `n` misses, to be overwritten by the hits found.
+    pub fn misses(n: usize) -> Self {
+        HitBatch {
+            t: vec![f32::INFINITY; n],
+            prim: vec![Self::MISS; n],
+        }
+    }
+
     /// Hit `i` as an option.
     pub fn get(&self, i: usize) -> Option<(f32, u32)> {
         (self.prim[i] != Self::MISS).then(|| (self.t[i], self.prim[i]))

@@ -274,10 +274,7 @@ where
 {
     check(rays);
     let n = rays.len();
-    let mut out = HitBatch {
-        t: vec![f32::INFINITY; n],
-        prim: vec![HitBatch::MISS; n],
-    };
+    let mut out = HitBatch::misses(n);
     out.t
         .par_chunks_mut(CHUNK)
         .zip(out.prim.par_chunks_mut(CHUNK))
@@ -317,10 +314,7 @@ pub fn closest_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts
     check(rays);
     let n = rays.len();
     let mut counts = vec![Counts::default(); n];
-    let mut out = HitBatch {
-        t: vec![f32::INFINITY; n],
-        prim: vec![HitBatch::MISS; n],
-    };
+    let mut out = HitBatch::misses(n);
     out.t
         .par_chunks_mut(CHUNK)
         .zip(out.prim.par_chunks_mut(CHUNK))

@@ -183,14 +183,7 @@ impl Bvh {
                     max: b.max.to_array(),
                     count: 1,
                 }],
-                tris: vec![BvhTriangle {
-                    v0: t.v0.to_array(),
-                    prim,
-                    v1: t.v1.to_array(),
-                    pad1: 0,
-                    v2: t.v2.to_array(),
-                    pad2: 0,
-                }],
+                tris: vec![leaf_triangle(t, prim)],
                 depth: 1,
                 report,
             });
@@ -248,14 +241,7 @@ impl Bvh {
                 for k in n.first_index..n.first_index + n.prim_count {
                     let local = bvh2.primitive_indices[k as usize] as usize;
                     let (t, prim) = (&tris[local], ids[local]);
-                    out_tris.push(BvhTriangle {
-                        v0: t.v0.to_array(),
-                        prim,
-                        v1: t.v1.to_array(),
-                        pad1: 0,
-                        v2: t.v2.to_array(),
-                        pad2: 0,
-                    });
+                    out_tris.push(leaf_triangle(t, prim));
                 }
                 nodes[d] = to_node(n, first, n.prim_count);
             } else {
@@ -292,5 +278,17 @@ impl Bvh {
             depth,
             report,
         })
+    }
+}
+
+/// An obvhs triangle in the GPU layout, tagged with its scene primitive id.
+fn leaf_triangle(t: &Triangle, prim: u32) -> BvhTriangle {
+    BvhTriangle {
+        v0: t.v0.to_array(),
+        prim,
+        v1: t.v1.to_array(),
+        pad1: 0,
+        v2: t.v2.to_array(),
+        pad2: 0,
     }
 }
