@@ -15,9 +15,7 @@ fn cobalt(args: &[&str]) -> Output {
 
 /// A file in a per-test temporary directory, removed with the process's temp dir.
 fn write_temp(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("cobalt-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let path = dir.join(name);
+    let path = crate::testkit::temp_dir("cli").join(name);
     std::fs::write(&path, text).expect("temp file");
     path
 }

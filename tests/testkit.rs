@@ -36,3 +36,10 @@ impl Rng {
         (self.next_u64() % n as u64) as usize
     }
 }
+
+/// A directory of this test process's own, named by `tag`, created if missing.
+pub(crate) fn temp_dir(tag: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("cobalt-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}

@@ -86,8 +86,7 @@ fn random_obj(rng: &mut Rng, faces: usize) -> (String, Vec<[V; 3]>) {
 #[test]
 fn trace_matches_an_f64_reference_and_the_id_contract() {
     let mut rng = Rng::from_env(17);
-    let dir = std::env::temp_dir().join(format!("cobalt-trace-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::testkit::temp_dir("trace");
     let (obj, tris) = random_obj(&mut rng, 400);
     let scene = dir.join("soup.obj");
     std::fs::write(&scene, obj).unwrap();
@@ -181,8 +180,7 @@ fn trace_matches_an_f64_reference_and_the_id_contract() {
 
 #[test]
 fn trace_rejects_bad_rays_and_writes_nothing() {
-    let dir = std::env::temp_dir().join(format!("cobalt-trace-bad-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::testkit::temp_dir("trace-bad");
     let ray = |v: [f32; 8]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
     let good = ray([0.0, 5.0, 0.0, 0.0, -1.0, 0.0, 0.0, f32::INFINITY]);
     let cases: Vec<(Vec<u8>, &str)> = vec![
