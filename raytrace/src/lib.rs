@@ -33,6 +33,7 @@ mod obj;
 mod ray;
 mod rng;
 mod scene;
+mod slab;
 pub mod spawn;
 pub mod testkit;
 #[cfg(test)]

@@ -13,11 +13,9 @@
 //! `B` counts nodes *entered* (the root, if its box is hit, and every child whose box is hit);
 //! entering an inner node costs two child box tests, entering a leaf `count` triangle tests.
 //!
-//! The ray/box test is Ize's conservative one ("Robust BVH Ray Traversal", JCGT 2013): the far
-//! distance is scaled by `1 + 2 gamma(3)` so rounding never culls a box the ray touches.
-//! Zero direction components (either sign) give infinite inverse directions; where that
-//! meets an origin exactly on a slab plane (`0 * inf = NaN`) the NaN is ignored, treating the
-//! closed slab as containing the ray.
+//! The ray/box test is Ize's conservative one ([`crate::slab`]), both children of a node at
+//! once. Sibling pairs are 64-byte aligned ([`crate::bvh::NodeArray`]), so a step reads one
+//! cache line.
 //!
 //! Batch versions run over a [`RayBatch`] with rayon, in chunks.
 
@@ -25,7 +23,7 @@ use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 
 use crate::bvh::Bvh;
-use crate::spawn::gamma;
+use crate::slab::BoxRay;
 use crate::triangle::{RayShear, intersect_watertight};
 use crate::{Hit, HitBatch, Ray, RayBatch};
 
@@ -54,65 +52,6 @@ const REDUCED: u8 = 3;
 
 /// Rays per rayon work item: enough to amortise scheduling, small enough to balance.
 const CHUNK: usize = 256;
-
-/// Ize's scale of the far distance: `1 + 2 gamma(3)`.
-fn far_scale() -> f32 {
-    1.0 + 2.0 * gamma(3)
-}
-
-/// `max` that keeps `acc` when `x` is NaN (one `maxss` on x86).
-#[inline(always)]
-fn max_keep(acc: f32, x: f32) -> f32 {
-    if x > acc { x } else { acc }
-}
-
-/// `min` that keeps `acc` when `x` is NaN.
-#[inline(always)]
-fn min_keep(acc: f32, x: f32) -> f32 {
-    if x < acc { x } else { acc }
-}
-
-/// The per-ray part of the box test.
-struct BoxRay {
-    org: [f32; 3],
-    inv: [f32; 3],
-    /// Index of the near plane in a node viewed as `[f32; 8]` (`min` at 0..3, `max` at 4..7).
-    near: [usize; 3],
-    scale: f32,
-}
-
-impl BoxRay {
-    #[inline(always)]
-    fn new(r: &Ray) -> Self {
-        let d = r.dir.to_array();
-        let sel = |k: usize| if d[k].is_sign_negative() { 4 + k } else { k };
-        Self {
-            org: r.origin.to_array(),
-            inv: [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]],
-            near: [sel(0), sel(1), sel(2)],
-            scale: far_scale(),
-        }
-    }
-
-    /// Entry distance if the ray meets the node's box within `[tmin, tmax]`.
-    #[inline(always)]
-    fn hit(&self, node: &crate::Node, tmin: f32, tmax: f32) -> Option<f32> {
-        let b: &[f32; 8] = bytemuck::cast_ref(node);
-        let (o, inv, n) = (&self.org, &self.inv, &self.near);
-        // `n[k] ^ 4` flips between the min and max plane of axis k.
-        // `& 7` proves the index in bounds (it already is), so no check is emitted.
-        let tx0 = (b[n[0] & 7] - o[0]) * inv[0];
-        let tx1 = (b[(n[0] ^ 4) & 7] - o[0]) * inv[0];
-        let ty0 = (b[n[1] & 7] - o[1]) * inv[1];
-        let ty1 = (b[(n[1] ^ 4) & 7] - o[1]) * inv[1];
-        let tz0 = (b[n[2] & 7] - o[2]) * inv[2];
-        let tz1 = (b[(n[2] ^ 4) & 7] - o[2]) * inv[2];
-        let t0 = max_keep(max_keep(max_keep(tmin, tx0), ty0), tz0);
-        let t1 = min_keep(min_keep(min_keep(f32::INFINITY, tx1), ty1), tz1) * self.scale;
-        let t1 = if t1 < tmax { t1 } else { tmax };
-        (t0 <= t1).then_some(t0)
-    }
-}
 
 impl Bvh {
     /// The nearest hit in `[ray.tmin, ray.tmax]`, if any.
@@ -220,11 +159,10 @@ impl Bvh {
                 }
             } else {
                 let l = node.index as usize;
-                // SAFETY: an inner node's children `l, l + 1` are in `nodes` (validated).
-                let (nl, nr) = unsafe { (nodes.get_unchecked(l), nodes.get_unchecked(l + 1)) };
-                let hl = boxes.hit(nl, tmin, best_t);
-                let hr = boxes.hit(nr, tmin, best_t);
-                match (hl, hr) {
+                // SAFETY: an inner node's children `l, l + 1` are in `nodes` (validated), so
+                // the two nodes from `l` are in bounds and form one `[Node; 2]`.
+                let pair = unsafe { &*nodes.as_ptr().add(l).cast::<[crate::Node; 2]>() };
+                match boxes.hit_pair(pair, tmin, best_t).into() {
                     (Some(a), Some(b)) => {
                         let (near, far, t_far) = if a <= b { (l, l + 1, b) } else { (l + 1, l, a) };
                         // The stack never holds more than depth - 1 entries (validated).

@@ -155,7 +155,7 @@ impl Bvh {
             report.nodes = 1;
             report.total_seconds = start.elapsed().as_secs_f64();
             return Ok(Self {
-                nodes: vec![empty],
+                nodes: vec![empty].into(),
                 tris: Vec::new(),
                 depth: 1,
                 report,
@@ -182,7 +182,8 @@ impl Bvh {
                     index: 0,
                     max: b.max.to_array(),
                     count: 1,
-                }],
+                }]
+                .into(),
                 tris: vec![leaf_triangle(t, prim)],
                 depth: 1,
                 report,
@@ -220,7 +221,8 @@ impl Bvh {
         );
         report.build_seconds = core.elapsed().as_secs_f64();
 
-        // Flatten depth-first; each inner node's children are allocated as an adjacent pair.
+        // Flatten depth-first; each inner node's children are allocated as an adjacent pair,
+        // at an even index after the root and its pad (see `Node::PAD`).
         let src = &bvh2.nodes;
         let to_node = |n: &obvhs::bvh2::node::Bvh2Node, index: u32, count: u32| Node {
             min: n.aabb().min.to_array(),
@@ -231,6 +233,7 @@ impl Bvh {
         let mut nodes: Vec<Node> = Vec::with_capacity(src.len());
         let mut out_tris: Vec<BvhTriangle> = Vec::with_capacity(aabbs.len());
         nodes.push(Node::default());
+        nodes.push(Node::PAD);
         let mut depth = 0usize;
         let mut stack: Vec<(usize, usize, usize)> = vec![(0, 0, 1)];
         while let Some((s, d, level)) = stack.pop() {
@@ -263,17 +266,17 @@ impl Bvh {
 
         let root_area = nodes[0].aabb().half_area().max(f32::MIN_POSITIVE) as f64;
         let mut sah = 0.0f64;
-        for n in &nodes {
+        for n in nodes.iter().filter(|n| **n != Node::PAD) {
             let a = n.aabb().half_area() as f64;
             sah += if n.is_leaf() { a * n.count as f64 } else { a };
             report.leaves += n.is_leaf() as usize;
         }
         report.sah_cost = sah / root_area;
-        report.nodes = nodes.len();
+        report.nodes = nodes.len() - 1;
         report.leaf_triangles = out_tris.len();
         report.total_seconds = start.elapsed().as_secs_f64();
         Ok(Self {
-            nodes,
+            nodes: nodes.into(),
             tris: out_tris,
             depth,
             report,

@@ -6,7 +6,7 @@ pub mod node;
 pub mod validate;
 
 pub use build::{BuildPreset, BuildReport};
-pub use node::{BvhTriangle, Node};
+pub use node::{BvhTriangle, Node, NodeArray};
 pub use validate::{ValidationReport, validate};
 
 /// Deepest tree the traversal stack supports; deeper builds fail with
@@ -20,14 +20,15 @@ pub const MAX_DEPTH: usize = 256;
 /// (checked by [`validate`]) cannot be broken after the build.
 #[derive(Clone, Debug)]
 pub struct Bvh {
-    pub(crate) nodes: Vec<Node>,
+    pub(crate) nodes: NodeArray,
     pub(crate) tris: Vec<BvhTriangle>,
     pub(crate) depth: usize,
     pub(crate) report: BuildReport,
 }
 
 impl Bvh {
-    /// Nodes; node 0 is the root.
+    /// Nodes; node 0 is the root, node 1 is [`Node::PAD`] and every inner node's children
+    /// `index, index + 1` form an aligned pair (`index` is even).
     pub fn nodes(&self) -> &[Node] {
         &self.nodes
     }

@@ -24,6 +24,51 @@ pub struct Node {
 const _: () = assert!(size_of::<Node>() == 32);
 
 impl Node {
+    /// The filler at index 1 (and at the end of an odd array): an empty box that no ray
+    /// enters and no node points to. It keeps every sibling pair `2k, 2k + 1` on one
+    /// 64-byte cache line, so a traversal step touches one line, not two.
+    pub const PAD: Self = Self {
+        min: [f32::MAX; 3],
+        index: 0,
+        max: [f32::MIN; 3],
+        count: 0,
+    };
+}
+
+/// Two sibling nodes on one cache line.
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+struct NodePair([Node; 2]);
+
+/// The node array, stored 64-byte aligned so that pairs `2k, 2k + 1` share a cache line;
+/// reads and writes as a plain `[Node]`, which is also the GPU's view.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct NodeArray(Vec<NodePair>);
+
+impl From<Vec<Node>> for NodeArray {
+    /// Copies `nodes` into aligned storage, appending [`Node::PAD`] if their number is odd.
+    fn from(mut nodes: Vec<Node>) -> Self {
+        if nodes.len() % 2 == 1 {
+            nodes.push(Node::PAD);
+        }
+        Self(bytemuck::pod_collect_to_vec(&nodes))
+    }
+}
+
+impl std::ops::Deref for NodeArray {
+    type Target = [Node];
+    fn deref(&self) -> &[Node] {
+        bytemuck::cast_slice(&self.0)
+    }
+}
+
+impl std::ops::DerefMut for NodeArray {
+    fn deref_mut(&mut self) -> &mut [Node] {
+        bytemuck::cast_slice_mut(&mut self.0)
+    }
+}
+
+impl Node {
     /// True for a leaf.
     #[inline(always)]
     pub fn is_leaf(&self) -> bool {

@@ -2,7 +2,7 @@
 //! invariants (its indexing is in bounds because of them), and the GPU will too.
 
 use super::{Bvh, MAX_DEPTH};
-use crate::{Aabb, Error, Result, Scene};
+use crate::{Aabb, Error, Node, Result, Scene};
 
 /// What validation counted on the way.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -38,7 +38,7 @@ pub fn validate(bvh: &Bvh, scene: &Scene) -> Result<ValidationReport> {
     let mut report = ValidationReport::default();
     if tris.is_empty() {
         // The build's empty tree: one node, and nothing that should have been in it.
-        if nodes.len() != 1 || nodes[0].count != 0 || !nodes[0].aabb().is_empty() {
+        if nodes.len() != 2 || nodes[0].count != 0 || !nodes[0].aabb().is_empty() {
             return bad("an empty tree must be one empty node".into());
         }
         if let Some(p) = (0..scene.len()).find(|&p| !scene.is_degenerate(p)) {
@@ -100,7 +100,7 @@ pub fn validate(bvh: &Bvh, scene: &Scene) -> Result<ValidationReport> {
             }
         } else {
             let l = n.index as usize;
-            if l <= i || l + 1 >= nodes.len() {
+            if l <= i || l % 2 == 1 || l + 1 >= nodes.len() {
                 return bad(format!("node {i} has children at {l} (of {})", nodes.len()));
             }
             for ch in [l, l + 1] {
@@ -111,8 +111,13 @@ pub fn validate(bvh: &Bvh, scene: &Scene) -> Result<ValidationReport> {
             }
         }
     }
-    if let Some(i) = seen_node.iter().position(|s| !s) {
-        return bad(format!("node {i} is unreachable"));
+    // Index 1 is padding (`Node::PAD`), not a tree node; every other node is reached.
+    let pads = |i: usize| i == 1;
+    if let Some(i) = (0..nodes.len()).find(|&i| seen_node[i] == pads(i)) {
+        return bad(format!("node {i} is unreachable or a reached pad"));
+    }
+    if let Some(i) = (0..nodes.len()).find(|&i| pads(i) && nodes[i] != Node::PAD) {
+        return bad(format!("pad node {i} is not Node::PAD"));
     }
     if let Some(k) = covered.iter().position(|c| !c) {
         return bad(format!("triangle slot {k} is in no leaf"));
