@@ -6,18 +6,16 @@
 
 use std::time::{Duration, Instant};
 
-use glam::Vec3A;
-use obvhs::{cwbvh::builder::build_cwbvh_from_tris, ray::RayHit, triangle::Triangle};
-use rayon::prelude::*;
+use raytrace::baseline::CwBvhBaseline;
 use raytrace::traverse::{any_hits, closest_hits};
-use raytrace::{BuildPreset, Bvh, Camera, RayBatch, SceneNeeds, SceneSource, ao};
+use raytrace::{BuildPreset, Bvh, RayBatch, SceneNeeds, SceneSource, workload};
+
+/// Rounds of the interleaved comparison.
+const REPS: usize = 3;
 
 fn mrays(n: usize, d: Duration) -> f64 {
     n as f64 / d.as_secs_f64() / 1e6
 }
-
-/// Rounds of the interleaved comparison.
-const REPS: usize = 3;
 
 /// Best of two runs, to skip warm-up noise.
 fn best<T>(f: impl Fn() -> T) -> (T, Duration) {
@@ -53,78 +51,35 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         t.elapsed().as_secs_f64(),
         rayon::current_num_threads()
     );
-    let bounds = scene.bounds();
-    let mut primary = RayBatch::default();
-    for cam in 0..4 {
-        let p = Camera::thesis(&bounds, cam).primary_rays(size, size);
-        for i in 0..p.rays.len() {
-            primary.push(&p.rays.get(i));
-        }
-    }
-    let tris: Vec<Triangle> = (0..scene.len())
-        .map(|i| {
-            let [a, b, c] = scene.vertices(i).map(Vec3A::from);
-            Triangle {
-                v0: a,
-                v1: b,
-                v2: c,
-            }
-        })
-        .collect();
+    let primary = workload::thesis_primary(&scene, size, size, 0..4);
 
     for preset in presets {
         let bvh = Bvh::build(&scene, preset)?;
         let r = bvh.report();
-        let sub = Camera::thesis(&bounds, 0).primary_rays(size / 2, size / 2);
-        let sub_hits = closest_hits(&bvh, &sub.rays);
-        let radius = 0.05 * bounds.extent().length();
-        let ao = ao::ao_rays(&scene, &sub.rays, &sub_hits, 32, radius, 1);
-
-        // obvhs's CwBvh on the same rays, with its own (Möller–Trumbore) triangle test.
-        let mut core = Duration::ZERO;
-        let t = Instant::now();
-        let cw = build_cwbvh_from_tris(&tris, preset.params(), &mut core);
-        let cw_build = t.elapsed();
-        let cw_trace = |rays: &RayBatch| -> usize {
-            (0..rays.len())
-                .into_par_iter()
-                .with_min_len(256)
-                .filter(|&i| {
-                    let r = rays.get(i);
-                    let ray = obvhs::ray::Ray::new(r.origin.into(), r.dir.into(), r.tmin, r.tmax);
-                    let mut hit = RayHit::none();
-                    cw.ray_traverse(ray, &mut hit, |ray, id| {
-                        tris[cw.primitive_indices[id] as usize].intersect(ray)
-                    })
-                })
-                .count()
-        };
-        let ours_trace = |rays: &RayBatch| -> usize {
-            let h = closest_hits(&bvh, rays);
-            (0..h.len()).filter(|&i| h.get(i).is_some()).count()
-        };
+        let ao = workload::thesis_ao(&scene, &bvh, size / 2, size / 2, 0, 32);
+        let cw = CwBvhBaseline::build(&scene, preset);
+        let hit_count =
+            |h: raytrace::HitBatch| (0..h.len()).filter(|&i| h.get(i).is_some()).count();
+        let ours = |rays: &RayBatch| hit_count(closest_hits(&bvh, rays));
+        let theirs = |rays: &RayBatch| hit_count(cw.closest_hits(rays));
 
         // Interleaved repetitions, best of each: the machine is shared, and a burst of load
         // then hits both sides alike instead of one.
-        let mut t = [Duration::MAX; 5];
-        let mut n_hit = [0usize; 2];
+        let mut t = [Duration::MAX; 6];
+        let mut n_hit = [0usize; 6];
         for _ in 0..REPS {
-            let runs: [&dyn Fn() -> usize; 5] = [
-                &|| ours_trace(&primary),
-                &|| cw_trace(&primary),
-                &|| ours_trace(&ao.rays),
-                &|| cw_trace(&ao.rays),
-                &|| {
-                    let h = any_hits(&bvh, &ao.rays);
-                    h.len()
-                },
+            let runs: [&dyn Fn() -> usize; 6] = [
+                &|| ours(&primary),
+                &|| theirs(&primary),
+                &|| ours(&ao.rays),
+                &|| theirs(&ao.rays),
+                &|| hit_count(any_hits(&bvh, &ao.rays)),
+                &|| cw.occluded(&ao.rays).into_iter().filter(|&o| o).count(),
             ];
             for (k, run) in runs.iter().enumerate() {
                 let (n, dt) = best(run);
                 t[k] = t[k].min(dt);
-                if k < 2 {
-                    n_hit[k] = n;
-                }
+                n_hit[k] = n;
             }
         }
         let pct = |n: usize| 100.0 * n as f64 / primary.len() as f64;
@@ -144,14 +99,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ao.rays.len(),
         );
         println!(
-            "{:>9}  obvhs CwBvh: build {:.3} s | primary {:.2} MRays/s ({:.0}% hit) | AO closest {:.2} MRays/s | ours/obvhs primary {:.2}, AO closest {:.2}",
+            "{:>9}  obvhs CwBvh: build {:.3} s | primary {:.2} MRays/s ({:.0}% hit) | AO any {:.2}, closest {:.2} MRays/s | ours/obvhs primary {:.2}, AO any {:.2}, AO closest {:.2} | AO occluded: ours {}, obvhs {}",
             "",
-            cw_build.as_secs_f64(),
+            cw.build_seconds,
             mrays(primary.len(), t[1]),
             pct(n_hit[1]),
+            mrays(ao.rays.len(), t[5]),
             mrays(ao.rays.len(), t[3]),
             t[1].as_secs_f64() / t[0].as_secs_f64(),
+            t[5].as_secs_f64() / t[4].as_secs_f64(),
             t[3].as_secs_f64() / t[2].as_secs_f64(),
+            n_hit[4],
+            n_hit[5],
         );
     }
     Ok(())

@@ -25,6 +25,7 @@
 
 mod aabb;
 pub mod ao;
+pub mod baseline;
 pub mod builtin;
 pub mod bvh;
 pub mod camera;
@@ -40,6 +41,7 @@ pub mod testkit;
 mod tests;
 pub mod traverse;
 mod triangle;
+pub mod workload;
 
 pub use aabb::Aabb;
 pub use bvh::{BuildPreset, BuildReport, Bvh, BvhTriangle, Node};

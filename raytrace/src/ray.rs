@@ -117,6 +117,18 @@ impl RayBatch {
         self.tmax.push(r.tmax);
     }
 
+    /// Appends all rays of `other`.
+    pub fn extend(&mut self, other: &RayBatch) {
+        self.ox.extend_from_slice(&other.ox);
+        self.oy.extend_from_slice(&other.oy);
+        self.oz.extend_from_slice(&other.oz);
+        self.dx.extend_from_slice(&other.dx);
+        self.dy.extend_from_slice(&other.dy);
+        self.dz.extend_from_slice(&other.dz);
+        self.tmin.extend_from_slice(&other.tmin);
+        self.tmax.extend_from_slice(&other.tmax);
+    }
+
     /// Ray `i`.
     ///
     /// # Panics

@@ -127,3 +127,20 @@ fn moller_trumbore(o: DVec3, d: DVec3, a: DVec3, b: DVec3, c: DVec3) -> Option<(
     let t = e2.dot(q) * inv;
     Some((t, DVec3::new(1.0 - u - v, u, v)))
 }
+
+/// Path of a real scene from the shared folder beside the workspace
+/// (`../shared/scenes/NAME`, or `$COBALT_SCENES/NAME`), or `None` with a note on stderr when it
+/// is absent: tests and benches that use real scenes say so instead of silently passing.
+pub fn shared_scene(name: &str) -> Option<std::path::PathBuf> {
+    let dir = std::env::var_os("COBALT_SCENES").map_or_else(
+        || std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes"),
+        std::path::PathBuf::from,
+    );
+    let path = dir.join(name);
+    if path.is_file() {
+        Some(path)
+    } else {
+        eprintln!("note: {} is absent; skipping what needs it", path.display());
+        None
+    }
+}

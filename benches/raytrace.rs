@@ -1,0 +1,60 @@
+//! Ray throughput on all cores, in MRays/s (criterion's "elem/s"), side by side with obvhs's own
+//! CwBvh traversal on the same rays: closest-hit primary rays of the thesis's four cameras, and
+//! 32-sample AO rays (any-hit, and closest-hit) from one camera's hits. Scenes: `builtin:forest`
+//! and, when present, `../shared/scenes/conference.obj`.
+//!
+//! Run: `cargo bench --bench raytrace` (filter with e.g. `-- conference`). For the ratio to
+//! obvhs in one printout: `cargo run --release -p raytrace --example measure -- SCENE`.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use raytrace::baseline::CwBvhBaseline;
+use raytrace::traverse::{any_hits, closest_hits};
+use raytrace::{BuildPreset, Bvh, SceneNeeds, SceneSource, testkit, workload};
+use std::hint::black_box;
+
+fn scenes() -> Vec<(String, String)> {
+    let mut s = vec![("forest".to_string(), "builtin:forest".to_string())];
+    if let Some(p) = testkit::shared_scene("conference.obj") {
+        s.push(("conference".into(), p.display().to_string()));
+    }
+    s
+}
+
+fn trace(c: &mut Criterion) {
+    for (name, source) in scenes() {
+        let scene = SceneSource::parse(&source)
+            .and_then(|s| s.load(SceneNeeds::AO))
+            .expect("bench scene loads");
+        let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("bvh builds");
+        let cw = CwBvhBaseline::build(&scene, BuildPreset::Medium);
+        let primary = workload::thesis_primary(&scene, 256, 256, 0..4);
+        let ao = workload::thesis_ao(&scene, &bvh, 128, 128, 0, 32).rays;
+
+        let mut g = c.benchmark_group(format!("trace/{name}"));
+        g.sample_size(10);
+        g.throughput(Throughput::Elements(primary.len() as u64));
+        g.bench_function("primary/cobalt", |b| {
+            b.iter(|| closest_hits(&bvh, black_box(&primary)))
+        });
+        g.bench_function("primary/obvhs-cwbvh", |b| {
+            b.iter(|| cw.closest_hits(black_box(&primary)))
+        });
+        g.throughput(Throughput::Elements(ao.len() as u64));
+        g.bench_function("ao-any/cobalt", |b| {
+            b.iter(|| any_hits(&bvh, black_box(&ao)))
+        });
+        g.bench_function("ao-any/obvhs-cwbvh", |b| {
+            b.iter(|| cw.occluded(black_box(&ao)))
+        });
+        g.bench_function("ao-closest/cobalt", |b| {
+            b.iter(|| closest_hits(&bvh, black_box(&ao)))
+        });
+        g.bench_function("ao-closest/obvhs-cwbvh", |b| {
+            b.iter(|| cw.closest_hits(black_box(&ao)))
+        });
+        g.finish();
+    }
+}
+
+criterion_group!(benches, trace);
+criterion_main!(benches);
