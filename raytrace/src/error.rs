@@ -71,6 +71,14 @@ pub enum Error {
         /// What is wrong with it.
         why: String,
     },
+    /// A `--devices` entry is malformed.
+    #[error("bad device `{arg}`: {why}")]
+    DeviceArg {
+        /// The entry as given.
+        arg: String,
+        /// What is wrong with it.
+        why: String,
+    },
     /// The BVH is deeper than the traversal stack allows.
     #[error("BVH depth {depth} exceeds the traversal stack ({max})")]
     BvhTooDeep {

@@ -29,6 +29,7 @@ pub mod baseline;
 pub mod builtin;
 pub mod bvh;
 pub mod camera;
+pub mod devices;
 mod error;
 mod obj;
 mod ray;
