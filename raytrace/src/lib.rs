@@ -7,7 +7,9 @@
 //!   layout plus a [`BvhTriangle`] array in leaf order;
 //! - rays ([`Ray`], [`RayBatch`]) are traced by closest-hit, any-hit, counting and the thesis's
 //!   reduced traversal ([`traverse`]); the ray/triangle test is watertight and the ray/box test
-//!   conservative, and secondary rays are spawned without self-intersection ([`spawn`]).
+//!   conservative, and secondary rays are spawned without self-intersection ([`spawn`]);
+//! - [`shade`] drives generations of rays (primary, shadow, reflection, AO) through one
+//!   [`shade::Tracer`] into a [`Film`]; [`cost_image`] draws where the traversal work is.
 //!
 //! ## Example
 //!
@@ -28,11 +30,14 @@ pub mod ao;
 pub mod builtin;
 pub mod bvh;
 pub mod camera;
+pub mod cost_image;
 mod error;
+pub mod film;
 mod obj;
 mod ray;
 mod rng;
 mod scene;
+pub mod shade;
 pub mod spawn;
 pub mod testkit;
 #[cfg(test)]
@@ -44,6 +49,7 @@ pub use aabb::Aabb;
 pub use bvh::{BuildPreset, BuildReport, Bvh, BvhTriangle, Node};
 pub use camera::{Camera, PrimaryRays};
 pub use error::Error;
+pub use film::Film;
 pub use ray::{Hit, HitBatch, Ray, RayBatch};
 pub use rng::Rng;
 pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};
