@@ -50,6 +50,8 @@ pub use bvh::{BuildPreset, BuildReport, Bvh, BvhTriangle, Node};
 pub use camera::{Camera, PrimaryRays};
 pub use error::Error;
 pub use film::Film;
+/// The math crate of the public API (points, directions, colours), so callers need not pin it.
+pub use glam;
 pub use ray::{Hit, HitBatch, Ray, RayBatch};
 pub use rng::Rng;
 pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};
