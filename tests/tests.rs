@@ -19,3 +19,6 @@ mod cli;
 
 // `cobalt trace`: hits against an independent f64 reference, the file formats, bad rays.
 mod trace;
+
+// `cobalt render`: the PNGs and report it writes, and its argument errors.
+mod render;

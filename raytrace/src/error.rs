@@ -90,4 +90,22 @@ pub enum Error {
     /// `bvh::validate` found a broken invariant.
     #[error("invalid BVH: {0}")]
     InvalidBvh(String),
+    /// An image could not be encoded (PNG).
+    #[error("encoding a {width}x{height} PNG: {why}")]
+    Encode {
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+        /// The encoder's reason.
+        why: String,
+    },
+    /// A CPU tracer's thread pool could not be started.
+    #[error("starting a pool of {threads} tracing threads: {why}")]
+    ThreadPool {
+        /// Threads asked for.
+        threads: usize,
+        /// rayon's reason.
+        why: String,
+    },
 }

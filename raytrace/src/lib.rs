@@ -7,7 +7,9 @@
 //!   layout plus a [`BvhTriangle`] array in leaf order;
 //! - rays ([`Ray`], [`RayBatch`]) are traced by closest-hit, any-hit, counting and the thesis's
 //!   reduced traversal ([`traverse`]); the ray/triangle test is watertight and the ray/box test
-//!   conservative, and secondary rays are spawned without self-intersection ([`spawn`]).
+//!   conservative, and secondary rays are spawned without self-intersection ([`spawn`]);
+//! - [`shade`] drives generations of rays (primary, shadow, reflection, AO) through one
+//!   [`shade::Tracer`] into a [`Film`]; [`cost_image`] draws where the traversal work is.
 //!
 //! ## Example
 //!
@@ -29,12 +31,15 @@ pub mod baseline;
 pub mod builtin;
 pub mod bvh;
 pub mod camera;
+pub mod cost_image;
 pub mod devices;
 mod error;
+pub mod film;
 mod obj;
 mod ray;
 mod rng;
 mod scene;
+pub mod shade;
 mod slab;
 pub mod spawn;
 pub mod testkit;
@@ -48,6 +53,9 @@ pub use aabb::Aabb;
 pub use bvh::{BuildPreset, BuildReport, Bvh, BvhTriangle, Node};
 pub use camera::{Camera, PrimaryRays};
 pub use error::Error;
+pub use film::Film;
+/// The math crate of the public API (points, directions, colours), so callers need not pin it.
+pub use glam;
 pub use ray::{Hit, HitBatch, Ray, RayBatch};
 pub use rng::Rng;
 pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};

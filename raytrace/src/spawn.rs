@@ -68,9 +68,18 @@ impl SurfacePoint {
 
 /// The ray origin for leaving `sp` in direction `w`: `p` moved along the normal by
 /// `dot(|n|, error)` to `w`'s side, then each coordinate rounded one float further away.
+///
+/// The offset is at least `gamma(8) * max |p_k|` (and a normal float): on a plane through 0
+/// along an axis (the ground `y = 0`), `p` is exact on that axis, the error bound is 0 and the
+/// point would stay *on* the plane, where our triangle test accepts `t = 0` (pbrt's rejects it
+/// with a bound on `t`'s own error, which our watertight test does not carry).
 pub fn offset_ray_origin(sp: &SurfacePoint, w: Vec3) -> Vec3 {
     let n = sp.normal;
-    let d = n.abs().dot(sp.error);
+    let d = n
+        .abs()
+        .dot(sp.error)
+        .max(gamma(8) * sp.p.abs().max_element())
+        .max(f32::MIN_POSITIVE);
     let mut offset = d * n;
     if w.dot(n) < 0.0 {
         offset = -offset;
@@ -116,6 +125,29 @@ mod tests {
         assert_eq!(next_float_down(-1.0), -1.0 - f32::EPSILON);
         assert_eq!(next_float_up(f32::INFINITY), f32::INFINITY);
         assert!(next_float_down(1.0) < 1.0);
+    }
+
+    #[test]
+    fn rays_leave_a_plane_through_the_origin() {
+        use crate::builtin::MeshBuilder;
+        use crate::{BuildPreset, Bvh, Rng, testkit};
+
+        let mut m = MeshBuilder::default();
+        m.quad(
+            [(-1.0, -1.0), (-1.0, 1.0), (1.0, 1.0), (1.0, -1.0)].map(|(x, z)| Vec3::new(x, 0.0, z)),
+            0,
+        );
+        let scene = testkit::scene_of("plane", m).unwrap();
+        let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
+        let mut rng = Rng::new(testkit::seed(11));
+        for _ in 0..2000 {
+            let o = Vec3::new(rng.f32() - 0.5, 1.0, rng.f32() - 0.5);
+            let hit = bvh.closest_hit(&Ray::new(o, -Vec3::Y)).unwrap();
+            let sp = scene.surface_point(&hit);
+            let mut out = rng.unit_vector();
+            out.y = out.y.abs();
+            assert!(bvh.closest_hit(&sp.spawn_ray(out, 1.0)).is_none(), "{out}");
+        }
     }
 
     #[test]

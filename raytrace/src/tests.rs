@@ -4,3 +4,4 @@
 mod bvh;
 mod obj;
 mod robustness;
+mod shade;

@@ -1,0 +1,77 @@
+//! Ambient occlusion (the thesis's diffuse workload): primary hits, then `samples` Halton
+//! cosine-weighted probes per hit ([`crate::ao::ao_rays`]) in one any-hit generation; a pixel
+//! is the fraction of its probes that escape within the length limit.
+
+use super::generation::Generations;
+use super::{RayKind, Tracer};
+use crate::{Film, PrimaryRays, Scene};
+
+/// Ambient-occlusion settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AoSettings {
+    /// Probes per primary hit (the thesis uses 32).
+    pub samples: u32,
+    /// Probe length; `None` is [`AoSettings::DISTANCE_FRACTION`] of the scene's diagonal.
+    pub max_distance: Option<f32>,
+    /// Seed of the per-pixel scrambling of the Halton points.
+    pub seed: u64,
+}
+
+impl Default for AoSettings {
+    fn default() -> Self {
+        Self {
+            samples: 32,
+            max_distance: None,
+            seed: 0,
+        }
+    }
+}
+
+impl AoSettings {
+    /// Default probe length as a fraction of the bounding box diagonal: long enough to darken
+    /// creases and contacts, short enough that open ground stays white.
+    pub const DISTANCE_FRACTION: f32 = 0.05;
+
+    /// The probe length used for `scene`.
+    pub fn distance(&self, scene: &Scene) -> f32 {
+        self.max_distance
+            .unwrap_or_else(|| Self::DISTANCE_FRACTION * scene.bounds().extent().length())
+    }
+}
+
+/// Shades `primary` into `film`: grey `1` is unoccluded (and the sky, where primaries miss).
+pub(crate) fn render<T: Tracer + ?Sized>(
+    scene: &Scene,
+    gens: &mut Generations<'_, T>,
+    primary: PrimaryRays,
+    film: &mut Film,
+    settings: AoSettings,
+) {
+    let hits = gens.trace(RayKind::Primary, 0, &primary.rays);
+    let probes = crate::ao::ao_rays(
+        scene,
+        &primary.rays,
+        &hits,
+        settings.samples,
+        settings.distance(scene),
+        settings.seed,
+    );
+    let blocked = gens.trace(RayKind::Ao, 1, &probes.rays);
+    let n = primary.rays.len();
+    let (mut sent, mut open) = (vec![0u32; n], vec![0u32; n]);
+    for (k, &src) in probes.source.iter().enumerate() {
+        sent[src as usize] += 1;
+        if blocked.get(k).is_none() {
+            open[src as usize] += 1;
+        }
+    }
+    for (i, &pixel) in primary.pixels.iter().enumerate() {
+        // A miss, or a hit that spawned no probe, sees the whole sky.
+        let value = if sent[i] == 0 {
+            1.0
+        } else {
+            open[i] as f32 / sent[i] as f32
+        };
+        film.set(pixel as usize, glam::Vec3::splat(value));
+    }
+}

@@ -1,0 +1,171 @@
+//! Shading as generations of ray batches (DESIGN.md, "How data flows"): a shader turns hits
+//! into the next batch of rays (shadow, reflection or AO probes) or into pixels, and every
+//! batch is traced through one [`Tracer`], the seam where a scheduler will cut generations
+//! into tasks and spread them over devices.
+//!
+//! ```
+//! use raytrace::shade::{CpuTracer, RenderOptions, Shader, render};
+//! use raytrace::{BuildPreset, Bvh, Camera, SceneSource};
+//!
+//! let shader = Shader::Whitted(Default::default());
+//! let scene = SceneSource::parse("builtin:cornell:0.2")?.load(shader.needs())?;
+//! let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
+//! let options = RenderOptions::new(16, 16, Camera::thesis(&scene.bounds(), 0), shader);
+//! let image = render(&scene, &mut CpuTracer::new(&bvh), &options);
+//! assert_eq!(image.generations[0].rays, 256);
+//! # Ok::<(), raytrace::Error>(())
+//! ```
+
+mod ao;
+mod generation;
+mod surface;
+mod tracer;
+mod whitted;
+
+use std::time::Instant;
+
+pub use ao::AoSettings;
+pub use generation::Generation;
+pub use tracer::{CpuTracer, RayKind, Tracer};
+pub use whitted::{AMBIENT, SKY, WhittedSettings};
+
+use crate::{Camera, Counts, Film, Scene, SceneNeeds};
+use generation::Generations;
+
+/// Which shader, with its settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shader {
+    /// Ambient occlusion: the diffuse workload.
+    Ao(AoSettings),
+    /// Whitted: the coherent workload.
+    Whitted(WhittedSettings),
+}
+
+impl Shader {
+    /// What the scene must keep for this shader.
+    pub fn needs(&self) -> SceneNeeds {
+        match self {
+            Self::Ao(_) => SceneNeeds::AO,
+            Self::Whitted(_) => SceneNeeds::WHITTED,
+        }
+    }
+
+    /// `ao` or `whitted`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Ao(_) => "ao",
+            Self::Whitted(_) => "whitted",
+        }
+    }
+}
+
+/// What to render.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// The camera.
+    pub camera: Camera,
+    /// The shader.
+    pub shader: Shader,
+    /// Also count `B` and `T` of every primary ray, for a cost image (an extra, untimed-by-
+    /// generation pass, so the generations' times stay those of plain tracing).
+    pub count_primary: bool,
+}
+
+impl RenderOptions {
+    /// Options without cost counting.
+    pub fn new(width: u32, height: u32, camera: Camera, shader: Shader) -> Self {
+        Self {
+            width,
+            height,
+            camera,
+            shader,
+            count_primary: false,
+        }
+    }
+}
+
+/// A finished render.
+#[derive(Clone, Debug)]
+pub struct Rendering {
+    /// The image (linear; encode with [`crate::film::ToneMap::Srgb`]).
+    pub film: Film,
+    /// Every traced generation, in order.
+    pub generations: Vec<Generation>,
+    /// Per-pixel `B`, `T` of the primary rays (row-major), when counting was asked for and
+    /// the tracer can count.
+    pub primary_counts: Option<Vec<Counts>>,
+    /// Time of the counting pass.
+    pub count_seconds: f64,
+    /// Wall time of the whole render (ray generation, tracing and shading), without counting.
+    pub seconds: f64,
+}
+
+impl Rendering {
+    /// Rays traced over all generations.
+    pub fn total_rays(&self) -> usize {
+        self.generations.iter().map(|g| g.rays).sum()
+    }
+
+    /// Time spent tracing, over all generations.
+    pub fn trace_seconds(&self) -> f64 {
+        self.generations.iter().map(|g| g.seconds).sum()
+    }
+
+    /// Rendering efficiency as the thesis defines it: all rays over the render's wall time.
+    pub fn mrays_per_s(&self) -> f64 {
+        self.total_rays() as f64 / self.seconds.max(1e-12) / 1e6
+    }
+}
+
+/// Renders `scene` as `options` say, tracing every generation through `tracer`.
+///
+/// A scene loaded without materials shades with [`crate::Material::default`]; one without
+/// normals shades with geometric normals; lights are the scene's (loading with
+/// [`Shader::needs`] adds the default light where a scene has none).
+///
+/// # Panics
+/// Panics if a side of the image exceeds 65536 pixels.
+pub fn render<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &mut T,
+    options: &RenderOptions,
+) -> Rendering {
+    let (w, h) = (options.width, options.height);
+    let start = Instant::now();
+    let primary = options.camera.primary_rays(w, h);
+    let camera_seconds = start.elapsed().as_secs_f64();
+
+    // Counting goes first, so the shader can then consume the primary rays without a copy.
+    let (mut primary_counts, mut count_seconds) = (None, 0.0);
+    if options.count_primary {
+        let start = Instant::now();
+        primary_counts = tracer.counts(&primary.rays).map(|counts| {
+            let mut by_pixel = vec![Counts::default(); counts.len()];
+            for (c, &p) in counts.iter().zip(&primary.pixels) {
+                by_pixel[p as usize] = *c;
+            }
+            by_pixel
+        });
+        count_seconds = start.elapsed().as_secs_f64();
+    }
+
+    let start = Instant::now();
+    let mut film = Film::new(w, h);
+    let mut gens = Generations::new(tracer);
+    match options.shader {
+        Shader::Ao(s) => ao::render(scene, &mut gens, primary, &mut film, s),
+        Shader::Whitted(s) => whitted::render(scene, &mut gens, primary, &mut film, s),
+    }
+    let seconds = camera_seconds + start.elapsed().as_secs_f64();
+    Rendering {
+        film,
+        generations: gens.log,
+        primary_counts,
+        count_seconds,
+        seconds,
+    }
+}

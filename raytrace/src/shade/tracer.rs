@@ -1,0 +1,116 @@
+//! The seam between shading and tracing: shaders hand whole generations of rays to a
+//! [`Tracer`] and get hits back. This is the one place where rays are traced, so a scheduled,
+//! multi-device tracer (cut into tasks, costed and planned by `sched`) can later replace
+//! [`CpuTracer`] without touching any shader.
+
+use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
+use crate::{Bvh, Counts, Error, HitBatch, RayBatch, Result};
+
+/// What a generation of rays is for; decides the query (closest or any hit) and names the
+/// generation in reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RayKind {
+    /// Camera rays: closest hit.
+    Primary,
+    /// Towards a light: any hit (occlusion).
+    Shadow,
+    /// Mirror bounces: closest hit.
+    Reflection,
+    /// Ambient-occlusion probes: any hit.
+    Ao,
+}
+
+impl RayKind {
+    /// True for the kinds that only ask whether something is in the way.
+    pub fn any_hit(self) -> bool {
+        matches!(self, Self::Shadow | Self::Ao)
+    }
+
+    /// Lower-case name, as in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Primary => "primary",
+            Self::Shadow => "shadow",
+            Self::Reflection => "reflection",
+            Self::Ao => "ao",
+        }
+    }
+}
+
+/// Traces generations of rays. There is one required method.
+///
+/// ## Contract
+/// `trace` returns one entry per ray, in order: for [`RayKind::any_hit`] kinds any hit within
+/// the ray's range (`t` of the hit found), otherwise the closest; misses as in [`HitBatch`].
+/// Results must not depend on how the work was split, so renders are deterministic.
+pub trait Tracer {
+    /// Traces one generation.
+    fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch;
+
+    /// Per-ray work `B`, `T` of a closest-hit trace of `rays`, for cost images; `None` when
+    /// this tracer cannot count (the default).
+    fn counts(&mut self, rays: &RayBatch) -> Option<Vec<Counts>> {
+        let _ = rays;
+        None
+    }
+}
+
+/// The CPU tracer: rayon over the batch functions of [`crate::traverse`], in its own pool of
+/// threads or in the caller's.
+pub struct CpuTracer<'a> {
+    bvh: &'a Bvh,
+    pool: Option<rayon::ThreadPool>,
+}
+
+impl<'a> CpuTracer<'a> {
+    /// Traces in whatever rayon pool the caller runs in (the global one by default).
+    pub fn new(bvh: &'a Bvh) -> Self {
+        Self { bvh, pool: None }
+    }
+
+    /// Traces in a pool of its own with `threads` threads (the `--devices cpu:N` device).
+    pub fn with_threads(bvh: &'a Bvh, threads: usize) -> Result<Self> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(|i| format!("cobalt-cpu-{i}"))
+            .build()
+            .map_err(|e| Error::ThreadPool {
+                threads,
+                why: e.to_string(),
+            })?;
+        Ok(Self {
+            bvh,
+            pool: Some(pool),
+        })
+    }
+
+    /// Threads that trace.
+    pub fn threads(&self) -> usize {
+        self.pool
+            .as_ref()
+            .map_or_else(rayon::current_num_threads, |p| p.current_num_threads())
+    }
+
+    fn run<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        match &self.pool {
+            Some(pool) => pool.install(f),
+            None => f(),
+        }
+    }
+}
+
+impl Tracer for CpuTracer<'_> {
+    fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
+        let bvh = self.bvh;
+        if kind.any_hit() {
+            self.run(|| any_hits(bvh, rays))
+        } else {
+            self.run(|| closest_hits(bvh, rays))
+        }
+    }
+
+    fn counts(&mut self, rays: &RayBatch) -> Option<Vec<Counts>> {
+        let bvh = self.bvh;
+        Some(self.run(|| closest_hits_counted(bvh, rays).1))
+    }
+}

@@ -1,0 +1,126 @@
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn cobalt(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cobalt"))
+        .args(args)
+        .output()
+        .expect("the cobalt binary runs")
+}
+
+/// Width and height from a PNG's signature and IHDR chunk, after checking it ends with IEND.
+fn png_size(path: &Path) -> (u32, u32) {
+    let b = std::fs::read(path).expect("the PNG was written");
+    assert_eq!(&b[..8], b"\x89PNG\r\n\x1a\n", "{}", path.display());
+    assert_eq!(&b[12..16], b"IHDR");
+    assert_eq!(
+        &b[b.len() - 8..b.len() - 4],
+        b"IEND",
+        "{} is complete",
+        path.display()
+    );
+    let be = |i: usize| u32::from_be_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+    (be(16), be(20))
+}
+
+#[test]
+fn render_writes_the_image_the_cost_image_and_the_report() {
+    let dir = crate::testkit::temp_dir("render");
+    let (out, cost, report) = (dir.join("x.png"), dir.join("c.png"), dir.join("r.json"));
+    for shader in ["whitted", "ao"] {
+        let o = cobalt(&[
+            "render",
+            "--scene",
+            "builtin:cornell",
+            "--shader",
+            shader,
+            "--size",
+            "32x24",
+            "--devices",
+            "cpu:2",
+            "--out",
+            out.to_str().unwrap(),
+            "--cost-image",
+            cost.to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_eq!(png_size(&out), (32, 24));
+        assert_eq!(png_size(&cost), (64, 24), "B and T side by side");
+        let v: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&report).unwrap()).expect("JSON report");
+        assert_eq!(v["scene"], "builtin:cornell");
+        assert_eq!(v["shader"], shader);
+        assert_eq!(v["size"], "32x24");
+        assert_eq!(v["threads"], 2);
+        let gens = v["generations"].as_array().unwrap();
+        assert_eq!(gens[0]["kind"], "primary");
+        assert_eq!(gens[0]["rays"], 32 * 24);
+        let total: u64 = gens.iter().map(|g| g["rays"].as_u64().unwrap()).sum();
+        assert_eq!(v["total_rays"].as_u64().unwrap(), total);
+        assert!(gens.iter().all(|g| g["seconds"].as_f64().unwrap() >= 0.0));
+        assert!(v["mrays_per_s"].as_f64().unwrap() > 0.0);
+        assert!(v["cost"]["max_nodes"].as_u64().unwrap() > 0);
+        let kinds: Vec<&str> = gens.iter().map(|g| g["kind"].as_str().unwrap()).collect();
+        if shader == "whitted" {
+            assert!(
+                kinds.contains(&"shadow") && kinds.contains(&"reflection"),
+                "{kinds:?}"
+            );
+        } else {
+            assert_eq!(kinds, ["primary", "ao"]);
+            assert_eq!(v["ao_samples"], 32);
+        }
+    }
+}
+
+#[test]
+fn bad_arguments_exit_2_naming_the_value_and_write_nothing() {
+    let dir = crate::testkit::temp_dir("render-bad");
+    let (out, cost, report) = (dir.join("x.png"), dir.join("c.png"), dir.join("r.json"));
+    for (flag, value) in [
+        ("--size", "0x32"),
+        ("--size", "32"),
+        ("--size", "32xlots"),
+        ("--camera", "4"),
+        ("--camera", "-1"),
+        ("--devices", "gpu:all"),
+        ("--devices", "cpu:0"),
+        ("--devices", "tpu"),
+        ("--ao-samples", "0"),
+        ("--eye", "1,2"),
+    ] {
+        let mut args = vec![
+            "render",
+            "--scene",
+            "builtin:cornell",
+            "--size",
+            "16x16",
+            "--out",
+            out.to_str().unwrap(),
+            "--cost-image",
+            cost.to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+        ];
+        if flag != "--size" {
+            args.extend([flag, value]);
+        } else {
+            args[4] = value;
+        }
+        if flag == "--eye" {
+            args.extend(["--at", "0,0,0"]);
+        }
+        let o = cobalt(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{flag} {value}: {err}");
+        assert!(err.contains(value), "{flag} {value}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        for p in [&out, &cost, &report] {
+            assert!(!p.exists(), "{flag} {value} left {}", p.display());
+        }
+    }
+    let o = cobalt(&["render", "--scene", "builtin:cornell", "--devices", "gpu"]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("GPU pipeline is not built yet"));
+}
