@@ -6,6 +6,7 @@ mod input;
 mod render;
 mod schedule;
 mod trace;
+mod tradeoff;
 
 use std::io::Write;
 use std::process::ExitCode;
@@ -31,6 +32,8 @@ enum Command {
     Schedule(schedule::Args),
     /// Trace binary rays through a scene's BVH; write binary hits and print timings.
     Trace(trace::Args),
+    /// Measure what speed costs in accuracy: BVH presets, AO sample counts.
+    Tradeoff(tradeoff::Args),
 }
 
 fn main() -> ExitCode {
@@ -40,6 +43,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Schedule(args) => schedule::run(args),
         Command::Trace(args) => trace::run(args),
+        Command::Tradeoff(args) => tradeoff::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -317,7 +317,7 @@ fn arg(flag: &'static str, value: &Option<String>, message: &str) -> CliError {
 }
 
 /// `WIDTHxHEIGHT`, each side in `1..=MAX_SIDE`.
-fn parse_size(text: &str) -> Result<(u32, u32), CliError> {
+pub(crate) fn parse_size(text: &str) -> Result<(u32, u32), CliError> {
     let bad = |message: String| CliError::Arg {
         flag: "size",
         value: text.to_string(),
@@ -334,7 +334,7 @@ fn parse_size(text: &str) -> Result<(u32, u32), CliError> {
 }
 
 /// `0..3`.
-fn parse_camera(text: &str) -> Result<usize, CliError> {
+pub(crate) fn parse_camera(text: &str) -> Result<usize, CliError> {
     match text.trim().parse::<usize>() {
         Ok(i) if i < 4 => Ok(i),
         _ => Err(CliError::Arg {

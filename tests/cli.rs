@@ -1,17 +1,10 @@
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use sched::exact::optimal_makespan;
 use sched::{Costs, Speeds};
 
-use crate::testkit::Rng;
-
-fn cobalt(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cobalt"))
-        .args(args)
-        .output()
-        .expect("the cobalt binary runs")
-}
+use crate::testkit::{Rng, cobalt};
 
 /// A file in a per-test temporary directory, removed with the process's temp dir.
 fn write_temp(name: &str, text: &str) -> PathBuf {

@@ -1,12 +1,6 @@
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn cobalt(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cobalt"))
-        .args(args)
-        .output()
-        .expect("the cobalt binary runs")
-}
+use crate::testkit::cobalt;
 
 /// Width and height from a PNG's signature and IHDR chunk, after checking it ends with IEND.
 fn png_size(path: &Path) -> (u32, u32) {

@@ -43,3 +43,11 @@ pub(crate) fn temp_dir(tag: &str) -> std::path::PathBuf {
     std::fs::create_dir_all(&dir).expect("temp dir");
     dir
 }
+
+/// Runs the built `cobalt` binary with `args`.
+pub(crate) fn cobalt(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
+        .args(args)
+        .output()
+        .expect("the cobalt binary runs")
+}

@@ -22,3 +22,6 @@ mod trace;
 
 // `cobalt render`: the PNGs and report it writes, and its argument errors.
 mod render;
+
+// `cobalt tradeoff`: the preset and AO-sample tables and their JSON.
+mod tradeoff;

@@ -1,0 +1,216 @@
+//! `cobalt tradeoff`: what speed costs in accuracy, measured on one scene in one run.
+//!
+//! Two tables (issue 3, item 7):
+//! - BVH build preset: build time and SAH cost against trace throughput (primary rays of the
+//!   four thesis cameras, closest hit; AO probes, any hit), all on the same rays;
+//! - AO sample count: image error against a high-sample reference (its own Halton
+//!   scrambling seed, so the reference's noise is independent of the estimate's) against render
+//!   time.
+
+use std::time::Instant;
+
+use raytrace::shade::{AoSettings, CpuTracer, RenderOptions, Shader, render};
+use raytrace::traverse::{any_hits, closest_hits};
+use raytrace::{BuildPreset, Bvh, Camera, SceneSource, workload};
+use serde::Serialize;
+
+use crate::error::CliError;
+use crate::render::{parse_camera, parse_size};
+
+/// Arguments of `cobalt tradeoff`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// An OBJ file, or `builtin:forest|hairball|cornell[:detail]`.
+    #[arg(long, default_value = "builtin:forest")]
+    scene: String,
+    /// Image size for both tables, `WIDTHxHEIGHT`.
+    #[arg(long, default_value = "128x128")]
+    size: String,
+    /// Thesis camera of the AO images, 0..3.
+    #[arg(long, default_value = "0")]
+    camera: String,
+    /// Presets to compare (comma-separated; default all six).
+    #[arg(long)]
+    presets: Option<String>,
+    /// AO sample counts to compare with the reference.
+    #[arg(long, default_value = "1,2,4,8,16,32,64,128")]
+    ao_samples: String,
+    /// Samples of the reference image.
+    #[arg(long, default_value_t = 1024)]
+    reference: u32,
+    /// Also write the records as JSON to this file.
+    #[arg(long)]
+    json: Option<std::path::PathBuf>,
+}
+
+#[derive(Debug, Serialize)]
+struct PresetRecord {
+    preset: &'static str,
+    build_seconds: f64,
+    sah_cost: f64,
+    nodes: usize,
+    primary_mrays_per_s: f64,
+    ao_mrays_per_s: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct SampleRecord {
+    samples: u32,
+    rays: usize,
+    /// Wall time of the whole AO render.
+    seconds: f64,
+    /// Root mean square difference of the AO value (0..1) from the reference, over pixels.
+    rmse: f64,
+    /// Largest per-pixel difference.
+    max_error: f64,
+    /// Reference render time over this one.
+    speedup: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct Report {
+    scene: String,
+    width: u32,
+    height: u32,
+    threads: usize,
+    presets: Vec<PresetRecord>,
+    reference_samples: u32,
+    reference_seconds: f64,
+    ao: Vec<SampleRecord>,
+}
+
+fn list<T: std::str::FromStr>(flag: &'static str, text: &str) -> Result<Vec<T>, CliError> {
+    text.split(',')
+        .map(|s| s.trim().parse::<T>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|_| CliError::Arg {
+            flag,
+            value: text.into(),
+            message: "expected a comma-separated list".into(),
+        })
+}
+
+/// Runs both measurements and prints the tables.
+pub fn run(args: Args) -> Result<(), CliError> {
+    let (width, height) = parse_size(&args.size)?;
+    let camera = parse_camera(&args.camera)?;
+    let presets: Vec<BuildPreset> = match &args.presets {
+        None => BuildPreset::ALL.to_vec(),
+        Some(p) => list("presets", p)?,
+    };
+    let counts: Vec<u32> = list("ao-samples", &args.ao_samples)?;
+    let bad_count = |n: &u32| !(1..=4096).contains(n);
+    if counts.iter().any(bad_count) || bad_count(&args.reference) {
+        return Err(CliError::Arg {
+            flag: "ao-samples",
+            value: format!("{} (reference {})", args.ao_samples, args.reference),
+            message: "sample counts must be in 1..=4096".into(),
+        });
+    }
+    let scene = SceneSource::parse(&args.scene)?.load(raytrace::SceneNeeds::AO)?;
+
+    let mut preset_records = Vec::new();
+    let primary = workload::thesis_primary(&scene, width, height, 0..4);
+    for &preset in &presets {
+        let bvh = Bvh::build(&scene, preset)?;
+        let ao = workload::thesis_ao(&scene, &bvh, width, height, camera, 32);
+        let mrays = |n: usize, f: &dyn Fn()| {
+            // Best of two: the first run also warms caches.
+            let mut best = f64::MAX;
+            for _ in 0..2 {
+                let t = Instant::now();
+                f();
+                best = best.min(t.elapsed().as_secs_f64());
+            }
+            n as f64 / best / 1e6
+        };
+        preset_records.push(PresetRecord {
+            preset: preset.name(),
+            build_seconds: bvh.report().build_seconds,
+            sah_cost: bvh.report().sah_cost,
+            nodes: bvh.report().nodes,
+            primary_mrays_per_s: mrays(primary.len(), &|| {
+                closest_hits(&bvh, &primary);
+            }),
+            ao_mrays_per_s: mrays(ao.rays.len(), &|| {
+                any_hits(&bvh, &ao.rays);
+            }),
+        });
+    }
+
+    let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
+    let cam = Camera::thesis(&scene.bounds(), camera);
+    let ao_render = |samples: u32, seed: u64| {
+        let shader = Shader::Ao(AoSettings {
+            samples,
+            seed,
+            ..Default::default()
+        });
+        render(
+            &scene,
+            &mut CpuTracer::new(&bvh),
+            &RenderOptions::new(width, height, cam, shader),
+        )
+    };
+    let reference = ao_render(args.reference, 0x5EED);
+    let mut ao_records = Vec::new();
+    for &samples in &counts {
+        let r = ao_render(samples, 0);
+        let (mut sq, mut max) = (0f64, 0f64);
+        for (a, b) in r.film.pixels().iter().zip(reference.film.pixels()) {
+            let d = f64::from((a.x - b.x).abs());
+            sq += d * d;
+            max = max.max(d);
+        }
+        ao_records.push(SampleRecord {
+            samples,
+            rays: r.total_rays(),
+            seconds: r.seconds,
+            rmse: (sq / r.film.pixels().len().max(1) as f64).sqrt(),
+            max_error: max,
+            speedup: reference.seconds / r.seconds.max(1e-12),
+        });
+    }
+
+    let report = Report {
+        scene: args.scene.clone(),
+        width,
+        height,
+        threads: rayon::current_num_threads(),
+        presets: preset_records,
+        reference_samples: args.reference,
+        reference_seconds: reference.seconds,
+        ao: ao_records,
+    };
+    crate::print_text(&tables(&report))?;
+    if let Some(path) = &args.json {
+        let text =
+            serde_json::to_vec_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
+        crate::write_file(path, &text)?;
+    }
+    Ok(())
+}
+
+fn tables(r: &Report) -> String {
+    let mut s = format!(
+        "{} at {}x{}, {} threads\n\nBVH preset: build time vs trace speed (primary: 4 thesis cameras, closest hit; AO: 32 probes per hit, any hit)\n\n| preset | build s | SAH | nodes | primary MRays/s | AO MRays/s |\n|---|---:|---:|---:|---:|---:|\n",
+        r.scene, r.width, r.height, r.threads
+    );
+    for p in &r.presets {
+        s += &format!(
+            "| {} | {:.3} | {:.1} | {} | {:.2} | {:.2} |\n",
+            p.preset, p.build_seconds, p.sah_cost, p.nodes, p.primary_mrays_per_s, p.ao_mrays_per_s
+        );
+    }
+    s += &format!(
+        "\nAO samples: error against a {}-sample reference ({:.2} s) vs render time\n\n| samples | rays | seconds | speed-up | RMSE | max error |\n|---:|---:|---:|---:|---:|---:|\n",
+        r.reference_samples, r.reference_seconds
+    );
+    for a in &r.ao {
+        s += &format!(
+            "| {} | {} | {:.3} | {:.1}x | {:.4} | {:.3} |\n",
+            a.samples, a.rays, a.seconds, a.speedup, a.rmse, a.max_error
+        );
+    }
+    s
+}
