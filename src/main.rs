@@ -2,6 +2,7 @@
 
 mod bench;
 mod error;
+mod estimate;
 mod input;
 mod schedule;
 mod trace;
@@ -24,6 +25,8 @@ struct Cli {
 enum Command {
     /// Run the benchmark matrix of policies, task sizes and devices; print a table.
     Bench(bench::Args),
+    /// Estimate task costs by the reduced traversal of sampled rays; report error and overhead.
+    Estimate(estimate::Args),
     /// Plan task costs on devices with a policy; print makespan, lower bound and assignment.
     Schedule(schedule::Args),
     /// Trace binary rays through a scene's BVH; write binary hits and print timings.
@@ -34,6 +37,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Bench(args) => bench::run(args),
+        Command::Estimate(args) => estimate::run(args),
         Command::Schedule(args) => schedule::run(args),
         Command::Trace(args) => trace::run(args),
     };
