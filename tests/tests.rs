@@ -19,3 +19,6 @@ mod cli;
 
 // `cobalt trace`: hits against an independent f64 reference, the file formats, bad rays.
 mod trace;
+
+// `cobalt estimate`: the JSON contract, exact estimates at full sampling, ray files, bad input.
+mod estimate;
