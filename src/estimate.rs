@@ -128,6 +128,13 @@ struct Report {
     spearman_full_vs_time: Option<f64>,
     /// Σ measured task times (one thread).
     measured_seconds: f64,
+    /// Mean `B`, `T` per ray of the reduced traversal and, for closest-hit kinds, of the
+    /// real trace: the reduced traversal never shortens a ray, so it enters more nodes than
+    /// the trace does, which bounds how cheap a sample can be.
+    reduced_nodes_per_ray: f64,
+    reduced_tris_per_ray: f64,
+    trace_nodes_per_ray: Option<f64>,
+    trace_tris_per_ray: Option<f64>,
     default_model: Model,
     calibration: Option<Calibration>,
     build_seconds: f64,
@@ -215,6 +222,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let full = full_work(&bvh, &rays, &tasks)?;
     let measured = measure_seconds(&bvh, &rays, &tasks, kind, args.repeats)?;
 
+    let per_ray = |total: f64| total / rays.len() as f64;
+    let trace_counts = (!kind.is_occlusion()).then(|| {
+        let counts = traverse::closest_hits_counted(&bvh, &rays).1;
+        Work::sum(&counts)
+    });
+
     let model = CostModel::default();
     let part = |f: fn(&Work) -> f64| -> (Vec<f64>, Vec<f64>) {
         (est.iter().map(f).collect(), full.iter().map(f).collect())
@@ -259,6 +272,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
         error_vs_time_full,
         spearman_full_vs_time,
         measured_seconds: measured.iter().sum(),
+        reduced_nodes_per_ray: per_ray(full_b.iter().sum()),
+        reduced_tris_per_ray: per_ray(full_t.iter().sum()),
+        trace_nodes_per_ray: trace_counts.map(|w| per_ray(w.nodes)),
+        trace_tris_per_ray: trace_counts.map(|w| per_ray(w.tris)),
         default_model: Model {
             kb: model.kb,
             kt: model.kt,
@@ -373,6 +390,18 @@ fn table(r: &Report) -> String {
             format!("{:.4} s on {} threads", r.trace_seconds, r.threads),
         ),
         ("overhead", pct(Some(r.overhead))),
+        (
+            "nodes per ray",
+            format!(
+                "reduced {:.1}, trace {} (triangles: reduced {:.1}, trace {})",
+                r.reduced_nodes_per_ray,
+                r.trace_nodes_per_ray
+                    .map_or("n/a".into(), |v| format!("{v:.1}")),
+                r.reduced_tris_per_ray,
+                r.trace_tris_per_ray
+                    .map_or("n/a".into(), |v| format!("{v:.1}")),
+            ),
+        ),
         (
             "error vs time",
             format!(
