@@ -49,6 +49,9 @@ pub enum CliError {
     /// The scheduler rejected the input.
     #[error(transparent)]
     Sched(#[from] sched::SchedError),
+    /// A cost estimate or one of its metrics could not be computed.
+    #[error(transparent)]
+    Cost(#[from] raytrace::cost::CostError),
     /// Output could not be written.
     #[error("writing output: {0}")]
     Write(String),

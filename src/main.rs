@@ -2,6 +2,7 @@
 
 mod bench;
 mod error;
+mod estimate;
 mod input;
 mod render;
 mod schedule;
@@ -28,6 +29,8 @@ enum Command {
     Bench(bench::Args),
     /// Render a scene (Whitted or AO) to a PNG, with an optional cost image and JSON report.
     Render(render::Args),
+    /// Estimate task costs by the reduced traversal of sampled rays; report error and overhead.
+    Estimate(estimate::Args),
     /// Plan task costs on devices with a policy; print makespan, lower bound and assignment.
     Schedule(schedule::Args),
     /// Trace binary rays through a scene's BVH; write binary hits and print timings.
@@ -41,6 +44,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Bench(args) => bench::run(args),
         Command::Render(args) => render::run(args),
+        Command::Estimate(args) => estimate::run(args),
         Command::Schedule(args) => schedule::run(args),
         Command::Trace(args) => trace::run(args),
         Command::Tradeoff(args) => tradeoff::run(args),

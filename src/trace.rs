@@ -127,7 +127,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
 }
 
 /// Reads and checks a ray file; the error names the file, the ray and the bad value.
-fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
+pub(crate) fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
     let bytes = std::fs::read(path).map_err(|source| CliError::Read {
         path: path.to_owned(),
         source,

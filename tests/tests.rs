@@ -25,3 +25,6 @@ mod render;
 
 // `cobalt tradeoff`: the preset and AO-sample tables and their JSON.
 mod tradeoff;
+
+// `cobalt estimate`: the JSON contract, exact estimates at full sampling, ray files, bad input.
+mod estimate;

@@ -31,6 +31,7 @@ pub mod baseline;
 pub mod builtin;
 pub mod bvh;
 pub mod camera;
+pub mod cost;
 pub mod cost_image;
 pub mod devices;
 mod error;
@@ -56,7 +57,7 @@ pub use error::Error;
 pub use film::Film;
 /// The math crate of the public API (points, directions, colours), so callers need not pin it.
 pub use glam;
-pub use ray::{Hit, HitBatch, Ray, RayBatch};
+pub use ray::{Hit, HitBatch, Ray, RayBatch, RayKind};
 pub use rng::Rng;
 pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};
 pub use traverse::Counts;

@@ -202,3 +202,60 @@ impl HitBatch {
         self.t.is_empty()
     }
 }
+
+/// What a generation of rays is for: decides the query that traces it (closest hit or any
+/// hit) and the thesis's two classes, coherent and diffuse, whose costs are calibrated apart.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum RayKind {
+    /// Camera rays: coherent, closest hit.
+    Primary,
+    /// Rays towards a light: coherent, any hit.
+    Shadow,
+    /// Mirror bounces: coherent, closest hit.
+    Reflection,
+    /// Ambient-occlusion (Halton diffuse) rays: diffuse, any hit.
+    Ao,
+}
+
+impl RayKind {
+    /// All kinds, for listings and tests.
+    pub const ALL: [Self; 4] = [Self::Primary, Self::Shadow, Self::Reflection, Self::Ao];
+
+    /// The thesis's "coherent rays": primary, shadow and reflection; AO rays are diffuse.
+    pub fn is_coherent(self) -> bool {
+        !matches!(self, Self::Ao)
+    }
+
+    /// True when any hit answers the query (occlusion: shadow and AO rays).
+    pub fn is_occlusion(self) -> bool {
+        matches!(self, Self::Shadow | Self::Ao)
+    }
+
+    /// The lower-case name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Primary => "primary",
+            Self::Shadow => "shadow",
+            Self::Reflection => "reflection",
+            Self::Ao => "ao",
+        }
+    }
+}
+
+impl std::fmt::Display for RayKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for RayKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| {
+                format!("unknown ray kind `{s}` (expected primary, shadow, reflection or ao)")
+            })
+    }
+}

@@ -2,8 +2,9 @@
 //! cosine-weighted probes per hit ([`crate::ao::ao_rays`]) in one any-hit generation; a pixel
 //! is the fraction of its probes that escape within the length limit.
 
+use super::Tracer;
 use super::generation::Generations;
-use super::{RayKind, Tracer};
+use crate::RayKind;
 use crate::{Film, PrimaryRays, Scene};
 
 /// Ambient-occlusion settings.

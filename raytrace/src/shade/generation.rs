@@ -4,7 +4,8 @@
 
 use std::time::Instant;
 
-use super::{RayKind, Tracer};
+use super::Tracer;
+use crate::RayKind;
 use crate::{HitBatch, RayBatch};
 
 /// One traced generation.

@@ -4,43 +4,12 @@
 //! [`CpuTracer`] without touching any shader.
 
 use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
-use crate::{Bvh, Counts, Error, HitBatch, RayBatch, Result};
-
-/// What a generation of rays is for; decides the query (closest or any hit) and names the
-/// generation in reports.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum RayKind {
-    /// Camera rays: closest hit.
-    Primary,
-    /// Towards a light: any hit (occlusion).
-    Shadow,
-    /// Mirror bounces: closest hit.
-    Reflection,
-    /// Ambient-occlusion probes: any hit.
-    Ao,
-}
-
-impl RayKind {
-    /// True for the kinds that only ask whether something is in the way.
-    pub fn any_hit(self) -> bool {
-        matches!(self, Self::Shadow | Self::Ao)
-    }
-
-    /// Lower-case name, as in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Primary => "primary",
-            Self::Shadow => "shadow",
-            Self::Reflection => "reflection",
-            Self::Ao => "ao",
-        }
-    }
-}
+use crate::{Bvh, Counts, Error, HitBatch, RayBatch, RayKind, Result};
 
 /// Traces generations of rays. There is one required method.
 ///
 /// ## Contract
-/// `trace` returns one entry per ray, in order: for [`RayKind::any_hit`] kinds any hit within
+/// `trace` returns one entry per ray, in order: for [`RayKind::is_occlusion`] kinds any hit within
 /// the ray's range (`t` of the hit found), otherwise the closest; misses as in [`HitBatch`].
 /// Results must not depend on how the work was split, so renders are deterministic.
 pub trait Tracer {
@@ -102,7 +71,7 @@ impl<'a> CpuTracer<'a> {
 impl Tracer for CpuTracer<'_> {
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
         let bvh = self.bvh;
-        if kind.any_hit() {
+        if kind.is_occlusion() {
             self.run(|| any_hits(bvh, rays))
         } else {
             self.run(|| closest_hits(bvh, rays))

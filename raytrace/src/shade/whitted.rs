@@ -5,9 +5,10 @@
 
 use glam::Vec3;
 
+use super::Tracer;
 use super::generation::Generations;
 use super::surface::shading;
-use super::{RayKind, Tracer};
+use crate::RayKind;
 use crate::{Film, Light, PrimaryRays, RayBatch, Scene};
 
 /// Whitted settings.

@@ -4,10 +4,10 @@ use glam::Vec3;
 
 use crate::builtin::MeshBuilder;
 use crate::shade::{
-    AoSettings, CpuTracer, RayKind, RenderOptions, Rendering, Shader, WhittedSettings, render,
+    AoSettings, CpuTracer, RenderOptions, Rendering, Shader, WhittedSettings, render,
 };
 use crate::testkit::scene_of;
-use crate::{BuildPreset, Bvh, Camera, Scene, SceneNeeds, SceneSource};
+use crate::{BuildPreset, Bvh, Camera, RayKind, Scene, SceneNeeds, SceneSource};
 
 const N: u32 = 64;
 

@@ -1,0 +1,72 @@
+//! Why an estimate, a calibration or a metric could not be computed.
+
+/// Every variant names the input that was rejected.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CostError {
+    /// The sampling rate is not a number in `(0, 1]`.
+    #[error("sample rate {value} is invalid: it must be in (0, 1]")]
+    BadRate {
+        /// The rejected rate.
+        value: f64,
+    },
+    /// A task holds no rays, so no ray can represent it.
+    #[error("task {task} is empty: every task needs at least one ray")]
+    EmptyTask {
+        /// Index of the task.
+        task: usize,
+    },
+    /// A task reaches past the end of the ray batch.
+    #[error("task {task} is rays {start}..{end}, but the batch has {rays} rays")]
+    TaskOutOfRange {
+        /// Index of the task.
+        task: usize,
+        /// First ray of the task.
+        start: usize,
+        /// One past its last ray.
+        end: usize,
+        /// Rays in the batch.
+        rays: usize,
+    },
+    /// The ray batch's eight columns have different lengths.
+    #[error("the ray batch is inconsistent: its columns have different lengths")]
+    InconsistentBatch,
+    /// Two inputs that must describe the same tasks have different lengths.
+    #[error("{what}: {expected} vs {got} values")]
+    LengthMismatch {
+        /// What was compared.
+        what: &'static str,
+        /// Length of the first input.
+        expected: usize,
+        /// Length of the second.
+        got: usize,
+    },
+    /// A metric or fit got fewer tasks than it needs.
+    #[error("{what} needs at least {needed} tasks, got {got}")]
+    TooFewTasks {
+        /// The metric or fit.
+        what: &'static str,
+        /// The least it needs.
+        needed: usize,
+        /// How many it got.
+        got: usize,
+    },
+    /// A value is NaN, infinite or negative where a cost or a time is expected.
+    #[error("{what} of task {task} is {value}: it must be finite and non-negative")]
+    BadValue {
+        /// What the value is (a measured time, a full cost…).
+        what: &'static str,
+        /// Index of the task.
+        task: usize,
+        /// The rejected value.
+        value: f64,
+    },
+    /// The input carries no information for the quantity asked (all zero, or constant).
+    #[error("{what} is undefined: {why}")]
+    Degenerate {
+        /// The metric or fit.
+        what: &'static str,
+        /// Why it is undefined.
+        why: &'static str,
+    },
+}

@@ -1,0 +1,213 @@
+//! The reduced-traversal estimator (thesis, section 3.1): trace a compacted uniform sample of
+//! each task's rays through the boxes only, count nodes `B` and reached triangles `T`, scale
+//! to the task's length and weigh by `C = kB·B + kT·T`.
+
+use std::ops::Range;
+
+use rayon::prelude::*;
+
+use super::sample::{Compacted, check_tasks};
+use super::{CostError, CostModel, SampleRate, Work};
+use crate::{Bvh, RayBatch, traverse};
+
+/// Estimates ray tasks (ranges of one [`RayBatch`]) by the reduced traversal of a sample.
+///
+/// As a [`sched::CostEstimator`] it cannot return an error: a task that is empty or outside
+/// the batch gets a NaN cost, which [`sched::CostEstimator::estimate_timed`] rejects naming
+/// that task. [`ReducedTraversal::try_estimate`] says why.
+#[derive(Clone, Copy, Debug)]
+pub struct ReducedTraversal<'a> {
+    bvh: &'a Bvh,
+    rays: &'a RayBatch,
+    rate: SampleRate,
+    model: CostModel,
+}
+
+impl<'a> ReducedTraversal<'a> {
+    /// An estimator of tasks of `rays` sampling at `rate`, with the default [`CostModel`].
+    pub fn new(bvh: &'a Bvh, rays: &'a RayBatch, rate: SampleRate) -> Self {
+        Self {
+            bvh,
+            rays,
+            rate,
+            model: CostModel::default(),
+        }
+    }
+
+    /// The same estimator weighing `B` and `T` by a calibrated model.
+    pub fn with_model(self, model: CostModel) -> Self {
+        Self { model, ..self }
+    }
+
+    /// The model costs are weighed by.
+    pub fn model(&self) -> CostModel {
+        self.model
+    }
+
+    /// The sampling rate.
+    pub fn rate(&self) -> SampleRate {
+        self.rate
+    }
+
+    /// Estimated `B` and `T` of every task: the sample's sums scaled by `len / sampled`.
+    pub fn try_work(&self, tasks: &[Range<usize>]) -> Result<Vec<Work>, CostError> {
+        let sample = Compacted::gather(self.rays, tasks, self.rate)?;
+        // One parallel loop over the whole compacted batch (rayon chunks of it), not one per
+        // task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
+        let counts = traverse::reduced_counts(self.bvh, &sample.rays, 0..sample.rays.len());
+        Ok(sample
+            .offsets
+            .windows(2)
+            .zip(&sample.lens)
+            .map(|(w, &len)| Work::sum(&counts[w[0]..w[1]]).scaled(len, w[1] - w[0]))
+            .collect())
+    }
+
+    /// Estimated cost of every task, or why there is none.
+    pub fn try_estimate(&self, tasks: &[Range<usize>]) -> Result<Vec<f64>, CostError> {
+        Ok(self.model.costs(&self.try_work(tasks)?))
+    }
+}
+
+impl sched::CostEstimator<Range<usize>> for ReducedTraversal<'_> {
+    fn estimate(&self, tasks: &[Range<usize>]) -> Vec<f64> {
+        match self.try_estimate(tasks) {
+            Ok(costs) => costs,
+            Err(e) => {
+                // Mark the task at fault (or all, for a broken batch) so the caller's
+                // validation names it instead of scheduling on a made-up cost.
+                let bad = match e {
+                    CostError::EmptyTask { task } | CostError::TaskOutOfRange { task, .. } => {
+                        Some(task)
+                    }
+                    _ => None,
+                };
+                (0..tasks.len())
+                    .map(|t| {
+                        if bad.is_none_or(|b| b == t) {
+                            f64::NAN
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect()
+            }
+        }
+    }
+}
+
+/// The reduced traversal of *every* ray of every task: the "full" of the thesis's prediction
+/// error, which a sample rate of 1 reproduces exactly. Tasks run in parallel, each summed on
+/// one thread (it is a reference, not timed).
+pub fn full_work(
+    bvh: &Bvh,
+    rays: &RayBatch,
+    tasks: &[Range<usize>],
+) -> Result<Vec<Work>, CostError> {
+    check_tasks(rays, tasks)?;
+    Ok(tasks
+        .par_iter()
+        .map(|r| {
+            let (b, t) = r.clone().fold((0u64, 0u64), |(b, t), i| {
+                let c = bvh.reduced_traversal(&rays.get(i));
+                (b + u64::from(c.nodes), t + u64::from(c.tris))
+            });
+            Work {
+                nodes: b as f64,
+                tris: t as f64,
+            }
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+    use sched::CostEstimator;
+
+    use super::*;
+    use crate::cost::prediction_error;
+    use crate::{BuildPreset, Camera, Ray, SceneNeeds, SceneSource};
+
+    fn forest() -> (Bvh, RayBatch) {
+        let scene = SceneSource::parse("builtin:forest:0.02")
+            .and_then(|s| s.load(SceneNeeds::AO))
+            .expect("builtin scene");
+        let bvh = Bvh::build(&scene, BuildPreset::Fast).expect("bvh");
+        let rays = Camera::thesis(&scene.bounds(), 1).primary_rays(48, 48).rays;
+        (bvh, rays)
+    }
+
+    #[test]
+    fn rate_one_gives_exactly_the_full_counts() {
+        let (bvh, rays) = forest();
+        let tasks = sched::split_ranges(rays.len(), 100);
+        let est = ReducedTraversal::new(&bvh, &rays, SampleRate::FULL);
+        let full = full_work(&bvh, &rays, &tasks).unwrap();
+        assert_eq!(est.try_work(&tasks).unwrap(), full);
+        let m = CostModel::default();
+        assert_eq!(
+            prediction_error(&est.estimate(&tasks), &m.costs(&full)),
+            Ok(0.0)
+        );
+        assert!(
+            full.iter().all(|w| w.nodes > 0.0),
+            "every task sees the scene"
+        );
+    }
+
+    #[test]
+    fn sampling_converges_on_coherent_rays() {
+        let (bvh, rays) = forest();
+        let tasks = sched::split_ranges(rays.len(), 256);
+        let m = CostModel::default();
+        let full = m.costs(&full_work(&bvh, &rays, &tasks).unwrap());
+        let err = |r| {
+            let e = ReducedTraversal::new(&bvh, &rays, SampleRate::new(r).unwrap());
+            prediction_error(&e.try_estimate(&tasks).unwrap(), &full).unwrap()
+        };
+        let (e8, e2) = (err(0.125), err(0.5));
+        assert!(e8 < 0.15 && e2 < 0.08 && e2 <= e8 + 0.01, "{e8} {e2}");
+    }
+
+    #[test]
+    fn scaling_is_exact_for_uniform_tasks() {
+        // Identical rays: any sample's mean is the task's mean, so the scaled estimate is exact
+        // whatever the rate and the task length.
+        let (bvh, _) = forest();
+        let ray = Ray::new(Vec3::new(0.0, 50.0, 0.0), Vec3::new(0.1, -1.0, 0.05));
+        let rays: RayBatch = std::iter::repeat_n(ray, 1000).collect();
+        let tasks = vec![0..1000, 1000..1000, 0..333];
+        assert_eq!(
+            ReducedTraversal::new(&bvh, &rays, SampleRate::FULL).try_work(&tasks),
+            Err(CostError::EmptyTask { task: 1 })
+        );
+        let tasks = vec![0..1000, 100..433, 999..1000];
+        let one = Work::sum(&[bvh.reduced_traversal(&ray)]);
+        for rate in [1e-6, 0.1, 0.125, 0.3, 1.0] {
+            let e = ReducedTraversal::new(&bvh, &rays, SampleRate::new(rate).unwrap());
+            let w = e.try_work(&tasks).unwrap();
+            for (r, w) in tasks.iter().zip(&w) {
+                assert_eq!(*w, one.scaled(r.len(), 1), "rate {rate}");
+            }
+        }
+    }
+
+    #[test]
+    fn bad_tasks_become_errors_or_named_nan_costs_never_panics() {
+        let (bvh, rays) = forest();
+        let n = rays.len();
+        let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS);
+        let err = e.try_estimate(&[0..10, n..n + 1]).unwrap_err();
+        assert!(err.to_string().contains("task 1"), "{err}");
+        let timed = e.estimate_timed(&[0..10, 10..10]).unwrap_err();
+        assert!(
+            matches!(timed, sched::SchedError::BadCost { task: 1, .. }),
+            "{timed}"
+        );
+        #[allow(clippy::reversed_empty_ranges)] // the point of the test
+        let backwards = vec![0..1, 5..3];
+        assert!(full_work(&bvh, &rays, &backwards).is_err());
+        assert_eq!(e.try_work(&[]), Ok(vec![]));
+    }
+}

@@ -1,0 +1,50 @@
+//! Cost estimation of ray tasks by the thesis's reduced traversal (section 3.1), and what is
+//! needed to judge it: full counts, measured task times, a least-squares calibration of
+//! `C = kB·B + kT·T`, and the error metrics of `DESIGN.md`.
+//!
+//! A task is a `Range<usize>` of a [`RayBatch`](crate::RayBatch) (`sched` implements
+//! [`sched::Task`] for ranges). The pieces:
+//! - [`SampleRate`] and [`Compacted`]: a uniform stride sample of every task, gathered into one
+//!   contiguous batch (the thesis compacts the sample before the reduced trace);
+//! - [`ReducedTraversal`]: the estimator, a [`sched::CostEstimator`]; [`full_work`] is the same
+//!   count over *all* rays, the reference of the prediction error;
+//! - [`measure_seconds`]: the measured trace time of each task;
+//! - [`CostModel`], [`Calibrations`] and [`calibrate`]: `kB`, `kT` per device and [`RayKind`](crate::RayKind);
+//! - [`prediction_error`], [`error_vs_time`] and [`spearman`]: the metrics.
+//!
+//! ## Example
+//!
+//! ```
+//! use raytrace::cost::{ReducedTraversal, SampleRate, full_work, prediction_error};
+//! use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
+//! use sched::CostEstimator;
+//!
+//! let scene = SceneSource::parse("builtin:cornell:0.2")?.load(SceneNeeds::AO)?;
+//! let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
+//! let rays = Camera::thesis(&scene.bounds(), 0).primary_rays(32, 32).rays;
+//! let tasks = sched::split_ranges(rays.len(), 128);
+//!
+//! let estimator = ReducedTraversal::new(&bvh, &rays, SampleRate::new(0.125)?);
+//! let estimate = estimator.estimate_timed(&tasks)?; // costs and overhead
+//! let (est, full) = (estimator.try_work(&tasks)?, full_work(&bvh, &rays, &tasks)?);
+//! let model = estimator.model();
+//! let error = prediction_error(&model.costs(&est), &model.costs(&full))?;
+//! assert!(estimate.costs.len() == 8 && error < 0.5);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod calibrate;
+mod error;
+mod estimator;
+mod measure;
+mod metrics;
+mod model;
+mod sample;
+
+pub use calibrate::{Fit, FitForm, calibrate};
+pub use error::CostError;
+pub use estimator::{ReducedTraversal, full_work};
+pub use measure::measure_seconds;
+pub use metrics::{error_vs_time, prediction_error, spearman};
+pub use model::{Calibrations, CostModel, Work};
+pub use sample::{Compacted, SampleRate};

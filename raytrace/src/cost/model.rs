@@ -1,0 +1,139 @@
+//! The thesis's cost model `C = kB·B + kT·T` (equation 3.1) and the per-device, per-ray-kind
+//! table of calibrated constants.
+
+use std::collections::HashMap;
+
+use crate::{Counts, RayKind};
+
+/// Nodes entered `B` and triangles reached `T` of a task: exact sums for a full count,
+/// scaled sample sums for an estimate (hence `f64`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Work {
+    /// `B`: nodes entered.
+    pub nodes: f64,
+    /// `T`: triangles in reached leaves (reduced traversal) or tested (full trace).
+    pub tris: f64,
+}
+
+impl Work {
+    /// Sums per-ray counts exactly (in integers) before converting, so a task's full work does
+    /// not depend on summation order.
+    pub fn sum(counts: &[Counts]) -> Self {
+        let (b, t) = counts.iter().fold((0u64, 0u64), |(b, t), c| {
+            (b + u64::from(c.nodes), t + u64::from(c.tris))
+        });
+        Self {
+            nodes: b as f64,
+            tris: t as f64,
+        }
+    }
+
+    /// The work of `len` rays from that of `sampled` of them: `· len / sampled`, multiplied
+    /// first so that integral results (a uniform task) come out exact.
+    pub fn scaled(self, len: usize, sampled: usize) -> Self {
+        let (n, k) = (len as f64, sampled as f64);
+        Self {
+            nodes: self.nodes * n / k,
+            tris: self.tris * n / k,
+        }
+    }
+}
+
+/// The constants of `C = kB·B + kT·T`: what one node visit and one triangle test cost, in
+/// seconds after a calibration or in node-visit units by default.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CostModel {
+    /// `kB`: cost of entering one node (two child box tests).
+    pub kb: f64,
+    /// `kT`: cost of one triangle test.
+    pub kt: f64,
+}
+
+impl Default for CostModel {
+    /// `kB = 1`, `kT = 2`: one watertight triangle test costs about two node entries (four box
+    /// tests' worth of arithmetic plus a triangle fetch) in our CPU traversal; the order of
+    /// magnitude is all a policy needs before a calibration exists.
+    fn default() -> Self {
+        Self { kb: 1.0, kt: 2.0 }
+    }
+}
+
+impl CostModel {
+    /// `kB·B + kT·T`.
+    pub fn cost(&self, w: Work) -> f64 {
+        self.kb * w.nodes + self.kt * w.tris
+    }
+
+    /// The cost of every task.
+    pub fn costs(&self, work: &[Work]) -> Vec<f64> {
+        work.iter().map(|&w| self.cost(w)).collect()
+    }
+}
+
+/// Calibrated models keyed by device name and ray kind: a GPU and a CPU core weigh node
+/// visits and triangle tests differently, and coherent rays hit the caches that diffuse ones
+/// miss, so each pair gets its own `kB`, `kT`.
+#[derive(Clone, Debug, Default)]
+pub struct Calibrations {
+    models: HashMap<(String, RayKind), CostModel>,
+}
+
+impl Calibrations {
+    /// Records (or replaces) the model of `device` for rays of `kind`.
+    pub fn insert(&mut self, device: &str, kind: RayKind, model: CostModel) {
+        self.models.insert((device.to_owned(), kind), model);
+    }
+
+    /// The calibrated model, if there is one.
+    pub fn get(&self, device: &str, kind: RayKind) -> Option<CostModel> {
+        self.models.get(&(device.to_owned(), kind)).copied()
+    }
+
+    /// The calibrated model, or the default one before any calibration.
+    pub fn model(&self, device: &str, kind: RayKind) -> CostModel {
+        self.get(device, kind).unwrap_or_default()
+    }
+
+    /// Number of calibrated pairs.
+    pub fn len(&self) -> usize {
+        self.models.len()
+    }
+
+    /// True when nothing is calibrated yet.
+    pub fn is_empty(&self) -> bool {
+        self.models.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn calibrations_are_per_device_and_kind_with_a_default() {
+        let mut c = Calibrations::default();
+        let m = CostModel { kb: 3.0, kt: 0.5 };
+        c.insert("cpu", RayKind::Ao, m);
+        assert_eq!(c.model("cpu", RayKind::Ao), m);
+        assert_eq!(c.model("cpu", RayKind::Primary), CostModel::default());
+        assert_eq!(c.get("gpu0", RayKind::Ao), None);
+        assert_eq!(
+            m.cost(Work {
+                nodes: 2.0,
+                tris: 4.0
+            }),
+            8.0
+        );
+    }
+
+    #[test]
+    fn work_sums_exactly() {
+        let counts = [Counts {
+            nodes: u32::MAX,
+            tris: 1,
+        }; 3];
+        let w = Work::sum(&counts);
+        assert_eq!(w.nodes, 3.0 * f64::from(u32::MAX));
+        assert_eq!(w.tris, 3.0);
+    }
+}

@@ -1,0 +1,424 @@
+//! `cobalt estimate`: how well the reduced traversal of a sample predicts each task's cost,
+//! and what it costs (DESIGN.md, "Metrics" and "The thesis experiment").
+//!
+//! For one generation of rays cut into tasks it reports the thesis's prediction error
+//! (against the full reduced traversal) and overhead (estimation time over the full trace
+//! time, both on all cores), and, beyond the thesis, the error and rank correlation of the
+//! estimates against each task's measured single-thread trace time after a least-squares
+//! calibration of `kB`, `kT`.
+
+use std::path::Path;
+use std::time::Instant;
+
+use raytrace::cost::{
+    CostModel, Fit, ReducedTraversal, SampleRate, Work, calibrate, error_vs_time, full_work,
+    measure_seconds, prediction_error, spearman,
+};
+use raytrace::{BuildPreset, Bvh, Camera, RayKind, SceneNeeds, SceneSource, traverse};
+use serde::Serialize;
+
+use crate::error::CliError;
+
+/// Seed of the AO rays' per-pixel scrambling: fixed, so runs are comparable.
+const AO_SEED: u64 = 1;
+
+/// The device name calibrations are recorded under: one CPU thread, as measured.
+const DEVICE: &str = "cpu-thread";
+
+/// Arguments of `cobalt estimate`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// An OBJ file, or `builtin:forest|hairball|cornell[:detail]`.
+    #[arg(long)]
+    scene: String,
+    /// `primary` (camera rays), `ao` (32 Halton AO rays per primary hit), `whitted` (not
+    /// available yet) or a binary ray file (`f32 × 8` per ray, see `cobalt trace`).
+    #[arg(long)]
+    rays: String,
+    /// Rays per task.
+    #[arg(long, default_value_t = 4096)]
+    task_size: usize,
+    /// Fraction of each task's rays traced by the estimator, in (0, 1].
+    #[arg(long, default_value_t = 0.125)]
+    sample_rate: f64,
+    /// Image size `WxH` of the camera rays.
+    #[arg(long, default_value = "512x512")]
+    size: String,
+    /// Thesis camera 0..3: above one quadrant of the scene, looking at its centre.
+    #[arg(long, default_value_t = 0)]
+    camera: usize,
+    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
+    #[arg(long, default_value = "medium")]
+    preset: String,
+    /// AO rays per primary hit.
+    #[arg(long, default_value_t = 32)]
+    ao_samples: u32,
+    /// Length of AO rays as a fraction of the scene's bounding-box diagonal.
+    #[arg(long, default_value_t = 0.05)]
+    ao_distance: f32,
+    /// Kind of the rays of a ray file (primary, shadow, reflection, ao): decides closest- or
+    /// any-hit tracing.
+    #[arg(long, default_value = "primary")]
+    ray_kind: String,
+    /// Every timing is repeated this many times and the least kept.
+    #[arg(long, default_value_t = 3)]
+    repeats: usize,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// A calibrated model, for the report.
+#[derive(Debug, Serialize)]
+struct Calibration {
+    device: &'static str,
+    kb: f64,
+    kt: f64,
+    r2: f64,
+    rms_residual: f64,
+    n: usize,
+    form: &'static str,
+}
+
+impl From<Fit> for Calibration {
+    fn from(f: Fit) -> Self {
+        Self {
+            device: DEVICE,
+            kb: f.model.kb,
+            kt: f.model.kt,
+            r2: f.r2,
+            rms_residual: f.rms_residual,
+            n: f.n,
+            form: f.form.name(),
+        }
+    }
+}
+
+/// Everything is a fraction (not a percentage); a metric that is undefined for the input
+/// (one task, all rays missing the scene) is `null`.
+#[derive(Debug, Serialize)]
+struct Report {
+    scene: String,
+    triangles: usize,
+    preset: String,
+    ray_kind: &'static str,
+    coherent: bool,
+    rays: usize,
+    task_size: usize,
+    tasks: usize,
+    sample_rate: f64,
+    sampled_rays: usize,
+    threads: usize,
+    repeats: usize,
+    /// The thesis's: Σ|est − full| / Σ full of `C` under the default model.
+    prediction_error: Option<f64>,
+    /// The same for `B` and for `T` alone.
+    prediction_error_nodes: Option<f64>,
+    prediction_error_tris: Option<f64>,
+    /// Reduced traversal of the sample, gather included, on all cores.
+    estimate_seconds: f64,
+    /// Full trace (closest or any hit, with triangle tests) of all rays, on all cores.
+    trace_seconds: f64,
+    overhead: f64,
+    /// Calibrated estimates against measured single-thread task times.
+    error_vs_time: Option<f64>,
+    spearman_vs_time: Option<f64>,
+    /// The same with full counts: the best any sample rate could do.
+    error_vs_time_full: Option<f64>,
+    spearman_full_vs_time: Option<f64>,
+    /// Σ measured task times (one thread).
+    measured_seconds: f64,
+    /// Mean `B`, `T` per ray of the reduced traversal and, for closest-hit kinds, of the
+    /// real trace: the reduced traversal never shortens a ray, so it enters more nodes than
+    /// the trace does, which bounds how cheap a sample can be.
+    reduced_nodes_per_ray: f64,
+    reduced_tris_per_ray: f64,
+    trace_nodes_per_ray: Option<f64>,
+    trace_tris_per_ray: Option<f64>,
+    default_model: Model,
+    calibration: Option<Calibration>,
+    build_seconds: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct Model {
+    kb: f64,
+    kt: f64,
+}
+
+/// Runs the command: all arguments are checked before the scene is loaded.
+pub fn run(args: Args) -> Result<(), CliError> {
+    let arg = |flag: &'static str, value: &dyn ToString, message: String| CliError::Arg {
+        flag,
+        value: value.to_string(),
+        message,
+    };
+    let preset: BuildPreset = args
+        .preset
+        .parse()
+        .map_err(|e: String| arg("preset", &args.preset, e))?;
+    let rate = SampleRate::new(args.sample_rate)
+        .map_err(|e| arg("sample-rate", &args.sample_rate, e.to_string()))?;
+    if args.task_size == 0 {
+        return Err(arg("task-size", &0, "must be at least 1".into()));
+    }
+    if args.camera > 3 {
+        return Err(arg("camera", &args.camera, "must be 0, 1, 2 or 3".into()));
+    }
+    if args.repeats == 0 {
+        return Err(arg("repeats", &0, "must be at least 1".into()));
+    }
+    if !(args.ao_distance.is_finite() && args.ao_distance > 0.0) {
+        return Err(arg(
+            "ao-distance",
+            &args.ao_distance,
+            "must be positive".into(),
+        ));
+    }
+    let (width, height) = parse_size(&args.size).ok_or_else(|| {
+        arg(
+            "size",
+            &args.size,
+            "expected WxH with sides from 1 to 65536, e.g. 512x512".into(),
+        )
+    })?;
+    let source = RaySource::parse(&args.rays, &args.ray_kind)?;
+
+    let scene = SceneSource::parse(&args.scene)?.load(SceneNeeds::AO)?;
+    let bvh = Bvh::build(&scene, preset)?;
+    let camera = Camera::thesis(&scene.bounds(), args.camera);
+    let (rays, kind) = match source {
+        RaySource::Primary => (camera.primary_rays(width, height).rays, RayKind::Primary),
+        RaySource::Ao => {
+            let primary = camera.primary_rays(width, height).rays;
+            let hits = traverse::closest_hits(&bvh, &primary);
+            let length = args.ao_distance * scene.bounds().extent().length();
+            let ao =
+                raytrace::ao::ao_rays(&scene, &primary, &hits, args.ao_samples, length, AO_SEED);
+            (ao.rays, RayKind::Ao)
+        }
+        RaySource::File(path, kind) => (crate::trace::read_rays(Path::new(&path))?, kind),
+    };
+    if rays.is_empty() {
+        return Err(arg(
+            "rays",
+            &args.rays,
+            "there are no rays to estimate (no primary ray hit the scene?)".into(),
+        ));
+    }
+    let tasks = sched::split_ranges(rays.len(), args.task_size);
+
+    let estimator = ReducedTraversal::new(&bvh, &rays, rate);
+    let (estimate_seconds, est) = min_time(args.repeats, || estimator.try_work(&tasks))?;
+    let (trace_seconds, ()) = min_time(args.repeats, || {
+        let hits = if kind.is_occlusion() {
+            traverse::any_hits(&bvh, &rays)
+        } else {
+            traverse::closest_hits(&bvh, &rays)
+        };
+        std::hint::black_box(hits);
+        Ok::<_, CliError>(())
+    })?;
+    let full = full_work(&bvh, &rays, &tasks)?;
+    let measured = measure_seconds(&bvh, &rays, &tasks, kind, args.repeats)?;
+
+    let per_ray = |total: f64| total / rays.len() as f64;
+    let trace_counts = (!kind.is_occlusion()).then(|| {
+        let counts = traverse::closest_hits_counted(&bvh, &rays).1;
+        Work::sum(&counts)
+    });
+
+    let model = CostModel::default();
+    let part = |f: fn(&Work) -> f64| -> (Vec<f64>, Vec<f64>) {
+        (est.iter().map(f).collect(), full.iter().map(f).collect())
+    };
+    let (est_b, full_b) = part(|w| w.nodes);
+    let (est_t, full_t) = part(|w| w.tris);
+    let fit = calibrate(&est, &measured).ok();
+    let fit_full = calibrate(&full, &measured).ok();
+    let vs_time = |fit: Option<Fit>, work: &[Work]| {
+        let predicted = fit.map(|f| f.model.costs(work));
+        (
+            predicted
+                .as_ref()
+                .and_then(|p| error_vs_time(p, &measured).ok()),
+            predicted.as_ref().and_then(|p| spearman(p, &measured).ok()),
+        )
+    };
+    let (error_vs_time, spearman_vs_time) = vs_time(fit, &est);
+    let (error_vs_time_full, spearman_full_vs_time) = vs_time(fit_full, &full);
+
+    let report = Report {
+        scene: args.scene.clone(),
+        triangles: scene.len(),
+        preset: args.preset.clone(),
+        ray_kind: kind.name(),
+        coherent: kind.is_coherent(),
+        rays: rays.len(),
+        task_size: args.task_size,
+        tasks: tasks.len(),
+        sample_rate: rate.get(),
+        sampled_rays: tasks.iter().map(|t| rate.samples(t.len())).sum(),
+        threads: rayon::current_num_threads(),
+        repeats: args.repeats,
+        prediction_error: prediction_error(&model.costs(&est), &model.costs(&full)).ok(),
+        prediction_error_nodes: prediction_error(&est_b, &full_b).ok(),
+        prediction_error_tris: prediction_error(&est_t, &full_t).ok(),
+        estimate_seconds,
+        trace_seconds,
+        overhead: estimate_seconds / trace_seconds.max(1e-12),
+        error_vs_time,
+        spearman_vs_time,
+        error_vs_time_full,
+        spearman_full_vs_time,
+        measured_seconds: measured.iter().sum(),
+        reduced_nodes_per_ray: per_ray(full_b.iter().sum()),
+        reduced_tris_per_ray: per_ray(full_t.iter().sum()),
+        trace_nodes_per_ray: trace_counts.map(|w| per_ray(w.nodes)),
+        trace_tris_per_ray: trace_counts.map(|w| per_ray(w.tris)),
+        default_model: Model {
+            kb: model.kb,
+            kt: model.kt,
+        },
+        calibration: fit.map(Calibration::from),
+        build_seconds: bvh.report().build_seconds,
+    };
+    if args.json {
+        crate::print_json(&report)
+    } else {
+        crate::print_text(&table(&report))
+    }
+}
+
+/// Where the rays come from.
+enum RaySource {
+    Primary,
+    Ao,
+    File(String, RayKind),
+}
+
+impl RaySource {
+    fn parse(rays: &str, kind: &str) -> Result<Self, CliError> {
+        match rays {
+            "primary" => Ok(Self::Primary),
+            "ao" => Ok(Self::Ao),
+            "whitted" => Err(CliError::Arg {
+                flag: "rays",
+                value: rays.into(),
+                message: "whitted rays are not available yet: they come from the render \
+                          pipeline (issue 4 item 2); use primary, ao or a ray file"
+                    .into(),
+            }),
+            path => {
+                let kind = kind.parse().map_err(|message| CliError::Arg {
+                    flag: "ray-kind",
+                    value: kind.into(),
+                    message,
+                })?;
+                Ok(Self::File(path.into(), kind))
+            }
+        }
+    }
+}
+
+/// `WxH`, both sides in 1..=65536 (the Morton order's limit).
+fn parse_size(s: &str) -> Option<(u32, u32)> {
+    let (w, h) = s.split_once('x')?;
+    let (w, h): (u32, u32) = (w.parse().ok()?, h.parse().ok()?);
+    let ok = |v: u32| (1..=1 << 16).contains(&v);
+    (ok(w) && ok(h)).then_some((w, h))
+}
+
+/// Runs `f` `repeats` times; the least wall time and the last result. The first run warms
+/// caches and the thread pool, the minimum drops interruptions by other processes.
+fn min_time<T, E>(repeats: usize, mut f: impl FnMut() -> Result<T, E>) -> Result<(f64, T), CliError>
+where
+    CliError: From<E>,
+{
+    let mut best = f64::INFINITY;
+    let mut last = None;
+    for _ in 0..repeats.max(1) {
+        let start = Instant::now();
+        let out = f()?;
+        best = best.min(start.elapsed().as_secs_f64());
+        last = Some(out);
+    }
+    last.map(|out| (best, out))
+        .ok_or_else(|| CliError::Write("no timing was taken".into()))
+}
+
+fn table(r: &Report) -> String {
+    let pct = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{:.2} %", 100.0 * v));
+    let num = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.3}"));
+    let cal = r.calibration.as_ref().map_or("n/a".to_string(), |c| {
+        format!(
+            "kB = {:.3e} s, kT = {:.3e} s ({}), R² = {:.3}",
+            c.kb, c.kt, c.form, c.r2
+        )
+    });
+    let rows = [
+        (
+            "scene",
+            format!("{} ({} triangles, BVH {})", r.scene, r.triangles, r.preset),
+        ),
+        (
+            "rays",
+            format!(
+                "{} {} ({})",
+                r.rays,
+                r.ray_kind,
+                if r.coherent { "coherent" } else { "diffuse" }
+            ),
+        ),
+        ("tasks", format!("{} of {} rays", r.tasks, r.task_size)),
+        (
+            "sampled",
+            format!("{:.1} % ({} rays)", 100.0 * r.sample_rate, r.sampled_rays),
+        ),
+        (
+            "prediction error",
+            format!(
+                "{} (B {}, T {})",
+                pct(r.prediction_error),
+                pct(r.prediction_error_nodes),
+                pct(r.prediction_error_tris)
+            ),
+        ),
+        ("estimate", format!("{:.4} s", r.estimate_seconds)),
+        (
+            "full trace",
+            format!("{:.4} s on {} threads", r.trace_seconds, r.threads),
+        ),
+        ("overhead", pct(Some(r.overhead))),
+        (
+            "nodes per ray",
+            format!(
+                "reduced {:.1}, trace {} (triangles: reduced {:.1}, trace {})",
+                r.reduced_nodes_per_ray,
+                r.trace_nodes_per_ray
+                    .map_or("n/a".into(), |v| format!("{v:.1}")),
+                r.reduced_tris_per_ray,
+                r.trace_tris_per_ray
+                    .map_or("n/a".into(), |v| format!("{v:.1}")),
+            ),
+        ),
+        (
+            "error vs time",
+            format!(
+                "{} (full counts: {})",
+                pct(r.error_vs_time),
+                pct(r.error_vs_time_full)
+            ),
+        ),
+        (
+            "spearman vs time",
+            format!(
+                "{} (full counts: {})",
+                num(r.spearman_vs_time),
+                num(r.spearman_full_vs_time)
+            ),
+        ),
+        ("calibration", cal),
+    ];
+    rows.iter().map(|(k, v)| format!("{k:<17} {v}\n")).collect()
+}

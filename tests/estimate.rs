@@ -1,0 +1,143 @@
+use std::process::{Command, Output};
+
+/// A small forest (~12k triangles): fast in the test profile, still irregular.
+const SCENE: &str = "builtin:forest:0.05";
+
+fn cobalt(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cobalt"))
+        .arg("estimate")
+        .args(args)
+        .output()
+        .expect("the cobalt binary runs")
+}
+
+/// `args` plus each default flag (a pair of words) that `args` does not set itself.
+fn with_defaults<'a>(args: &[&'a str], defaults: &[[&'a str; 2]]) -> Vec<&'a str> {
+    let mut all = args.to_vec();
+    for [flag, value] in defaults {
+        if !args.contains(flag) {
+            all.extend([*flag, *value]);
+        }
+    }
+    all
+}
+
+fn json(args: &[&str]) -> serde_json::Value {
+    let mut all = with_defaults(
+        args,
+        &[
+            ["--scene", SCENE],
+            ["--size", "64x64"],
+            ["--task-size", "512"],
+        ],
+    );
+    all.push("--json");
+    let out = cobalt(&all);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON object")
+}
+
+fn num(v: &serde_json::Value, key: &str) -> f64 {
+    v[key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{key} is not a number in {v}"))
+}
+
+#[test]
+fn json_has_the_contract_fields_as_fractions() {
+    let v = json(&["--rays", "primary"]);
+    assert_eq!(v["ray_kind"], "primary");
+    assert_eq!(num(&v, "rays"), 4096.0);
+    assert_eq!(num(&v, "task_size"), 512.0);
+    assert_eq!(num(&v, "tasks"), 8.0);
+    assert_eq!(num(&v, "sample_rate"), 0.125);
+    assert_eq!(num(&v, "sampled_rays"), 512.0);
+    for key in ["prediction_error", "overhead", "error_vs_time"] {
+        let x = num(&v, key);
+        // Fractions, not percentages: a 12.5 % sample of a coherent generation is far
+        // from 100 % wrong, and its reduced traversal is far cheaper than the trace.
+        assert!((0.0..1.0).contains(&x), "{key} = {x}");
+    }
+    let rho = num(&v, "spearman_vs_time");
+    assert!((-1.0..=1.0).contains(&rho) && rho > 0.5, "spearman {rho}");
+    assert!(num(&v, "estimate_seconds") > 0.0 && num(&v, "trace_seconds") > 0.0);
+    let cal = &v["calibration"];
+    assert!(num(cal, "kb") >= 0.0 && num(cal, "kt") >= 0.0 && num(cal, "r2") <= 1.0);
+}
+
+#[test]
+fn full_sampling_has_zero_prediction_error() {
+    for rays in ["primary", "ao"] {
+        let v = json(&[
+            "--rays",
+            rays,
+            "--sample-rate",
+            "1",
+            "--size",
+            "16x16",
+            "--repeats",
+            "1",
+        ]);
+        assert_eq!(num(&v, "prediction_error"), 0.0, "{rays}");
+        assert_eq!(num(&v, "sampled_rays"), num(&v, "rays"), "{rays}");
+    }
+}
+
+#[test]
+fn ray_files_are_estimated_with_their_kind() {
+    let path = crate::testkit::temp_dir("estimate").join("rays.bin");
+    let mut bytes = Vec::new();
+    for i in 0..100 {
+        let x = i as f32 - 50.0;
+        for v in [x, 60.0, 0.5 * x, 0.0, -1.0, 0.01 * x, 0.0, 1000.0] {
+            bytes.extend_from_slice(&f32::to_le_bytes(v));
+        }
+    }
+    std::fs::write(&path, bytes).expect("temp ray file");
+    let file = path.to_str().expect("utf-8 temp path");
+    let v = json(&["--rays", file, "--ray-kind", "shadow", "--task-size", "30"]);
+    assert_eq!((num(&v, "rays"), num(&v, "tasks")), (100.0, 4.0));
+    assert_eq!(v["ray_kind"], "shadow");
+}
+
+#[test]
+fn bad_arguments_exit_2_naming_flag_and_value() {
+    let cases: [(&[&str], &[&str]); 9] = [
+        (&["--sample-rate", "0"], &["--sample-rate", "0"]),
+        (&["--sample-rate", "1.5"], &["--sample-rate", "1.5"]),
+        (&["--sample-rate", "lots"], &["--sample-rate", "lots"]),
+        (&["--task-size", "0"], &["--task-size", "0"]),
+        (&["--size", "64"], &["--size", "64"]),
+        (&["--camera", "4"], &["--camera", "4"]),
+        (
+            &["--rays", "whitted"],
+            &["--rays", "whitted", "not available yet"],
+        ),
+        (&["--rays", "/no/such/rays.bin"], &["/no/such/rays.bin"]),
+        (
+            &["--ray-kind", "sideways", "--rays", "x.bin"],
+            &["--ray-kind", "sideways"],
+        ),
+    ];
+    for (args, needles) in cases {
+        let all = with_defaults(
+            args,
+            &[
+                ["--scene", SCENE],
+                ["--size", "16x16"],
+                ["--rays", "primary"],
+            ],
+        );
+        let out = cobalt(&all);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(out.stdout.is_empty(), "{args:?} printed output");
+        for n in needles {
+            assert!(err.contains(n), "{args:?}: {err:?} does not name {n}");
+        }
+    }
+}
