@@ -37,6 +37,7 @@ pub mod devices;
 mod error;
 pub mod film;
 mod obj;
+mod packet;
 mod ray;
 mod rng;
 mod scene;

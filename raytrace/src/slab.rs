@@ -13,7 +13,7 @@ use crate::spawn::gamma;
 use crate::{Node, Ray};
 
 /// Ize's scale of the far distance: `1 + 2 gamma(3)`.
-fn far_scale() -> f32 {
+pub(crate) fn far_scale() -> f32 {
     1.0 + 2.0 * gamma(3)
 }
 

@@ -271,7 +271,8 @@ pub fn closest_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts
     (out, counts)
 }
 
-/// Reduced-traversal counts of the rays in `range` (a task), in parallel.
+/// Reduced-traversal counts of the rays in `range` (a task), in parallel, in packets of 4 or 8 rays
+/// (each lane's counts are exactly its ray's [`Bvh::reduced_traversal`]; see `packet.rs`).
 ///
 /// # Panics
 /// Panics if `range` is out of bounds or the batch's columns have different lengths.
@@ -283,9 +284,7 @@ pub fn reduced_counts(bvh: &Bvh, rays: &RayBatch, range: std::ops::Range<usize>)
         .par_chunks_mut(CHUNK)
         .enumerate()
         .for_each(|(c, cs)| {
-            for (k, out) in cs.iter_mut().enumerate() {
-                *out = bvh.reduced_traversal(&rays.get(range.start + c * CHUNK + k));
-            }
+            crate::packet::reduced_lanes(bvh, rays, range.start + c * CHUNK, cs);
         });
     counts
 }

@@ -1,0 +1,446 @@
+//! The reduced traversal of four rays at once, one ray per SSE lane.
+//!
+//! The reduced traversal never shortens a ray (it fetches no triangle), so the nodes a ray
+//! enters depend on that ray alone: it enters the root if it hits the root's box, and a child
+//! if it entered the parent and hits the child's box. Four rays can therefore walk the tree
+//! together, each node carrying the mask of the lanes that entered it, and every lane's counts
+//! are exactly those of [`Bvh::reduced_traversal`] of that ray alone: the per-lane arithmetic
+//! is the scalar slab test's, operation for operation. Coherent rays (Morton-ordered primary
+//! rays, the Halton probes of one pixel) share most of their nodes, so one box test serves up
+//! to four rays. This is what makes estimation cheap on a CPU, where, unlike the thesis's GPU,
+//! fetching triangles is not what dominates a trace.
+
+use crate::{Bvh, Counts, RayBatch};
+
+/// True when the traversal traces ray `i` at all: exactly when [`crate::RayShear::new`] accepts
+/// it (finite origin and direction, direction not zero) and its range is not empty or NaN;
+/// without `RayShear`'s three divisions.
+#[inline(always)]
+fn traceable(rays: &RayBatch, i: usize) -> bool {
+    let r = rays.get(i);
+    r.origin.is_finite() && r.dir.is_finite() && r.dir != glam::Vec3::ZERO && r.tmin <= r.tmax
+}
+
+/// Counts of rays `first .. first + LANES` of `rays` (lanes past the end count nothing), with
+/// the widest packets this CPU runs: 8 rays with AVX2, else 4 with SSE2 (the x86_64 baseline).
+#[inline]
+pub(crate) fn reduced_lanes(bvh: &Bvh, rays: &RayBatch, first: usize, out: &mut [Counts]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        for (k, part) in out.chunks_mut(8).enumerate() {
+            // SAFETY: AVX2 is available, as just checked.
+            let got = unsafe { avx2::reduced8(bvh, rays, first + 8 * k) };
+            part.copy_from_slice(&got[..part.len()]);
+        }
+        return;
+    }
+    for (k, part) in out.chunks_mut(4).enumerate() {
+        let got = reduced4(bvh, rays, first + 4 * k);
+        part.copy_from_slice(&got[..part.len()]);
+    }
+}
+
+/// Counts of rays `first .. first + 4` of `rays` (lanes past the end count nothing).
+#[inline]
+pub(crate) fn reduced4(bvh: &Bvh, rays: &RayBatch, first: usize) -> [Counts; 4] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        sse::reduced4(bvh, rays, first)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        std::array::from_fn(|k| {
+            if first + k < rays.len() {
+                bvh.reduced_traversal(&rays.get(first + k))
+            } else {
+                Counts::default()
+            }
+        })
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod sse {
+    use std::arch::x86_64::{
+        __m128, __m128i, _mm_add_epi32, _mm_and_ps, _mm_and_si128, _mm_castps_si128,
+        _mm_castsi128_ps, _mm_cmple_ps, _mm_div_ps, _mm_loadu_ps, _mm_max_ps, _mm_min_ps,
+        _mm_movemask_ps, _mm_mul_ps, _mm_set1_epi32, _mm_set1_ps, _mm_setzero_si128,
+        _mm_srai_epi32, _mm_storeu_si128, _mm_sub_epi32, _mm_sub_ps, _mm_xor_ps,
+    };
+
+    use crate::bvh::MAX_DEPTH;
+    use crate::slab::far_scale;
+    use crate::{Bvh, Counts, Node, RayBatch};
+
+    /// Four rays in lanes.
+    struct Rays4 {
+        org: [__m128; 3],
+        inv: [__m128; 3],
+        /// All ones where the direction's sign bit is set: the near plane is the max.
+        swap: [__m128; 3],
+        tmin: __m128,
+        tmax: __m128,
+        scale: __m128,
+    }
+
+    impl Rays4 {
+        /// Lanes of the four rays' box test against `node`, as all-ones / all-zeros lanes.
+        #[inline(always)]
+        fn hit(&self, node: &Node) -> __m128 {
+            // SAFETY: SSE2 is part of the x86_64 baseline; register operations only.
+            unsafe {
+                let mut near = self.tmin;
+                let mut far = _mm_set1_ps(f32::INFINITY);
+                for a in 0..3 {
+                    let lo = _mm_mul_ps(
+                        _mm_sub_ps(_mm_set1_ps(node.min[a]), self.org[a]),
+                        self.inv[a],
+                    );
+                    let hi = _mm_mul_ps(
+                        _mm_sub_ps(_mm_set1_ps(node.max[a]), self.org[a]),
+                        self.inv[a],
+                    );
+                    // Swap min and max planes where the direction is negative, bit for bit.
+                    let x = _mm_and_ps(_mm_xor_ps(lo, hi), self.swap[a]);
+                    // `max_ps(t, acc)` keeps `acc` where `t` is NaN, like the scalar
+                    // `max_keep(acc, t)`, and in the same order (x, then y, then z).
+                    near = _mm_max_ps(_mm_xor_ps(lo, x), near);
+                    far = _mm_min_ps(_mm_xor_ps(hi, x), far);
+                }
+                let far = _mm_min_ps(_mm_mul_ps(far, self.scale), self.tmax);
+                _mm_cmple_ps(near, far)
+            }
+        }
+    }
+
+    pub(super) fn reduced4(bvh: &Bvh, rays: &RayBatch, first: usize) -> [Counts; 4] {
+        // A small stack for the usual trees: it is initialised for every packet.
+        if bvh.depth() <= 64 {
+            walk::<64>(bvh, rays, first)
+        } else {
+            walk::<{ MAX_DEPTH }>(bvh, rays, first)
+        }
+    }
+
+    #[inline(always)]
+    fn walk<const STACK: usize>(bvh: &Bvh, rays: &RayBatch, first: usize) -> [Counts; 4] {
+        let n = rays.len().saturating_sub(first).min(4);
+        let mut out = [Counts::default(); 4];
+        let nodes = bvh.nodes();
+        if n == 0 || bvh.triangles().is_empty() {
+            return out;
+        }
+        // Lanes past the end repeat the last ray and are masked off.
+        let lane = |k: usize| first + k.min(n - 1);
+        let col = |c: &[f32]| [c[lane(0)], c[lane(1)], c[lane(2)], c[lane(3)]];
+        let (dx, dy, dz) = (col(&rays.dx), col(&rays.dy), col(&rays.dz));
+        // The scalar traversal traces nothing for rays it cannot trace (zero or non-finite
+        // direction, non-finite origin, NaN or empty range); neither do these lanes.
+        let valid: [bool; 4] = std::array::from_fn(|k| k < n && super::traceable(rays, lane(k)));
+        // SAFETY: SSE2 is part of the x86_64 baseline. Every load reads four `f32`s from a
+        // local array of four.
+        let (lanes, root_mask, zero_mask) = unsafe {
+            let load = |a: &[f32; 4]| _mm_loadu_ps(a.as_ptr());
+            let d = [load(&dx), load(&dy), load(&dz)];
+            let one = _mm_set1_ps(1.0);
+            let sign = |v: __m128| _mm_castsi128_ps(_mm_srai_epi32(_mm_castps_si128(v), 31));
+            let lanes = Rays4 {
+                org: [
+                    load(&col(&rays.ox)),
+                    load(&col(&rays.oy)),
+                    load(&col(&rays.oz)),
+                ],
+                inv: [
+                    _mm_div_ps(one, d[0]),
+                    _mm_div_ps(one, d[1]),
+                    _mm_div_ps(one, d[2]),
+                ],
+                swap: [sign(d[0]), sign(d[1]), sign(d[2])],
+                tmin: load(&col(&rays.tmin)),
+                tmax: load(&col(&rays.tmax)),
+                scale: _mm_set1_ps(far_scale()),
+            };
+            let m = |b: bool| if b { f32::from_bits(u32::MAX) } else { 0.0 };
+            let valid = load(&valid.map(m));
+            let root = _mm_and_ps(lanes.hit(&nodes[0]), valid);
+            (lanes, root, _mm_castsi128_ps(_mm_setzero_si128()))
+        };
+        // SAFETY: as above; register operations only.
+        if unsafe { _mm_movemask_ps(root_mask) } == 0 {
+            return out;
+        }
+        let mut stack = [(0u32, zero_mask); STACK];
+        stack[0] = (0, root_mask);
+        let mut sp = 1usize;
+        // SAFETY: SSE2 is part of the x86_64 baseline; register operations only.
+        let (mut b, mut t): (__m128i, __m128i) =
+            unsafe { (_mm_setzero_si128(), _mm_setzero_si128()) };
+        while sp > 0 {
+            sp -= 1;
+            let (i, mask) = stack[sp];
+            let node = &nodes[i as usize];
+            // SAFETY: SSE2 is part of the x86_64 baseline; register operations only. A set
+            // lane is all ones, i.e. -1 as an integer, so subtracting counts one.
+            unsafe {
+                let m = _mm_castps_si128(mask);
+                b = _mm_sub_epi32(b, m);
+                if node.is_leaf() {
+                    t = _mm_add_epi32(t, _mm_and_si128(m, _mm_set1_epi32(node.count as i32)));
+                    continue;
+                }
+            }
+            let l = node.index as usize;
+            for child in [l + 1, l] {
+                // SAFETY: as above.
+                let m = unsafe { _mm_and_ps(lanes.hit(&nodes[child]), mask) };
+                // SAFETY: as above.
+                if unsafe { _mm_movemask_ps(m) } != 0 {
+                    // Depth-first, both children pushed: at most `depth` entries (<= STACK by
+                    // the choice above); indexing checks it anyway.
+                    stack[sp] = (child as u32, m);
+                    sp += 1;
+                }
+            }
+        }
+        let (mut bs, mut ts) = ([0u32; 4], [0u32; 4]);
+        // SAFETY: SSE2 is part of the x86_64 baseline; each store writes 16 bytes into a
+        // local `[u32; 4]`.
+        unsafe {
+            _mm_storeu_si128(bs.as_mut_ptr().cast(), b);
+            _mm_storeu_si128(ts.as_mut_ptr().cast(), t);
+        }
+        for k in 0..n {
+            out[k] = Counts {
+                nodes: bs[k],
+                tris: ts[k],
+            };
+        }
+        out
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::{
+        __m256, __m256i, _CMP_LE_OQ, _mm256_add_epi32, _mm256_and_ps, _mm256_and_si256,
+        _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_div_ps,
+        _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps,
+        _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32, _mm256_setzero_si256,
+        _mm256_srai_epi32, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps, _mm256_xor_ps,
+    };
+
+    use crate::bvh::MAX_DEPTH;
+    use crate::slab::far_scale;
+    use crate::{Bvh, Counts, Node, RayBatch};
+
+    /// Eight rays in lanes; see the SSE version for the per-lane arithmetic.
+    struct Rays8 {
+        org: [__m256; 3],
+        inv: [__m256; 3],
+        swap: [__m256; 3],
+        tmin: __m256,
+        tmax: __m256,
+        scale: __m256,
+    }
+
+    impl Rays8 {
+        /// Bit `k` set when lane `k`'s ray hits `node`'s box.
+        #[inline]
+        #[target_feature(enable = "avx2")]
+        fn hit(&self, node: &Node) -> i32 {
+            let mut near = self.tmin;
+            let mut far = _mm256_set1_ps(f32::INFINITY);
+            for a in 0..3 {
+                let lo = _mm256_mul_ps(
+                    _mm256_sub_ps(_mm256_set1_ps(node.min[a]), self.org[a]),
+                    self.inv[a],
+                );
+                let hi = _mm256_mul_ps(
+                    _mm256_sub_ps(_mm256_set1_ps(node.max[a]), self.org[a]),
+                    self.inv[a],
+                );
+                let x = _mm256_and_ps(_mm256_xor_ps(lo, hi), self.swap[a]);
+                near = _mm256_max_ps(_mm256_xor_ps(lo, x), near);
+                far = _mm256_min_ps(_mm256_xor_ps(hi, x), far);
+            }
+            let far = _mm256_min_ps(_mm256_mul_ps(far, self.scale), self.tmax);
+            // Ordered, non-signalling `<=`: false on NaN, like the scalar comparison.
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
+        }
+    }
+
+    /// Lane masks (all ones where bit `k` of `bits` is set), as integers.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn lanes_of(bits: i32) -> __m256i {
+        let lane_bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        _mm256_cmpeq_epi32(
+            _mm256_and_si256(_mm256_set1_epi32(bits), lane_bits),
+            lane_bits,
+        )
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn reduced8(bvh: &Bvh, rays: &RayBatch, first: usize) -> [Counts; 8] {
+        if bvh.depth() <= 64 {
+            walk::<64>(bvh, rays, first)
+        } else {
+            walk::<{ MAX_DEPTH }>(bvh, rays, first)
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn walk<const STACK: usize>(bvh: &Bvh, rays: &RayBatch, first: usize) -> [Counts; 8] {
+        let n = rays.len().saturating_sub(first).min(8);
+        let mut out = [Counts::default(); 8];
+        let nodes = bvh.nodes();
+        if n == 0 || bvh.triangles().is_empty() {
+            return out;
+        }
+        // Lanes past the end repeat the last ray and are masked off.
+        let lane = |k: usize| first + k.min(n - 1);
+        let col = |c: &[f32]| -> [f32; 8] { std::array::from_fn(|k| c[lane(k)]) };
+        // SAFETY: each load reads eight `f32`s from a local array of eight.
+        let load = |a: &[f32; 8]| unsafe { _mm256_loadu_ps(a.as_ptr()) };
+        let d = [
+            load(&col(&rays.dx)),
+            load(&col(&rays.dy)),
+            load(&col(&rays.dz)),
+        ];
+        let one = _mm256_set1_ps(1.0);
+        let sign = |v: __m256| _mm256_castsi256_ps(_mm256_srai_epi32(_mm256_castps_si256(v), 31));
+        let lanes = Rays8 {
+            org: [
+                load(&col(&rays.ox)),
+                load(&col(&rays.oy)),
+                load(&col(&rays.oz)),
+            ],
+            inv: [
+                _mm256_div_ps(one, d[0]),
+                _mm256_div_ps(one, d[1]),
+                _mm256_div_ps(one, d[2]),
+            ],
+            swap: [sign(d[0]), sign(d[1]), sign(d[2])],
+            tmin: load(&col(&rays.tmin)),
+            tmax: load(&col(&rays.tmax)),
+            scale: _mm256_set1_ps(far_scale()),
+        };
+        let valid = (0..n).fold(0i32, |m, k| {
+            m | (i32::from(super::traceable(rays, first + k)) << k)
+        });
+        let root = lanes.hit(&nodes[0]) & valid;
+        if root == 0 {
+            return out;
+        }
+        let mut stack = [(0u32, 0i32); STACK];
+        stack[0] = (0, root);
+        let mut sp = 1usize;
+        let (mut b, mut t): (__m256i, __m256i) = (_mm256_setzero_si256(), _mm256_setzero_si256());
+        while sp > 0 {
+            sp -= 1;
+            let (i, bits) = stack[sp];
+            let node = &nodes[i as usize];
+            // A set lane is all ones, i.e. -1 as an integer, so subtracting counts one.
+            let m = lanes_of(bits);
+            b = _mm256_sub_epi32(b, m);
+            if node.is_leaf() {
+                t = _mm256_add_epi32(t, _mm256_and_si256(m, _mm256_set1_epi32(node.count as i32)));
+                continue;
+            }
+            let l = node.index as usize;
+            for child in [l + 1, l] {
+                let hit = lanes.hit(&nodes[child]) & bits;
+                if hit != 0 {
+                    // Depth-first, both children pushed: at most `depth` entries.
+                    stack[sp] = (child as u32, hit);
+                    sp += 1;
+                }
+            }
+        }
+        let (mut bs, mut ts) = ([0u32; 8], [0u32; 8]);
+        // SAFETY: each store writes 32 bytes into a local `[u32; 8]`.
+        unsafe {
+            _mm256_storeu_si256(bs.as_mut_ptr().cast(), b);
+            _mm256_storeu_si256(ts.as_mut_ptr().cast(), t);
+        }
+        for k in 0..n {
+            out[k] = Counts {
+                nodes: bs[k],
+                tris: ts[k],
+            };
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::{BuildPreset, Camera, Ray, Rng, SceneNeeds, SceneSource, testkit};
+
+    /// Every lane's counts equal the scalar reduced traversal of its ray, for coherent camera
+    /// rays, random rays (some with zero, negative-zero and NaN components, empty ranges), and
+    /// batch lengths that are not a multiple of four.
+    #[test]
+    fn packets_count_exactly_like_single_rays() {
+        let scene = SceneSource::parse("builtin:forest:0.05")
+            .unwrap()
+            .load(SceneNeeds::AO)
+            .unwrap();
+        let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
+        let b = scene.bounds();
+        let mut rays = Camera::thesis(&b, 1).primary_rays(37, 29).rays;
+        let mut rng = Rng::new(testkit::seed(5));
+        let c = b.center();
+        for k in 0..3001 {
+            let o = c + rng.unit_vector() * b.extent().length() * rng.f32();
+            let mut d = rng.unit_vector();
+            match k % 7 {
+                0 => d.x = 0.0,
+                1 => d.y = -0.0,
+                2 => d = Vec3::new(0.0, -1.0, 0.0),
+                3 => d.z = f32::NAN,
+                _ => {}
+            }
+            let (tmin, tmax) = if k % 11 == 0 {
+                (2.0, 1.0)
+            } else {
+                (0.0, rng.range(0.1, 100.0))
+            };
+            rays.push(&Ray::with_range(o, d, tmin, tmax));
+        }
+        let mut nonzero = 0;
+        for first in (0..rays.len()).step_by(4) {
+            let got = reduced4(&bvh, &rays, first);
+            for (k, g) in got.iter().enumerate() {
+                let want = if first + k < rays.len() {
+                    bvh.reduced_traversal(&rays.get(first + k))
+                } else {
+                    Counts::default()
+                };
+                assert_eq!(*g, want, "ray {}", first + k);
+                nonzero += usize::from(g.nodes > 1);
+            }
+        }
+        // Many rays go deeper than the root (the rest miss or are rejected, as they should).
+        assert!(nonzero > rays.len() / 5, "{nonzero} of {}", rays.len());
+        // The widest packets this CPU runs (8 lanes with AVX2) agree too, from any offset.
+        for first in [0, 3] {
+            let mut wide = vec![Counts::default(); rays.len() - first];
+            reduced_lanes(&bvh, &rays, first, &mut wide);
+            for (k, w) in wide.iter().enumerate() {
+                assert_eq!(
+                    *w,
+                    bvh.reduced_traversal(&rays.get(first + k)),
+                    "ray {}",
+                    first + k
+                );
+            }
+        }
+    }
+}
