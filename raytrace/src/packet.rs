@@ -21,37 +21,46 @@ fn traceable(rays: &RayBatch, i: usize) -> bool {
     r.origin.is_finite() && r.dir.is_finite() && r.dir != glam::Vec3::ZERO && r.tmin <= r.tmax
 }
 
-/// Counts of rays `first .. first + LANES` of `rays` (lanes past the end count nothing), with
+/// Counts of the rays `lane_of(0), lane_of(1), …` of `rays` into `out`, one per entry, with
 /// the widest packets this CPU runs: 8 rays with AVX2, else 4 with SSE2 (the x86_64 baseline).
+/// `lane_of` maps an entry of `out` to a ray of `rays`: a range, or a compacted sample's ray
+/// indices, read in place without copying the sample out.
 #[inline]
-pub(crate) fn reduced_lanes(bvh: &Bvh, rays: &RayBatch, first: usize, out: &mut [Counts]) {
+pub(crate) fn reduced_lanes(
+    bvh: &Bvh,
+    rays: &RayBatch,
+    lane_of: impl Fn(usize) -> usize,
+    out: &mut [Counts],
+) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         for (k, part) in out.chunks_mut(8).enumerate() {
+            let idx: [usize; 8] = std::array::from_fn(|j| lane_of(8 * k + j.min(part.len() - 1)));
             // SAFETY: AVX2 is available, as just checked.
-            let got = unsafe { avx2::reduced8(bvh, rays, first + 8 * k) };
+            let got = unsafe { avx2::reduced8(bvh, rays, &idx, part.len()) };
             part.copy_from_slice(&got[..part.len()]);
         }
         return;
     }
     for (k, part) in out.chunks_mut(4).enumerate() {
-        let got = reduced4(bvh, rays, first + 4 * k);
+        let idx: [usize; 4] = std::array::from_fn(|j| lane_of(4 * k + j.min(part.len() - 1)));
+        let got = reduced4(bvh, rays, &idx, part.len());
         part.copy_from_slice(&got[..part.len()]);
     }
 }
 
-/// Counts of rays `first .. first + 4` of `rays` (lanes past the end count nothing).
+/// Counts of rays `idx[..n]` of `rays` (`idx[n..]` repeat a valid index and count nothing).
 #[inline]
-pub(crate) fn reduced4(bvh: &Bvh, rays: &RayBatch, first: usize) -> [Counts; 4] {
+fn reduced4(bvh: &Bvh, rays: &RayBatch, idx: &[usize; 4], n: usize) -> [Counts; 4] {
     #[cfg(target_arch = "x86_64")]
     {
-        sse::reduced4(bvh, rays, first)
+        sse::reduced4(bvh, rays, idx, n)
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
         std::array::from_fn(|k| {
-            if first + k < rays.len() {
-                bvh.reduced_traversal(&rays.get(first + k))
+            if k < n {
+                bvh.reduced_traversal(&rays.get(idx[k]))
             } else {
                 Counts::default()
             }
@@ -113,25 +122,28 @@ mod sse {
         }
     }
 
-    pub(super) fn reduced4(bvh: &Bvh, rays: &RayBatch, first: usize) -> [Counts; 4] {
+    pub(super) fn reduced4(bvh: &Bvh, rays: &RayBatch, idx: &[usize; 4], n: usize) -> [Counts; 4] {
         // A small stack for the usual trees: it is initialised for every packet.
         if bvh.depth() <= 64 {
-            walk::<64>(bvh, rays, first)
+            walk::<64>(bvh, rays, idx, n)
         } else {
-            walk::<{ MAX_DEPTH }>(bvh, rays, first)
+            walk::<{ MAX_DEPTH }>(bvh, rays, idx, n)
         }
     }
 
     #[inline(always)]
-    fn walk<const STACK: usize>(bvh: &Bvh, rays: &RayBatch, first: usize) -> [Counts; 4] {
-        let n = rays.len().saturating_sub(first).min(4);
+    fn walk<const STACK: usize>(
+        bvh: &Bvh,
+        rays: &RayBatch,
+        idx: &[usize; 4],
+        n: usize,
+    ) -> [Counts; 4] {
         let mut out = [Counts::default(); 4];
         let nodes = bvh.nodes();
         if n == 0 || bvh.triangles().is_empty() {
             return out;
         }
-        // Lanes past the end repeat the last ray and are masked off.
-        let lane = |k: usize| first + k.min(n - 1);
+        let lane = |k: usize| idx[k];
         let col = |c: &[f32]| [c[lane(0)], c[lane(1)], c[lane(2)], c[lane(3)]];
         let (dx, dy, dz) = (col(&rays.dx), col(&rays.dy), col(&rays.dz));
         // The scalar traversal traces nothing for rays it cannot trace (zero or non-finite
@@ -283,25 +295,33 @@ mod avx2 {
     /// # Safety
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn reduced8(bvh: &Bvh, rays: &RayBatch, first: usize) -> [Counts; 8] {
+    pub(super) unsafe fn reduced8(
+        bvh: &Bvh,
+        rays: &RayBatch,
+        idx: &[usize; 8],
+        n: usize,
+    ) -> [Counts; 8] {
         if bvh.depth() <= 64 {
-            walk::<64>(bvh, rays, first)
+            walk::<64>(bvh, rays, idx, n)
         } else {
-            walk::<{ MAX_DEPTH }>(bvh, rays, first)
+            walk::<{ MAX_DEPTH }>(bvh, rays, idx, n)
         }
     }
 
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn walk<const STACK: usize>(bvh: &Bvh, rays: &RayBatch, first: usize) -> [Counts; 8] {
-        let n = rays.len().saturating_sub(first).min(8);
+    fn walk<const STACK: usize>(
+        bvh: &Bvh,
+        rays: &RayBatch,
+        idx: &[usize; 8],
+        n: usize,
+    ) -> [Counts; 8] {
         let mut out = [Counts::default(); 8];
         let nodes = bvh.nodes();
         if n == 0 || bvh.triangles().is_empty() {
             return out;
         }
-        // Lanes past the end repeat the last ray and are masked off.
-        let lane = |k: usize| first + k.min(n - 1);
+        let lane = |k: usize| idx[k];
         let col = |c: &[f32]| -> [f32; 8] { std::array::from_fn(|k| c[lane(k)]) };
         // SAFETY: each load reads eight `f32`s from a local array of eight.
         let load = |a: &[f32; 8]| unsafe { _mm256_loadu_ps(a.as_ptr()) };
@@ -329,7 +349,7 @@ mod avx2 {
             scale: _mm256_set1_ps(far_scale()),
         };
         let valid = (0..n).fold(0i32, |m, k| {
-            m | (i32::from(super::traceable(rays, first + k)) << k)
+            m | (i32::from(super::traceable(rays, idx[k])) << k)
         });
         let root = lanes.hit(&nodes[0]) & valid;
         if root == 0 {
@@ -416,7 +436,9 @@ mod tests {
         }
         let mut nonzero = 0;
         for first in (0..rays.len()).step_by(4) {
-            let got = reduced4(&bvh, &rays, first);
+            let n = (rays.len() - first).min(4);
+            let idx = std::array::from_fn(|k| first + k.min(n - 1));
+            let got = reduced4(&bvh, &rays, &idx, n);
             for (k, g) in got.iter().enumerate() {
                 let want = if first + k < rays.len() {
                     bvh.reduced_traversal(&rays.get(first + k))
@@ -432,7 +454,7 @@ mod tests {
         // The widest packets this CPU runs (8 lanes with AVX2) agree too, from any offset.
         for first in [0, 3] {
             let mut wide = vec![Counts::default(); rays.len() - first];
-            reduced_lanes(&bvh, &rays, first, &mut wide);
+            reduced_lanes(&bvh, &rays, |j| first + j, &mut wide);
             for (k, w) in wide.iter().enumerate() {
                 assert_eq!(
                     *w,
@@ -441,6 +463,13 @@ mod tests {
                     first + k
                 );
             }
+        }
+        // And so does a scattered index list, read in place.
+        let index: Vec<usize> = (0..rays.len()).rev().step_by(3).collect();
+        let mut scattered = vec![Counts::default(); index.len()];
+        reduced_lanes(&bvh, &rays, |j| index[j], &mut scattered);
+        for (w, &i) in scattered.iter().zip(&index) {
+            assert_eq!(*w, bvh.reduced_traversal(&rays.get(i)), "ray {i}");
         }
     }
 }

@@ -284,7 +284,30 @@ pub fn reduced_counts(bvh: &Bvh, rays: &RayBatch, range: std::ops::Range<usize>)
         .par_chunks_mut(CHUNK)
         .enumerate()
         .for_each(|(c, cs)| {
-            crate::packet::reduced_lanes(bvh, rays, range.start + c * CHUNK, cs);
+            let first = range.start + c * CHUNK;
+            crate::packet::reduced_lanes(bvh, rays, |j| first + j, cs);
+        });
+    counts
+}
+
+/// Reduced-traversal counts of rays `index[0], index[1], …` of `rays`, in parallel, read in
+/// place (a compacted sample without copying its rays out).
+///
+/// # Panics
+/// Panics if an index is out of bounds or the batch's columns have different lengths.
+pub fn reduced_counts_at(bvh: &Bvh, rays: &RayBatch, index: &[usize]) -> Vec<Counts> {
+    check(rays);
+    assert!(
+        index.iter().all(|&i| i < rays.len()),
+        "index beyond the batch"
+    );
+    let mut counts = vec![Counts::default(); index.len()];
+    counts
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(c, cs)| {
+            let part = &index[c * CHUNK..];
+            crate::packet::reduced_lanes(bvh, rays, |j| part[j], cs);
         });
     counts
 }

@@ -54,7 +54,7 @@ impl<'a> ReducedTraversal<'a> {
         let sample = Compacted::gather(self.rays, tasks, self.rate)?;
         // One parallel loop over the whole compacted batch (rayon chunks of it), not one per
         // task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
-        let counts = traverse::reduced_counts(self.bvh, &sample.rays, 0..sample.rays.len());
+        let counts = traverse::reduced_counts_at(self.bvh, self.rays, &sample.index);
         Ok(sample
             .offsets
             .windows(2)

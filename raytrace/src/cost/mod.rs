@@ -4,8 +4,9 @@
 //!
 //! A task is a `Range<usize>` of a [`RayBatch`](crate::RayBatch) (`sched` implements
 //! [`sched::Task`] for ranges). The pieces:
-//! - [`SampleRate`] and [`Compacted`]: a uniform stride sample of every task, gathered into one
-//!   contiguous batch (the thesis compacts the sample before the reduced trace);
+//! - [`SampleRate`] and [`Compacted`]: a uniform stride sample of every task, compacted into one
+//!   contiguous list of ray indices (the thesis compacts the sample before the reduced trace;
+//!   the CPU reads the sampled rays in place through it);
 //! - [`ReducedTraversal`]: the estimator, a [`sched::CostEstimator`]; [`full_work`] is the same
 //!   count over *all* rays, the reference of the prediction error;
 //! - [`measure_seconds`]: the measured trace time of each task;

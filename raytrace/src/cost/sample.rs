@@ -51,12 +51,14 @@ fn stride_index(j: usize, k: usize, len: usize) -> usize {
     ((2 * j + 1) * len) / (2 * k)
 }
 
-/// The sampled rays of all tasks in one contiguous batch: task `t`'s samples are
-/// `rays[offsets[t]..offsets[t + 1]]`, and together they stand for the task's `lens[t]` rays.
+/// The sampled rays of all tasks, compacted into one contiguous list of ray indices: task
+/// `t`'s samples are `index[offsets[t]..offsets[t + 1]]`, and together they stand for the
+/// task's `lens[t]` rays. The CPU's reduced traversal reads the sampled rays in place through
+/// the list; [`Compacted::rays`] copies them out for a device that wants them contiguous.
 #[derive(Clone, Debug, Default)]
 pub struct Compacted {
-    /// The gathered rays.
-    pub rays: RayBatch,
+    /// Index in the batch of every sampled ray, task after task.
+    pub index: Vec<usize>,
     /// Task `t`'s samples start at `offsets[t]`; one more entry than there are tasks.
     pub offsets: Vec<usize>,
     /// Rays in each task.
@@ -86,7 +88,7 @@ impl Compacted {
             index.extend((0..k).map(|j| r.start + stride_index(j, k, len)));
         }
         Ok(Self {
-            rays: gather_columns(rays, &index),
+            index,
             offsets,
             lens: tasks.iter().map(|r| r.len()).collect(),
         })
@@ -95,6 +97,14 @@ impl Compacted {
     /// Number of tasks.
     pub fn tasks(&self) -> usize {
         self.lens.len()
+    }
+
+    /// The sampled rays of `rays` (the batch this sample was taken of), copied out in order.
+    ///
+    /// # Panics
+    /// Panics if `rays` is shorter than the batch sampled.
+    pub fn rays(&self, rays: &RayBatch) -> RayBatch {
+        gather_columns(rays, &self.index)
     }
 }
 
@@ -171,9 +181,9 @@ mod tests {
         let c = Compacted::gather(&batch(1000), &sched::split_ranges(1000, 7), rate).unwrap();
         assert_eq!(c.tasks(), 143);
         assert!(c.offsets.windows(2).all(|w| w[1] - w[0] == 1));
-        assert_eq!(c.rays.len(), 143);
+        assert_eq!(c.rays(&batch(1000)).len(), 143);
         // The single sample of a 7-ray task is its middle ray, standing for all seven.
-        assert_eq!(c.rays.ox[0], 3.0);
+        assert_eq!(c.rays(&batch(1000)).ox[0], 3.0);
         assert_eq!((c.lens[0], c.lens[142]), (7, 6)); // the last task has 1000 - 142·7 rays
     }
 
@@ -182,12 +192,12 @@ mod tests {
         let rays = batch(64);
         let c = Compacted::gather(&rays, &[0..32, 32..64], SampleRate::THESIS).unwrap();
         assert_eq!(
-            c.rays.ox,
+            c.rays(&rays).ox,
             vec![4.0, 12.0, 20.0, 28.0, 36.0, 44.0, 52.0, 60.0]
         );
         assert_eq!(c.offsets, vec![0, 4, 8]);
         let all = Compacted::gather(&rays, &[0..40, 40..64], SampleRate::FULL).unwrap();
-        assert_eq!(all.rays, rays);
+        assert_eq!(all.rays(&rays), rays);
         assert_eq!(all.offsets, vec![0, 40, 64]);
         assert_eq!(SampleRate::THESIS.samples(4096), 512);
         assert_eq!(SampleRate::THESIS.samples(513), 65);
