@@ -250,30 +250,42 @@ mod avx2 {
         org: [__m256; 3],
         inv: [__m256; 3],
         swap: [__m256; 3],
+        /// When every traced lane's direction has the same sign on each axis (the usual case
+        /// for neighbouring camera rays): the index of each axis's near plane in a node seen
+        /// as `[f32; 8]`, so the planes are picked once per node instead of swapped per lane.
+        near: [usize; 3],
         tmin: __m256,
         tmax: __m256,
         scale: __m256,
     }
 
     impl Rays8 {
-        /// Bit `k` set when lane `k`'s ray hits `node`'s box.
+        /// Bit `k` set when lane `k`'s ray hits `node`'s box. `UNIFORM` uses `near` instead
+        /// of the per-lane swap; both compute the same values bit for bit.
         #[inline]
         #[target_feature(enable = "avx2")]
-        fn hit(&self, node: &Node) -> i32 {
+        fn hit<const UNIFORM: bool>(&self, node: &Node) -> i32 {
+            let b: &[f32; 8] = bytemuck::cast_ref(node);
             let mut near = self.tmin;
             let mut far = _mm256_set1_ps(f32::INFINITY);
             for a in 0..3 {
-                let lo = _mm256_mul_ps(
-                    _mm256_sub_ps(_mm256_set1_ps(node.min[a]), self.org[a]),
-                    self.inv[a],
-                );
-                let hi = _mm256_mul_ps(
-                    _mm256_sub_ps(_mm256_set1_ps(node.max[a]), self.org[a]),
-                    self.inv[a],
-                );
-                let x = _mm256_and_ps(_mm256_xor_ps(lo, hi), self.swap[a]);
-                near = _mm256_max_ps(_mm256_xor_ps(lo, x), near);
-                far = _mm256_min_ps(_mm256_xor_ps(hi, x), far);
+                let t = |plane: f32| {
+                    _mm256_mul_ps(
+                        _mm256_sub_ps(_mm256_set1_ps(plane), self.org[a]),
+                        self.inv[a],
+                    )
+                };
+                let (tn, tf) = if UNIFORM {
+                    // `& 7`: in bounds by construction, and no bounds check is emitted.
+                    let n = self.near[a];
+                    (t(b[n & 7]), t(b[(n ^ 4) & 7]))
+                } else {
+                    let (lo, hi) = (t(node.min[a]), t(node.max[a]));
+                    let x = _mm256_and_ps(_mm256_xor_ps(lo, hi), self.swap[a]);
+                    (_mm256_xor_ps(lo, x), _mm256_xor_ps(hi, x))
+                };
+                near = _mm256_max_ps(tn, near);
+                far = _mm256_min_ps(tf, far);
             }
             let far = _mm256_min_ps(_mm256_mul_ps(far, self.scale), self.tmax);
             // Ordered, non-signalling `<=`: false on NaN, like the scalar comparison.
@@ -316,8 +328,7 @@ mod avx2 {
         idx: &[usize; 8],
         n: usize,
     ) -> [Counts; 8] {
-        let mut out = [Counts::default(); 8];
-        let nodes = bvh.nodes();
+        let out = [Counts::default(); 8];
         if n == 0 || bvh.triangles().is_empty() {
             return out;
         }
@@ -332,7 +343,7 @@ mod avx2 {
         ];
         let one = _mm256_set1_ps(1.0);
         let sign = |v: __m256| _mm256_castsi256_ps(_mm256_srai_epi32(_mm256_castps_si256(v), 31));
-        let lanes = Rays8 {
+        let mut lanes = Rays8 {
             org: [
                 load(&col(&rays.ox)),
                 load(&col(&rays.oy)),
@@ -344,6 +355,7 @@ mod avx2 {
                 _mm256_div_ps(one, d[2]),
             ],
             swap: [sign(d[0]), sign(d[1]), sign(d[2])],
+            near: [0, 1, 2],
             tmin: load(&col(&rays.tmin)),
             tmax: load(&col(&rays.tmax)),
             scale: _mm256_set1_ps(far_scale()),
@@ -351,7 +363,28 @@ mod avx2 {
         let valid = (0..n).fold(0i32, |m, k| {
             m | (i32::from(super::traceable(rays, idx[k])) << k)
         });
-        let root = lanes.hit(&nodes[0]) & valid;
+        // Per axis, the traced lanes whose direction has its sign bit set: none or all of
+        // them on every axis makes the packet uniform.
+        let neg = d.map(|v| _mm256_movemask_ps(v) & valid);
+        if neg.iter().all(|&m| m == 0 || m == valid) {
+            lanes.near = std::array::from_fn(|a| if neg[a] == valid { 4 + a } else { a });
+            traverse::<STACK, true>(bvh, &lanes, valid, n)
+        } else {
+            traverse::<STACK, false>(bvh, &lanes, valid, n)
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn traverse<const STACK: usize, const UNIFORM: bool>(
+        bvh: &Bvh,
+        lanes: &Rays8,
+        valid: i32,
+        n: usize,
+    ) -> [Counts; 8] {
+        let mut out = [Counts::default(); 8];
+        let nodes = bvh.nodes();
+        let root = lanes.hit::<UNIFORM>(&nodes[0]) & valid;
         if root == 0 {
             return out;
         }
@@ -372,7 +405,7 @@ mod avx2 {
             }
             let l = node.index as usize;
             for child in [l + 1, l] {
-                let hit = lanes.hit(&nodes[child]) & bits;
+                let hit = lanes.hit::<UNIFORM>(&nodes[child]) & bits;
                 if hit != 0 {
                     // Depth-first, both children pushed: at most `depth` entries.
                     stack[sp] = (child as u32, hit);
