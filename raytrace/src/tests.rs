@@ -4,4 +4,5 @@
 mod bvh;
 mod obj;
 mod robustness;
+mod scheduled;
 mod shade;

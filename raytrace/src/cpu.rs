@@ -1,0 +1,225 @@
+//! The CPU device: one independent worker of a `--devices cpu:N[/T]` list, tracing ranges of
+//! a generation's rays on one thread or in a rayon pool of its own.
+//!
+//! `cpu:2` is two devices of one thread each, which a policy balances against each other as
+//! the thesis balances a CPU against a GPU; `cpu:2/4` gives each of them four threads. A pool
+//! is created once per device and kept for every generation: starting threads per generation
+//! would cost more than tracing a small one.
+
+use std::ops::Range;
+
+use rayon::prelude::*;
+use sched::{DeviceError, Sink};
+
+use crate::scheduled::RayDevice;
+use crate::{Bvh, Error, Hit, HitBatch, RayBatch, RayKind, Result};
+
+/// Rays per rayon job inside a pool: enough to amortise a steal, few enough that a 512-ray
+/// task still spreads over several threads.
+const CHUNK: usize = 64;
+
+/// Why a CPU device stopped on purpose: the fault injected by [`CpuDevice::failing_after`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{device}: injected fault after {after} tasks")]
+pub struct InjectedFault {
+    /// The device's name.
+    pub device: String,
+    /// Tasks it completed before failing.
+    pub after: u64,
+}
+
+/// Why a CPU device refused a task: a range outside the generation.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{device}: task {start}..{end} is outside the generation of {rays} rays")]
+pub struct BadRange {
+    /// The device's name.
+    pub device: String,
+    /// The range's start.
+    pub start: usize,
+    /// The range's end.
+    pub end: usize,
+    /// Rays in the generation.
+    pub rays: usize,
+}
+
+/// One CPU device. See the module documentation.
+pub struct CpuDevice<'a> {
+    bvh: &'a Bvh,
+    index: usize,
+    threads: usize,
+    pool: Option<rayon::ThreadPool>,
+    fail_after: Option<u64>,
+    done: u64,
+}
+
+impl<'a> CpuDevice<'a> {
+    /// Device number `index` (named `cpu{index}`) with `threads` threads: one traces on the
+    /// runtime's device thread itself, more start a pool of their own.
+    pub fn new(bvh: &'a Bvh, index: usize, threads: usize) -> Result<Self> {
+        let pool = if threads > 1 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .thread_name(move |i| format!("cobalt-cpu{index}-{i}"))
+                .build()
+                .map_err(|e| Error::ThreadPool {
+                    threads,
+                    why: e.to_string(),
+                })?;
+            Some(pool)
+        } else {
+            None
+        };
+        Ok(Self {
+            bvh,
+            index,
+            threads: threads.max(1),
+            pool,
+            fail_after: None,
+            done: 0,
+        })
+    }
+
+    /// `count` devices of `threads` threads, numbered from `first`.
+    pub fn many(bvh: &'a Bvh, first: usize, count: usize, threads: usize) -> Result<Vec<Self>> {
+        (first..first + count)
+            .map(|i| Self::new(bvh, i, threads))
+            .collect()
+    }
+
+    /// The same device, failing (returning a [`DeviceError`]) once it has completed `tasks`
+    /// tasks in its lifetime: fault injection, to show that its work is re-run elsewhere.
+    pub fn failing_after(self, tasks: u64) -> Self {
+        Self {
+            fail_after: Some(tasks),
+            ..self
+        }
+    }
+
+    /// Threads that trace.
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
+
+    /// Tasks completed so far, over all generations.
+    pub fn tasks_done(&self) -> u64 {
+        self.done
+    }
+
+    fn check(&self, rays: &RayBatch, range: &Range<usize>) -> Result<(), DeviceError> {
+        if let Some(after) = self.fail_after.filter(|&k| self.done >= k) {
+            return Err(InjectedFault {
+                device: self.name(),
+                after,
+            }
+            .into());
+        }
+        if range.start > range.end || range.end > rays.len() || !rays.is_consistent() {
+            return Err(BadRange {
+                device: self.name(),
+                start: range.start,
+                end: range.end,
+                rays: rays.len(),
+            }
+            .into());
+        }
+        Ok(())
+    }
+
+    /// Checks and traces one range, in whatever thread or pool the caller is in.
+    fn one(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        range: &Range<usize>,
+    ) -> Result<HitBatch, DeviceError> {
+        self.check(rays, range)?;
+        let hits = trace_range(self.bvh, kind, rays, range, self.pool.is_some());
+        self.done += 1;
+        Ok(hits)
+    }
+}
+
+impl RayDevice for CpuDevice<'_> {
+    fn trace_range(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        range: &Range<usize>,
+    ) -> Result<HitBatch, DeviceError> {
+        self.trace_ranges_with(|this| this.one(kind, rays, range))
+    }
+
+    /// Enters the pool once for the whole launch: a static plan's launch is one `install`.
+    fn trace_ranges(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        ranges: &[&Range<usize>],
+        sink: &mut Sink<HitBatch>,
+    ) -> Result<(), DeviceError> {
+        self.trace_ranges_with(|this| {
+            for range in ranges {
+                sink.push(this.one(kind, rays, range)?);
+            }
+            Ok(())
+        })
+    }
+
+    fn name(&self) -> String {
+        format!("cpu{}", self.index)
+    }
+}
+
+impl CpuDevice<'_> {
+    /// Runs `f` inside this device's pool, if it has one.
+    fn trace_ranges_with<R: Send>(&mut self, f: impl FnOnce(&mut Self) -> R + Send) -> R {
+        // The pool is taken out for the call so `f` can borrow the device mutably; it is
+        // put back whatever `f` returns (a panic retires the device anyway).
+        match self.pool.take() {
+            Some(pool) => {
+                let out = pool.install(|| f(self));
+                self.pool = Some(pool);
+                out
+            }
+            None => f(self),
+        }
+    }
+}
+
+/// Traces `rays[range]`, each ray by itself (so the result cannot depend on how rays were
+/// grouped), in parallel chunks when `parallel` (inside a pool) or sequentially.
+fn trace_range(
+    bvh: &Bvh,
+    kind: RayKind,
+    rays: &RayBatch,
+    range: &Range<usize>,
+    parallel: bool,
+) -> HitBatch {
+    let trace = |i: usize| -> Option<Hit> {
+        let ray = rays.get(i);
+        if kind.is_occlusion() {
+            bvh.any_hit(&ray)
+        } else {
+            bvh.closest_hit(&ray)
+        }
+    };
+    let fill = |first: usize, ts: &mut [f32], ps: &mut [u32]| {
+        for (k, (t, p)) in ts.iter_mut().zip(ps.iter_mut()).enumerate() {
+            if let Some(h) = trace(first + k) {
+                *t = h.t;
+                *p = h.prim;
+            }
+        }
+    };
+    let mut out = HitBatch::misses(range.len());
+    if parallel {
+        out.t
+            .par_chunks_mut(CHUNK)
+            .zip(out.prim.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(c, (ts, ps))| fill(range.start + c * CHUNK, ts, ps));
+    } else {
+        fill(range.start, &mut out.t, &mut out.prim);
+    }
+    out
+}

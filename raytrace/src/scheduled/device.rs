@@ -1,0 +1,99 @@
+//! What a device that traces rays is, and how one becomes a [`sched::Executor`] for one
+//! generation.
+//!
+//! A device lives for the whole render (its threads, later its GPU buffers), while a
+//! generation's rays are only borrowed for one call of [`crate::shade::Tracer::trace`]. So the
+//! executor the runtime drives is a short-lived [`Bound`]: the device, the rays and their kind,
+//! and the speed measured so far.
+
+use std::ops::Range;
+
+use sched::{DeviceError, Executor, Sink};
+
+use crate::{HitBatch, RayBatch, RayKind};
+
+/// A device that traces ranges of a generation's rays. There is one required method besides
+/// the name.
+///
+/// ## Contract
+/// A range's hits are those of [`crate::shade::Tracer::trace`] for the same rays: any hit for
+/// [`RayKind::is_occlusion`] kinds, else the closest; each ray traced the same way whatever
+/// range or launch it lands in, so images do not depend on the schedule.
+pub trait RayDevice: Send {
+    /// Traces the rays of `range`.
+    fn trace_range(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        range: &Range<usize>,
+    ) -> Result<HitBatch, DeviceError>;
+
+    /// Traces `ranges` in one launch, pushing each range's hits to `sink` in order as soon as
+    /// they are ready. A device with a costly launch (a thread pool to enter, a kernel to
+    /// dispatch) overrides this to pay it once per launch rather than once per range.
+    fn trace_ranges(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        ranges: &[&Range<usize>],
+        sink: &mut Sink<HitBatch>,
+    ) -> Result<(), DeviceError> {
+        for range in ranges {
+            sink.push(self.trace_range(kind, rays, range)?);
+        }
+        Ok(())
+    }
+
+    /// A name unique among the devices of a tracer: calibrations are keyed by it.
+    fn name(&self) -> String;
+}
+
+/// A device bound to one generation: the [`Executor`] that `sched`'s runtime drives.
+pub struct Bound<'r, 'a> {
+    device: &'r mut (dyn RayDevice + 'a),
+    kind: RayKind,
+    rays: &'r RayBatch,
+    speed: f64,
+}
+
+impl<'r, 'a> Bound<'r, 'a> {
+    /// `device` tracing `rays` of `kind`, planned at relative `speed`.
+    pub fn new(
+        device: &'r mut (dyn RayDevice + 'a),
+        kind: RayKind,
+        rays: &'r RayBatch,
+        speed: f64,
+    ) -> Self {
+        Self {
+            device,
+            kind,
+            rays,
+            speed,
+        }
+    }
+}
+
+impl Executor<Range<usize>> for Bound<'_, '_> {
+    type Output = HitBatch;
+
+    fn run(&mut self, task: &Range<usize>) -> Result<HitBatch, DeviceError> {
+        self.device.trace_range(self.kind, self.rays, task)
+    }
+
+    fn run_batch(
+        &mut self,
+        tasks: &[&Range<usize>],
+        sink: &mut Sink<HitBatch>,
+    ) -> Result<(), DeviceError> {
+        self.device.trace_ranges(self.kind, self.rays, tasks, sink)
+    }
+
+    /// The speed measured on earlier generations (1 before the first).
+    fn speed(&self) -> f64 {
+        self.speed
+    }
+
+    fn name(&self) -> String {
+        self.device.name()
+    }
+}

@@ -1,0 +1,282 @@
+//! The scheduled tracer: every generation cut into tasks, costed, planned by a policy and run
+//! on devices by `sched`'s runtime (DESIGN.md, "How data flows").
+
+use std::time::Instant;
+
+use sched::{Costs, DeviceFailure, RunReport, Runtime, SchedError, split_ranges};
+
+use super::learn::{fit_devices, measured_speeds};
+use super::{Bound, DeviceStats, GenerationStats, Mode, RayDevice, Settings, TaskStats};
+use crate::cost::{Calibrations, CostModel, ReducedTraversal, Work};
+use crate::shade::Tracer;
+use crate::traverse::{any_hits, closest_hits};
+use crate::{Bvh, HitBatch, RayBatch, RayKind};
+
+/// A [`Tracer`] that schedules every generation over devices. See the module documentation
+/// of [`crate::scheduled`].
+///
+/// Each ray is traced by itself on whichever device gets its task, so the hits, and the
+/// image, are the same whatever the policy, mode, task size and devices.
+pub struct ScheduledTracer<'a> {
+    bvh: &'a Bvh,
+    devices: Vec<Box<dyn RayDevice + 'a>>,
+    settings: Settings,
+    speeds: Vec<f64>,
+    retired: Vec<bool>,
+    calibrations: Calibrations,
+    log: Vec<GenerationStats>,
+}
+
+impl<'a> ScheduledTracer<'a> {
+    /// A tracer over `devices`, all of speed 1 until the first generation is measured.
+    pub fn new(
+        bvh: &'a Bvh,
+        devices: Vec<Box<dyn RayDevice + 'a>>,
+        settings: Settings,
+    ) -> Result<Self, SchedError> {
+        if devices.is_empty() {
+            return Err(SchedError::NoDevices);
+        }
+        let m = devices.len();
+        Ok(Self {
+            bvh,
+            devices,
+            settings,
+            speeds: vec![1.0; m],
+            retired: vec![false; m],
+            calibrations: Calibrations::default(),
+            log: Vec::new(),
+        })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> Settings {
+        self.settings
+    }
+
+    /// Every generation traced so far, in order.
+    pub fn stats(&self) -> &[GenerationStats] {
+        &self.log
+    }
+
+    /// The relative speeds the next plan will use, one per device.
+    pub fn speeds(&self) -> &[f64] {
+        &self.speeds
+    }
+
+    /// The device names, in order.
+    pub fn device_names(&self) -> Vec<String> {
+        self.devices.iter().map(|d| d.name()).collect()
+    }
+
+    /// `kB`, `kT` calibrated so far, per device and ray kind (cost mode).
+    pub fn calibrations(&self) -> &Calibrations {
+        &self.calibrations
+    }
+
+    /// The model the next generation of `kind` is costed with: the calibration of the first
+    /// working device that has one (costs must share one unit within a plan; speeds carry
+    /// the differences between devices), else the default.
+    fn planning_model(&self, kind: RayKind) -> CostModel {
+        self.devices
+            .iter()
+            .zip(&self.retired)
+            .filter(|(_, retired)| !**retired)
+            .find_map(|(d, _)| self.calibrations.get(&d.name(), kind))
+            .unwrap_or_default()
+    }
+
+    /// Task costs of `tasks`, the work behind them (cost mode) and why an estimate failed.
+    fn costs(
+        &self,
+        kind: RayKind,
+        rays: &RayBatch,
+        tasks: &[std::ops::Range<usize>],
+    ) -> (Costs, Option<Vec<Work>>, Option<String>) {
+        if self.settings.mode == Mode::Regular {
+            return (Costs::uniform(tasks.len()), None, None);
+        }
+        let model = self.planning_model(kind);
+        let estimator = ReducedTraversal::new(self.bvh, rays, self.settings.sample_rate);
+        // Tasks come from `split_ranges` over a non-empty batch, so neither step can fail;
+        // if one did, the generation is planned in regular mode and the report says why.
+        match estimator.try_work(tasks) {
+            Ok(work) => match Costs::new(model.costs(&work)) {
+                Ok(costs) => (costs, Some(work), None),
+                Err(e) => (Costs::uniform(tasks.len()), None, Some(e.to_string())),
+            },
+            Err(e) => (Costs::uniform(tasks.len()), None, Some(e.to_string())),
+        }
+    }
+}
+
+impl<'a> Tracer for ScheduledTracer<'a> {
+    fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
+        let task_size = self.settings.task_size.get();
+        let tasks = split_ranges(rays.len(), task_size);
+
+        let estimating = Instant::now();
+        let (costs, work, estimate_error) = self.costs(kind, rays, &tasks);
+        // Regular mode has nothing to estimate: no overhead to report.
+        let estimate_seconds = match self.settings.mode {
+            Mode::Regular => 0.0,
+            Mode::Cost => estimating.elapsed().as_secs_f64(),
+        };
+
+        let active: Vec<usize> = (0..self.devices.len())
+            .filter(|&d| !self.retired[d])
+            .collect();
+        let speeds = &self.speeds;
+        let retired = &self.retired;
+        let mut bound: Vec<Bound<'_, 'a>> = self
+            .devices
+            .iter_mut()
+            .enumerate()
+            .filter(|(d, _)| !retired[*d])
+            .map(|(d, device)| Bound::new(device.as_mut(), kind, rays, speeds[d]))
+            .collect();
+        let running = Instant::now();
+        let result = Runtime::new(self.settings.policy).run(&tasks, &costs, &mut bound);
+        let run_seconds = running.elapsed().as_secs_f64();
+        drop(bound);
+
+        let mut stats = GenerationStats {
+            kind,
+            rays: rays.len(),
+            tasks: tasks.len(),
+            task_size,
+            policy: self.settings.policy,
+            mode: self.settings.mode,
+            estimate_seconds,
+            plan_seconds: 0.0,
+            run_seconds,
+            makespan: run_seconds,
+            balance_efficiency: 1.0,
+            devices: Vec::new(),
+            reruns: 0,
+            failures: Vec::new(),
+            task_stats: Vec::new(),
+            calibrations: Vec::new(),
+            estimate_error,
+            host_fallback: false,
+        };
+        let hits = match result {
+            Ok(report) => self.learn(&mut stats, &active, &costs, work.as_deref(), report),
+            Err(e) => {
+                // Every device failed (or none was left): the image must still be complete,
+                // so the caller's thread traces the generation, and the report says so.
+                // (Lengths match and speeds are positive by construction, so the only other
+                // error is that no device is left, after earlier failures.)
+                if let SchedError::AllDevicesFailed { failures, .. } = e {
+                    stats.reruns = tasks.len() as u64;
+                    stats.failures = failures
+                        .into_iter()
+                        .map(|f| DeviceFailure {
+                            device: active[f.device],
+                            ..f
+                        })
+                        .collect();
+                }
+                for &d in &active {
+                    self.retired[d] = true;
+                }
+                stats.host_fallback = true;
+                let start = Instant::now();
+                let hits = if kind.is_occlusion() {
+                    any_hits(self.bvh, rays)
+                } else {
+                    closest_hits(self.bvh, rays)
+                };
+                stats.run_seconds += start.elapsed().as_secs_f64();
+                hits
+            }
+        };
+        self.log.push(stats);
+        hits
+    }
+}
+
+impl ScheduledTracer<'_> {
+    /// Fills `stats` from a successful run, updates speeds, calibrations and retired devices,
+    /// and assembles the hits in ray order. `active[i]` is the tracer's index of the run's
+    /// device `i`.
+    fn learn(
+        &mut self,
+        stats: &mut GenerationStats,
+        active: &[usize],
+        costs: &Costs,
+        work: Option<&[Work]>,
+        report: RunReport<HitBatch>,
+    ) -> HitBatch {
+        let names: Vec<String> = active.iter().map(|&d| self.devices[d].name()).collect();
+        let old: Vec<f64> = active.iter().map(|&d| self.speeds[d]).collect();
+        let (new, measured) = measured_speeds(&old, costs, &report.timeline, &report.metrics.busy);
+
+        let mut task_stats = vec![
+            TaskStats {
+                cost: 0.0,
+                seconds: 0.0,
+                device: usize::MAX,
+            };
+            costs.len()
+        ];
+        let mut delivered = vec![0usize; active.len()];
+        for s in &report.timeline.spans {
+            let d = s.device as usize;
+            delivered[d] += 1;
+            task_stats[s.task as usize] = TaskStats {
+                cost: costs[s.task as usize],
+                seconds: s.end - s.start,
+                device: active[d],
+            };
+        }
+        stats.devices = (0..active.len())
+            .map(|i| DeviceStats {
+                index: active[i],
+                name: names[i].clone(),
+                speed: old[i],
+                measured_speed: measured[i],
+                launches: report.launches[i],
+                tasks: delivered[i],
+                busy: report.metrics.busy[i],
+            })
+            .collect();
+        stats.plan_seconds = report.plan_seconds;
+        stats.makespan = report.metrics.makespan;
+        stats.balance_efficiency = report.metrics.balance_efficiency;
+        stats.reruns = report.reruns;
+        stats.task_stats = task_stats;
+
+        if let Some(work) = work {
+            stats.calibrations = fit_devices(stats.kind, &names, work, &report.timeline);
+            for f in &stats.calibrations {
+                self.calibrations.insert(&f.device, f.kind, f.fit.model);
+            }
+        }
+        for (i, &d) in active.iter().enumerate() {
+            self.speeds[d] = new[i];
+        }
+        // Devices that failed are not planned for again; their speed is left as it was.
+        for f in &report.failures {
+            self.retired[active[f.device]] = true;
+        }
+        stats.failures = report
+            .failures
+            .into_iter()
+            .map(|f| DeviceFailure {
+                device: active[f.device],
+                ..f
+            })
+            .collect();
+
+        let mut hits = HitBatch {
+            t: Vec::with_capacity(stats.rays),
+            prim: Vec::with_capacity(stats.rays),
+        };
+        for out in report.outputs {
+            hits.t.extend_from_slice(&out.t);
+            hits.prim.extend_from_slice(&out.prim);
+        }
+        hits
+    }
+}

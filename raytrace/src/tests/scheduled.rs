@@ -1,0 +1,272 @@
+// Rendering through sched: the image never depends on the schedule, failures are absorbed,
+// launches follow the policy, and speeds and kB, kT get measured.
+
+use std::num::NonZeroUsize;
+
+use sched::Policy;
+
+use crate::devices::parse_devices;
+use crate::scheduled::{
+    FailAfter, GenerationStats, Mode, ScheduledTracer, Settings, build_devices,
+};
+use crate::shade::{
+    AoSettings, CpuTracer, RenderOptions, Rendering, Shader, WhittedSettings, render,
+};
+use crate::{BuildPreset, Bvh, Camera, Scene, SceneSource};
+
+const N: u32 = 32;
+
+fn load(source: &str, shader: Shader) -> (Scene, Bvh) {
+    let scene = SceneSource::parse(source)
+        .unwrap()
+        .load(shader.needs())
+        .unwrap();
+    let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
+    (scene, bvh)
+}
+
+fn whitted() -> Shader {
+    Shader::Whitted(WhittedSettings::default())
+}
+
+fn ao() -> Shader {
+    Shader::Ao(AoSettings {
+        samples: 8,
+        ..Default::default()
+    })
+}
+
+fn settings(policy: Policy, mode: Mode, task_size: usize) -> Settings {
+    Settings {
+        policy,
+        mode,
+        task_size: NonZeroUsize::new(task_size).unwrap(),
+        ..Settings::default()
+    }
+}
+
+/// Renders through a scheduled tracer; returns the rendering and its per-generation stats.
+fn scheduled(
+    scene: &Scene,
+    bvh: &Bvh,
+    shader: Shader,
+    devices: &str,
+    faults: &[FailAfter],
+    s: Settings,
+) -> (Rendering, Vec<GenerationStats>) {
+    let devices = build_devices(bvh, &parse_devices(devices).unwrap(), faults).unwrap();
+    let mut tracer = ScheduledTracer::new(bvh, devices, s).unwrap();
+    let options = RenderOptions::new(N, N, Camera::thesis(&scene.bounds(), 1), shader);
+    let r = render(scene, &mut tracer, &options);
+    (r, tracer.stats().to_vec())
+}
+
+fn reference(scene: &Scene, bvh: &Bvh, shader: Shader) -> Rendering {
+    let options = RenderOptions::new(N, N, Camera::thesis(&scene.bounds(), 1), shader);
+    render(scene, &mut CpuTracer::new(bvh), &options)
+}
+
+#[test]
+fn images_are_identical_whatever_the_policy_mode_and_devices() {
+    for (source, shader) in [
+        ("builtin:cornell", whitted()),
+        ("builtin:cornell", ao()),
+        ("builtin:forest:0.05", ao()),
+    ] {
+        let (scene, bvh) = load(source, shader);
+        let want = reference(&scene, &bvh, shader);
+        for policy in Policy::ALL {
+            for mode in Mode::ALL {
+                for devices in ["cpu:1", "cpu:2", "cpu:3", "cpu:1/2,cpu:1"] {
+                    let (got, stats) = scheduled(
+                        &scene,
+                        &bvh,
+                        shader,
+                        devices,
+                        &[],
+                        settings(policy, mode, 96),
+                    );
+                    let what = format!("{source} {} {policy} {mode} {devices}", shader.name());
+                    assert_eq!(got.film, want.film, "{what}");
+                    assert_eq!(stats.len(), want.generations.len(), "{what}");
+                    for (s, g) in stats.iter().zip(&want.generations) {
+                        assert_eq!((s.kind, s.rays), (g.kind, g.rays), "{what}");
+                        assert_eq!(s.tasks, g.rays.div_ceil(96), "{what}");
+                        let delivered: usize = s.devices.iter().map(|d| d.tasks).sum();
+                        assert_eq!(delivered, s.tasks, "{what}");
+                        assert!(s.balance_efficiency > 0.0 && s.balance_efficiency <= 1.0 + 1e-9);
+                        assert_eq!(s.reruns, 0, "{what}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_device_that_fails_mid_render_leaves_the_image_complete() {
+    let shader = whitted();
+    let (scene, bvh) = load("builtin:cornell", shader);
+    let want = reference(&scene, &bvh, shader);
+    for policy in Policy::ALL {
+        let fail = [FailAfter {
+            device: 1,
+            tasks: 3,
+        }];
+        let (got, stats) = scheduled(
+            &scene,
+            &bvh,
+            shader,
+            "cpu:3",
+            &fail,
+            settings(policy, Mode::Cost, 64),
+        );
+        assert_eq!(got.film, want.film, "{policy}");
+        // A plan gives device 1 about a third of the first generation's 16 tasks, so it
+        // fails there; a queue hands tasks to whichever thread asks first, and on a busy
+        // machine device 1 may never get to its fourth.
+        let Some(failed_in) = stats.iter().position(|s| !s.failures.is_empty()) else {
+            assert!(
+                !policy.is_static() && policy != Policy::Hybrid,
+                "{policy}: never failed"
+            );
+            continue;
+        };
+        let s = &stats[failed_in];
+        assert_eq!(s.failures[0].device, 1, "{policy}");
+        assert!(s.failures[0].reason.contains("injected fault"), "{policy}");
+        assert!(!s.host_fallback);
+        // Later generations plan without it.
+        for later in &stats[failed_in + 1..] {
+            assert!(later.devices.iter().all(|d| d.index != 1), "{policy}");
+            assert!(later.failures.is_empty());
+        }
+        let reruns: u64 = stats.iter().map(|s| s.reruns).sum();
+        if policy.is_static() {
+            assert!(reruns > 0, "{policy}: its planned tasks are re-run");
+        }
+    }
+    // Every device fails: the caller's thread traces, and the image is still complete.
+    let fail = [
+        FailAfter {
+            device: 0,
+            tasks: 2,
+        },
+        FailAfter {
+            device: 1,
+            tasks: 0,
+        },
+    ];
+    let (got, stats) = scheduled(
+        &scene,
+        &bvh,
+        shader,
+        "cpu:2",
+        &fail,
+        settings(Policy::Hybrid, Mode::Cost, 64),
+    );
+    assert_eq!(got.film, want.film);
+    assert!(stats[0].host_fallback && stats[0].reruns > 0 && stats[0].failures.len() == 2);
+    assert!(stats.iter().all(|s| s.host_fallback));
+}
+
+#[test]
+fn static_plans_launch_once_per_device_and_queues_once_per_task() {
+    let shader = ao();
+    let (scene, bvh) = load("builtin:cornell", shader);
+    for policy in Policy::ALL {
+        for mode in Mode::ALL {
+            let (_, stats) = scheduled(
+                &scene,
+                &bvh,
+                shader,
+                "cpu:2",
+                &[],
+                settings(policy, mode, 128),
+            );
+            for s in &stats {
+                let launches: Vec<u64> = s.devices.iter().map(|d| d.launches).collect();
+                match policy {
+                    Policy::StaticEqual | Policy::StaticLpt => {
+                        assert_eq!(launches, vec![1, 1], "{policy} {mode} {:?}", s.kind)
+                    }
+                    Policy::QueueFifo | Policy::QueueSorted => {
+                        assert_eq!(s.launches(), s.tasks as u64, "{policy} {mode}")
+                    }
+                    // Halves of each device's queue, plus steals: between the two.
+                    Policy::Hybrid => {
+                        assert!(launches.iter().all(|&l| l >= 1), "{policy} {mode}");
+                        assert!(s.launches() <= s.tasks as u64, "{policy} {mode}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn speeds_and_calibrations_are_measured_and_used() {
+    let shader = whitted();
+    let (scene, bvh) = load("builtin:forest:0.05", shader);
+    let (_, stats) = scheduled(
+        &scene,
+        &bvh,
+        shader,
+        "cpu:1/2,cpu:1",
+        &[],
+        settings(Policy::StaticLpt, Mode::Cost, 64),
+    );
+    assert!(stats.len() >= 2);
+    assert!(stats[0].devices.iter().all(|d| d.speed == 1.0));
+    // The first generation's measurement is the second's plan.
+    for (d0, d1) in stats[0].devices.iter().zip(&stats[1].devices) {
+        let m = d0.measured_speed.expect("both devices ran tasks");
+        assert!(m.is_finite() && m > 0.0);
+        assert_eq!(d1.speed, m);
+    }
+    assert!(stats[1].devices.iter().any(|d| d.speed != 1.0));
+    for s in &stats {
+        assert!(s.estimate_error.is_none());
+        assert!(s.estimate_seconds > 0.0);
+        let ran = s.devices.iter().filter(|d| d.tasks > 0).count();
+        assert_eq!(s.calibrations.len(), ran, "{:?}", s.kind);
+        for f in &s.calibrations {
+            let (kb, kt) = (f.fit.model.kb, f.fit.model.kt);
+            assert!(kb.is_finite() && kt.is_finite() && kb >= 0.0 && kt >= 0.0 && kb + kt > 0.0);
+            assert_eq!(f.kind, s.kind);
+        }
+        for t in &s.task_stats {
+            assert!(t.cost > 0.0 && t.seconds >= 0.0 && t.device < 2);
+        }
+    }
+    // Regular mode: uniform costs, no estimate and no calibration.
+    let (_, stats) = scheduled(
+        &scene,
+        &bvh,
+        shader,
+        "cpu:2",
+        &[],
+        settings(Policy::StaticLpt, Mode::Regular, 64),
+    );
+    for s in &stats {
+        assert!(s.calibrations.is_empty() && s.estimate_seconds == 0.0);
+        assert!(s.task_stats.iter().all(|t| t.cost == 1.0));
+    }
+}
+
+#[test]
+fn bad_device_lists_and_faults_are_named() {
+    let (_, bvh) = load("builtin:cornell", whitted());
+    let gpu = build_devices(&bvh, &parse_devices("cpu:1,gpu:all").unwrap(), &[]);
+    let e = gpu.err().unwrap().to_string();
+    assert!(e.contains("gpu:all") && e.contains("issue 5"), "{e}");
+    let fault = [FailAfter {
+        device: 2,
+        tasks: 1,
+    }];
+    let e = build_devices(&bvh, &parse_devices("cpu:2").unwrap(), &fault)
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("2@1"), "{e}");
+    assert!(ScheduledTracer::new(&bvh, Vec::new(), Settings::default()).is_err());
+}
