@@ -1,0 +1,284 @@
+//! The thesis experiment on real devices: every (shader, task size, policy, mode) of one scene
+//! rendered through the scheduled tracer, one record per run (DESIGN.md, "The thesis
+//! experiment"). Whitted runs measure the coherent rays (all its generations), AO runs the
+//! diffuse rays (the AO generation; its primary generation is not part of the record).
+
+use std::num::NonZeroUsize;
+
+use raytrace::cost::SampleRate;
+use raytrace::scheduled::{GenerationStats, Mode, ScheduledTracer, Settings, build_devices};
+use raytrace::shade::{AoSettings, RenderOptions, Shader, WhittedSettings, render};
+use raytrace::{Bvh, Camera, RayKind, Scene};
+use sched::Policy;
+use serde::Serialize;
+
+use super::probe::{ErrorSums, Probe};
+use crate::error::CliError;
+
+/// The two workloads of the thesis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Workload {
+    /// Whitted shading: coherent rays.
+    Whitted,
+    /// 32-sample ambient occlusion: diffuse rays.
+    Ao,
+}
+
+impl Workload {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Whitted => "whitted",
+            Self::Ao => "ao",
+        }
+    }
+
+    pub fn ray_kind(self) -> &'static str {
+        match self {
+            Self::Whitted => "coherent",
+            Self::Ao => "diffuse",
+        }
+    }
+
+    /// Whether a generation belongs to this workload's measured rays.
+    fn counts(self, kind: RayKind) -> bool {
+        match self {
+            Self::Whitted => true,
+            Self::Ao => kind == RayKind::Ao,
+        }
+    }
+}
+
+/// One run of the matrix: the fields `cobalt bench --json` promises, plus context.
+#[derive(Clone, Debug, Serialize)]
+pub struct Record {
+    /// `measured` (here a run on real devices) or `simulated`.
+    pub source: &'static str,
+    pub scene: String,
+    pub shader: &'static str,
+    pub ray_kind: &'static str,
+    pub policy: &'static str,
+    pub mode: &'static str,
+    pub task_size: usize,
+    pub devices: usize,
+    pub device_list: String,
+    pub cameras: usize,
+    pub width: u32,
+    pub height: u32,
+    pub rays: usize,
+    /// Wall time of the measured generations: estimation, planning and tracing.
+    pub seconds: f64,
+    /// Rendering efficiency (thesis): rays over `seconds`.
+    pub mrays_per_s: f64,
+    /// Σ device busy time / Σ (makespan × devices), over the measured generations.
+    pub balance_efficiency: f64,
+    pub estimate_seconds: f64,
+    pub plan_seconds: f64,
+    /// Σ|estimated − full| / Σ full (cost mode; the estimates do not depend on the policy).
+    pub prediction_error: Option<f64>,
+    pub launches: u64,
+    pub reruns: u64,
+}
+
+/// Measured tasks of one generation, for the simulator: estimated cost and seconds of each.
+#[derive(Clone, Debug, Default)]
+pub struct Replay {
+    pub rays: usize,
+    pub estimate_seconds: f64,
+    pub estimated: Vec<f64>,
+    pub seconds: Vec<f64>,
+}
+
+/// The cost-based StaticLpt run of one (workload, task size), kept for the simulator.
+#[derive(Clone, Debug)]
+pub struct Replays {
+    pub workload: Workload,
+    pub task_size: usize,
+    pub prediction_error: Option<f64>,
+    pub gens: Vec<Replay>,
+}
+
+/// What to run on one scene.
+pub struct Plan<'a> {
+    pub scene_name: &'a str,
+    pub scene: &'a Scene,
+    pub bvh: &'a Bvh,
+    pub devices: &'a [raytrace::devices::DeviceSpec],
+    pub device_list: &'a str,
+    pub workloads: &'a [Workload],
+    pub task_sizes: &'a [usize],
+    pub policies: &'a [Policy],
+    pub cameras: usize,
+    pub width: u32,
+    pub height: u32,
+    pub ao_samples: u32,
+    pub sample_rate: SampleRate,
+}
+
+impl Plan<'_> {
+    /// Runs in the matrix.
+    pub fn runs(&self) -> usize {
+        self.workloads.len() * self.task_sizes.len() * self.policies.len() * Mode::ALL.len()
+    }
+
+    fn shader(&self, w: Workload) -> Shader {
+        match w {
+            Workload::Whitted => Shader::Whitted(WhittedSettings::default()),
+            Workload::Ao => Shader::Ao(AoSettings {
+                samples: self.ao_samples,
+                ..Default::default()
+            }),
+        }
+    }
+
+    /// Renders every camera once with `settings`; the generations traced and, when `probe`,
+    /// the prediction error sums of each.
+    fn render_all(
+        &self,
+        w: Workload,
+        settings: Settings,
+        probe: bool,
+    ) -> Result<(Vec<GenerationStats>, Vec<(RayKind, ErrorSums)>), CliError> {
+        let mut stats = Vec::new();
+        let mut sums = Vec::new();
+        let bounds = self.scene.bounds();
+        for cam in 0..self.cameras {
+            let devices = build_devices(self.bvh, self.devices, &[])?;
+            let tracer = ScheduledTracer::new(self.bvh, devices, settings)?;
+            let mut p = Probe::new(
+                tracer,
+                self.bvh,
+                settings.task_size.get(),
+                settings.sample_rate,
+                probe,
+            );
+            let options = RenderOptions::new(
+                self.width,
+                self.height,
+                Camera::thesis(&bounds, cam),
+                self.shader(w),
+            );
+            render(self.scene, &mut p, &options);
+            stats.extend(p.inner.stats().iter().cloned());
+            sums.append(&mut p.sums);
+        }
+        Ok((stats, sums))
+    }
+
+    /// Runs the whole matrix, calling `tick` after each run; returns the records and, per
+    /// (workload, task size), the replay of the cost-based StaticLpt run.
+    pub fn run(&self, mut tick: impl FnMut(&str)) -> Result<(Vec<Record>, Vec<Replays>), CliError> {
+        // Untimed warm-up: page in the scene, the BVH and the thread pools.
+        if let Some(&w) = self.workloads.first() {
+            self.render_all(w, Settings::default(), false)?;
+        }
+        let mut records = Vec::new();
+        let mut replays = Vec::new();
+        for &w in self.workloads {
+            for &task_size in self.task_sizes {
+                let size = NonZeroUsize::new(task_size).ok_or_else(|| CliError::Arg {
+                    flag: "task-sizes",
+                    value: task_size.to_string(),
+                    message: "task sizes must be positive".into(),
+                })?;
+                let mut error: Option<f64> = None;
+                for &policy in self.policies {
+                    for mode in Mode::ALL {
+                        let settings = Settings {
+                            policy,
+                            mode,
+                            task_size: size,
+                            sample_rate: self.sample_rate,
+                        };
+                        let probe = mode == Mode::Cost && error.is_none();
+                        let (stats, sums) = self.render_all(w, settings, probe)?;
+                        if probe {
+                            let (d, f) = sums
+                                .iter()
+                                .filter(|(k, _)| w.counts(*k))
+                                .fold((0.0, 0.0), |(d, f), (_, s)| (d + s.diff, f + s.full));
+                            error = Some(if f > 0.0 { d / f } else { 0.0 });
+                        }
+                        let measured: Vec<&GenerationStats> =
+                            stats.iter().filter(|g| w.counts(g.kind)).collect();
+                        if mode == Mode::Cost && policy == Policy::StaticLpt {
+                            let gens = measured.iter().map(|g| replay(g)).collect();
+                            replays.push(Replays {
+                                workload: w,
+                                task_size,
+                                prediction_error: error,
+                                gens,
+                            });
+                        }
+                        records.push(self.record(
+                            w,
+                            settings,
+                            &measured,
+                            error.filter(|_| mode == Mode::Cost),
+                        ));
+                        tick(&format!(
+                            "{} {} {} {}",
+                            w.name(),
+                            task_size,
+                            policy.name(),
+                            mode.name()
+                        ));
+                    }
+                }
+            }
+        }
+        Ok((records, replays))
+    }
+
+    fn record(
+        &self,
+        w: Workload,
+        settings: Settings,
+        gens: &[&GenerationStats],
+        prediction_error: Option<f64>,
+    ) -> Record {
+        let (mut rays, mut seconds, mut est, mut plan) = (0usize, 0.0, 0.0, 0.0);
+        let (mut busy, mut capacity, mut launches, mut reruns) = (0.0, 0.0, 0u64, 0u64);
+        for g in gens {
+            rays += g.rays;
+            seconds += g.estimate_seconds + g.run_seconds;
+            est += g.estimate_seconds;
+            plan += g.plan_seconds;
+            busy += g.devices.iter().map(|d| d.busy).sum::<f64>();
+            capacity += g.makespan * g.devices.len() as f64;
+            launches += g.launches();
+            reruns += g.reruns;
+        }
+        Record {
+            source: "measured",
+            scene: self.scene_name.to_string(),
+            shader: w.name(),
+            ray_kind: w.ray_kind(),
+            policy: settings.policy.name(),
+            mode: settings.mode.name(),
+            task_size: settings.task_size.get(),
+            devices: gens.first().map_or(0, |g| g.devices.len()),
+            device_list: self.device_list.to_string(),
+            cameras: self.cameras,
+            width: self.width,
+            height: self.height,
+            rays,
+            seconds,
+            mrays_per_s: rays as f64 / seconds.max(1e-12) / 1e6,
+            balance_efficiency: if capacity > 0.0 { busy / capacity } else { 1.0 },
+            estimate_seconds: est,
+            plan_seconds: plan,
+            prediction_error,
+            launches,
+            reruns,
+        }
+    }
+}
+
+fn replay(g: &GenerationStats) -> Replay {
+    Replay {
+        rays: g.rays,
+        estimate_seconds: g.estimate_seconds,
+        estimated: g.task_stats.iter().map(|t| t.cost).collect(),
+        seconds: g.task_stats.iter().map(|t| t.seconds).collect(),
+    }
+}

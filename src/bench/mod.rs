@@ -1,0 +1,295 @@
+//! `cobalt bench`: the thesis experiment (DESIGN.md, "The thesis experiment"), measured.
+//!
+//! For each scene, each workload (Whitted: coherent rays; AO: diffuse rays), task size,
+//! policy and mode (`regular`: equal costs; `cost`: reduced-traversal estimates), every camera
+//! is rendered through the scheduled tracer on the given devices, and one record is kept per
+//! run. By default a quick run (about a minute on 2 cores) on `builtin:forest`; `--full` is
+//! the thesis's matrix at 1024×1024 with four cameras. `--simulate` replays the measured tasks
+//! on simulated machines; `--plots` draws the thesis's charts.
+
+mod matrix;
+mod plots;
+mod probe;
+mod simulate;
+mod table;
+mod trade;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use raytrace::cost::SampleRate;
+use raytrace::devices::parse_devices;
+use raytrace::shade::{AoSettings, CpuTracer, RenderOptions, Shader, render};
+use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
+use sched::Policy;
+
+use crate::error::CliError;
+use matrix::{Plan, Workload};
+
+/// Arguments of `cobalt bench`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// A scene (OBJ file or `builtin:NAME[:detail]`); repeat for several. Default
+    /// `builtin:forest`.
+    #[arg(long = "scene")]
+    scenes: Vec<String>,
+    /// The thesis's matrix: 1024x1024, four cameras (quick default: 512x512, one camera).
+    #[arg(long)]
+    full: bool,
+    /// Image size `WxH` (overrides the default of quick or full).
+    #[arg(long)]
+    size: Option<String>,
+    /// Thesis cameras per run, 1..=4 (overrides the default of quick or full).
+    #[arg(long)]
+    cameras: Option<usize>,
+    /// Devices, as for `cobalt render`.
+    #[arg(long, default_value = "cpu:2")]
+    devices: String,
+    /// Task sizes in rays.
+    #[arg(long, default_value = "16384,4096,512")]
+    task_sizes: String,
+    /// Policies (default all five).
+    #[arg(long)]
+    policies: Option<String>,
+    /// Workloads: `whitted` (coherent rays), `ao` (diffuse rays).
+    #[arg(long, default_value = "whitted,ao")]
+    shaders: String,
+    /// Share of each task's rays traced to estimate it (cost mode).
+    #[arg(long, default_value_t = 0.125)]
+    sample_rate: f64,
+    /// AO probes per primary hit.
+    #[arg(long, default_value_t = 32)]
+    ao_samples: u32,
+    /// BVH build preset.
+    #[arg(long, default_value = "medium")]
+    preset: String,
+    /// Also replay the measured tasks on simulated machines of these device counts, of mixed
+    /// speeds, behind PCIe-like (10 µs) and network-like (200 µs) launch latencies.
+    #[arg(long)]
+    simulate: Option<String>,
+    /// Write every run (measured, then simulated) as one JSON array to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Draw charts (PNG) into this directory: MRays/s, balance, sampling trade, cost image.
+    #[arg(long)]
+    plots: Option<PathBuf>,
+}
+
+fn bad(flag: &'static str, value: &str, message: &str) -> CliError {
+    CliError::Arg {
+        flag,
+        value: value.to_string(),
+        message: message.to_string(),
+    }
+}
+
+fn list<T>(
+    flag: &'static str,
+    text: &str,
+    parse: impl Fn(&str) -> Option<T>,
+) -> Result<Vec<T>, CliError> {
+    let items: Option<Vec<T>> = text.split(',').map(|s| parse(s.trim())).collect();
+    match items {
+        Some(v) if !v.is_empty() => Ok(v),
+        _ => Err(bad(
+            flag,
+            text,
+            "expected a comma-separated list of valid values",
+        )),
+    }
+}
+
+/// Runs the benchmark; every argument is checked before anything is measured.
+pub fn run(args: Args) -> Result<(), CliError> {
+    let started = Instant::now();
+    let size_text = args
+        .size
+        .clone()
+        .unwrap_or_else(|| String::from(if args.full { "1024x1024" } else { "512x512" }));
+    let (width, height) = crate::render::parse_size(&size_text)?;
+    let cameras = args.cameras.unwrap_or(if args.full { 4 } else { 1 });
+    if !(1..=4).contains(&cameras) {
+        return Err(bad(
+            "cameras",
+            &cameras.to_string(),
+            "expected 1 to 4 thesis cameras",
+        ));
+    }
+    let specs = parse_devices(&args.devices)?;
+    let task_sizes = list("task-sizes", &args.task_sizes, |s| {
+        s.parse::<usize>().ok().filter(|&n| n > 0)
+    })?;
+    let policies: Vec<Policy> = match &args.policies {
+        None => Policy::ALL.to_vec(),
+        Some(p) => list("policies", p, |s| s.parse().ok())?,
+    };
+    let workloads = list("shaders", &args.shaders, |s| match s {
+        "whitted" => Some(Workload::Whitted),
+        "ao" => Some(Workload::Ao),
+        _ => None,
+    })?;
+    let rate = SampleRate::new(args.sample_rate)
+        .map_err(|e| bad("sample-rate", &args.sample_rate.to_string(), &e.to_string()))?;
+    if !(1..=4096).contains(&args.ao_samples) {
+        return Err(bad(
+            "ao-samples",
+            &args.ao_samples.to_string(),
+            "expected 1..=4096",
+        ));
+    }
+    let preset: BuildPreset = args
+        .preset
+        .parse()
+        .map_err(|e: String| bad("preset", &args.preset, &e))?;
+    let simulate: Vec<usize> = match &args.simulate {
+        None => Vec::new(),
+        Some(s) => list("simulate", s, |x| {
+            x.parse::<usize>()
+                .ok()
+                .filter(|&m| (1..=65536).contains(&m))
+        })?,
+    };
+    let scenes = if args.scenes.is_empty() {
+        vec![String::from("builtin:forest")]
+    } else {
+        args.scenes.clone()
+    };
+    let sources = scenes
+        .iter()
+        .map(|s| SceneSource::parse(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    let needs = if workloads.contains(&Workload::Whitted) {
+        SceneNeeds::WHITTED
+    } else {
+        SceneNeeds::AO
+    };
+
+    let mut records = Vec::new();
+    let mut sims = Vec::new();
+    let mut points = Vec::new();
+    let mut cost_png = None;
+    for (name, source) in scenes.iter().zip(&sources) {
+        let scene = source.load(needs)?;
+        let bvh = Bvh::build(&scene, preset)?;
+        let plan = Plan {
+            scene_name: name,
+            scene: &scene,
+            bvh: &bvh,
+            devices: &specs,
+            device_list: &args.devices,
+            workloads: &workloads,
+            task_sizes: &task_sizes,
+            policies: &policies,
+            cameras,
+            width,
+            height,
+            ao_samples: args.ao_samples,
+            sample_rate: rate,
+        };
+        let bar = ProgressBar::new(plan.runs() as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
+                .map_err(|e| CliError::Write(e.to_string()))?
+                .progress_chars("=> "),
+        );
+        bar.set_prefix(name.clone());
+        let (mut recs, replays) = plan.run(|msg| {
+            bar.set_message(msg.to_string());
+            bar.inc(1);
+        })?;
+        bar.finish_and_clear();
+        sims.extend(simulate::simulate(name, &replays, &simulate)?);
+        points.extend(trade::sampling_trade(
+            name,
+            &scene,
+            &bvh,
+            width,
+            height,
+            args.ao_samples,
+            task_sizes
+                .iter()
+                .copied()
+                .find(|&t| t == 4096)
+                .unwrap_or(task_sizes[0]),
+        )?);
+        if args.plots.is_some() && cost_png.is_none() {
+            cost_png = Some(cost_image(&scene, &bvh, width, height)?);
+        }
+        records.append(&mut recs);
+    }
+
+    let mut out = format!(
+        "cobalt bench: {} at {}x{}, {} camera(s), devices {}, sample rate {}\n\n",
+        scenes.join(", "),
+        width,
+        height,
+        cameras,
+        args.devices,
+        rate.get()
+    );
+    out += &table::runs(&records);
+    out += "\nTargets on these devices (issue 4):\n\n";
+    out += &table::targets(&records);
+    out += "\nSampling rate (thesis Table 4.1):\n\n";
+    out += &table::trade(&points);
+    if !sims.is_empty() {
+        let shown = task_sizes
+            .iter()
+            .copied()
+            .find(|&t| t == 4096)
+            .unwrap_or(task_sizes[0]);
+        out += &format!(
+            "\nSimulated machines from the measured tasks (PCIe link, task size {shown}; every link and size is in --json):\n\n"
+        );
+        out += &table::simulated(&sims, shown);
+    }
+    if let Some(dir) = &args.plots {
+        let files = plots::write_all(dir, &records, &points, cost_png)?;
+        let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+        out += &format!("\nCharts: {}\n", names.join(", "));
+    }
+    out += &format!(
+        "\n{} runs measured, {} simulated, in {:.1} s.\n",
+        records.len(),
+        sims.len(),
+        started.elapsed().as_secs_f64()
+    );
+    crate::print_text(&out)?;
+    if let Some(path) = &args.json {
+        let mut all: Vec<serde_json::Value> = Vec::with_capacity(records.len() + sims.len());
+        for r in &records {
+            all.push(serde_json::to_value(r).map_err(|e| CliError::Write(e.to_string()))?);
+        }
+        for r in &sims {
+            all.push(serde_json::to_value(r).map_err(|e| CliError::Write(e.to_string()))?);
+        }
+        let text = serde_json::to_vec_pretty(&all).map_err(|e| CliError::Write(e.to_string()))?;
+        crate::write_file(path, &text)?;
+    }
+    Ok(())
+}
+
+/// The cost image of thesis Figure 3.2 for camera 0: nodes `B` and triangle tests `T` of
+/// every primary ray.
+fn cost_image(
+    scene: &raytrace::Scene,
+    bvh: &Bvh,
+    width: u32,
+    height: u32,
+) -> Result<Vec<u8>, CliError> {
+    let mut options = RenderOptions::new(
+        width,
+        height,
+        Camera::thesis(&scene.bounds(), 0),
+        Shader::Ao(AoSettings {
+            samples: 1,
+            ..Default::default()
+        }),
+    );
+    options.count_primary = true;
+    let r = render(scene, &mut CpuTracer::new(bvh), &options);
+    let counts = r.primary_counts.unwrap_or_default();
+    Ok(raytrace::cost_image::cost_image(&counts, width, height)
+        .png(raytrace::film::ToneMap::Display)?)
+}

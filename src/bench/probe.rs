@@ -1,0 +1,76 @@
+//! The thesis's prediction error of every generation a render traces, measured beside the
+//! render without touching its timing: a [`Tracer`] that, before handing a generation to the
+//! real tracer, estimates its tasks as the scheduled tracer will (same rays, task size and
+//! sampling rate, so the same numbers) and runs the full reduced traversal they are judged
+//! against. Both passes are outside the scheduled tracer's clocks.
+
+use std::ops::Range;
+
+use raytrace::cost::{CostModel, ReducedTraversal, SampleRate, full_work};
+use raytrace::shade::Tracer;
+use raytrace::{Bvh, Counts, HitBatch, RayBatch, RayKind};
+
+/// `Σ|estimated − full|` and `Σ full` of one generation, in default-model cost units.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ErrorSums {
+    /// Sum of absolute differences.
+    pub diff: f64,
+    /// Sum of full costs.
+    pub full: f64,
+}
+
+/// Wraps a tracer; when `enabled`, records the prediction error sums of each generation.
+pub struct Probe<'a, T> {
+    pub inner: T,
+    bvh: &'a Bvh,
+    task_size: usize,
+    rate: SampleRate,
+    enabled: bool,
+    /// One entry per generation traced, in order (empty when disabled).
+    pub sums: Vec<(RayKind, ErrorSums)>,
+}
+
+impl<'a, T: Tracer> Probe<'a, T> {
+    pub fn new(inner: T, bvh: &'a Bvh, task_size: usize, rate: SampleRate, enabled: bool) -> Self {
+        Self {
+            inner,
+            bvh,
+            task_size,
+            rate,
+            enabled,
+            sums: Vec::new(),
+        }
+    }
+
+    fn error_sums(&self, rays: &RayBatch) -> ErrorSums {
+        let tasks: Vec<Range<usize>> = sched::split_ranges(rays.len(), self.task_size);
+        let model = CostModel::default();
+        let est = ReducedTraversal::new(self.bvh, rays, self.rate).try_work(&tasks);
+        let full = full_work(self.bvh, rays, &tasks);
+        match (est, full) {
+            (Ok(est), Ok(full)) => {
+                let (est, full) = (model.costs(&est), model.costs(&full));
+                ErrorSums {
+                    diff: est.iter().zip(&full).map(|(e, f)| (e - f).abs()).sum(),
+                    full: full.iter().sum(),
+                }
+            }
+            // Only an empty generation has no tasks to judge; it adds nothing.
+            _ => ErrorSums::default(),
+        }
+    }
+}
+
+impl<T: Tracer> Tracer for Probe<'_, T> {
+    fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
+        if self.enabled {
+            let sums = self.error_sums(rays);
+            self.sums.push((kind, sums));
+        }
+        self.inner.trace(kind, rays)
+    }
+
+    fn counts(&mut self, rays: &RayBatch) -> Option<Vec<Counts>> {
+        self.inner.counts(rays)
+    }
+}

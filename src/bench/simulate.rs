@@ -1,0 +1,125 @@
+//! `cobalt bench --simulate 2,4,8,64`: the measured tasks of a run replayed in `sched`'s
+//! simulator on machines this one is not: more devices, of mixed speeds, behind a PCIe-like or
+//! a network-like launch latency. Each generation is planned with the estimates the real run
+//! made (cost mode) or with equal costs (regular mode) and advances with the measured task
+//! times, one generation after another.
+
+use sched::bounds::lower_bound;
+use sched::{Costs, Policy, Simulation, Speeds};
+use serde::Serialize;
+
+use super::matrix::Replays;
+use crate::error::CliError;
+
+/// Launch latencies: a kernel launch over PCIe, and a message to another node.
+pub const LINKS: [(&str, f64); 2] = [("pcie", 10e-6), ("network", 200e-6)];
+
+/// Speeds of a mixed machine of `m` devices: a repeating pattern of slow and fast devices
+/// (CPU sockets and GPUs of two generations), so no two neighbours are alike.
+pub fn mixed_speeds(m: usize) -> Vec<f64> {
+    (0..m).map(|d| [1.0, 4.0, 2.0, 8.0][d % 4]).collect()
+}
+
+/// One simulated run.
+#[derive(Clone, Debug, Serialize)]
+pub struct SimRecord {
+    /// Always `simulated`.
+    pub source: &'static str,
+    pub scene: String,
+    pub shader: &'static str,
+    pub ray_kind: &'static str,
+    pub policy: &'static str,
+    pub mode: &'static str,
+    pub task_size: usize,
+    pub devices: usize,
+    pub speeds: Vec<f64>,
+    pub link: &'static str,
+    pub latency: f64,
+    pub rays: usize,
+    /// Σ of the generations' simulated makespans.
+    pub seconds: f64,
+    pub mrays_per_s: f64,
+    pub balance_efficiency: f64,
+    /// The real run's estimation time (cost mode), which a simulated machine would also pay.
+    pub estimate_seconds: f64,
+    /// The simulator's planning time.
+    pub plan_seconds: f64,
+    pub prediction_error: Option<f64>,
+    /// `seconds` over Σ of each generation's lower bound on the optimal makespan (`sched`'s
+    /// `lower_bound`: total work over total speed, or more where a few large tasks need the
+    /// fastest devices): 1 is an optimal plan with free launches.
+    pub makespan_over_bound: f64,
+    pub launches: u64,
+}
+
+/// Replays every (workload, task size) on every device count, link, policy and mode.
+pub fn simulate(
+    scene: &str,
+    replays: &[Replays],
+    counts: &[usize],
+) -> Result<Vec<SimRecord>, CliError> {
+    let mut out = Vec::new();
+    for rep in replays {
+        let (w, task_size, gens) = (rep.workload, rep.task_size, &rep.gens);
+        for &m in counts {
+            let speeds = Speeds::new(mixed_speeds(m))?;
+            for (link, latency) in LINKS {
+                for policy in Policy::ALL {
+                    for mode in ["regular", "cost"] {
+                        let (mut seconds, mut bound, mut busy, mut capacity) = (0.0, 0.0, 0.0, 0.0);
+                        let (mut rays, mut launches) = (0usize, 0u64);
+                        let (mut est, mut plan_s) = (0.0, 0.0);
+                        for g in gens {
+                            let actual = Costs::new(g.seconds.clone())?;
+                            let plan = if mode == "cost" {
+                                Costs::new(g.estimated.clone())?
+                            } else {
+                                Costs::uniform(actual.len())
+                            };
+                            let r = Simulation::new(policy, speeds.clone())
+                                .latency(latency)
+                                .run_actual(&plan, &actual)?;
+                            seconds += r.metrics.makespan;
+                            busy += r.metrics.busy.iter().sum::<f64>();
+                            capacity += r.metrics.makespan * m as f64;
+                            bound += lower_bound(&actual, &speeds);
+                            rays += g.rays;
+                            launches += r.launches.iter().sum::<u64>();
+                            plan_s += r.plan_seconds;
+                            if mode == "cost" {
+                                est += g.estimate_seconds;
+                            }
+                        }
+                        out.push(SimRecord {
+                            source: "simulated",
+                            scene: scene.to_string(),
+                            shader: w.name(),
+                            ray_kind: w.ray_kind(),
+                            policy: policy.name(),
+                            mode,
+                            task_size,
+                            devices: m,
+                            speeds: speeds.as_slice().to_vec(),
+                            link,
+                            latency,
+                            rays,
+                            seconds,
+                            mrays_per_s: rays as f64 / seconds.max(1e-12) / 1e6,
+                            balance_efficiency: if capacity > 0.0 { busy / capacity } else { 1.0 },
+                            estimate_seconds: est,
+                            plan_seconds: plan_s,
+                            prediction_error: if mode == "cost" {
+                                rep.prediction_error
+                            } else {
+                                None
+                            },
+                            makespan_over_bound: seconds / bound.max(1e-300),
+                            launches,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    Ok(out)
+}

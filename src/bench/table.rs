@@ -1,0 +1,153 @@
+//! The readable side of `cobalt bench`: Markdown tables of the runs, the issue's targets
+//! checked against them, the simulated machines and the sampling trade.
+
+use super::matrix::Record;
+use super::simulate::SimRecord;
+use super::trade::TradePoint;
+
+fn pct(x: f64) -> String {
+    format!("{:.2} %", 100.0 * x)
+}
+
+/// Every measured run.
+pub fn runs(records: &[Record]) -> String {
+    let mut s = String::from(
+        "| scene | shader | task size | policy | mode | rays | MRays/s | balance | estimate s | plan s | pred. error | launches |\n\
+         |---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for r in records {
+        s += &format!(
+            "| {} | {} | {} | {} | {} | {} | {:.2} | {} | {:.4} | {:.5} | {} | {} |\n",
+            r.scene,
+            r.shader,
+            r.task_size,
+            r.policy,
+            r.mode,
+            r.rays,
+            r.mrays_per_s,
+            pct(r.balance_efficiency),
+            r.estimate_seconds,
+            r.plan_seconds,
+            r.prediction_error.map_or_else(|| "–".into(), pct),
+            r.launches
+        );
+    }
+    s
+}
+
+/// The issue's two-device targets, per scene, shader and task size: cost-based StaticLpt
+/// balance ≥ 97 %, Hybrid ≥ 99 %, and LPT (cost) at least as fast as Equal and FIFO (regular).
+pub fn targets(records: &[Record]) -> String {
+    let find = |r0: &Record, policy: &str, mode: &str| {
+        records.iter().find(|r| {
+            r.scene == r0.scene
+                && r.shader == r0.shader
+                && r.task_size == r0.task_size
+                && r.policy == policy
+                && r.mode == mode
+        })
+    };
+    let mark = |ok: bool| if ok { "yes" } else { "**no**" };
+    let mut s = String::from(
+        "| scene | shader | task size | LPT cost balance ≥ 97 % | Hybrid cost balance ≥ 99 % | LPT cost MRays/s ≥ Equal, FIFO regular |\n\
+         |---|---|---:|---|---|---|\n",
+    );
+    let mut seen = Vec::new();
+    for r in records {
+        let key = (&r.scene, r.shader, r.task_size);
+        if seen.contains(&key) {
+            continue;
+        }
+        seen.push(key);
+        let lpt = find(r, "static-lpt", "cost");
+        let hyb = find(r, "hybrid", "cost");
+        let (eq, fifo) = (
+            find(r, "static-equal", "regular"),
+            find(r, "queue-fifo", "regular"),
+        );
+        let cell_b = |x: Option<&Record>, min: f64| {
+            x.map_or("–".into(), |x| {
+                format!(
+                    "{} ({})",
+                    mark(x.balance_efficiency >= min),
+                    pct(x.balance_efficiency)
+                )
+            })
+        };
+        let speed = match (lpt, eq, fifo) {
+            (Some(l), Some(e), Some(f)) => format!(
+                "{} ({:.2} vs {:.2}, {:.2})",
+                mark(l.mrays_per_s >= e.mrays_per_s && l.mrays_per_s >= f.mrays_per_s),
+                l.mrays_per_s,
+                e.mrays_per_s,
+                f.mrays_per_s
+            ),
+            _ => "–".into(),
+        };
+        s += &format!(
+            "| {} | {} | {} | {} | {} | {} |\n",
+            r.scene,
+            r.shader,
+            r.task_size,
+            cell_b(lpt, 0.97),
+            cell_b(hyb, 0.99),
+            speed
+        );
+    }
+    s
+}
+
+/// The simulated machines, for the PCIe link and one task size (all of them are in the JSON):
+/// the thesis's regular baselines against the cost-based policies.
+pub fn simulated(records: &[SimRecord], task_size: usize) -> String {
+    let mut s = format!(
+        "| scene | shader | devices (speeds) | link | policy | mode | MRays/s | balance | makespan / bound | launches |\n\
+         |---|---|---|---|---|---|---:|---:|---:|---:|\n"
+    );
+    let shown = [
+        ("static-equal", "regular"),
+        ("queue-fifo", "regular"),
+        ("static-lpt", "cost"),
+        ("hybrid", "cost"),
+    ];
+    for r in records.iter().filter(|r| {
+        r.link == "pcie" && r.task_size == task_size && shown.contains(&(r.policy, r.mode))
+    }) {
+        let speeds: Vec<String> = r.speeds.iter().take(4).map(|v| v.to_string()).collect();
+        s += &format!(
+            "| {} | {} | {} ({}{}) | {} | {} | {} | {:.2} | {} | {:.4} | {} |\n",
+            r.scene,
+            r.shader,
+            r.devices,
+            speeds.join(","),
+            if r.speeds.len() > 4 { ",…" } else { "" },
+            r.link,
+            r.policy,
+            r.mode,
+            r.mrays_per_s,
+            pct(r.balance_efficiency),
+            r.makespan_over_bound,
+            r.launches
+        );
+    }
+    s
+}
+
+/// Table 4.1's trade.
+pub fn trade(points: &[TradePoint]) -> String {
+    let mut s = String::from(
+        "| scene | rays | task size | sampled | prediction error | overhead |\n|---|---|---:|---:|---:|---:|\n",
+    );
+    for p in points {
+        s += &format!(
+            "| {} | {} | {} | {:.1} % | {} | {} |\n",
+            p.scene,
+            p.ray_kind,
+            p.task_size,
+            100.0 * p.sample_rate,
+            pct(p.prediction_error),
+            pct(p.overhead)
+        );
+    }
+    s
+}
