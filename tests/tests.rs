@@ -28,3 +28,6 @@ mod tradeoff;
 
 // `cobalt estimate`: the JSON contract, exact estimates at full sampling, ray files, bad input.
 mod estimate;
+
+// `cobalt bench`: the run records, simulated records and charts it writes; bad values.
+mod bench;

@@ -88,6 +88,9 @@ pub struct Replay {
     pub seconds: Vec<f64>,
 }
 
+/// The generations of a run's renders and, when probed, their prediction error sums.
+type Rendered = (Vec<GenerationStats>, Vec<(RayKind, ErrorSums)>);
+
 /// The cost-based StaticLpt run of one (workload, task size), kept for the simulator.
 #[derive(Clone, Debug)]
 pub struct Replays {
@@ -137,7 +140,7 @@ impl Plan<'_> {
         w: Workload,
         settings: Settings,
         probe: bool,
-    ) -> Result<(Vec<GenerationStats>, Vec<(RayKind, ErrorSums)>), CliError> {
+    ) -> Result<Rendered, CliError> {
         let mut stats = Vec::new();
         let mut sums = Vec::new();
         let bounds = self.scene.bounds();

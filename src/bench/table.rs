@@ -100,9 +100,9 @@ pub fn targets(records: &[Record]) -> String {
 /// The simulated machines, for the PCIe link and one task size (all of them are in the JSON):
 /// the thesis's regular baselines against the cost-based policies.
 pub fn simulated(records: &[SimRecord], task_size: usize) -> String {
-    let mut s = format!(
+    let mut s = String::from(
         "| scene | shader | devices (speeds) | link | policy | mode | MRays/s | balance | makespan / bound | launches |\n\
-         |---|---|---|---|---|---|---:|---:|---:|---:|\n"
+         |---|---|---|---|---|---|---:|---:|---:|---:|\n",
     );
     let shown = [
         ("static-equal", "regular"),

@@ -1,0 +1,93 @@
+use crate::testkit::{cobalt, temp_dir};
+
+/// A tiny matrix end to end: every promised JSON field, fractions in range, static plans
+/// launching once per device per generation, the simulator's records, and the charts.
+#[test]
+fn bench_writes_one_record_per_run_and_the_charts() {
+    let dir = temp_dir("bench");
+    let (json, plots) = (dir.join("b.json"), dir.join("plots"));
+    let (json_s, plots_s) = (json.display().to_string(), plots.display().to_string());
+    let o = cobalt(&[
+        "bench",
+        "--scene",
+        "builtin:cornell:0.2",
+        "--size",
+        "32x32",
+        "--task-sizes",
+        "256",
+        "--policies",
+        "static-lpt,queue-fifo",
+        "--ao-samples",
+        "4",
+        "--simulate",
+        "2,8",
+        "--json",
+        &json_s,
+        "--plots",
+        &plots_s,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("| static-lpt | cost |"), "{text}");
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&json).expect("json written")).expect("valid JSON");
+    let runs = v.as_array().expect("an array of runs");
+    let measured: Vec<_> = runs.iter().filter(|r| r["source"] == "measured").collect();
+    // 2 shaders × 1 task size × 2 policies × 2 modes.
+    assert_eq!(measured.len(), 8);
+    for r in &measured {
+        for field in [
+            "scene",
+            "shader",
+            "ray_kind",
+            "policy",
+            "mode",
+            "task_size",
+            "devices",
+            "rays",
+            "seconds",
+            "mrays_per_s",
+            "balance_efficiency",
+            "estimate_seconds",
+            "plan_seconds",
+            "prediction_error",
+        ] {
+            assert!(r.get(field).is_some(), "{field} missing in {r}");
+        }
+        let balance = r["balance_efficiency"].as_f64().expect("balance");
+        assert!(balance > 0.0 && balance <= 1.0 + 1e-9, "{r}");
+        assert!(r["rays"].as_u64().is_some_and(|n| n > 0), "{r}");
+        if r["mode"] == "cost" {
+            let e = r["prediction_error"]
+                .as_f64()
+                .expect("cost runs have an error");
+            assert!((0.0..1.0).contains(&e), "{r}");
+        } else {
+            assert!(r["prediction_error"].is_null(), "{r}");
+        }
+    }
+    let simulated = runs.iter().filter(|r| r["source"] == "simulated").count();
+    // 2 shaders × 1 size × 2 device counts × 2 links × 5 policies × 2 modes.
+    assert_eq!(simulated, 80);
+    for chart in ["mrays.png", "balance.png", "sampling.png", "cost.png"] {
+        let bytes = std::fs::read(plots.join(chart)).expect("chart written");
+        assert_eq!(&bytes[..4], b"\x89PNG", "{chart}");
+    }
+}
+
+#[test]
+fn bench_rejects_bad_values_naming_them() {
+    for (flag, value) in [
+        ("--task-sizes", "0"),
+        ("--policies", "lpt,nope"),
+        ("--shaders", "phong"),
+        ("--sample-rate", "2"),
+        ("--devices", "cpu:0"),
+        ("--simulate", "x"),
+    ] {
+        let o = cobalt(&["bench", flag, value]);
+        assert_eq!(o.status.code(), Some(2), "{flag} {value}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(value), "{flag} {value}: {err}");
+    }
+}
