@@ -14,7 +14,8 @@ use raytrace::cost::{
     CostModel, Fit, ReducedTraversal, SampleRate, Work, calibrate, error_vs_time, full_work,
     measure_seconds, prediction_error, spearman,
 };
-use raytrace::{BuildPreset, Bvh, Camera, RayKind, SceneNeeds, SceneSource, traverse};
+use raytrace::shade::{CpuTracer, Recorder, RenderOptions, Shader, WhittedSettings, render};
+use raytrace::{BuildPreset, Bvh, Camera, RayBatch, RayKind, SceneNeeds, SceneSource, traverse};
 use serde::Serialize;
 
 use crate::error::CliError;
@@ -31,8 +32,10 @@ pub struct Args {
     /// An OBJ file, or `builtin:forest|hairball|cornell[:detail]`.
     #[arg(long)]
     scene: String,
-    /// `primary` (camera rays), `ao` (32 Halton AO rays per primary hit), `whitted` (not
-    /// available yet) or a binary ray file (`f32 × 8` per ray, see `cobalt trace`).
+    /// `primary` (camera rays), `ao` (32 Halton AO rays per primary hit), `whitted` (every
+    /// generation of a Whitted render: primary, shadow and two bounces of reflection rays,
+    /// each cut into its own tasks) or a binary ray file (`f32 × 8` per ray, see
+    /// `cobalt trace`).
     #[arg(long)]
     rays: String,
     /// Rays per task.
@@ -184,21 +187,66 @@ pub fn run(args: Args) -> Result<(), CliError> {
     })?;
     let source = RaySource::parse(&args.rays, &args.ray_kind)?;
 
-    let scene = SceneSource::parse(&args.scene)?.load(SceneNeeds::AO)?;
+    let needs = if matches!(source, RaySource::Whitted) {
+        SceneNeeds::WHITTED
+    } else {
+        SceneNeeds::AO
+    };
+    let scene = SceneSource::parse(&args.scene)?.load(needs)?;
     let bvh = Bvh::build(&scene, preset)?;
     let camera = Camera::thesis(&scene.bounds(), args.camera);
-    let (rays, kind) = match source {
-        RaySource::Primary => (camera.primary_rays(width, height).rays, RayKind::Primary),
-        RaySource::Ao => {
-            let primary = camera.primary_rays(width, height).rays;
-            let hits = traverse::closest_hits(&bvh, &primary);
-            let length = args.ao_distance * scene.bounds().extent().length();
-            let ao =
-                raytrace::ao::ao_rays(&scene, &primary, &hits, args.ao_samples, length, AO_SEED);
-            (ao.rays, RayKind::Ao)
-        }
-        RaySource::File(path, kind) => (crate::trace::read_rays(Path::new(&path))?, kind),
-    };
+    // One segment per generation: tasks never straddle two generations, and each is traced
+    // with its own query (closest or any hit).
+    let (segments, kind_name, coherent): (Vec<(RayBatch, RayKind)>, &'static str, bool) =
+        match source {
+            RaySource::Primary => (
+                vec![(camera.primary_rays(width, height).rays, RayKind::Primary)],
+                RayKind::Primary.name(),
+                true,
+            ),
+            RaySource::Ao => {
+                let primary = camera.primary_rays(width, height).rays;
+                let hits = traverse::closest_hits(&bvh, &primary);
+                let length = args.ao_distance * scene.bounds().extent().length();
+                let ao = raytrace::ao::ao_rays(
+                    &scene,
+                    &primary,
+                    &hits,
+                    args.ao_samples,
+                    length,
+                    AO_SEED,
+                );
+                (vec![(ao.rays, RayKind::Ao)], RayKind::Ao.name(), false)
+            }
+            RaySource::Whitted => {
+                let mut rec = Recorder::new(CpuTracer::new(&bvh));
+                let options = RenderOptions::new(
+                    width,
+                    height,
+                    camera,
+                    Shader::Whitted(WhittedSettings::default()),
+                );
+                render(&scene, &mut rec, &options);
+                let gens = rec.generations.into_iter().map(|(k, r)| (r, k)).collect();
+                (gens, "whitted", true)
+            }
+            RaySource::File(path, kind) => (
+                vec![(crate::trace::read_rays(Path::new(&path))?, kind)],
+                kind.name(),
+                kind.is_coherent(),
+            ),
+        };
+    let mut rays = RayBatch::default();
+    let mut tasks = Vec::new();
+    for (batch, _) in &segments {
+        let base = rays.len();
+        tasks.extend(
+            sched::split_ranges(batch.len(), args.task_size)
+                .into_iter()
+                .map(|t| base + t.start..base + t.end),
+        );
+        rays.extend(batch);
+    }
     if rays.is_empty() {
         return Err(arg(
             "rays",
@@ -206,27 +254,34 @@ pub fn run(args: Args) -> Result<(), CliError> {
             "there are no rays to estimate (no primary ray hit the scene?)".into(),
         ));
     }
-    let tasks = sched::split_ranges(rays.len(), args.task_size);
 
     let estimator = ReducedTraversal::new(&bvh, &rays, rate);
     let (estimate_seconds, est) = min_time(args.repeats, || estimator.try_work(&tasks))?;
     let (trace_seconds, ()) = min_time(args.repeats, || {
-        let hits = if kind.is_occlusion() {
-            traverse::any_hits(&bvh, &rays)
-        } else {
-            traverse::closest_hits(&bvh, &rays)
-        };
-        std::hint::black_box(hits);
+        for (batch, kind) in &segments {
+            let hits = if kind.is_occlusion() {
+                traverse::any_hits(&bvh, batch)
+            } else {
+                traverse::closest_hits(&bvh, batch)
+            };
+            std::hint::black_box(hits);
+        }
         Ok::<_, CliError>(())
     })?;
     let full = full_work(&bvh, &rays, &tasks)?;
-    let measured = measure_seconds(&bvh, &rays, &tasks, kind, args.repeats)?;
+    let mut measured = Vec::with_capacity(tasks.len());
+    for (batch, kind) in &segments {
+        let own = sched::split_ranges(batch.len(), args.task_size);
+        measured.extend(measure_seconds(&bvh, batch, &own, *kind, args.repeats)?);
+    }
 
     let per_ray = |total: f64| total / rays.len() as f64;
-    let trace_counts = (!kind.is_occlusion()).then(|| {
-        let counts = traverse::closest_hits_counted(&bvh, &rays).1;
-        Work::sum(&counts)
-    });
+    // The real trace's counts, where every generation is closest-hit (any-hit counts stop
+    // at the first hit and are not comparable).
+    let trace_counts = segments
+        .iter()
+        .all(|(_, k)| !k.is_occlusion())
+        .then(|| Work::sum(&traverse::closest_hits_counted(&bvh, &rays).1));
 
     let model = CostModel::default();
     let part = |f: fn(&Work) -> f64| -> (Vec<f64>, Vec<f64>) {
@@ -252,8 +307,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
         scene: args.scene.clone(),
         triangles: scene.len(),
         preset: args.preset.clone(),
-        ray_kind: kind.name(),
-        coherent: kind.is_coherent(),
+        ray_kind: kind_name,
+        coherent,
         rays: rays.len(),
         task_size: args.task_size,
         tasks: tasks.len(),
@@ -294,6 +349,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
 enum RaySource {
     Primary,
     Ao,
+    /// Every generation of a Whitted render: primary, shadow and reflection rays.
+    Whitted,
     File(String, RayKind),
 }
 
@@ -302,13 +359,7 @@ impl RaySource {
         match rays {
             "primary" => Ok(Self::Primary),
             "ao" => Ok(Self::Ao),
-            "whitted" => Err(CliError::Arg {
-                flag: "rays",
-                value: rays.into(),
-                message: "whitted rays are not available yet: they come from the render \
-                          pipeline (issue 4 item 2); use primary, ao or a ray file"
-                    .into(),
-            }),
+            "whitted" => Ok(Self::Whitted),
             path => {
                 let kind = kind.parse().map_err(|message| CliError::Arg {
                     flag: "ray-kind",

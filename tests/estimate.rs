@@ -1,14 +1,12 @@
-use std::process::{Command, Output};
+use std::process::Output;
 
 /// A small forest (~12k triangles): fast in the test profile, still irregular.
 const SCENE: &str = "builtin:forest:0.05";
 
 fn cobalt(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cobalt"))
-        .arg("estimate")
-        .args(args)
-        .output()
-        .expect("the cobalt binary runs")
+    let mut all = vec!["estimate"];
+    all.extend_from_slice(args);
+    crate::testkit::cobalt(&all)
 }
 
 /// `args` plus each default flag (a pair of words) that `args` does not set itself.
@@ -104,19 +102,49 @@ fn ray_files_are_estimated_with_their_kind() {
     assert_eq!(v["ray_kind"], "shadow");
 }
 
+/// Whitted rays are every generation of a render (primary, shadow, reflection), each cut into
+/// its own tasks; at full sampling the estimate is the full count.
+#[test]
+fn whitted_rays_are_every_generation_of_a_render() {
+    let v = json(&[
+        "--scene",
+        "builtin:cornell:0.2",
+        "--rays",
+        "whitted",
+        "--size",
+        "32x32",
+    ]);
+    assert_eq!(v["ray_kind"], "whitted");
+    assert!(
+        num(&v, "rays") > 32.0 * 32.0,
+        "more than the primary rays: {v}"
+    );
+    assert!(
+        num(&v, "tasks") >= 3.0,
+        "one or more tasks per generation: {v}"
+    );
+    let full = json(&[
+        "--scene",
+        "builtin:cornell:0.2",
+        "--rays",
+        "whitted",
+        "--size",
+        "32x32",
+        "--sample-rate",
+        "1",
+    ]);
+    assert_eq!(num(&full, "prediction_error"), 0.0);
+}
+
 #[test]
 fn bad_arguments_exit_2_naming_flag_and_value() {
-    let cases: [(&[&str], &[&str]); 9] = [
+    let cases: [(&[&str], &[&str]); 8] = [
         (&["--sample-rate", "0"], &["--sample-rate", "0"]),
         (&["--sample-rate", "1.5"], &["--sample-rate", "1.5"]),
         (&["--sample-rate", "lots"], &["--sample-rate", "lots"]),
         (&["--task-size", "0"], &["--task-size", "0"]),
         (&["--size", "64"], &["--size", "64"]),
         (&["--camera", "4"], &["--camera", "4"]),
-        (
-            &["--rays", "whitted"],
-            &["--rays", "whitted", "not available yet"],
-        ),
         (&["--rays", "/no/such/rays.bin"], &["/no/such/rays.bin"]),
         (
             &["--ray-kind", "sideways", "--rays", "x.bin"],

@@ -26,7 +26,7 @@ use std::time::Instant;
 
 pub use ao::AoSettings;
 pub use generation::Generation;
-pub use tracer::{CpuTracer, Tracer};
+pub use tracer::{CpuTracer, Recorder, Tracer};
 pub use whitted::{AMBIENT, SKY, WhittedSettings};
 
 use crate::{Camera, Counts, Film, Scene, SceneNeeds};

@@ -83,3 +83,33 @@ impl Tracer for CpuTracer<'_> {
         Some(self.run(|| closest_hits_counted(bvh, rays).1))
     }
 }
+
+/// A tracer that keeps a copy of every generation it is handed (kind and rays) and traces
+/// it with `inner`: the rays a shader produces, for estimating or replaying them elsewhere.
+pub struct Recorder<T> {
+    /// The tracer that does the work.
+    pub inner: T,
+    /// Every generation traced, in order.
+    pub generations: Vec<(RayKind, RayBatch)>,
+}
+
+impl<T: Tracer> Recorder<T> {
+    /// Records what `inner` traces.
+    pub fn new(inner: T) -> Self {
+        Self {
+            inner,
+            generations: Vec::new(),
+        }
+    }
+}
+
+impl<T: Tracer> Tracer for Recorder<T> {
+    fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
+        self.generations.push((kind, rays.clone()));
+        self.inner.trace(kind, rays)
+    }
+
+    fn counts(&mut self, rays: &RayBatch) -> Option<Vec<Counts>> {
+        self.inner.counts(rays)
+    }
+}
