@@ -1,25 +1,39 @@
 //! `cobalt render`: a scene, a camera and a shader in; a PNG, an optional cost image and a
 //! JSON report of every generation of rays out (DESIGN.md, "Command line").
 //!
-//! Tracing runs on one CPU device for now; `--policy`, `--task-size` and `--sample-rate`
-//! arrive with the scheduler behind [`raytrace::shade::Tracer`].
+//! Every generation of rays is scheduled by `sched` over the `--devices` (see
+//! [`raytrace::scheduled`]): cut into `--task-size` tasks, costed (`--mode`), planned by
+//! `--policy`; the report gives each generation's balance, overheads, launches and device
+//! speeds, and the calibration of `kB`, `kT` per device and ray kind.
 
+use std::num::NonZeroUsize;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use raytrace::cost::SampleRate;
 use raytrace::cost_image::{cost_image, max_counts};
+use raytrace::devices::DeviceSpec;
 use raytrace::film::ToneMap;
 use raytrace::glam::Vec3;
-use raytrace::shade::{
-    AoSettings, CpuTracer, RenderOptions, Rendering, Shader, WhittedSettings, render,
+use raytrace::scheduled::{
+    FailAfter, GenerationStats, Mode, ScheduledTracer, Settings, build_devices,
 };
+use raytrace::shade::{AoSettings, RenderOptions, Rendering, Shader, WhittedSettings, render};
 use raytrace::{BuildPreset, Bvh, Camera, SceneSource};
+use sched::Policy;
 use serde::Serialize;
 
 use crate::error::CliError;
 
 /// Largest image side: keeps a typo like `--size 1024000x1` from allocating gigabytes.
 const MAX_SIDE: u32 = 16384;
+
+/// Most devices, and most threads per device: a typo should not start a million threads.
+const MAX_DEVICES: usize = 1024;
+
+/// Largest task: a generation of a 16384² image with 32 AO probes fits `u32` task indices
+/// at any size above this, and no sensible task is larger.
+const MAX_TASK_SIZE: usize = 1 << 24;
 
 /// Which shader.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -58,9 +72,27 @@ pub struct Args {
     /// AO probe length (default: 5 % of the scene's bounding-box diagonal).
     #[arg(long)]
     ao_distance: Option<String>,
-    /// Devices: `cpu` (all cores) or `cpu:N` (a pool of N threads). GPUs are not built yet.
-    #[arg(long, default_value = "cpu")]
+    /// Devices: `cpu:N` (N devices of one thread), `cpu:N/T` (T threads each), several
+    /// comma-separated, or `cpu` (one device with every core). GPUs are not built yet.
+    #[arg(long, default_value = "cpu:2")]
     devices: String,
+    /// How tasks go to devices: static-equal, static-lpt (lpt), queue-fifo (fifo),
+    /// queue-sorted (sorted) or hybrid.
+    #[arg(long, default_value = "static-lpt")]
+    policy: Policy,
+    /// Task costs: `cost` (reduced traversal of sampled rays) or `regular` (all equal).
+    #[arg(long, default_value = "cost")]
+    mode: Mode,
+    /// Rays per task.
+    #[arg(long, default_value = "4096")]
+    task_size: String,
+    /// Fraction of each task's rays the cost estimate traces, in (0, 1].
+    #[arg(long, default_value = "0.125")]
+    sample_rate: String,
+    /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order)
+    /// fails after completing TASKS tasks; its unfinished tasks are re-run elsewhere.
+    #[arg(long)]
+    fail: Option<String>,
     /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
     #[arg(long, default_value = "medium")]
     preset: String,
@@ -84,9 +116,54 @@ struct GenerationReport {
     kind: &'static str,
     bounce: u32,
     rays: usize,
-    /// Trace time alone.
+    /// Trace time: estimate, plan and run on the devices.
     seconds: f64,
     mrays_per_s: f64,
+    #[serde(flatten)]
+    schedule: Option<ScheduleReport>,
+}
+
+/// How one generation was scheduled.
+#[derive(Debug, Serialize)]
+struct ScheduleReport {
+    tasks: usize,
+    estimate_seconds: f64,
+    plan_seconds: f64,
+    /// Wall time of the run on the devices.
+    run_seconds: f64,
+    makespan: f64,
+    balance_efficiency: f64,
+    /// Per device that took part, in `devices` order.
+    device_names: Vec<String>,
+    /// The relative speeds the plan used.
+    speeds: Vec<f64>,
+    /// The speeds measured on this generation (null where a device ran nothing).
+    measured_speeds: Vec<Option<f64>>,
+    launches: Vec<u64>,
+    busy: Vec<f64>,
+    reruns: u64,
+    failures: Vec<String>,
+    host_fallback: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    estimate_error: Option<String>,
+    calibration: Vec<FitReport>,
+    /// Per task, in task order: planned cost, measured seconds, device index.
+    task_costs: Vec<f64>,
+    task_seconds: Vec<f64>,
+    task_devices: Vec<usize>,
+}
+
+/// `kB`, `kT` of one device for one ray kind, fitted by least squares to measured task times.
+#[derive(Debug, Clone, Serialize)]
+struct FitReport {
+    device: String,
+    kind: &'static str,
+    kb: f64,
+    kt: f64,
+    form: &'static str,
+    r2: f64,
+    rms_residual: f64,
+    tasks: usize,
 }
 
 #[derive(Debug, Serialize)]
@@ -110,7 +187,14 @@ struct Report {
     eye: [f32; 3],
     at: [f32; 3],
     devices: String,
+    /// Every device, in order.
+    device_names: Vec<String>,
+    /// Threads over all devices.
     threads: usize,
+    policy: Policy,
+    mode: &'static str,
+    task_size: usize,
+    sample_rate: f64,
     preset: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     ao_samples: Option<u32>,
@@ -128,6 +212,15 @@ struct Report {
     render_seconds: f64,
     /// Rendering efficiency (thesis): total rays over `render_seconds`.
     mrays_per_s: f64,
+    /// Σ busy / Σ (makespan × devices) over the generations: balance of the whole render.
+    balance_efficiency: f64,
+    /// Estimation and planning time over all generations.
+    estimate_seconds: f64,
+    plan_seconds: f64,
+    launches: u64,
+    reruns: u64,
+    /// The last fit of every device and ray kind: the calibration the next render would use.
+    calibration: Vec<FitReport>,
     #[serde(skip_serializing_if = "Option::is_none")]
     cost: Option<CostReport>,
 }
@@ -142,7 +235,40 @@ enum CameraChoice {
 /// written until the render is done.
 pub fn run(args: Args) -> Result<(), CliError> {
     let (width, height) = parse_size(&args.size)?;
-    let threads = parse_devices(&args.devices)?;
+    let specs = parse_devices(&args.devices)?;
+    let threads: usize = specs
+        .iter()
+        .map(|s| match s {
+            DeviceSpec::Cpu { count, threads } => count * threads,
+            DeviceSpec::Gpu(_) => 0,
+        })
+        .sum();
+    let device_count: usize = specs
+        .iter()
+        .map(|s| match s {
+            DeviceSpec::Cpu { count, .. } => *count,
+            DeviceSpec::Gpu(_) => 0,
+        })
+        .sum();
+    let faults = match &args.fail {
+        Some(text) => parse_faults(text, device_count)?,
+        None => Vec::new(),
+    };
+    let settings = Settings {
+        policy: args.policy,
+        mode: args.mode,
+        task_size: parse_task_size(&args.task_size)?,
+        sample_rate: match args.sample_rate.trim().parse::<f64>().map(SampleRate::new) {
+            Ok(Ok(rate)) => rate,
+            _ => {
+                return Err(arg(
+                    "sample-rate",
+                    &Some(args.sample_rate.clone()),
+                    "expected a fraction in (0, 1], e.g. 0.125",
+                ));
+            }
+        },
+    };
     let camera_choice = match (&args.camera, &args.eye, &args.at) {
         (_, Some(eye), Some(at)) => {
             let (eye, at) = (parse_point("eye", eye)?, parse_point("at", at)?);
@@ -198,10 +324,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let scene = SceneSource::parse(&args.scene)?.load(shader.needs())?;
     let load_seconds = loading.elapsed().as_secs_f64();
     let bvh = Bvh::build(&scene, preset)?;
-    let mut tracer = match threads {
-        Some(n) => CpuTracer::with_threads(&bvh, n)?,
-        None => CpuTracer::new(&bvh),
-    };
+    let devices = build_devices(&bvh, &specs, &faults)?;
+    let mut tracer = ScheduledTracer::new(&bvh, devices, settings)?;
     let (camera, camera_index) = match camera_choice {
         CameraChoice::Thesis(i) => (Camera::thesis(&scene.bounds(), i), Some(i)),
         CameraChoice::LookAt(eye, at) => (Camera::look_at(eye, at), None),
@@ -227,7 +351,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
         eye: camera.eye.to_array(),
         at: camera.at.to_array(),
         devices: args.devices.clone(),
-        threads: tracer.threads(),
+        device_names: tracer.device_names(),
+        threads,
+        policy: settings.policy,
+        mode: settings.mode.name(),
+        task_size: settings.task_size.get(),
+        sample_rate: settings.sample_rate.get(),
         preset: preset.name().to_string(),
         ao_samples: matches!(shader, Shader::Ao(_)).then_some(samples),
         ao_distance: match shader {
@@ -240,11 +369,17 @@ pub fn run(args: Args) -> Result<(), CliError> {
         },
         load_seconds,
         build_seconds: bvh.report().build_seconds,
-        generations: generation_reports(&rendering),
+        generations: generation_reports(&rendering, tracer.stats()),
         total_rays: rendering.total_rays(),
         trace_seconds: rendering.trace_seconds(),
         render_seconds: rendering.seconds,
         mrays_per_s: rendering.mrays_per_s(),
+        balance_efficiency: overall_balance(tracer.stats()),
+        estimate_seconds: tracer.stats().iter().map(|g| g.estimate_seconds).sum(),
+        plan_seconds: tracer.stats().iter().map(|g| g.plan_seconds).sum(),
+        launches: tracer.stats().iter().map(GenerationStats::launches).sum(),
+        reruns: tracer.stats().iter().map(|g| g.reruns).sum(),
+        calibration: final_calibration(tracer.stats()),
         cost: rendering.primary_counts.as_ref().map(|counts| {
             let max = max_counts(counts);
             let n = counts.len().max(1) as f64;
@@ -274,35 +409,136 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
 }
 
-fn generation_reports(r: &Rendering) -> Vec<GenerationReport> {
+/// One report per generation; the tracer's stats are in the same order (one per traced
+/// generation).
+fn generation_reports(r: &Rendering, stats: &[GenerationStats]) -> Vec<GenerationReport> {
     r.generations
         .iter()
-        .map(|g| GenerationReport {
+        .enumerate()
+        .map(|(i, g)| GenerationReport {
             kind: g.kind.name(),
             bounce: g.bounce,
             rays: g.rays,
             seconds: g.seconds,
             mrays_per_s: g.mrays_per_s(),
+            schedule: stats.get(i).map(schedule_report),
         })
         .collect()
 }
 
+fn schedule_report(g: &GenerationStats) -> ScheduleReport {
+    ScheduleReport {
+        tasks: g.tasks,
+        estimate_seconds: g.estimate_seconds,
+        plan_seconds: g.plan_seconds,
+        run_seconds: g.run_seconds,
+        makespan: g.makespan,
+        balance_efficiency: g.balance_efficiency,
+        device_names: g.devices.iter().map(|d| d.name.clone()).collect(),
+        speeds: g.devices.iter().map(|d| d.speed).collect(),
+        measured_speeds: g.devices.iter().map(|d| d.measured_speed).collect(),
+        launches: g.devices.iter().map(|d| d.launches).collect(),
+        busy: g.devices.iter().map(|d| d.busy).collect(),
+        reruns: g.reruns,
+        failures: g.failures.iter().map(ToString::to_string).collect(),
+        host_fallback: g.host_fallback,
+        estimate_error: g.estimate_error.clone(),
+        calibration: g.calibrations.iter().map(fit_report).collect(),
+        task_costs: g.task_stats.iter().map(|t| t.cost).collect(),
+        task_seconds: g.task_stats.iter().map(|t| t.seconds).collect(),
+        task_devices: g.task_stats.iter().map(|t| t.device).collect(),
+    }
+}
+
+fn fit_report(f: &raytrace::scheduled::DeviceFit) -> FitReport {
+    FitReport {
+        device: f.device.clone(),
+        kind: f.kind.name(),
+        kb: f.fit.model.kb,
+        kt: f.fit.model.kt,
+        form: f.fit.form.name(),
+        r2: f.fit.r2,
+        rms_residual: f.fit.rms_residual,
+        tasks: f.fit.n,
+    }
+}
+
+/// The thesis's balance efficiency of the whole render: every generation's busy time over
+/// its makespan times its devices, summed before dividing so long generations weigh more.
+fn overall_balance(stats: &[GenerationStats]) -> f64 {
+    let busy: f64 = stats
+        .iter()
+        .flat_map(|g| g.devices.iter().map(|d| d.busy))
+        .sum();
+    let capacity: f64 = stats
+        .iter()
+        .map(|g| g.makespan * g.devices.len() as f64)
+        .sum();
+    if capacity > 0.0 { busy / capacity } else { 1.0 }
+}
+
+/// The latest fit of each (device, kind), in order of first appearance.
+fn final_calibration(stats: &[GenerationStats]) -> Vec<FitReport> {
+    let mut out: Vec<FitReport> = Vec::new();
+    for f in stats.iter().flat_map(|g| &g.calibrations) {
+        let r = fit_report(f);
+        match out
+            .iter_mut()
+            .find(|o| o.device == r.device && o.kind == r.kind)
+        {
+            Some(o) => *o = r,
+            None => out.push(r),
+        }
+    }
+    out
+}
+
 fn summary(r: &Report) -> String {
     let mut s = format!(
-        "{} {} of {} ({} triangles) on {} thread(s): {} rays in {:.3} s, {:.2} MRays/s\n",
+        "{} {} of {} ({} triangles) on {} ({} thread(s)), {} {}, tasks of {}: {} rays in {:.3} s, {:.2} MRays/s, balance {:.1} %\n",
         r.shader,
         r.size,
         r.scene,
         r.triangles,
+        r.devices,
         r.threads,
+        r.policy,
+        r.mode,
+        r.task_size,
         r.total_rays,
         r.render_seconds,
-        r.mrays_per_s
+        r.mrays_per_s,
+        100.0 * r.balance_efficiency,
     );
     for g in &r.generations {
         s += &format!(
-            "  {:<10} bounce {}  {:>10} rays  {:.4} s  {:.2} MRays/s\n",
+            "  {:<10} bounce {}  {:>10} rays  {:.4} s  {:.2} MRays/s",
             g.kind, g.bounce, g.rays, g.seconds, g.mrays_per_s
+        );
+        if let Some(x) = &g.schedule {
+            let speeds: Vec<String> = x.speeds.iter().map(|v| format!("{v:.3}")).collect();
+            s += &format!(
+                "  {:>6} tasks  balance {:5.1} %  estimate {:.4} s  plan {:.5} s  launches {:?}  speeds [{}]",
+                x.tasks,
+                100.0 * x.balance_efficiency,
+                x.estimate_seconds,
+                x.plan_seconds,
+                x.launches,
+                speeds.join(", "),
+            );
+            if x.reruns > 0 || x.host_fallback {
+                s += &format!("  reruns {}", x.reruns);
+            }
+            for f in &x.failures {
+                s += &format!("\n    {f}");
+            }
+        }
+        s += "\n";
+    }
+    for c in &r.calibration {
+        s += &format!(
+            "  calibration {:<6} {:<10} kB {:.3e} s  kT {:.3e} s  ({}, R² {:.3}, {} tasks)\n",
+            c.device, c.kind, c.kb, c.kt, c.form, c.r2, c.tasks
         );
     }
     s
@@ -358,31 +594,84 @@ fn parse_point(flag: &'static str, text: &str) -> Result<Vec3, CliError> {
     }
 }
 
-/// The CPU device's thread count (`None`: all cores). Several devices and GPUs come with the
-/// scheduler and the wgpu pipeline.
-fn parse_devices(text: &str) -> Result<Option<usize>, CliError> {
-    let bad = |message: &str| CliError::Arg {
+/// `--devices`: the list of [`raytrace::devices::parse_devices`], plus `cpu` alone for one
+/// device with every core (the former default). GPUs are refused until issue 5.
+fn parse_devices(text: &str) -> Result<Vec<DeviceSpec>, CliError> {
+    let bad = |message: String| CliError::Arg {
         flag: "devices",
         value: text.to_string(),
-        message: message.to_string(),
+        message,
     };
-    let items: Vec<&str> = text.split(',').map(str::trim).collect();
-    if items.iter().any(|d| d.starts_with("gpu")) {
+    if text.split(',').any(|d| d.trim().starts_with("gpu")) {
         return Err(bad(
-            "the GPU pipeline is not built yet (issue 5); use cpu or cpu:N",
+            "the GPU pipeline is not built yet (issue 5); use cpu:N or cpu:N/T".into(),
         ));
     }
-    let [item] = items[..] else {
-        return Err(bad(
-            "one device for now: cpu or cpu:N (several devices come with the scheduler)",
-        ));
+    let specs = if text.trim() == "cpu" {
+        let cores = std::thread::available_parallelism().map_or(1, usize::from);
+        vec![DeviceSpec::Cpu {
+            count: 1,
+            threads: cores,
+        }]
+    } else {
+        raytrace::devices::parse_devices(text).map_err(|e| bad(e.to_string()))?
     };
-    match item.split_once(':') {
-        None if item == "cpu" => Ok(None),
-        Some(("cpu", n)) => match n.parse::<usize>() {
-            Ok(n) if (1..=1024).contains(&n) => Ok(Some(n)),
-            _ => Err(bad(&format!("{n:?} is not a thread count in 1..=1024"))),
-        },
-        _ => Err(bad("expected cpu or cpu:N")),
+    let (mut devices, mut threads) = (0usize, 0usize);
+    for spec in &specs {
+        if let DeviceSpec::Cpu { count, threads: t } = *spec {
+            devices = devices.saturating_add(count);
+            threads = threads.max(t);
+        }
     }
+    if devices > MAX_DEVICES || threads > MAX_DEVICES {
+        return Err(bad(format!(
+            "at most {MAX_DEVICES} devices and {MAX_DEVICES} threads per device"
+        )));
+    }
+    Ok(specs)
+}
+
+/// `--task-size`: rays per task, in `1..=MAX_TASK_SIZE`.
+fn parse_task_size(text: &str) -> Result<NonZeroUsize, CliError> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if n <= MAX_TASK_SIZE => NonZeroUsize::new(n),
+        _ => None,
+    }
+    .ok_or_else(|| CliError::Arg {
+        flag: "task-size",
+        value: text.to_string(),
+        message: format!("expected a whole number of rays in 1..={MAX_TASK_SIZE}"),
+    })
+}
+
+/// `--fail DEVICE@TASKS[,…]`, each device an index below `devices`.
+fn parse_faults(text: &str, devices: usize) -> Result<Vec<FailAfter>, CliError> {
+    let bad = |message: String| CliError::Arg {
+        flag: "fail",
+        value: text.to_string(),
+        message,
+    };
+    text.split(',')
+        .map(|item| {
+            let (d, k) = item.trim().split_once('@').ok_or_else(|| {
+                bad(format!(
+                    "{item:?}: expected DEVICE@TASKS, e.g. 1@3 (device 1 fails after 3 tasks)"
+                ))
+            })?;
+            let device = d
+                .trim()
+                .parse::<usize>()
+                .map_err(|_| bad(format!("{d:?} is not a device index")))?;
+            let tasks = k
+                .trim()
+                .parse::<u64>()
+                .map_err(|_| bad(format!("{k:?} is not a task count")))?;
+            if device >= devices {
+                return Err(bad(format!(
+                    "no device {device}: there are {devices} (numbered from 0)"
+                )));
+            }
+            Ok(FailAfter { device, tasks })
+        })
+        .collect()
 }

@@ -84,6 +84,17 @@ fn bad_arguments_exit_2_naming_the_value_and_write_nothing() {
         ("--devices", "tpu"),
         ("--ao-samples", "0"),
         ("--eye", "1,2"),
+        ("--policy", "round-robin"),
+        ("--mode", "guess"),
+        ("--task-size", "0"),
+        ("--task-size", "many"),
+        ("--sample-rate", "0"),
+        ("--sample-rate", "1.5"),
+        ("--devices", "cpu:1,gpu:0"),
+        ("--devices", "cpu:2/0"),
+        ("--fail", "2@1"),
+        ("--fail", "1"),
+        ("--fail", "0@x"),
     ] {
         let mut args = vec![
             "render",
@@ -117,4 +128,121 @@ fn bad_arguments_exit_2_naming_the_value_and_write_nothing() {
     }
     let o = cobalt(&["render", "--scene", "builtin:cornell", "--devices", "gpu"]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("GPU pipeline is not built yet"));
+}
+
+/// Runs `cobalt render` on a small Cornell box and returns the PNG bytes and the JSON report.
+fn render_with(tag: &str, shader: &str, extra: &[&str]) -> (Vec<u8>, serde_json::Value) {
+    let dir = crate::testkit::temp_dir("render-sched");
+    let (out, report) = (
+        dir.join(format!("{tag}.png")),
+        dir.join(format!("{tag}.json")),
+    );
+    let mut args = vec![
+        "render",
+        "--scene",
+        "builtin:cornell",
+        "--shader",
+        shader,
+        "--ao-samples",
+        "8",
+        "--size",
+        "32x32",
+        "--task-size",
+        "128",
+        "--out",
+        out.to_str().expect("a UTF-8 temp path"),
+        "--report",
+        report.to_str().expect("a UTF-8 temp path"),
+    ];
+    args.extend_from_slice(extra);
+    let o = cobalt(&args);
+    assert!(
+        o.status.success(),
+        "{extra:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let png = std::fs::read(&out).expect("the PNG was written");
+    let v = serde_json::from_slice(&std::fs::read(&report).expect("the report was written"))
+        .expect("JSON report");
+    (png, v)
+}
+
+#[test]
+fn every_policy_mode_and_device_list_renders_the_same_image() {
+    for shader in ["whitted", "ao"] {
+        let (want, _) = render_with("ref", shader, &["--devices", "cpu:1", "--mode", "regular"]);
+        for policy in [
+            "static-equal",
+            "static-lpt",
+            "queue-fifo",
+            "queue-sorted",
+            "hybrid",
+        ] {
+            for mode in ["regular", "cost"] {
+                for devices in ["cpu:2", "cpu:1/2,cpu:1"] {
+                    let tag = format!("{shader}-{policy}-{mode}-{}", devices.len());
+                    let (png, v) = render_with(
+                        &tag,
+                        shader,
+                        &["--policy", policy, "--mode", mode, "--devices", devices],
+                    );
+                    assert!(png == want, "{tag}: the image differs");
+                    assert_eq!(v["policy"], policy);
+                    assert_eq!(v["mode"], mode);
+                    assert_eq!(v["task_size"], 128);
+                    assert_eq!(v["device_names"].as_array().unwrap().len(), 2, "{tag}");
+                    let balance = v["balance_efficiency"].as_f64().unwrap();
+                    assert!(balance > 0.0 && balance <= 1.0 + 1e-9, "{tag}");
+                    for g in v["generations"].as_array().unwrap() {
+                        let rays = g["rays"].as_u64().unwrap();
+                        assert_eq!(g["tasks"].as_u64().unwrap(), rays.div_ceil(128), "{tag}");
+                        assert!(g["balance_efficiency"].as_f64().is_some(), "{tag}");
+                        assert!(g["plan_seconds"].as_f64().unwrap() >= 0.0, "{tag}");
+                        assert_eq!(g["speeds"].as_array().unwrap().len(), 2, "{tag}");
+                        let launches = g["launches"].as_array().unwrap();
+                        if policy.starts_with("static") {
+                            assert!(launches.iter().all(|l| l.as_u64().unwrap() <= 1), "{tag}");
+                        }
+                    }
+                    if mode == "cost" {
+                        let cal = v["calibration"].as_array().unwrap();
+                        assert!(!cal.is_empty(), "{tag}");
+                        assert!(cal.iter().all(|c| c["kb"].as_f64().unwrap() >= 0.0
+                            && c["kt"].as_f64().unwrap() >= 0.0));
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_failing_device_is_reported_and_the_image_is_still_complete() {
+    let (want, _) = render_with("ok", "whitted", &["--devices", "cpu:2"]);
+    let (png, v) = render_with(
+        "fail",
+        "whitted",
+        &[
+            "--devices",
+            "cpu:2",
+            "--policy",
+            "static-equal",
+            "--fail",
+            "1@1",
+        ],
+    );
+    assert!(png == want, "the image differs after a failure");
+    assert!(v["reruns"].as_u64().unwrap() > 0, "{v}");
+    let first = &v["generations"][0];
+    assert!(
+        first["failures"][0]
+            .as_str()
+            .unwrap()
+            .contains("injected fault")
+    );
+    // Later generations run on the survivor alone.
+    assert_eq!(
+        v["generations"][1]["device_names"],
+        serde_json::json!(["cpu0"])
+    );
 }

@@ -9,8 +9,8 @@ use super::learn::{fit_devices, measured_speeds};
 use super::{Bound, DeviceStats, GenerationStats, Mode, RayDevice, Settings, TaskStats};
 use crate::cost::{Calibrations, CostModel, ReducedTraversal, Work};
 use crate::shade::Tracer;
-use crate::traverse::{any_hits, closest_hits};
-use crate::{Bvh, HitBatch, RayBatch, RayKind};
+use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
+use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
 /// A [`Tracer`] that schedules every generation over devices. See the module documentation
 /// of [`crate::scheduled`].
@@ -193,6 +193,11 @@ impl<'a> Tracer for ScheduledTracer<'a> {
         };
         self.log.push(stats);
         hits
+    }
+
+    /// Counts on the caller's threads: the cost image is an extra, unscheduled pass.
+    fn counts(&mut self, rays: &RayBatch) -> Option<Vec<Counts>> {
+        Some(closest_hits_counted(self.bvh, rays).1)
     }
 }
 
