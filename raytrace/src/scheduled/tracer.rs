@@ -22,6 +22,9 @@ pub struct ScheduledTracer<'a> {
     devices: Vec<Box<dyn RayDevice + 'a>>,
     settings: Settings,
     speeds: Vec<f64>,
+    /// Busy seconds behind `speeds`: each generation's measurement is blended in by its own
+    /// busy time, so a small, noisy generation cannot swing the plan of a large one.
+    speed_evidence: f64,
     retired: Vec<bool>,
     calibrations: Calibrations,
     log: Vec<GenerationStats>,
@@ -43,6 +46,7 @@ impl<'a> ScheduledTracer<'a> {
             devices,
             settings,
             speeds: vec![1.0; m],
+            speed_evidence: 0.0,
             retired: vec![false; m],
             calibrations: Calibrations::default(),
             log: Vec::new(),
@@ -258,8 +262,17 @@ impl ScheduledTracer<'_> {
                 self.calibrations.insert(&f.device, f.kind, f.fit.model);
             }
         }
-        for (i, &d) in active.iter().enumerate() {
-            self.speeds[d] = new[i];
+        let weight: f64 = report.metrics.busy.iter().sum();
+        let prior = self.speed_evidence;
+        if weight > 0.0 && weight.is_finite() {
+            for (i, &d) in active.iter().enumerate() {
+                self.speeds[d] = if prior == 0.0 {
+                    new[i]
+                } else {
+                    (prior * old[i] + weight * new[i]) / (prior + weight)
+                };
+            }
+            self.speed_evidence = prior + weight;
         }
         // Devices that failed are not planned for again; their speed is left as it was.
         for f in &report.failures {

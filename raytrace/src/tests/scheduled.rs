@@ -225,6 +225,19 @@ fn speeds_and_calibrations_are_measured_and_used() {
         assert_eq!(d1.speed, m);
     }
     assert!(stats[1].devices.iter().any(|d| d.speed != 1.0));
+    // Later measurements are blended in by busy time: the third plan lies between the second's
+    // speed and the second's measurement.
+    if stats.len() >= 3 {
+        for (d1, d2) in stats[1].devices.iter().zip(&stats[2].devices) {
+            if let Some(m) = d1.measured_speed {
+                let (lo, hi) = (d1.speed.min(m), d1.speed.max(m));
+                assert!(
+                    d2.speed >= lo - 1e-12 && d2.speed <= hi + 1e-12,
+                    "{d1:?} {d2:?}"
+                );
+            }
+        }
+    }
     for s in &stats {
         assert!(s.estimate_error.is_none());
         assert!(s.estimate_seconds > 0.0);
