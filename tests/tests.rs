@@ -28,3 +28,6 @@ mod tradeoff;
 
 // `cobalt estimate`: the JSON contract, exact estimates at full sampling, ray files, bad input.
 mod estimate;
+
+// `cobalt knn` and `cobalt collide`: the bench record shape, full sampling exact, bad input.
+mod spatial;
