@@ -1,11 +1,14 @@
 //! `cobalt`: cost-balanced scheduling of irregular workloads, from the command line.
 
 mod bench;
+mod collide;
 mod error;
 mod estimate;
 mod input;
+mod knn;
 mod render;
 mod schedule;
+mod spatial;
 mod trace;
 mod tradeoff;
 
@@ -29,6 +32,10 @@ enum Command {
     Bench(bench::Args),
     /// Render a scene (Whitted or AO) to a PNG, with an optional cost image and JSON report.
     Render(render::Args),
+    /// k-nearest-neighbour batches (kiddo) balanced in regular and cost mode; table or JSON.
+    Knn(knn::Args),
+    /// Contacts of many bodies (parry3d) balanced in regular and cost mode; table or JSON.
+    Collide(collide::Args),
     /// Estimate task costs by the reduced traversal of sampled rays; report error and overhead.
     Estimate(estimate::Args),
     /// Plan task costs on devices with a policy; print makespan, lower bound and assignment.
@@ -45,6 +52,8 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench::run(args),
         Command::Render(args) => render::run(args),
         Command::Estimate(args) => estimate::run(args),
+        Command::Knn(args) => knn::run(args),
+        Command::Collide(args) => collide::run(args),
         Command::Schedule(args) => schedule::run(args),
         Command::Trace(args) => trace::run(args),
         Command::Tradeoff(args) => tradeoff::run(args),

@@ -31,3 +31,6 @@ mod estimate;
 
 // `cobalt bench`: the run records, simulated records and charts it writes; bad values.
 mod bench;
+
+// `cobalt knn` and `cobalt collide`: the bench record shape, full sampling exact, bad input.
+mod spatial;

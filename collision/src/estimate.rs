@@ -1,0 +1,84 @@
+use std::ops::Range;
+
+use sched::CostEstimator;
+
+use crate::{CollisionError, World, broad};
+
+/// A narrow-phase test costs about this many BVH node tests (GJK/EPA or a specialised
+/// contact against a box test): the weight of a candidate against a node in the cost.
+pub const CANDIDATE_WEIGHT: f64 = 20.0;
+
+/// Share of each task's bodies the estimator looks at, in (0, 1].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampleRate(f64);
+
+impl SampleRate {
+    /// Checks the rate.
+    pub fn new(rate: f64) -> Result<Self, CollisionError> {
+        if rate > 0.0 && rate <= 1.0 {
+            Ok(SampleRate(rate))
+        } else {
+            Err(CollisionError::BadSampleRate(rate))
+        }
+    }
+
+    /// The rate.
+    pub fn get(self) -> f64 {
+        self.0
+    }
+
+    /// Every `stride`-th body of a task is sampled (at least its first).
+    pub fn stride(self) -> usize {
+        ((1.0 / self.0).round() as usize).max(1)
+    }
+}
+
+/// The thesis's estimator for collision: the broad phase of a sample of each task's bodies,
+/// counting BVH nodes `B` and candidate pairs `N` without any narrow phase, `C = B + w·N`,
+/// scaled to the task. Swarms make `N` vary by orders of magnitude between tasks.
+#[derive(Debug, Clone, Copy)]
+pub struct BroadPhaseCount<'a> {
+    world: &'a World,
+    rate: SampleRate,
+}
+
+impl<'a> BroadPhaseCount<'a> {
+    /// An estimator over `world` sampling at `rate`.
+    pub fn new(world: &'a World, rate: SampleRate) -> Self {
+        BroadPhaseCount { world, rate }
+    }
+
+    /// The estimate of one task.
+    pub fn task_work(&self, task: &Range<usize>) -> f64 {
+        if task.is_empty() {
+            return 0.0;
+        }
+        let (mut sum, mut sampled) = (0.0, 0usize);
+        for i in task.clone().step_by(self.rate.stride()) {
+            let w = broad::count(self.world, i);
+            sum += w.nodes + CANDIDATE_WEIGHT * w.candidates;
+            sampled += 1;
+        }
+        sum * task.len() as f64 / sampled as f64
+    }
+}
+
+impl CostEstimator<Range<usize>> for BroadPhaseCount<'_> {
+    fn estimate(&self, tasks: &[Range<usize>]) -> Vec<f64> {
+        tasks.iter().map(|t| self.task_work(t)).collect()
+    }
+}
+
+/// The thesis's prediction error: Σ|estimated − full| / Σ full. `None` if `full` sums to 0
+/// or the lengths differ.
+pub fn prediction_error(estimated: &[f64], full: &[f64]) -> Option<f64> {
+    let total: f64 = full.iter().sum();
+    (estimated.len() == full.len() && total > 0.0).then(|| {
+        estimated
+            .iter()
+            .zip(full)
+            .map(|(e, f)| (e - f).abs())
+            .sum::<f64>()
+            / total
+    })
+}

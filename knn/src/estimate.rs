@@ -1,0 +1,154 @@
+use std::ops::Range;
+
+use std::time::Instant;
+
+use sched::CostEstimator;
+
+use crate::{DensityGrid, KnnError, KnnIndex, KnnQueries};
+
+/// What a query costs beyond the points it examines, in the same unit: descending the tree
+/// and scanning the first leaf (kiddo's leaves hold 32 points).
+const DESCENT: f64 = 32.0;
+
+/// The tree search examines the leaves that straddle the k-th neighbour's sphere, not only
+/// the points inside it: count the points in a cube this much wider.
+const SHELL: f32 = 1.5;
+
+/// Share of each task's queries the estimator looks at, in (0, 1].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampleRate(f64);
+
+impl SampleRate {
+    /// Checks the rate.
+    pub fn new(rate: f64) -> Result<Self, KnnError> {
+        if rate > 0.0 && rate <= 1.0 {
+            Ok(SampleRate(rate))
+        } else {
+            Err(KnnError::BadSampleRate(rate))
+        }
+    }
+
+    /// The rate.
+    pub fn get(self) -> f64 {
+        self.0
+    }
+
+    /// Every `stride`-th query of a task is sampled (at least its first).
+    pub fn stride(self) -> usize {
+        ((1.0 / self.0).round() as usize).max(1)
+    }
+}
+
+/// Estimates a task's cost from a density grid, never touching the k-d tree: for each
+/// sampled query, the grid gives the half-width `r` of the cube expected to hold `k`
+/// points, and the points expected in that cube around the query stand for the points the
+/// tree search examines. A query inside a dense cluster examines about `k`; one in sparse
+/// space beside a cluster has a wide cube that reaches into the cluster and examines many
+/// (that is where kd-tree searches are slow). The sum over the sample is scaled to the task.
+///
+/// This plays the role of the thesis's reduced traversal: the same question (how much work
+/// will this query do?) answered on a coarser structure, without the expensive part
+/// (distance evaluations).
+#[derive(Debug, Clone)]
+pub struct DensityEstimator<'a> {
+    grid: &'a DensityGrid,
+    queries: &'a KnnQueries,
+    rate: SampleRate,
+}
+
+impl<'a> DensityEstimator<'a> {
+    /// An estimator over a grid of the cloud for a query batch.
+    pub fn new(grid: &'a DensityGrid, queries: &'a KnnQueries, rate: SampleRate) -> Self {
+        DensityEstimator {
+            grid,
+            queries,
+            rate,
+        }
+    }
+
+    /// The estimated work of one query, in points examined.
+    pub fn query_work(&self, q: &[f32; 3]) -> f64 {
+        let k = self.queries.k.get();
+        let r = self.grid.knn_half_width(q, k);
+        DESCENT + self.grid.points_in_cube(q, SHELL * r).max(k as f64)
+    }
+
+    /// The estimate of one task (a range of the sorted queries).
+    pub fn task_work(&self, task: &Range<usize>) -> f64 {
+        let points = &self.queries.points[task.clone()];
+        if points.is_empty() {
+            return 0.0;
+        }
+        let sampled: Vec<f64> = points
+            .iter()
+            .step_by(self.rate.stride())
+            .map(|q| self.query_work(q))
+            .collect();
+        sampled.iter().sum::<f64>() * points.len() as f64 / sampled.len() as f64
+    }
+}
+
+impl CostEstimator<Range<usize>> for DensityEstimator<'_> {
+    fn estimate(&self, tasks: &[Range<usize>]) -> Vec<f64> {
+        tasks.iter().map(|t| self.task_work(t)).collect()
+    }
+}
+
+/// Estimates a task's cost by running the real kiddo search for a sample of its queries and
+/// timing them, scaled to the task. Accurate (the rank correlation with measured task time
+/// is close to that of one measurement with another) but its overhead is the sample's share
+/// of the real work; the [`DensityEstimator`] is far cheaper and far less accurate.
+#[derive(Debug, Clone)]
+pub struct SampledQueries<'a> {
+    index: &'a KnnIndex,
+    queries: &'a KnnQueries,
+    rate: SampleRate,
+}
+
+impl<'a> SampledQueries<'a> {
+    /// An estimator that probes `index` with a sample of `queries`.
+    pub fn new(index: &'a KnnIndex, queries: &'a KnnQueries, rate: SampleRate) -> Self {
+        SampledQueries {
+            index,
+            queries,
+            rate,
+        }
+    }
+}
+
+impl CostEstimator<Range<usize>> for SampledQueries<'_> {
+    fn estimate(&self, tasks: &[Range<usize>]) -> Vec<f64> {
+        let mut out = Vec::with_capacity(self.queries.k.get());
+        tasks
+            .iter()
+            .map(|t| {
+                let points = &self.queries.points[t.clone()];
+                let start = Instant::now();
+                let mut sampled = 0;
+                for q in points.iter().step_by(self.rate.stride()) {
+                    self.index.nearest(q, self.queries.k, &mut out);
+                    out.clear();
+                    sampled += 1;
+                }
+                // Seconds of one device thread for the whole task.
+                let seconds = start.elapsed().as_secs_f64();
+                seconds * points.len() as f64 / f64::from(sampled.max(1))
+            })
+            .collect()
+    }
+}
+
+/// The thesis's prediction error: Σ|estimated − full| / Σ full, where "full" is the same
+/// estimator over every query (so sampling everything gives 0). `None` if `full` sums to 0
+/// or the lengths differ.
+pub fn prediction_error(estimated: &[f64], full: &[f64]) -> Option<f64> {
+    let total: f64 = full.iter().sum();
+    (estimated.len() == full.len() && total > 0.0).then(|| {
+        estimated
+            .iter()
+            .zip(full)
+            .map(|(e, f)| (e - f).abs())
+            .sum::<f64>()
+            / total
+    })
+}

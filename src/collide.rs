@@ -1,0 +1,105 @@
+//! `cobalt collide`: contacts of many moving bodies (parry3d) with each other and a static
+//! mesh, balanced over CPU devices in regular and cost mode.
+
+use std::path::PathBuf;
+
+use collision::{
+    BroadPhaseCount, Device, SampleRate, Swarms, World, random_bodies, scene_mesh, terrain,
+};
+use sched::{CostEstimator, Policy};
+
+use crate::error::CliError;
+use crate::spatial::{Workload, check_args, measure, tables};
+
+/// Arguments of `cobalt collide`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Moving bodies (balls, cuboids, convex hulls), half of them in swarms.
+    #[arg(long, default_value_t = 20_000)]
+    bodies: usize,
+    /// Use this OBJ scene, scaled into the unit cube, as the static mesh.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Quads per side of the built-in terrain (two triangles each).
+    #[arg(long, default_value_t = 128)]
+    terrain: usize,
+    /// Bodies per task.
+    #[arg(long, default_value_t = 128)]
+    task_size: usize,
+    /// Share of each task's bodies whose broad phase the estimator counts, in (0, 1].
+    #[arg(long, default_value_t = 0.125)]
+    sample_rate: f64,
+    /// One policy instead of all five.
+    #[arg(long)]
+    policy: Option<Policy>,
+    /// Real CPU devices (threads).
+    #[arg(long, default_value_t = 2)]
+    devices: usize,
+    /// Seed of the bodies.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print the report as one JSON object instead of tables.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> Result<(), CliError> {
+    check_args(
+        args.sample_rate,
+        &[
+            ("bodies", args.bodies),
+            ("terrain", args.terrain),
+            ("task-size", args.task_size),
+            ("devices", args.devices),
+        ],
+    )?;
+    let (mesh, source) = match &args.scene {
+        Some(path) => (
+            scene_mesh(path).map_err(|e| CliError::Arg {
+                flag: "scene",
+                value: path.display().to_string(),
+                message: e.to_string(),
+            })?,
+            path.display().to_string(),
+        ),
+        None => (
+            terrain(args.terrain).map_err(|e| CliError::Write(e.to_string()))?,
+            format!("terrain {}", args.terrain),
+        ),
+    };
+    let world = World::new(
+        random_bodies(args.bodies, Swarms::default(), args.seed),
+        mesh,
+    );
+    let world = &world;
+    let work = Workload {
+        name: format!(
+            "collide {} bodies vs {source} ({} triangles)",
+            world.len(),
+            world.mesh.num_triangles()
+        ),
+        items: world.len(),
+        task_size: args.task_size,
+        tasks: sched::split_ranges(world.len(), args.task_size),
+        estimate: Box::new(move |rate| {
+            let rate = SampleRate::new(rate).map_err(|e| CliError::Arg {
+                flag: "sample-rate",
+                value: rate.to_string(),
+                message: e.to_string(),
+            })?;
+            let tasks = sched::split_ranges(world.len(), args.task_size);
+            let e = BroadPhaseCount::new(world, rate).estimate_timed(&tasks)?;
+            Ok((e.costs.as_slice().to_vec(), e.seconds))
+        }),
+        devices: Box::new(move |n| Device::many(world, n)),
+        check: Box::new(|_| Ok(())),
+    };
+    let policies = args.policy.map_or(Policy::ALL.to_vec(), |p| vec![p]);
+    let report = measure(&work, &policies, args.devices, args.sample_rate)?;
+    if args.json {
+        crate::print_json(&report)
+    } else {
+        crate::print_text(&format!("{}\n\n{}", work.name, tables(&report)))
+    }
+}

@@ -1,0 +1,142 @@
+//! `cobalt knn`: batched k-nearest-neighbour queries (kiddo) on a clustered cloud or a
+//! scene's vertices, balanced over CPU devices in regular and cost mode.
+
+use std::path::PathBuf;
+
+use knn::{
+    Clustered, DensityEstimator, DensityGrid, Device, KnnIndex, KnnQueries, PointCloud, SampleRate,
+    SampledQueries,
+};
+use sched::{CostEstimator, Policy};
+
+use crate::error::CliError;
+use crate::spatial::{Workload, check_args, measure, tables};
+
+/// Arguments of `cobalt knn`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Points in the generated cloud (ignored with --scene).
+    #[arg(long, default_value_t = 200_000)]
+    points: usize,
+    /// Use the vertices of this OBJ scene as the cloud.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Query points: half near the data, half uniform in its bounding box.
+    #[arg(long, default_value_t = 100_000)]
+    queries: usize,
+    /// Neighbours per query.
+    #[arg(long, default_value_t = 16)]
+    k: usize,
+    /// Queries per task.
+    #[arg(long, default_value_t = 1024)]
+    task_size: usize,
+    /// Share of each task's queries the estimator looks at, in (0, 1].
+    #[arg(long, default_value_t = 0.125)]
+    sample_rate: f64,
+    /// `density` (a density grid, no search: cheap, deterministic, rough) or `probe` (times
+    /// the real search of sampled queries: better ranks, timing noise, costlier).
+    #[arg(long, default_value = "density")]
+    estimator: String,
+    /// One policy instead of all five.
+    #[arg(long)]
+    policy: Option<Policy>,
+    /// Real CPU devices (threads).
+    #[arg(long, default_value_t = 2)]
+    devices: usize,
+    /// Seed of the cloud and the queries.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print the report as one JSON object instead of tables.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> Result<(), CliError> {
+    check_args(
+        args.sample_rate,
+        &[
+            ("points", args.points),
+            ("queries", args.queries),
+            ("k", args.k),
+            ("task-size", args.task_size),
+            ("devices", args.devices),
+        ],
+    )?;
+    let density = match args.estimator.as_str() {
+        "probe" => false,
+        "density" => true,
+        other => {
+            return Err(CliError::Arg {
+                flag: "estimator",
+                value: other.into(),
+                message: "expected probe or density".into(),
+            });
+        }
+    };
+    let knn_err = |flag: &'static str, value: String| {
+        move |e: knn::KnnError| CliError::Arg {
+            flag,
+            value,
+            message: e.to_string(),
+        }
+    };
+    let (cloud, source) = match &args.scene {
+        Some(path) => (
+            PointCloud::from_scene(path).map_err(knn_err("scene", path.display().to_string()))?,
+            path.display().to_string(),
+        ),
+        None => (
+            PointCloud::clustered(args.points, Clustered::default(), args.seed),
+            "clustered".to_string(),
+        ),
+    };
+    let queries = cloud.queries(args.queries, args.seed);
+    let index =
+        KnnIndex::build(cloud.points).map_err(knn_err("points", args.points.to_string()))?;
+    let batch =
+        KnnQueries::new(queries, args.k, &index).map_err(knn_err("k", args.k.to_string()))?;
+    let grid = DensityGrid::new(index.points(), 64);
+    let (index, batch, grid) = (&index, &batch, &grid);
+    let k = args.k;
+    let work = Workload {
+        name: format!(
+            "knn {source} ({} points, k {k}, {} estimator)",
+            index.points().len(),
+            args.estimator
+        ),
+        items: batch.len(),
+        task_size: args.task_size,
+        tasks: sched::split_ranges(batch.len(), args.task_size),
+        estimate: Box::new(move |rate| {
+            let rate = SampleRate::new(rate).map_err(knn_err("sample-rate", rate.to_string()))?;
+            let tasks = sched::split_ranges(batch.len(), args.task_size);
+            let e = if density {
+                DensityEstimator::new(grid, batch, rate).estimate_timed(&tasks)?
+            } else {
+                SampledQueries::new(index, batch, rate).estimate_timed(&tasks)?
+            };
+            Ok((e.costs.as_slice().to_vec(), e.seconds))
+        }),
+        devices: Box::new(move |n| Device::many(index, batch, n)),
+        check: Box::new(move |outputs| {
+            let got = batch.gather(outputs);
+            // Spot-check a few queries against brute force: the property tests check all.
+            for i in (0..batch.len()).step_by((batch.len() / 7).max(1)) {
+                let q = &batch.points[i];
+                let input = batch.order[i] as usize;
+                if !knn::reference::is_knn(index.points(), q, k, &got[input * k..(input + 1) * k]) {
+                    return Err(CliError::Write(format!("query {input}: wrong neighbours")));
+                }
+            }
+            Ok(())
+        }),
+    };
+    let policies = args.policy.map_or(Policy::ALL.to_vec(), |p| vec![p]);
+    let report = measure(&work, &policies, args.devices, args.sample_rate)?;
+    if args.json {
+        crate::print_json(&report)
+    } else {
+        crate::print_text(&format!("{}\n\n{}", work.name, tables(&report)))
+    }
+}
