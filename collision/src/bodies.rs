@@ -2,7 +2,7 @@ use parry3d::bounding_volume::Aabb;
 use parry3d::math::{Pose, Vector};
 use parry3d::shape::SharedShape;
 
-use crate::Rng;
+use raytrace::Rng;
 
 /// One moving body at its current pose.
 #[derive(Clone)]
@@ -64,24 +64,24 @@ pub fn random_bodies(n: usize, spec: Swarms, seed: u64) -> Vec<Body> {
     let centres: Vec<[f32; 3]> = (0..spec.swarms.max(1))
         .map(|_| {
             [
-                0.2 + 0.6 * rng.unit(),
-                0.2 + 0.6 * rng.unit(),
-                0.1 + 0.5 * rng.unit(),
+                0.2 + 0.6 * rng.f32(),
+                0.2 + 0.6 * rng.f32(),
+                0.1 + 0.5 * rng.f32(),
             ]
         })
         .collect();
     (0..n)
         .map(|i| {
-            let p = if spec.swarms > 0 && rng.unit() < spec.crowded {
-                let c = centres[rng.below(centres.len())];
+            let p = if spec.swarms > 0 && rng.f32() < spec.crowded {
+                let c = centres[rng.below(centres.len() as u32) as usize];
                 c.map(|x| x + spec.sigma * rng.normal())
             } else {
-                [rng.unit(), rng.unit(), rng.unit()]
+                [rng.f32(), rng.f32(), rng.f32()]
             };
-            let s = spec.size * (0.5 + rng.unit());
+            let s = spec.size * (0.5 + rng.f32());
             let shape = match i % 3 {
                 0 => SharedShape::ball(s),
-                1 => SharedShape::cuboid(s, 0.5 * s + s * rng.unit(), s * rng.unit() + 0.2 * s),
+                1 => SharedShape::cuboid(s, 0.5 * s + s * rng.f32(), s * rng.f32() + 0.2 * s),
                 _ => {
                     let pts: Vec<Vector> = (0..8)
                         .map(|_| Vector::new(rng.normal(), rng.normal(), rng.normal()) * s)

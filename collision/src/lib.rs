@@ -31,9 +31,7 @@ mod broad;
 mod error;
 mod estimate;
 mod mesh;
-mod morton;
 mod narrow;
-mod rng;
 mod task;
 mod world;
 
@@ -43,6 +41,6 @@ pub use error::CollisionError;
 pub use estimate::{BroadPhaseCount, CANDIDATE_WEIGHT, SampleRate, prediction_error};
 pub use mesh::{scene_mesh, terrain};
 pub use narrow::{Pair, bodies_touch, brute_force, touches_triangle};
-pub use rng::Rng;
+pub use raytrace::Rng;
 pub use task::Device;
 pub use world::World;

@@ -1,6 +1,7 @@
 use std::path::Path;
 
-use crate::{KnnError, Rng};
+use crate::KnnError;
+use raytrace::Rng;
 
 /// Points in 3D.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -38,16 +39,16 @@ impl PointCloud {
         let mut rng = Rng::new(seed);
         let centres: Vec<([f32; 3], f32)> = (0..spec.clusters.max(1))
             .map(|_| {
-                let c = [0.0; 3].map(|_: f32| 0.15 + 0.7 * rng.unit());
-                (c, spec.sigma * 10f32.powf(-rng.unit()))
+                let c = [0.0; 3].map(|_: f32| 0.15 + 0.7 * rng.f32());
+                (c, spec.sigma * 10f32.powf(-rng.f32()))
             })
             .collect();
         let points = (0..n)
             .map(|_| {
-                if spec.clusters == 0 || rng.unit() < spec.noise {
-                    [0.0; 3].map(|_: f32| rng.unit())
+                if spec.clusters == 0 || rng.f32() < spec.noise {
+                    [0.0; 3].map(|_: f32| rng.f32())
                 } else {
-                    let (c, s) = centres[rng.below(centres.len())];
+                    let (c, s) = centres[rng.below(centres.len() as u32) as usize];
                     c.map(|x| (x + s * rng.normal()).clamp(0.0, 1.0))
                 }
             })
@@ -59,7 +60,7 @@ impl PointCloud {
     pub fn uniform(n: usize, seed: u64) -> Self {
         let mut rng = Rng::new(seed);
         PointCloud {
-            points: (0..n).map(|_| [0.0; 3].map(|_: f32| rng.unit())).collect(),
+            points: (0..n).map(|_| [0.0; 3].map(|_: f32| rng.f32())).collect(),
         }
     }
 
@@ -80,15 +81,15 @@ impl PointCloud {
     /// clusters, whose neighbours are far and costly to find).
     pub fn queries(&self, n: usize, seed: u64) -> Vec<[f32; 3]> {
         let mut rng = Rng::new(seed ^ 0x5151_5151);
-        let (lo, hi) = crate::morton::bounds(&self.points);
+        let (lo, hi) = raytrace::morton::bounds(&self.points);
         let jitter = 1e-3 * (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f32::max);
         (0..n)
             .map(|i| {
                 if i % 2 == 0 && !self.points.is_empty() {
-                    let p = self.points[rng.below(self.points.len())];
+                    let p = self.points[rng.below(self.points.len() as u32) as usize];
                     p.map(|x| x + jitter * rng.normal())
                 } else {
-                    [0, 1, 2].map(|a| lo[a] + (hi[a] - lo[a]) * rng.unit())
+                    [0, 1, 2].map(|a| lo[a] + (hi[a] - lo[a]) * rng.f32())
                 }
             })
             .collect()

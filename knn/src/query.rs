@@ -63,7 +63,7 @@ impl KnnQueries {
             .filter(|k| k.get() <= points)
             .ok_or(KnnError::BadK { k, points })?;
         check_finite(&queries)?;
-        let order = crate::morton::morton_order(&queries);
+        let order = raytrace::morton::morton_order(&queries);
         Ok(KnnQueries {
             points: order.iter().map(|&i| queries[i as usize]).collect(),
             order,

@@ -37,6 +37,7 @@ pub mod cpu;
 pub mod devices;
 mod error;
 pub mod film;
+pub mod morton;
 mod obj;
 mod packet;
 mod ray;

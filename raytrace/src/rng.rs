@@ -40,6 +40,13 @@ impl Rng {
         (((self.next_u64() >> 32) * n as u64) >> 32) as u32
     }
 
+    /// Standard normal, by Box–Muller.
+    pub fn normal(&mut self) -> f32 {
+        let u = 1.0 - self.f32(); // (0, 1]: ln stays finite
+        let v = self.f32();
+        (-2.0 * u.ln()).sqrt() * (std::f32::consts::TAU * v).cos()
+    }
+
     /// A uniformly distributed unit vector.
     pub fn unit_vector(&mut self) -> glam::Vec3 {
         let z = self.range(-1.0, 1.0);

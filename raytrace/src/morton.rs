@@ -1,3 +1,6 @@
+//! Morton (Z-curve) order of 3D points, so that consecutive queries or bodies, and the tasks
+//! cut from them, are spatially coherent, as the primary rays of [`crate::camera`] are.
+
 /// Spreads the low 10 bits of `v` to every third bit.
 fn spread(v: u32) -> u32 {
     let mut x = v & 0x3FF;
