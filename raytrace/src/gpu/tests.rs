@@ -201,3 +201,44 @@ fn splits_launches_and_names_the_limit() {
             .is_empty()
     );
 }
+
+/// Throughput on the first adapter against the CPU (all cores), for forest primary and AO
+/// rays: `cargo test -p raytrace --features gpu --lib gpu::tests::throughput -- --ignored
+/// --nocapture`. GPU time includes the rays' upload and the results' read-back.
+#[test]
+#[ignore = "a measurement, not a check"]
+fn throughput() {
+    let Some(ctx) = gpu() else { return };
+    let name = ctx.info.name.clone();
+    let scene = SceneSource::parse("builtin:forest")
+        .and_then(|s| s.load(SceneNeeds::AO))
+        .expect("built-in scene");
+    let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+    let dev = GpuDevice::new(ctx, &bvh).expect("upload");
+    let primary = workload::thesis_primary(&scene, 512, 512, [0]);
+    let ao = workload::thesis_ao(&scene, &bvh, 256, 256, 0, 8).rays;
+    for (what, rays, any) in [("primary", &primary, false), ("ao", &ao, true)] {
+        let all = 0..rays.len();
+        dev.hits(any, rays, &[&all]).expect("warm-up");
+        let t = std::time::Instant::now();
+        let g = dev.hits(any, rays, &[&all]).expect("GPU");
+        let gpu_s = t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        let c = if any {
+            traverse::any_hits(&bvh, rays)
+        } else {
+            traverse::closest_hits(&bvh, rays)
+        };
+        let cpu_s = t.elapsed().as_secs_f64();
+        let same = (0..rays.len()).filter(|&i| g.prim[i] == c.prim[i]).count();
+        eprintln!(
+            "forest {} tris, {what}: {} rays; GPU ({name}) {:.2} MRays/s, CPU ({} threads) \
+             {:.2} MRays/s; same ids {same}",
+            scene.len(),
+            rays.len(),
+            rays.len() as f64 / gpu_s / 1e6,
+            rayon::current_num_threads(),
+            rays.len() as f64 / cpu_s / 1e6,
+        );
+    }
+}
