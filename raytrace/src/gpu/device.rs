@@ -1,6 +1,7 @@
 //! One GPU adapter as a device of the scheduler.
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use sched::{DeviceError, Sink};
 
@@ -8,7 +9,7 @@ use crate::scheduled::RayDevice;
 use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
 use super::buffers::{SceneBuffers, pack_rays};
-use super::pipeline::{GpuMode, Kernels, launch};
+use super::pipeline::{GpuMode, Kernels, launch, launch_timed};
 use super::{GpuContext, GpuError};
 
 /// Why a GPU device refused a task: a range outside the generation.
@@ -33,6 +34,8 @@ pub struct GpuDevice {
     ctx: GpuContext,
     kernels: Kernels,
     scene: SceneBuffers,
+    /// The last launch's GPU seconds as `f64` bits; NaN when unknown.
+    last_seconds: AtomicU64,
 }
 
 impl GpuDevice {
@@ -48,7 +51,14 @@ impl GpuDevice {
             ctx,
             kernels,
             scene,
+            last_seconds: AtomicU64::new(f64::NAN.to_bits()),
         })
+    }
+
+    /// The GPU time of the last hit launch in seconds, from timestamp queries; `None` where
+    /// the device has none (or before the first launch).
+    pub fn last_gpu_seconds(&self) -> Option<f64> {
+        Some(f64::from_bits(self.last_seconds.load(Ordering::Relaxed))).filter(|s| !s.is_nan())
     }
 
     /// The opened adapter.
@@ -88,7 +98,9 @@ impl GpuDevice {
             GpuMode::Closest
         };
         let packed = pack_rays(rays, ranges);
-        let out = launch(&self.ctx, &self.kernels, &self.scene, &packed, mode)?;
+        let (out, seconds) = launch_timed(&self.ctx, &self.kernels, &self.scene, &packed, mode)?;
+        self.last_seconds
+            .store(seconds.unwrap_or(f64::NAN).to_bits(), Ordering::Relaxed);
         Ok(HitBatch {
             t: out.iter().map(|r| f32::from_bits(r[0])).collect(),
             prim: out.iter().map(|r| r[1]).collect(),

@@ -159,18 +159,36 @@ pub fn launch(
     rays: &[GpuRay],
     mode: GpuMode,
 ) -> Result<Vec<[u32; 2]>, GpuError> {
+    Ok(launch_timed(ctx, kernels, scene, rays, mode)?.0)
+}
+
+/// [`launch`], also returning the kernels' GPU time in seconds (from timestamp queries, summed
+/// over the dispatch rounds) where the device has them.
+///
+/// # Errors
+/// As [`launch`].
+pub fn launch_timed(
+    ctx: &GpuContext,
+    kernels: &Kernels,
+    scene: &SceneBuffers,
+    rays: &[GpuRay],
+    mode: GpuMode,
+) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     if scene.empty {
         let none = match mode {
             GpuMode::Reduced => [0, 0],
             _ => [f32::INFINITY.to_bits(), u32::MAX],
         };
-        return Ok(vec![none; rays.len()]);
+        return Ok((vec![none; rays.len()], None));
     }
     let mut out = Vec::with_capacity(rays.len());
+    let mut seconds = ctx.timestamps.then_some(0.0);
     for chunk in rays.chunks(rays_per_launch(&ctx.limits)) {
-        out.extend(launch_one(ctx, kernels, scene, chunk, mode)?);
+        let (r, s) = launch_one(ctx, kernels, scene, chunk, mode)?;
+        out.extend(r);
+        seconds = seconds.zip(s).map(|(a, b)| a + b);
     }
-    Ok(out)
+    Ok((out, seconds))
 }
 
 fn launch_one(
@@ -179,9 +197,9 @@ fn launch_one(
     scene: &SceneBuffers,
     rays: &[GpuRay],
     mode: GpuMode,
-) -> Result<Vec<[u32; 2]>, GpuError> {
+) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     if rays.is_empty() {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), Some(0.0)));
     }
     let device = &ctx.device;
     let name = ctx.info.name.as_str();
@@ -211,7 +229,7 @@ fn launch_one(
     });
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("cobalt results read-back"),
-        size: out_bytes + 8,
+        size: out_bytes + 8 + 16,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
@@ -250,14 +268,39 @@ fn launch_one(
     let workgroups = batches.div_ceil(BATCHES).clamp(1, max_wg);
     let per_dispatch = u64::from(workgroups) * u64::from(BATCHES) * 64;
     let mut dispatches = u64::from(n).div_ceil(per_dispatch);
+    // Timestamps at the start of the first pass and the end of the last, per round.
+    let timing = ctx.timestamps.then(|| {
+        let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("cobalt traverse timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2,
+        });
+        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cobalt timestamps resolved"),
+            size: 16,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        (set, resolve)
+    });
+    let period = f64::from(ctx.queue.get_timestamp_period());
+    let mut gpu_seconds = 0.0;
     loop {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("cobalt traverse commands"),
         });
-        for _ in 0..dispatches {
+        for k in 0..dispatches {
+            let timestamp_writes =
+                timing
+                    .as_ref()
+                    .map(|(set, _)| wgpu::ComputePassTimestampWrites {
+                        query_set: set,
+                        beginning_of_pass_write_index: (k == 0).then_some(0),
+                        end_of_pass_write_index: (k + 1 == dispatches).then_some(1),
+                    });
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("cobalt traverse pass"),
-                timestamp_writes: None,
+                timestamp_writes,
             });
             pass.set_pipeline(&kernels.pipelines[mode.index()]);
             pass.set_bind_group(0, &bind, &[]);
@@ -265,10 +308,18 @@ fn launch_one(
         }
         encoder.copy_buffer_to_buffer(&out_buf, 0, &readback, 0, out_bytes);
         encoder.copy_buffer_to_buffer(&queue_buf, 0, &readback, out_bytes, 8);
+        if let Some((set, resolve)) = &timing {
+            encoder.resolve_query_set(set, 0..2, resolve, 0);
+            encoder.copy_buffer_to_buffer(resolve, 0, &readback, out_bytes + 8, 16);
+        }
         ctx.queue.submit([encoder.finish()]);
         let bytes = read_back(device, name, &readback)?;
-        let (results, status) = bytes.split_at(bytes.len() - 8);
+        let (rest, stamps) = bytes.split_at(bytes.len() - 16);
+        let (results, status) = rest.split_at(rest.len() - 8);
         let status: [u32; 2] = bytemuck::pod_read_unaligned(status);
+        let stamps: [u64; 2] = bytemuck::pod_read_unaligned(stamps);
+        // Ticks to seconds; a counter that went backwards (a reset) counts as nothing.
+        gpu_seconds += stamps[1].saturating_sub(stamps[0]) as f64 * period * 1e-9;
         if status[1] != 0 {
             return Err(GpuError::LoopCut {
                 adapter: name.to_string(),
@@ -276,7 +327,8 @@ fn launch_one(
             });
         }
         if status[0] >= n {
-            return Ok(bytemuck::pod_collect_to_vec(results));
+            let seconds = timing.is_some().then_some(gpu_seconds);
+            return Ok((bytemuck::pod_collect_to_vec(results), seconds));
         }
         // Some workgroups stopped early: dispatch again for what is left.
         dispatches = u64::from(n - status[0]).div_ceil(per_dispatch).max(1);

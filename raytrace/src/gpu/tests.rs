@@ -126,6 +126,10 @@ fn check_scene(name: &str, seed: u64) {
     let dev = GpuDevice::new(ctx, &bvh).expect("upload");
     let all = 0..n;
     let closest = dev.hits(false, &rays, &[&all]).expect("GPU closest hits");
+    // Timestamp queries time the kernels where the device has them.
+    let seconds = dev.last_gpu_seconds();
+    assert_eq!(seconds.is_some(), dev.context().timestamps);
+    assert!(seconds.is_none_or(|s| s > 0.0 && s < 10.0), "{seconds:?}");
     assert_same_hits(
         &format!("{name} closest"),
         &traverse::closest_hits(&bvh, &rays),

@@ -312,7 +312,12 @@ fn cpu_and_gpu_render_the_cpu_image() {
                 .filter(|d| d.name == "gpu0")
                 .map(|d| d.tasks)
                 .sum();
-            assert!(gpu_tasks > 0, "{what}: the GPU traced nothing");
+            // A static plan gives the GPU tasks from the first generation on (speeds start
+            // equal); a queue may be drained by the CPU before a slow GPU starts.
+            assert!(
+                gpu_tasks > 0 || policy != Policy::StaticLpt,
+                "{what}: the GPU traced nothing"
+            );
         }
     }
     let fault = [FailAfter {
