@@ -73,7 +73,8 @@ pub struct Args {
     #[arg(long)]
     ao_distance: Option<String>,
     /// Devices: `cpu:N` (N devices of one thread), `cpu:N/T` (T threads each), several
-    /// comma-separated, or `cpu` (one device with every core). GPUs are not built yet.
+    /// comma-separated, or `cpu` (one device with every core); `gpu:all` or `gpu:K` adds wgpu
+    /// adapters (software ones only with `COBALT_GPU_SOFTWARE=1`).
     #[arg(long, default_value = "cpu:2")]
     devices: String,
     /// How tasks go to devices: static-equal, static-lpt (lpt), queue-fifo (fifo),
@@ -595,18 +596,14 @@ fn parse_point(flag: &'static str, text: &str) -> Result<Vec3, CliError> {
 }
 
 /// `--devices`: the list of [`raytrace::devices::parse_devices`], plus `cpu` alone for one
-/// device with every core (the former default). GPUs are refused until issue 5.
+/// device with every core (the former default). GPU entries (`gpu:all`, `gpu:K`) open wgpu
+/// adapters when the device list is built.
 fn parse_devices(text: &str) -> Result<Vec<DeviceSpec>, CliError> {
     let bad = |message: String| CliError::Arg {
         flag: "devices",
         value: text.to_string(),
         message,
     };
-    if text.split(',').any(|d| d.trim().starts_with("gpu")) {
-        return Err(bad(
-            "the GPU pipeline is not built yet (issue 5); use cpu:N or cpu:N/T".into(),
-        ));
-    }
     let specs = if text.trim() == "cpu" {
         let cores = std::thread::available_parallelism().map_or(1, usize::from);
         vec![DeviceSpec::Cpu {

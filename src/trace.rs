@@ -17,7 +17,8 @@ const RAY_BYTES: usize = 32;
 pub enum Device {
     /// All CPU cores (rayon).
     Cpu,
-    /// The wgpu pipeline (issue 5; not built yet).
+    /// The first usable GPU adapter (wgpu; software adapters only with
+    /// `COBALT_GPU_SOFTWARE=1`).
     Gpu,
 }
 
@@ -53,6 +54,9 @@ struct Report {
     triangles: usize,
     preset: String,
     device: &'static str,
+    /// The GPU adapter's name with `--device gpu`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    adapter: Option<String>,
     any_hit: bool,
     rays: usize,
     hits: usize,
@@ -67,13 +71,6 @@ struct Report {
 
 /// Runs the command: every input is read and checked before anything is written.
 pub fn run(args: Args) -> Result<(), CliError> {
-    if args.device == Device::Gpu {
-        return Err(CliError::Arg {
-            flag: "device",
-            value: "gpu".into(),
-            message: "the GPU pipeline is not built yet (issue 5); use --device cpu".into(),
-        });
-    }
     let preset: BuildPreset = args.preset.parse().map_err(|e: String| CliError::Arg {
         flag: "preset",
         value: args.preset.clone(),
@@ -85,20 +82,29 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let rays = read_rays(&args.rays)?;
     let bvh = Bvh::build(&scene, preset)?;
 
-    let tracing = Instant::now();
-    let hits = if args.any_hit {
-        traverse::any_hits(&bvh, &rays)
-    } else {
-        traverse::closest_hits(&bvh, &rays)
+    let (hits, seconds, adapter) = match args.device {
+        Device::Cpu => {
+            let tracing = Instant::now();
+            let hits = if args.any_hit {
+                traverse::any_hits(&bvh, &rays)
+            } else {
+                traverse::closest_hits(&bvh, &rays)
+            };
+            (hits, tracing.elapsed().as_secs_f64(), None)
+        }
+        Device::Gpu => gpu_trace(&bvh, &rays, args.any_hit)?,
     };
-    let seconds = tracing.elapsed().as_secs_f64();
     crate::write_file(&args.out, &encode_hits(&hits))?;
 
     let report = Report {
         scene: args.scene.clone(),
         triangles: scene.len(),
         preset: args.preset.clone(),
-        device: "cpu",
+        device: match args.device {
+            Device::Cpu => "cpu",
+            Device::Gpu => "gpu",
+        },
+        adapter,
         any_hit: args.any_hit,
         rays: rays.len(),
         hits: hits.prim.iter().filter(|&&p| p != u32::MAX).count(),
@@ -124,6 +130,43 @@ pub fn run(args: Args) -> Result<(), CliError> {
             report.build_seconds
         ))
     }
+}
+
+/// Traces on the first usable GPU adapter: hits, seconds (upload, kernels and read-back of
+/// the rays; the BVH upload and kernel compilation excluded) and the adapter's name.
+#[cfg(feature = "gpu")]
+fn gpu_trace(
+    bvh: &Bvh,
+    rays: &RayBatch,
+    any_hit: bool,
+) -> Result<(HitBatch, f64, Option<String>), CliError> {
+    use raytrace::devices::GpuSelect;
+    use raytrace::gpu::{GpuContext, GpuDevice, GpuOptions};
+    let gpu_err = |e: raytrace::gpu::GpuError| CliError::Arg {
+        flag: "device",
+        value: "gpu".into(),
+        message: e.to_string(),
+    };
+    let ctx = GpuContext::open(GpuSelect::All, GpuOptions::from_env())
+        .map_err(gpu_err)?
+        .swap_remove(0);
+    let name = ctx.info.name.clone();
+    let dev = GpuDevice::new(ctx, bvh).map_err(gpu_err)?;
+    let tracing = Instant::now();
+    let hits = dev
+        .hits(any_hit, rays, &[&(0..rays.len())])
+        .map_err(gpu_err)?;
+    Ok((hits, tracing.elapsed().as_secs_f64(), Some(name)))
+}
+
+/// Without the `gpu` feature, `--device gpu` is refused.
+#[cfg(not(feature = "gpu"))]
+fn gpu_trace(_: &Bvh, _: &RayBatch, _: bool) -> Result<(HitBatch, f64, Option<String>), CliError> {
+    Err(CliError::Arg {
+        flag: "device",
+        value: "gpu".into(),
+        message: "this cobalt was built without the `gpu` feature".into(),
+    })
 }
 
 /// Reads and checks a ray file; the error names the file, the ray and the bad value.

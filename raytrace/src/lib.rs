@@ -37,6 +37,8 @@ pub mod cpu;
 pub mod devices;
 mod error;
 pub mod film;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod morton;
 mod obj;
 mod packet;

@@ -1,5 +1,6 @@
 //! The one place where a `--devices` list becomes devices: CPU entries become [`CpuDevice`]s,
-//! numbered in list order; GPU entries are refused until the wgpu pipeline exists (issue 5).
+//! numbered in list order; GPU entries become `crate::gpu::GpuDevice`s, one per adapter,
+//! named `gpu{K}` after the adapter's index (with the `gpu` feature).
 
 use crate::cpu::CpuDevice;
 use crate::devices::DeviceSpec;
@@ -17,47 +18,112 @@ pub struct FailAfter {
 }
 
 /// The devices of `specs`, with `faults` injected; the error names the entry or fault at fault.
+///
+/// GPU entries open adapters (see [`crate::gpu::context`]) and upload `bvh` to each. Where
+/// `gpu:all` finds no usable adapter but the list has other devices, a note says so once on
+/// stderr and the others render alone; a list left with no device is an error. Faults can
+/// only be injected into CPU devices.
 pub fn build_devices<'a>(
     bvh: &'a Bvh,
     specs: &[DeviceSpec],
     faults: &[FailAfter],
 ) -> Result<Vec<Box<dyn RayDevice + 'a>>> {
-    let mut devices: Vec<CpuDevice<'a>> = Vec::new();
+    let mut devices: Vec<Built<'a>> = Vec::new();
+    let mut cpu_count = 0;
+    let mut skipped_gpu = None;
     for spec in specs {
         match *spec {
             DeviceSpec::Cpu { count, threads } => {
-                devices.extend(CpuDevice::many(bvh, devices.len(), count, threads)?);
+                let cpus = CpuDevice::many(bvh, cpu_count, count, threads)?;
+                cpu_count += cpus.len();
+                devices.extend(cpus.into_iter().map(Built::Cpu));
             }
-            DeviceSpec::Gpu(_) => {
-                return Err(Error::DeviceArg {
-                    arg: spec.to_string(),
-                    why: String::from("the GPU pipeline is not built yet (issue 5)"),
-                });
-            }
+            DeviceSpec::Gpu(select) => match gpu_devices(bvh, select, spec)? {
+                Ok(gpus) => devices.extend(gpus.into_iter().map(Built::Other)),
+                Err(why) => skipped_gpu = Some((spec.to_string(), why)),
+            },
         }
     }
+    if let Some((arg, why)) = skipped_gpu {
+        if devices.is_empty() {
+            return Err(Error::DeviceArg { arg, why });
+        }
+        eprintln!("note: {arg}: {why}; rendering without a GPU");
+    }
     let m = devices.len();
-    if let Some(f) = faults.iter().find(|f| f.device >= m) {
+    for f in faults {
+        let why = match devices.get(f.device) {
+            None => format!("no device {} to fail (there are {m})", f.device),
+            Some(Built::Other(_)) => String::from("faults can only be injected into CPU devices"),
+            Some(Built::Cpu(_)) => continue,
+        };
         return Err(Error::DeviceArg {
             arg: format!("{}@{}", f.device, f.tasks),
-            why: format!("no device {} to fail (there are {m})", f.device),
+            why,
         });
     }
     Ok(devices
         .into_iter()
         .enumerate()
-        .map(|(i, d)| {
-            // The earliest of several faults on one device is the one that happens.
-            match faults
-                .iter()
-                .filter(|f| f.device == i)
-                .map(|f| f.tasks)
-                .min()
-            {
-                Some(tasks) => d.failing_after(tasks),
-                None => d,
+        .map(|(i, d)| match d {
+            Built::Other(d) => d,
+            Built::Cpu(cpu) => {
+                // The earliest of several faults on one device is the one that happens.
+                let cpu = match faults
+                    .iter()
+                    .filter(|f| f.device == i)
+                    .map(|f| f.tasks)
+                    .min()
+                {
+                    Some(tasks) => cpu.failing_after(tasks),
+                    None => cpu,
+                };
+                Box::new(cpu) as Box<dyn RayDevice + 'a>
             }
         })
-        .map(|d| Box::new(d) as Box<dyn RayDevice + 'a>)
         .collect())
+}
+
+/// A device of the list before faults are injected (only CPU devices take them).
+enum Built<'a> {
+    Cpu(CpuDevice<'a>),
+    Other(Box<dyn RayDevice + 'a>),
+}
+
+/// The GPU devices of one entry: `Ok(Err(why))` when `gpu:all` finds no adapter (skippable),
+/// `Err` for anything else that fails.
+#[cfg(feature = "gpu")]
+fn gpu_devices<'a>(
+    bvh: &'a Bvh,
+    select: crate::devices::GpuSelect,
+    spec: &DeviceSpec,
+) -> Result<std::result::Result<Vec<Box<dyn RayDevice + 'a>>, String>> {
+    use crate::gpu::{GpuContext, GpuDevice, GpuError, GpuOptions};
+    let bad = |e: GpuError| Error::DeviceArg {
+        arg: spec.to_string(),
+        why: e.to_string(),
+    };
+    let contexts = match GpuContext::open(select, GpuOptions::from_env()) {
+        Ok(c) => c,
+        Err(e @ GpuError::NoAdapter { .. }) => return Ok(Err(e.to_string())),
+        Err(e) => return Err(bad(e)),
+    };
+    let mut out: Vec<Box<dyn RayDevice + 'a>> = Vec::new();
+    for ctx in contexts {
+        out.push(Box::new(GpuDevice::new(ctx, bvh).map_err(bad)?));
+    }
+    Ok(Ok(out))
+}
+
+/// Without the `gpu` feature, GPU entries are refused.
+#[cfg(not(feature = "gpu"))]
+fn gpu_devices<'a>(
+    _: &'a Bvh,
+    _: crate::devices::GpuSelect,
+    spec: &DeviceSpec,
+) -> Result<std::result::Result<Vec<Box<dyn RayDevice + 'a>>, String>> {
+    Err(Error::DeviceArg {
+        arg: spec.to_string(),
+        why: String::from("this build has no GPU support (the `gpu` feature of raytrace)"),
+    })
 }

@@ -1,0 +1,166 @@
+//! The buffers the kernels read and write: the scene (BVH nodes and triangles, uploaded
+//! unchanged from the CPU layout), rays, results, the queue head, and the read-back of results.
+//!
+//! Every buffer is checked against `max_storage_buffer_binding_size` and `max_buffer_size`
+//! before it is created: scene buffers that do not fit give [`GpuError::TooLarge`] naming the
+//! limit; ray batches are split into launches that fit ([`rays_per_launch`]).
+
+use std::ops::Range;
+
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+use crate::{Bvh, BvhTriangle, RayBatch};
+
+use super::{GpuContext, GpuError};
+
+/// A ray as the kernels read it (WGSL `struct GpuRay { org: vec4<f32>, dir: vec4<f32> }`):
+/// origin and `tmin`, direction and `tmax`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuRay {
+    /// Origin x, y, z and `tmin`.
+    pub org: [f32; 4],
+    /// Direction x, y, z and `tmax`.
+    pub dir: [f32; 4],
+}
+
+const _: () = assert!(size_of::<GpuRay>() == 32);
+
+/// Bytes of one result (`vec2<u32>`: t bits and primitive, or B and T).
+pub const RESULT_BYTES: u64 = 8;
+
+/// The rays of `ranges` of `rays`, one after another, in the kernels' layout.
+///
+/// # Panics
+/// Panics if a range is beyond the batch.
+pub fn pack_rays(rays: &RayBatch, ranges: &[&Range<usize>]) -> Vec<GpuRay> {
+    let n = ranges.iter().map(|r| r.len()).sum();
+    let mut out = Vec::with_capacity(n);
+    for r in ranges {
+        out.extend((*r).clone().map(|i| GpuRay {
+            org: [rays.ox[i], rays.oy[i], rays.oz[i], rays.tmin[i]],
+            dir: [rays.dx[i], rays.dy[i], rays.dz[i], rays.tmax[i]],
+        }));
+    }
+    out
+}
+
+/// The largest single buffer the kernels may bind on this device.
+fn max_binding(limits: &wgpu::Limits) -> u64 {
+    limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size)
+}
+
+/// Rays that one launch may hold on a device with `limits` (the ray buffer, 32 bytes a ray,
+/// is the largest), rounded down to whole batches of 64.
+pub fn rays_per_launch(limits: &wgpu::Limits) -> usize {
+    let n = max_binding(limits) / size_of::<GpuRay>() as u64;
+    usize::try_from(n / 64 * 64).unwrap_or(usize::MAX).max(64)
+}
+
+/// Checks that a storage buffer of `bytes` fits the device's limits.
+///
+/// # Errors
+/// [`GpuError::TooLarge`] naming the limit exceeded.
+pub fn check_size(ctx: &GpuContext, what: &'static str, bytes: u64) -> Result<(), GpuError> {
+    let l = &ctx.limits;
+    let (limit, max) = if l.max_buffer_size < l.max_storage_buffer_binding_size {
+        ("max_buffer_size", l.max_buffer_size)
+    } else {
+        (
+            "max_storage_buffer_binding_size",
+            l.max_storage_buffer_binding_size,
+        )
+    };
+    if bytes > max {
+        return Err(GpuError::TooLarge {
+            adapter: ctx.info.name.clone(),
+            what,
+            bytes,
+            limit,
+            max,
+        });
+    }
+    Ok(())
+}
+
+/// A BVH on one device: its node and triangle arrays, as the CPU lays them out.
+#[derive(Debug)]
+pub struct SceneBuffers {
+    /// The node array (`Bvh::nodes`).
+    pub nodes: wgpu::Buffer,
+    /// The triangle array (`Bvh::triangles`); one zero triangle when the tree has none.
+    pub tris: wgpu::Buffer,
+    /// True when the tree has no triangle: nothing is launched, every ray misses.
+    pub empty: bool,
+    /// The tree's depth (the kernels' stack must hold `depth - 1` entries).
+    pub depth: usize,
+}
+
+impl SceneBuffers {
+    /// Uploads `bvh` to `ctx`'s device.
+    ///
+    /// # Errors
+    /// [`GpuError::TooLarge`] when the node or triangle array exceeds a binding limit.
+    pub fn upload(ctx: &GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
+        let nodes: &[u8] = bytemuck::cast_slice(bvh.nodes());
+        let empty = bvh.triangles().is_empty();
+        let dummy = [BvhTriangle::default()];
+        let tris: &[u8] = if empty {
+            bytemuck::cast_slice(&dummy)
+        } else {
+            bytemuck::cast_slice(bvh.triangles())
+        };
+        check_size(ctx, "BVH nodes", nodes.len() as u64)?;
+        check_size(ctx, "BVH triangles", tris.len() as u64)?;
+        let init = |label: &str, contents: &[u8]| {
+            ctx.device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents,
+                    usage: wgpu::BufferUsages::STORAGE,
+                })
+        };
+        Ok(Self {
+            nodes: init("cobalt bvh nodes", nodes),
+            tris: init("cobalt bvh triangles", tris),
+            empty,
+            depth: bvh.depth(),
+        })
+    }
+}
+
+/// Waits for `buffer` (usage `MAP_READ`) to map and returns a copy of its bytes.
+///
+/// # Errors
+/// [`GpuError::Readback`] when polling or mapping fails.
+pub fn read_back(
+    device: &wgpu::Device,
+    adapter: &str,
+    buffer: &wgpu::Buffer,
+) -> Result<Vec<u8>, GpuError> {
+    let err = |what: &'static str, why: String| GpuError::Readback {
+        adapter: adapter.to_string(),
+        what,
+        why,
+    };
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        // The receiver waits below; a failed send means it is gone, and then nobody cares.
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| err("waiting for the GPU", e.to_string()))?;
+    rx.recv()
+        .map_err(|e| err("mapping results", e.to_string()))?
+        .map_err(|e| err("mapping results", e.to_string()))?;
+    let bytes = buffer
+        .get_mapped_range(..)
+        .map_err(|e| err("reading results", e.to_string()))?
+        .to_vec();
+    buffer.unmap();
+    Ok(bytes)
+}

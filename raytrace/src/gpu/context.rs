@@ -1,0 +1,171 @@
+//! Which GPU adapters exist, which of them cobalt uses, and opening one as a device.
+//!
+//! Backends: those named by `WGPU_BACKEND` if it is set (tests pin `vulkan`), else Vulkan,
+//! Metal and DX12 — never OpenGL unless asked for, since wgpu would otherwise fall back to it
+//! silently where no Vulkan driver is installed. Software adapters (device type `Cpu`, such as
+//! Mesa's lavapipe) are skipped by `gpu:all` unless [`GpuOptions::allow_software`] is set (by
+//! `COBALT_GPU_SOFTWARE=1`); `gpu:K` uses adapter `K` whatever it is, since it was named.
+//! Each device is opened with its adapter's own limits, not wgpu's defaults.
+
+use crate::devices::GpuSelect;
+
+use super::GpuError;
+
+/// Which adapters may be used.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GpuOptions {
+    /// Use software adapters (device type `Cpu`) for `gpu:all` too.
+    pub allow_software: bool,
+}
+
+impl GpuOptions {
+    /// Options from the environment: `COBALT_GPU_SOFTWARE=1` (or `true`) allows software
+    /// adapters.
+    pub fn from_env() -> Self {
+        let allow_software = std::env::var("COBALT_GPU_SOFTWARE")
+            .is_ok_and(|v| matches!(v.trim(), "1" | "true" | "yes"));
+        Self { allow_software }
+    }
+}
+
+/// The backends searched: `WGPU_BACKEND` if set, else Vulkan, Metal and DX12.
+pub fn backends() -> wgpu::Backends {
+    wgpu::Backends::from_env()
+        .unwrap_or(wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12)
+}
+
+fn instance(backends: wgpu::Backends) -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+    desc.backends = backends;
+    wgpu::Instance::new(desc)
+}
+
+fn backend_names(b: wgpu::Backends) -> String {
+    format!("{b:?}")
+}
+
+/// True when at least one adapter that [`GpuContext::open`] with `GpuSelect::All` would use
+/// exists.
+pub fn adapters_available(options: GpuOptions) -> bool {
+    let b = backends();
+    pollster::block_on(instance(b).enumerate_adapters(b))
+        .iter()
+        .any(|a| options.allow_software || a.get_info().device_type != wgpu::DeviceType::Cpu)
+}
+
+/// One opened adapter: its device and queue, and what the kernels need to know about it.
+pub struct GpuContext {
+    /// Index of the adapter in wgpu's enumeration (the `K` of `gpu:K`).
+    pub index: usize,
+    /// The adapter's description (name, backend, device type, driver).
+    pub info: wgpu::AdapterInfo,
+    /// The device, with the adapter's own limits.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// The limits the device was opened with.
+    pub limits: wgpu::Limits,
+    /// True when timestamp queries are enabled (per-launch GPU time).
+    pub timestamps: bool,
+}
+
+impl std::fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuContext")
+            .field("index", &self.index)
+            .field("name", &self.info.name)
+            .field("backend", &self.info.backend)
+            .field("device_type", &self.info.device_type)
+            .finish_non_exhaustive()
+    }
+}
+
+impl GpuContext {
+    /// Opens the adapters `select` names (see the module docs for which are used).
+    ///
+    /// # Errors
+    /// [`GpuError::NoAdapter`] when `gpu:all` finds none that may be used,
+    /// [`GpuError::NoSuchAdapter`] for a `gpu:K` beyond the list, and
+    /// [`GpuError::RequestDevice`] when an adapter refuses to open.
+    pub fn open(select: GpuSelect, options: GpuOptions) -> Result<Vec<Self>, GpuError> {
+        let b = backends();
+        let adapters = pollster::block_on(instance(b).enumerate_adapters(b));
+        let chosen: Vec<(usize, &wgpu::Adapter)> = match select {
+            GpuSelect::Index(index) => match adapters.get(index) {
+                Some(a) => vec![(index, a)],
+                None => {
+                    return Err(GpuError::NoSuchAdapter {
+                        index,
+                        count: adapters.len(),
+                        backends: backend_names(b),
+                    });
+                }
+            },
+            GpuSelect::All => {
+                let usable: Vec<_> = adapters
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, a)| {
+                        options.allow_software || a.get_info().device_type != wgpu::DeviceType::Cpu
+                    })
+                    .collect();
+                if usable.is_empty() {
+                    let skipped = adapters.len();
+                    return Err(GpuError::NoAdapter {
+                        backends: backend_names(b),
+                        skipped: if skipped > 0 {
+                            format!(" ({skipped} software adapter(s) skipped)")
+                        } else {
+                            String::new()
+                        },
+                    });
+                }
+                usable
+            }
+        };
+        chosen
+            .into_iter()
+            .map(|(index, adapter)| Self::from_adapter(index, adapter))
+            .collect()
+    }
+
+    /// Opens `adapter` (number `index` of the enumeration) with its own limits, and timestamp
+    /// queries where it has them.
+    ///
+    /// # Errors
+    /// [`GpuError::RequestDevice`] when the adapter refuses.
+    pub fn from_adapter(index: usize, adapter: &wgpu::Adapter) -> Result<Self, GpuError> {
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let required_features = if timestamps {
+            wgpu::Features::TIMESTAMP_QUERY
+        } else {
+            wgpu::Features::empty()
+        };
+        let label = format!("cobalt gpu{index} ({})", info.name);
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some(&label),
+            required_features,
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::RequestDevice {
+            adapter: info.name.clone(),
+            why: e.to_string(),
+        })?;
+        Ok(Self {
+            index,
+            info,
+            device,
+            queue,
+            limits,
+            timestamps,
+        })
+    }
+
+    /// The device's name in cobalt: `gpu{index}`.
+    pub fn name(&self) -> String {
+        format!("gpu{}", self.index)
+    }
+}

@@ -1,0 +1,106 @@
+//! The GPU devices (issue 5): wgpu compute kernels in WGSL for closest-hit, any-hit and the
+//! thesis's reduced traversal, over the same node and triangle arrays the CPU traverses,
+//! uploaded unchanged.
+//!
+//! - [`context`]: which adapters exist and which are used (hardware only, unless software
+//!   adapters such as Mesa's lavapipe are asked for), each opened with its own limits;
+//! - [`buffers`]: the scene and ray buffers, checked against the binding-size limits;
+//! - [`pipeline`]: the kernels (`traverse.wgsl`) and the host loop that re-dispatches the
+//!   persistent threads until the ray queue is drained;
+//! - [`GpuDevice`]: one adapter as a [`crate::scheduled::RayDevice`], one launch per plan.
+//!
+//! The kernels mirror the CPU's traversal operation for operation; they differ only where the
+//! CPU re-evaluates an exactly-zero edge function in f64 (WGSL has no portable f64): a ray
+//! through a shared edge or vertex may then report the neighbouring triangle at the same
+//! distance. WGSL also lets implementations divide to 2.5 ulp; lavapipe divides exactly.
+
+pub mod buffers;
+pub mod context;
+mod device;
+pub mod pipeline;
+#[cfg(test)]
+pub(crate) mod tests;
+
+pub use context::{GpuContext, GpuOptions, adapters_available};
+pub use device::GpuDevice;
+pub use pipeline::{GpuMode, Kernels};
+
+/// Why a GPU could not be opened or could not trace. Each message names the missing piece or
+/// the limit that was hit.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum GpuError {
+    /// No adapter of the allowed backends (and kinds) exists.
+    #[error(
+        "no GPU adapter found on backends {backends}{skipped} (install a Vulkan driver, e.g. \
+         Debian's mesa-vulkan-drivers, or set COBALT_GPU_SOFTWARE=1 to use a software one)"
+    )]
+    NoAdapter {
+        /// The backends searched.
+        backends: String,
+        /// A note on the software adapters skipped, or empty.
+        skipped: String,
+    },
+    /// `gpu:K` names an adapter that does not exist.
+    #[error("no GPU adapter {index}: there are {count} on backends {backends}")]
+    NoSuchAdapter {
+        /// The index asked for.
+        index: usize,
+        /// Adapters found.
+        count: usize,
+        /// The backends searched.
+        backends: String,
+    },
+    /// The adapter refused to open a device.
+    #[error("{adapter}: cannot open a device: {why}")]
+    RequestDevice {
+        /// The adapter's name.
+        adapter: String,
+        /// wgpu's reason.
+        why: String,
+    },
+    /// A buffer would exceed one of the device's limits.
+    #[error("{adapter}: the {what} need {bytes} bytes, beyond the device's {limit} of {max} bytes")]
+    TooLarge {
+        /// The adapter's name.
+        adapter: String,
+        /// What the buffer holds.
+        what: &'static str,
+        /// Bytes needed.
+        bytes: u64,
+        /// The limit's name in wgpu.
+        limit: &'static str,
+        /// The limit's value.
+        max: u64,
+    },
+    /// The tree is deeper than the kernel's stack can ever be.
+    #[error("the BVH is {depth} levels deep; the GPU kernels support at most {max}")]
+    TooDeep {
+        /// The tree's depth.
+        depth: usize,
+        /// The deepest supported.
+        max: usize,
+    },
+    /// Waiting for the GPU or reading its results back failed.
+    #[error("{adapter}: {what}: {why}")]
+    Readback {
+        /// The adapter's name.
+        adapter: String,
+        /// What was being done.
+        what: &'static str,
+        /// wgpu's reason.
+        why: String,
+    },
+    /// The implementation cut a traversal loop short (lavapipe's loop limit), so some results
+    /// would be wrong.
+    #[error(
+        "{adapter}: a traversal loop was cut short by the implementation; lower the batches \
+         per dispatch (now {batches})"
+    )]
+    LoopCut {
+        /// The adapter's name.
+        adapter: String,
+        /// Batches per dispatch in the failed launch.
+        batches: u32,
+    },
+}

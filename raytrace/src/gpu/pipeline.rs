@@ -1,0 +1,336 @@
+//! The kernels of `traverse.wgsl` and the host loop that runs them.
+//!
+//! One shader, three pipelines (the `MODE` override): closest hit, any hit, reduced traversal.
+//! A launch uploads its rays, resets the queue head, and records enough dispatches of
+//! persistent workgroups to drain the queue: each workgroup takes [`BATCHES`] batches of 64
+//! rays per dispatch, so `ceil(rays / (64 · BATCHES · workgroups))` dispatches suffice when
+//! every workgroup runs its loop to the end. The host then reads the head back and dispatches
+//! again while rays remain (an implementation that ends loops early, as lavapipe may, still
+//! drains), and fails with [`GpuError::LoopCut`] if a traversal loop itself was cut short.
+
+use wgpu::util::DeviceExt;
+
+use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, rays_per_launch, read_back};
+use super::{GpuContext, GpuError};
+
+/// Batches of 64 rays a workgroup takes per dispatch: few enough that one invocation stays far
+/// below lavapipe's ~65 535 loop iterations (a ray rarely needs more than a few hundred).
+pub const BATCHES: u32 = 8;
+
+/// The most workgroups one dispatch starts: enough to fill a large GPU with persistent
+/// workgroups (an H100 holds about 132 × 16 of 64 invocations).
+const MAX_WORKGROUPS: u32 = 2048;
+
+/// Stack entries the kernels are compiled with at most (`Bvh::depth` is at most 256).
+const MAX_STACK: usize = 256;
+
+/// What a launch computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum GpuMode {
+    /// The nearest hit (`Bvh::closest_hit`).
+    Closest,
+    /// The first hit found (`Bvh::any_hit`).
+    Any,
+    /// Reduced-traversal counts `B`, `T` (`Bvh::reduced_traversal`).
+    Reduced,
+}
+
+impl GpuMode {
+    fn index(self) -> usize {
+        match self {
+            Self::Closest => 0,
+            Self::Any => 1,
+            Self::Reduced => 2,
+        }
+    }
+}
+
+/// The compiled kernels for trees up to a given depth.
+#[derive(Debug)]
+pub struct Kernels {
+    layout: wgpu::BindGroupLayout,
+    pipelines: [wgpu::ComputePipeline; 3],
+    stack: usize,
+}
+
+impl Kernels {
+    /// Compiles the kernels with a stack for trees of `depth` levels.
+    ///
+    /// # Errors
+    /// [`GpuError::TooDeep`] beyond 256 levels.
+    pub fn new(device: &wgpu::Device, depth: usize) -> Result<Self, GpuError> {
+        if depth > MAX_STACK {
+            return Err(GpuError::TooDeep {
+                depth,
+                max: MAX_STACK,
+            });
+        }
+        // A traversal holds at most depth - 1 entries; round up so that few variants exist.
+        let stack = depth.max(1).next_multiple_of(32);
+        let source = include_str!("traverse.wgsl").replace(
+            "const STACK: u32 = 64u;",
+            &format!("const STACK: u32 = {stack}u;"),
+        );
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("cobalt traverse.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cobalt traverse bind group layout"),
+            entries: &[
+                storage(0, true),
+                storage(1, true),
+                storage(2, true),
+                storage(3, false),
+                storage(4, false),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 5,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("cobalt traverse pipeline layout"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let far_scale = f64::from(crate::slab::far_scale());
+        let make = |mode: u32, label: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &[
+                        ("MODE", f64::from(mode)),
+                        ("BATCHES", f64::from(BATCHES)),
+                        ("FAR_SCALE", far_scale),
+                    ],
+                    zero_initialize_workgroup_memory: true,
+                },
+                cache: None,
+            })
+        };
+        Ok(Self {
+            pipelines: [
+                make(0, "cobalt closest-hit pipeline"),
+                make(1, "cobalt any-hit pipeline"),
+                make(2, "cobalt reduced-traversal pipeline"),
+            ],
+            layout,
+            stack,
+        })
+    }
+
+    /// Entries of the traversal stack compiled in.
+    pub fn stack(&self) -> usize {
+        self.stack
+    }
+}
+
+/// Runs `mode` over `rays` on `ctx`'s device, in as many launches as the binding limits
+/// require; returns one `[u32; 2]` per ray: `[t bits, prim]` (a miss is `[+inf bits,
+/// u32::MAX]`) or `[B, T]`.
+///
+/// # Errors
+/// [`GpuError::Readback`] when the GPU cannot be waited for or read, [`GpuError::LoopCut`]
+/// when the implementation ended a traversal loop early.
+pub fn launch(
+    ctx: &GpuContext,
+    kernels: &Kernels,
+    scene: &SceneBuffers,
+    rays: &[GpuRay],
+    mode: GpuMode,
+) -> Result<Vec<[u32; 2]>, GpuError> {
+    Ok(launch_timed(ctx, kernels, scene, rays, mode)?.0)
+}
+
+/// [`launch`], also returning the kernels' GPU time in seconds (from timestamp queries, summed
+/// over the dispatch rounds) where the device has them.
+///
+/// # Errors
+/// As [`launch`].
+pub fn launch_timed(
+    ctx: &GpuContext,
+    kernels: &Kernels,
+    scene: &SceneBuffers,
+    rays: &[GpuRay],
+    mode: GpuMode,
+) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
+    if scene.empty {
+        let none = match mode {
+            GpuMode::Reduced => [0, 0],
+            _ => [f32::INFINITY.to_bits(), u32::MAX],
+        };
+        return Ok((vec![none; rays.len()], None));
+    }
+    let mut out = Vec::with_capacity(rays.len());
+    let mut seconds = ctx.timestamps.then_some(0.0);
+    for chunk in rays.chunks(rays_per_launch(&ctx.limits)) {
+        let (r, s) = launch_one(ctx, kernels, scene, chunk, mode)?;
+        out.extend(r);
+        seconds = seconds.zip(s).map(|(a, b)| a + b);
+    }
+    Ok((out, seconds))
+}
+
+fn launch_one(
+    ctx: &GpuContext,
+    kernels: &Kernels,
+    scene: &SceneBuffers,
+    rays: &[GpuRay],
+    mode: GpuMode,
+) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
+    if rays.is_empty() {
+        return Ok((Vec::new(), Some(0.0)));
+    }
+    let device = &ctx.device;
+    let name = ctx.info.name.as_str();
+    // `rays_per_launch` keeps a launch far below 2^32 rays.
+    let n = u32::try_from(rays.len()).unwrap_or(u32::MAX);
+    let out_bytes = u64::from(n) * RESULT_BYTES;
+    let ray_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("cobalt rays"),
+        contents: bytemuck::cast_slice(rays),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let out_buf = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("cobalt results"),
+        size: out_bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let queue_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("cobalt ray queue"),
+        contents: bytemuck::cast_slice(&[0u32, 0]),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    });
+    let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("cobalt launch parameters"),
+        contents: bytemuck::cast_slice(&[n, 0, 0, 0]),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("cobalt results read-back"),
+        size: out_bytes + 8 + 16,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("cobalt traverse bind group"),
+        layout: &kernels.layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: scene.nodes.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: scene.tris.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: ray_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: out_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 4,
+                resource: queue_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 5,
+                resource: params.as_entire_binding(),
+            },
+        ],
+    });
+    let batches = n.div_ceil(64);
+    let max_wg = MAX_WORKGROUPS.min(ctx.limits.max_compute_workgroups_per_dimension);
+    let workgroups = batches.div_ceil(BATCHES).clamp(1, max_wg);
+    let per_dispatch = u64::from(workgroups) * u64::from(BATCHES) * 64;
+    let mut dispatches = u64::from(n).div_ceil(per_dispatch);
+    // Timestamps at the start of the first pass and the end of the last, per round.
+    let timing = ctx.timestamps.then(|| {
+        let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("cobalt traverse timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2,
+        });
+        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cobalt timestamps resolved"),
+            size: 16,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        (set, resolve)
+    });
+    let period = f64::from(ctx.queue.get_timestamp_period());
+    let mut gpu_seconds = 0.0;
+    loop {
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("cobalt traverse commands"),
+        });
+        for k in 0..dispatches {
+            let timestamp_writes =
+                timing
+                    .as_ref()
+                    .map(|(set, _)| wgpu::ComputePassTimestampWrites {
+                        query_set: set,
+                        beginning_of_pass_write_index: (k == 0).then_some(0),
+                        end_of_pass_write_index: (k + 1 == dispatches).then_some(1),
+                    });
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("cobalt traverse pass"),
+                timestamp_writes,
+            });
+            pass.set_pipeline(&kernels.pipelines[mode.index()]);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(workgroups, 1, 1);
+        }
+        encoder.copy_buffer_to_buffer(&out_buf, 0, &readback, 0, out_bytes);
+        encoder.copy_buffer_to_buffer(&queue_buf, 0, &readback, out_bytes, 8);
+        if let Some((set, resolve)) = &timing {
+            encoder.resolve_query_set(set, 0..2, resolve, 0);
+            encoder.copy_buffer_to_buffer(resolve, 0, &readback, out_bytes + 8, 16);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        let bytes = read_back(device, name, &readback)?;
+        let (rest, stamps) = bytes.split_at(bytes.len() - 16);
+        let (results, status) = rest.split_at(rest.len() - 8);
+        let status: [u32; 2] = bytemuck::pod_read_unaligned(status);
+        let stamps: [u64; 2] = bytemuck::pod_read_unaligned(stamps);
+        // Ticks to seconds; a counter that went backwards (a reset) counts as nothing.
+        gpu_seconds += stamps[1].saturating_sub(stamps[0]) as f64 * period * 1e-9;
+        if status[1] != 0 {
+            return Err(GpuError::LoopCut {
+                adapter: name.to_string(),
+                batches: BATCHES,
+            });
+        }
+        if status[0] >= n {
+            let seconds = timing.is_some().then_some(gpu_seconds);
+            return Ok((bytemuck::pod_collect_to_vec(results), seconds));
+        }
+        // Some workgroups stopped early: dispatch again for what is left.
+        dispatches = u64::from(n - status[0]).div_ceil(per_dispatch).max(1);
+    }
+}

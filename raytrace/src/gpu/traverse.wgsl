@@ -1,0 +1,295 @@
+// Closest-hit, any-hit and reduced traversal of cobalt's flat BVH, mirroring
+// `raytrace/src/traverse.rs`, `slab.rs` and `triangle.rs` operation for operation so that the
+// GPU finds the same hits as the CPU:
+// - stack-based, near child first (children tested as a pair, ties `a <= b` go left), popped
+//   nodes skipped when their entry distance is beyond the nearest hit;
+// - Ize's conservative slab test: far distance times `FAR_SCALE` (1 + 2 gamma(3), from the
+//   host so it is the CPU's float bit for bit), NaN slabs ignored;
+// - the watertight test of Woop, Benthin and Wald in f32 only: where the CPU re-evaluates an
+//   edge function that is exactly 0 in f64, this kernel keeps the f32 value, so rays through a
+//   shared edge or vertex may pick the other triangle of the pair (same distance);
+// - ties between triangles keep the first found.
+//
+// Persistent threads: each workgroup of 64 invocations takes batches of 64 rays from a global
+// queue head (`atomicAdd`), at most `BATCHES` per dispatch; the host re-dispatches until the
+// queue is drained (Debian 12's lavapipe silently ends loops after ~65 535 iterations of one
+// invocation, so no invocation may loop for long).
+
+// 0: closest hit, 1: any hit, 2: reduced traversal (counts B and T).
+override MODE: u32 = 0u;
+// Batches of 64 rays a workgroup takes per dispatch.
+override BATCHES: u32 = 8u;
+// Ize's far-distance scale, passed by the host.
+override FAR_SCALE: f32 = 1.0;
+
+// Traversal stack entries; the host replaces this line with the tree's need (>= depth - 1).
+const STACK: u32 = 64u;
+const LANES: u32 = 64u;
+const MISS: u32 = 0xffffffffu;
+
+struct Node {
+    min: vec3<f32>,
+    index: u32,
+    max: vec3<f32>,
+    count: u32,
+}
+
+struct Tri {
+    v0: vec3<f32>,
+    prim: u32,
+    v1: vec3<f32>,
+    pad1: u32,
+    v2: vec3<f32>,
+    pad2: u32,
+}
+
+// `org.w` is tmin, `dir.w` is tmax.
+struct GpuRay {
+    org: vec4<f32>,
+    dir: vec4<f32>,
+}
+
+struct Params {
+    // Rays in this launch.
+    count: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+// `queue[0]`: the queue head; `queue[1]`: nonzero when a traversal loop was cut short.
+@group(0) @binding(0) var<storage, read> nodes: array<Node>;
+@group(0) @binding(1) var<storage, read> tris: array<Tri>;
+@group(0) @binding(2) var<storage, read> rays: array<GpuRay>;
+@group(0) @binding(3) var<storage, read_write> out: array<vec2<u32>>;
+@group(0) @binding(4) var<storage, read_write> queue: array<atomic<u32>, 2>;
+@group(0) @binding(5) var<uniform> params: Params;
+
+var<workgroup> wg_base: u32;
+
+fn inf() -> f32 {
+    return bitcast<f32>(0x7f800000u);
+}
+
+fn is_finite3(v: vec3<f32>) -> bool {
+    let e = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
+    return all(e != vec3<u32>(0x7f800000u));
+}
+
+// `max` that keeps `acc` when `x` is NaN (slab.rs `max_keep`).
+fn max_keep(acc: f32, x: f32) -> f32 {
+    return select(acc, x, x > acc);
+}
+
+fn min_keep(acc: f32, x: f32) -> f32 {
+    return select(acc, x, x < acc);
+}
+
+struct BoxRay {
+    org: vec3<f32>,
+    inv: vec3<f32>,
+    // True where the direction's sign bit is set (the near plane is the box's max).
+    neg: vec3<bool>,
+}
+
+// Entry distance in `.x`, and `.y > 0` when the ray meets the box within [tmin, tmax].
+fn box_hit(b: BoxRay, n: Node, tmin: f32, tmax: f32) -> vec2<f32> {
+    let near = select(n.min, n.max, b.neg);
+    let far = select(n.max, n.min, b.neg);
+    let t_near = (near - b.org) * b.inv;
+    let t_far = (far - b.org) * b.inv;
+    let t0 = max_keep(max_keep(max_keep(tmin, t_near.x), t_near.y), t_near.z);
+    var t1 = min_keep(min_keep(min_keep(inf(), t_far.x), t_far.y), t_far.z) * FAR_SCALE;
+    t1 = select(tmax, t1, t1 < tmax);
+    return vec2<f32>(t0, select(0.0, 1.0, t0 <= t1));
+}
+
+// The per-ray part of the watertight test (triangle.rs `RayShear`).
+struct Shear {
+    k: vec3<u32>,
+    s: vec3<f32>,
+}
+
+fn permute(v: vec3<f32>, k: vec3<u32>) -> vec3<f32> {
+    return vec3<f32>(v[k.x], v[k.y], v[k.z]);
+}
+
+// Distance in `.x`, `.y > 0` on a hit.
+fn tri_hit(sh: Shear, o: vec3<f32>, t: Tri, tmin: f32, tmax: f32) -> vec2<f32> {
+    let a = permute(t.v0 - o, sh.k);
+    let b = permute(t.v1 - o, sh.k);
+    let c = permute(t.v2 - o, sh.k);
+    let ax = a.x - sh.s.x * a.z;
+    let ay = a.y - sh.s.y * a.z;
+    let bx = b.x - sh.s.x * b.z;
+    let by = b.y - sh.s.y * b.z;
+    let cx = c.x - sh.s.x * c.z;
+    let cy = c.y - sh.s.y * c.z;
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    let miss = vec2<f32>(0.0, 0.0);
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return miss;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return miss;
+    }
+    let az = sh.s.z * a.z;
+    let bz = sh.s.z * b.z;
+    let cz = sh.s.z * c.z;
+    var t_scaled = u * az + v * bz + w * cz;
+    var det_abs = det;
+    if det < 0.0 {
+        t_scaled = -t_scaled;
+        det_abs = -det;
+    }
+    if t_scaled < tmin * det_abs || t_scaled > tmax * det_abs {
+        return miss;
+    }
+    return vec2<f32>(t_scaled / det_abs + 0.0, 1.0);
+}
+
+// Traces ray `r` and writes its result: (t bits, prim) for hits, (B, T) for MODE 2.
+fn trace(r: u32) {
+    let ray = rays[r];
+    let o = ray.org.xyz;
+    let d = ray.dir.xyz;
+    let tmin = ray.org.w;
+    var best_t = ray.dir.w;
+    var best_prim = MISS;
+    var count_b = 0u;
+    var count_t = 0u;
+    var done = true;
+
+    // The same early outs as the CPU: a ray that cannot hit anything, an empty or NaN range,
+    // a missed root (the host never launches on a tree without triangles).
+    var valid = is_finite3(o) && is_finite3(d);
+    let ad = abs(d);
+    var kz = 2u;
+    if ad.x >= ad.y && ad.x >= ad.z {
+        kz = 0u;
+    } else if ad.y >= ad.z {
+        kz = 1u;
+    }
+    let dz = d[kz];
+    valid = valid && dz != 0.0 && tmin <= best_t;
+    var kx = select(kz + 1u, 0u, kz == 2u);
+    var ky = select(kx + 1u, 0u, kx == 2u);
+    if dz < 0.0 {
+        let tmp = kx;
+        kx = ky;
+        ky = tmp;
+    }
+    let sh = Shear(vec3<u32>(kx, ky, kz), vec3<f32>(d[kx] / dz, d[ky] / dz, 1.0 / dz));
+    let bray = BoxRay(o, vec3<f32>(1.0) / d, (bitcast<vec3<u32>>(d) & vec3<u32>(0x80000000u)) != vec3<u32>(0u));
+
+    if valid && box_hit(bray, nodes[0], tmin, best_t).y > 0.0 {
+        var stack_node: array<u32, STACK>;
+        var stack_t: array<f32, STACK>;
+        var sp = 0u;
+        var i = 0u;
+        done = false;
+        loop {
+            let node = nodes[i];
+            count_b += 1u;
+            var descend = false;
+            if node.count > 0u {
+                if MODE == 2u {
+                    count_t += node.count;
+                } else {
+                    var found = false;
+                    for (var k = node.index; k < node.index + node.count; k++) {
+                        let tri = tris[k];
+                        let h = tri_hit(sh, o, tri, tmin, best_t);
+                        if h.y > 0.0 && (best_prim == MISS || h.x < best_t) {
+                            best_t = h.x;
+                            best_prim = tri.prim;
+                            if MODE == 1u {
+                                found = true;
+                                break;
+                            }
+                        }
+                    }
+                    if found {
+                        done = true;
+                        break;
+                    }
+                }
+            } else {
+                let l = node.index;
+                let a = box_hit(bray, nodes[l], tmin, best_t);
+                let b = box_hit(bray, nodes[l + 1u], tmin, best_t);
+                if a.y > 0.0 && b.y > 0.0 {
+                    if a.x <= b.x {
+                        stack_node[sp] = l + 1u;
+                        stack_t[sp] = b.x;
+                        i = l;
+                    } else {
+                        stack_node[sp] = l;
+                        stack_t[sp] = a.x;
+                        i = l + 1u;
+                    }
+                    sp += 1u;
+                    descend = true;
+                } else if a.y > 0.0 {
+                    i = l;
+                    descend = true;
+                } else if b.y > 0.0 {
+                    i = l + 1u;
+                    descend = true;
+                }
+            }
+            if !descend {
+                // Pop the next node, skipping those now beyond the nearest hit.
+                var popped = false;
+                loop {
+                    if sp == 0u {
+                        break;
+                    }
+                    sp -= 1u;
+                    if stack_t[sp] <= best_t {
+                        i = stack_node[sp];
+                        popped = true;
+                        break;
+                    }
+                }
+                if !popped {
+                    done = true;
+                    break;
+                }
+            }
+        }
+    }
+    if !done {
+        // Only reachable when the implementation cut the loop short (see the header).
+        atomicOr(&queue[1], 1u);
+    }
+    if MODE == 2u {
+        out[r] = vec2<u32>(count_b, count_t);
+    } else if best_prim == MISS {
+        out[r] = vec2<u32>(bitcast<u32>(inf()), MISS);
+    } else {
+        out[r] = vec2<u32>(bitcast<u32>(best_t), best_prim);
+    }
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(local_invocation_index) lid: u32) {
+    for (var batch = 0u; batch < BATCHES; batch++) {
+        if lid == 0u {
+            wg_base = atomicAdd(&queue[0], LANES);
+        }
+        let base = workgroupUniformLoad(&wg_base);
+        if base >= params.count {
+            break;
+        }
+        let r = base + lid;
+        if r < params.count {
+            trace(r);
+        }
+        // Nobody may still read `wg_base` when invocation 0 overwrites it.
+        workgroupBarrier();
+    }
+}
