@@ -168,6 +168,10 @@ impl RayDevice for CpuDevice<'_> {
     fn name(&self) -> String {
         format!("cpu{}", self.index)
     }
+
+    fn class(&self) -> String {
+        format!("cpu/{}", self.threads())
+    }
 }
 
 impl CpuDevice<'_> {

@@ -46,6 +46,14 @@ pub trait RayDevice: Send {
 
     /// A name unique among the devices of a tracer: calibrations are keyed by it.
     fn name(&self) -> String;
+
+    /// Devices of one class are the same hardware doing the same work (the `N` devices of a
+    /// `cpu:N/T` entry): their speed is measured together, because any difference between
+    /// them is noise (the OS scheduling threads, errors of the cost model) that would
+    /// otherwise skew the next plan. By default every device is a class of its own.
+    fn class(&self) -> String {
+        self.name()
+    }
 }
 
 /// A device bound to one generation: the [`Executor`] that `sched`'s runtime drives.

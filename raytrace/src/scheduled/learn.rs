@@ -8,27 +8,34 @@ use super::DeviceFit;
 use sched::{Costs, Timeline};
 
 /// Relative speeds after a run: each device that did measurable work gets `work / busy` (in
-/// the run's cost units), rescaled so that those devices keep the total speed they had
+/// the run's cost units) of its class (`class[d]`: devices of one class are pooled, see
+/// [`super::RayDevice::class`]), rescaled so that those devices keep the total speed they had
 /// (`old`); a device that ran nothing keeps its old speed. Units cancel, so a generation
 /// costed in node visits can inform one costed in seconds.
 ///
 /// Returns the new speeds and, per device, the measurement if there was one.
 pub(crate) fn measured_speeds(
     old: &[f64],
+    class: &[usize],
     costs: &Costs,
     timeline: &Timeline,
     busy: &[f64],
 ) -> (Vec<f64>, Vec<Option<f64>>) {
-    let mut work = vec![0.0; old.len()];
+    let classes = class.iter().max().map_or(0, |&c| c + 1);
+    let (mut work, mut time) = (vec![0.0; classes], vec![0.0; classes]);
+    let mut ran = vec![false; old.len()];
     for s in &timeline.spans {
-        work[s.device as usize] += costs[s.task as usize];
+        work[class[s.device as usize]] += costs[s.task as usize];
+        ran[s.device as usize] = true;
     }
-    let raw: Vec<Option<f64>> = work
-        .iter()
-        .zip(busy)
-        .map(|(&w, &b)| {
+    for (d, &b) in busy.iter().enumerate() {
+        time[class[d]] += b;
+    }
+    let raw: Vec<Option<f64>> = (0..old.len())
+        .map(|d| {
+            let (w, b) = (work[class[d]], time[class[d]]);
             let s = w / b;
-            (w > 0.0 && b > 0.0 && s.is_finite() && s > 0.0).then_some(s)
+            (ran[d] && w > 0.0 && b > 0.0 && s.is_finite() && s > 0.0).then_some(s)
         })
         .collect();
     let (old_total, raw_total) = raw
@@ -105,13 +112,25 @@ mod tests {
             ],
         };
         // Device 0: 4 units in 2 s; device 1: 6 units in 1.5 s; device 2 ran nothing.
-        let (speeds, measured) = measured_speeds(&[1.0, 1.0, 1.0], &costs, &t, &[2.0, 1.5, 0.0]);
+        let (speeds, measured) =
+            measured_speeds(&[1.0, 1.0, 1.0], &[0, 1, 2], &costs, &t, &[2.0, 1.5, 0.0]);
         assert_eq!(measured[2], None);
         assert!((speeds[0] - 2.0 / 3.0).abs() < 1e-12, "{speeds:?}");
         assert!((speeds[1] - 4.0 / 3.0).abs() < 1e-12, "{speeds:?}");
         assert_eq!(speeds[2], 1.0);
         // Nothing measurable: speeds unchanged.
-        let (same, _) = measured_speeds(&[1.0, 3.0], &costs, &Timeline::default(), &[0.0, 0.0]);
+        let (same, _) = measured_speeds(
+            &[1.0, 3.0],
+            &[0, 1],
+            &costs,
+            &Timeline::default(),
+            &[0.0, 0.0],
+        );
         assert_eq!(same, vec![1.0, 3.0]);
+        // Devices 0 and 1 of one class share their measurement: 10 units in 3.5 s.
+        let (pooled, _) =
+            measured_speeds(&[1.0, 1.0, 1.0], &[0, 0, 1], &costs, &t, &[2.0, 1.5, 0.0]);
+        assert_eq!(pooled[0], pooled[1]);
+        assert_eq!(pooled[2], 1.0);
     }
 }

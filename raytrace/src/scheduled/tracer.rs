@@ -219,7 +219,9 @@ impl ScheduledTracer<'_> {
     ) -> HitBatch {
         let names: Vec<String> = active.iter().map(|&d| self.devices[d].name()).collect();
         let old: Vec<f64> = active.iter().map(|&d| self.speeds[d]).collect();
-        let (new, measured) = measured_speeds(&old, costs, &report.timeline, &report.metrics.busy);
+        let class = class_indices(active.iter().map(|&d| self.devices[d].class()));
+        let (new, measured) =
+            measured_speeds(&old, &class, costs, &report.timeline, &report.metrics.busy);
 
         let mut task_stats = vec![
             TaskStats {
@@ -297,4 +299,18 @@ impl ScheduledTracer<'_> {
         }
         hits
     }
+}
+
+/// Dense indices of `classes`, equal where the class names are equal.
+fn class_indices(classes: impl Iterator<Item = String>) -> Vec<usize> {
+    let mut seen: Vec<String> = Vec::new();
+    classes
+        .map(|c| match seen.iter().position(|s| *s == c) {
+            Some(i) => i,
+            None => {
+                seen.push(c);
+                seen.len() - 1
+            }
+        })
+        .collect()
 }
