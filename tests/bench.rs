@@ -84,6 +84,7 @@ fn bench_rejects_bad_values_naming_them() {
         ("--sample-rate", "2"),
         ("--devices", "cpu:0"),
         ("--simulate", "x"),
+        ("--scene", "/no/such/scene.obj"),
     ] {
         let o = cobalt(&["bench", flag, value]);
         assert_eq!(o.status.code(), Some(2), "{flag} {value}");

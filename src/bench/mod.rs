@@ -155,26 +155,27 @@ pub fn run(args: Args) -> Result<(), CliError> {
     } else {
         args.scenes.clone()
     };
-    let sources = scenes
-        .iter()
-        .map(|s| SceneSource::parse(s))
-        .collect::<Result<Vec<_>, _>>()?;
     let needs = if workloads.contains(&Workload::Whitted) {
         SceneNeeds::WHITTED
     } else {
         SceneNeeds::AO
     };
+    // Every scene is loaded before anything is measured, so a bad file fails the command at
+    // once instead of after the first scene's runs.
+    let loaded = scenes
+        .iter()
+        .map(|s| SceneSource::parse(s).and_then(|src| src.load(needs)))
+        .collect::<Result<Vec<_>, _>>()?;
 
     let mut records = Vec::new();
     let mut sims = Vec::new();
     let mut points = Vec::new();
     let mut cost_png = None;
-    for (name, source) in scenes.iter().zip(&sources) {
-        let scene = source.load(needs)?;
-        let bvh = Bvh::build(&scene, preset)?;
+    for (name, scene) in scenes.iter().zip(&loaded) {
+        let bvh = Bvh::build(scene, preset)?;
         let plan = Plan {
             scene_name: name,
-            scene: &scene,
+            scene,
             bvh: &bvh,
             devices: &specs,
             device_list: &args.devices,
@@ -202,7 +203,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         sims.extend(simulate::simulate(name, &replays, &simulate)?);
         points.extend(trade::sampling_trade(
             name,
-            &scene,
+            scene,
             &bvh,
             width,
             height,
@@ -214,7 +215,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 .unwrap_or(task_sizes[0]),
         )?);
         if args.plots.is_some() && cost_png.is_none() {
-            cost_png = Some(cost_image(&scene, &bvh, width, height)?);
+            cost_png = Some(cost_image(scene, &bvh, width, height)?);
         }
         records.append(&mut recs);
     }
