@@ -9,6 +9,8 @@
 use std::ops::Range;
 
 use rayon::prelude::*;
+
+pub use crate::scheduled::BadRange;
 use sched::{DeviceError, Sink};
 
 use crate::scheduled::RayDevice;
@@ -26,20 +28,6 @@ pub struct InjectedFault {
     pub device: String,
     /// Tasks it completed before failing.
     pub after: u64,
-}
-
-/// Why a CPU device refused a task: a range outside the generation.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{device}: task {start}..{end} is outside the generation of {rays} rays")]
-pub struct BadRange {
-    /// The device's name.
-    pub device: String,
-    /// The range's start.
-    pub start: usize,
-    /// The range's end.
-    pub end: usize,
-    /// Rays in the generation.
-    pub rays: usize,
 }
 
 /// One CPU device. See the module documentation.

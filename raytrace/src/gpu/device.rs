@@ -5,26 +5,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use sched::{DeviceError, Sink};
 
-use crate::scheduled::RayDevice;
+use crate::scheduled::{BadRange, RayDevice};
 use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
 use super::buffers::{SceneBuffers, pack_rays};
 use super::pipeline::{GpuMode, Kernels, launch, launch_timed};
 use super::{GpuContext, GpuError};
-
-/// Why a GPU device refused a task: a range outside the generation.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{device}: task {start}..{end} is outside the generation of {rays} rays")]
-pub struct BadRange {
-    /// The device's name.
-    pub device: String,
-    /// The range's start.
-    pub start: usize,
-    /// The range's end.
-    pub end: usize,
-    /// Rays in the generation.
-    pub rays: usize,
-}
 
 /// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a generation's rays,
 /// all ranges of a static plan in one launch ([`RayDevice::trace_ranges`]); a queue policy

@@ -12,6 +12,20 @@ use sched::{DeviceError, Executor, Sink};
 
 use crate::{HitBatch, RayBatch, RayKind};
 
+/// Why a device refused a task: a range outside the generation.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{device}: task {start}..{end} is outside the generation of {rays} rays")]
+pub struct BadRange {
+    /// The device's name.
+    pub device: String,
+    /// The range's start.
+    pub start: usize,
+    /// The range's end.
+    pub end: usize,
+    /// Rays in the generation.
+    pub rays: usize,
+}
+
 /// A device that traces ranges of a generation's rays. There is one required method besides
 /// the name.
 ///

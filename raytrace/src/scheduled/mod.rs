@@ -40,7 +40,7 @@ mod stats;
 mod tracer;
 
 pub use build::{FailAfter, build_devices};
-pub use device::{Bound, RayDevice};
+pub use device::{BadRange, Bound, RayDevice};
 pub use settings::{Mode, Settings};
 pub use stats::{DeviceFit, DeviceStats, GenerationStats, TaskStats};
 pub use tracer::ScheduledTracer;
