@@ -101,15 +101,7 @@ impl<'a> CpuDevice<'a> {
             }
             .into());
         }
-        if range.start > range.end || range.end > rays.len() || !rays.is_consistent() {
-            return Err(BadRange {
-                device: self.name(),
-                start: range.start,
-                end: range.end,
-                rays: rays.len(),
-            }
-            .into());
-        }
+        BadRange::check(|| self.name(), rays, range)?;
         Ok(())
     }
 

@@ -53,15 +53,7 @@ impl GpuDevice {
     }
 
     fn check(&self, rays: &RayBatch, range: &Range<usize>) -> Result<(), BadRange> {
-        if range.start > range.end || range.end > rays.len() || !rays.is_consistent() {
-            return Err(BadRange {
-                device: self.ctx.name(),
-                start: range.start,
-                end: range.end,
-                rays: rays.len(),
-            });
-        }
-        Ok(())
+        BadRange::check(|| self.ctx.name(), rays, range)
     }
 
     /// Hits of the rays of `ranges`, one after another, in one launch: any hits for occlusion

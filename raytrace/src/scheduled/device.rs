@@ -26,6 +26,26 @@ pub struct BadRange {
     pub rays: usize,
 }
 
+impl BadRange {
+    /// `Ok` when `range` lies inside `rays` (and the batch's columns agree), else the error
+    /// naming `device`, the range and the generation's length.
+    pub fn check(
+        device: impl FnOnce() -> String,
+        rays: &RayBatch,
+        range: &Range<usize>,
+    ) -> Result<(), Self> {
+        if range.start > range.end || range.end > rays.len() || !rays.is_consistent() {
+            return Err(Self {
+                device: device(),
+                start: range.start,
+                end: range.end,
+                rays: rays.len(),
+            });
+        }
+        Ok(())
+    }
+}
+
 /// A device that traces ranges of a generation's rays. There is one required method besides
 /// the name.
 ///
