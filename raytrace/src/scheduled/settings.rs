@@ -56,7 +56,8 @@ pub struct Settings {
     pub policy: Policy,
     /// Regular or cost-based.
     pub mode: Mode,
-    /// Rays per task (the thesis uses 16384, 4096 and 512).
+    /// Rays per task (the thesis uses 16384, 4096 and 512); smaller generations are cut
+    /// finer ([`Self::task_size_for`]).
     pub task_size: NonZeroUsize,
     /// Fraction of each task's rays the estimate traces (cost mode).
     pub sample_rate: SampleRate,
@@ -65,6 +66,27 @@ pub struct Settings {
 impl Settings {
     /// 4096 rays per task, as in the middle of the thesis's range.
     pub const DEFAULT_TASK_SIZE: NonZeroUsize = NonZeroUsize::new(4096).expect("4096 > 0");
+
+    /// Tasks a generation is cut into at least, per device, while its tasks keep
+    /// [`Self::MIN_TASK_RAYS`] rays.
+    pub const MIN_TASKS_PER_DEVICE: usize = 4;
+
+    /// The fewest rays a task is cut down to (tens of microseconds of tracing): below it, a
+    /// task costs more to dispatch and estimate than to trace.
+    pub const MIN_TASK_RAYS: usize = 64;
+
+    /// Rays per task for a generation of `rays` rays on `devices` devices: [`Self::task_size`],
+    /// or less for a generation too small to give every device
+    /// [`Self::MIN_TASKS_PER_DEVICE`] tasks of that size.
+    ///
+    /// Whitted's later bounces are a few thousand rays: at 4096 rays per task they were one
+    /// task, which one device traced while the other waited (balance ≤ 50 % by construction),
+    /// and at the thesis's sizes no policy could do better.
+    pub fn task_size_for(&self, rays: usize, devices: usize) -> usize {
+        let wanted = self.task_size.get();
+        let share = rays.div_ceil(devices.max(1) * Self::MIN_TASKS_PER_DEVICE);
+        wanted.min(share.max(Self::MIN_TASK_RAYS)).max(1)
+    }
 }
 
 impl Default for Settings {
@@ -76,5 +98,30 @@ impl Default for Settings {
             task_size: Self::DEFAULT_TASK_SIZE,
             sample_rate: SampleRate::THESIS,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn small_generations_are_cut_so_every_device_gets_tasks() {
+        let s = Settings::default(); // 4096 rays per task
+        // Large generations keep the asked size.
+        assert_eq!(s.task_size_for(262_144, 2), 4096);
+        assert_eq!(s.task_size_for(32_768, 2), 4096);
+        // 6447 reflection rays on two devices: 8 tasks, not 2.
+        assert_eq!(s.task_size_for(6447, 2), 806);
+        assert_eq!(sched::split_ranges(6447, 806).len(), 8);
+        // Never below the smallest worthwhile task, nor zero.
+        assert_eq!(s.task_size_for(297, 2), 64);
+        assert_eq!(s.task_size_for(1, 2), 64);
+        assert_eq!(s.task_size_for(0, 0), 64);
+        let tiny = Settings {
+            task_size: NonZeroUsize::new(16).unwrap(),
+            ..s
+        };
+        assert_eq!(tiny.task_size_for(100_000, 8), 16);
     }
 }

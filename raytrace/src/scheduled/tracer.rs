@@ -116,7 +116,8 @@ impl<'a> ScheduledTracer<'a> {
 
 impl<'a> Tracer for ScheduledTracer<'a> {
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
-        let task_size = self.settings.task_size.get();
+        let active = self.retired.iter().filter(|r| !**r).count();
+        let task_size = self.settings.task_size_for(rays.len(), active);
         let tasks = split_ranges(rays.len(), task_size);
 
         let estimating = Instant::now();

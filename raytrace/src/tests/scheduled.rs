@@ -77,21 +77,28 @@ fn images_are_identical_whatever_the_policy_mode_and_devices() {
         let want = reference(&scene, &bvh, shader);
         for policy in Policy::ALL {
             for mode in Mode::ALL {
-                for devices in ["cpu:1", "cpu:2", "cpu:3", "cpu:1/2,cpu:1"] {
-                    let (got, stats) = scheduled(
-                        &scene,
-                        &bvh,
-                        shader,
-                        devices,
-                        &[],
-                        settings(policy, mode, 96),
-                    );
+                for (devices, count) in [
+                    ("cpu:1", 1),
+                    ("cpu:2", 2),
+                    ("cpu:3", 3),
+                    ("cpu:1/2,cpu:1", 2),
+                ] {
+                    let settings = settings(policy, mode, 96);
+                    let (got, stats) = scheduled(&scene, &bvh, shader, devices, &[], settings);
                     let what = format!("{source} {} {policy} {mode} {devices}", shader.name());
                     assert_eq!(got.film, want.film, "{what}");
                     assert_eq!(stats.len(), want.generations.len(), "{what}");
                     for (s, g) in stats.iter().zip(&want.generations) {
                         assert_eq!((s.kind, s.rays), (g.kind, g.rays), "{what}");
-                        assert_eq!(s.tasks, g.rays.div_ceil(96), "{what}");
+                        // 96 rays per task, or fewer in generations too small for every
+                        // device to get several tasks.
+                        let size = settings.task_size_for(g.rays, count);
+                        assert!(size <= 96, "{what}");
+                        assert_eq!(
+                            (s.task_size, s.tasks),
+                            (size, g.rays.div_ceil(size)),
+                            "{what}"
+                        );
                         let delivered: usize = s.devices.iter().map(|d| d.tasks).sum();
                         assert_eq!(delivered, s.tasks, "{what}");
                         assert!(s.balance_efficiency > 0.0 && s.balance_efficiency <= 1.0 + 1e-9);
