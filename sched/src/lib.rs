@@ -50,6 +50,8 @@ mod error;
 pub mod exact;
 mod executor;
 mod load;
+#[cfg(feature = "mpi")]
+pub mod mpi;
 mod plan;
 mod policy;
 mod runtime;
