@@ -1,6 +1,8 @@
 //! `cobalt`: cost-balanced scheduling of irregular workloads, from the command line.
 
 mod bench;
+#[cfg(feature = "mpi")]
+mod cluster;
 mod collide;
 mod error;
 mod estimate;

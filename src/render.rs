@@ -227,7 +227,7 @@ struct Report {
 }
 
 /// Where the camera comes from.
-enum CameraChoice {
+pub(crate) enum CameraChoice {
     Thesis(usize),
     LookAt(Vec3, Vec3),
 }
@@ -320,6 +320,32 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }),
         ShaderArg::Whitted => Shader::Whitted(WhittedSettings::default()),
     };
+
+    // Under `mpirun`, every rank renders the same image together (see `crate::cluster`).
+    #[cfg(feature = "mpi")]
+    if sched::mpi::Cluster::launched() {
+        if args.cost_image.is_some() {
+            return Err(arg(
+                "cost-image",
+                &args.cost_image.as_ref().map(|p| p.display().to_string()),
+                "not available under mpirun; render the cost image in one process",
+            ));
+        }
+        return crate::cluster::render(crate::cluster::Job {
+            scene: &args.scene,
+            shader,
+            width,
+            height,
+            camera: camera_choice,
+            preset,
+            specs: &specs,
+            faults: &faults,
+            settings,
+            out: &args.out,
+            report: args.report.as_deref(),
+            json: args.json,
+        });
+    }
 
     let loading = Instant::now();
     let scene = SceneSource::parse(&args.scene)?.load(shader.needs())?;

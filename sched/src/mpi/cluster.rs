@@ -228,3 +228,27 @@ impl Cluster {
         out
     }
 }
+
+impl Cluster {
+    /// True when this process was started by an MPI launcher (`mpirun`, `srun`, Hydra), whose
+    /// environment names the job; a process started alone runs without MPI.
+    pub fn launched() -> bool {
+        ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"]
+            .iter()
+            .any(|v| std::env::var_os(v).is_some())
+    }
+
+    /// A barrier in which the waiting ranks sleep between polls instead of spinning, so that
+    /// rank 0 can measure something alone with the cores to itself. Every rank calls it.
+    pub fn hold(&self) {
+        if self.is_root() {
+            self.finish();
+        } else {
+            let _: usize = self.serve(|_: Vec<u64>| -> Result<Vec<u64>, crate::DeviceError> {
+                Err(crate::DeviceError::msg(
+                    "no batch is expected while holding",
+                ))
+            });
+        }
+    }
+}
