@@ -21,13 +21,18 @@ fn a_cluster_of_one() {
         err,
         ClusterError::Failed {
             step: "loading the scene".into(),
-            ranks: vec![0],
-            mine: Some("rank 0: no such file: a.obj".into()),
+            reasons: vec![(0, "no such file: a.obj".into())],
         }
     );
     assert_eq!(
         err.to_string(),
-        "loading the scene failed on rank(s) [0]; on this rank: rank 0: no such file: a.obj"
+        "loading the scene failed on rank 0: no such file: a.obj"
+    );
+    // A failure without a message still counts as one.
+    let silent = cluster.agree("building", Err::<(), _>("")).unwrap_err();
+    assert_eq!(
+        silent.to_string(),
+        "building failed on rank 0: (no message)"
     );
 
     assert_eq!(cluster.all_gather_f64(&[1.0, 2.5]), vec![1.0, 2.5]);

@@ -143,27 +143,65 @@ impl Cluster {
     }
 
     /// Every rank calls this at the same step with its own outcome; all of them get `Ok` only
-    /// if every rank succeeded. Otherwise every rank gets the same error naming the ranks
-    /// that failed (and, on those, their own reason), so the whole job can stop instead of
-    /// some ranks waiting forever for the others.
+    /// if every rank succeeded. Otherwise every rank gets the same error, naming each rank
+    /// that failed and why, so the whole job can stop instead of some ranks waiting forever
+    /// for the others, and whichever rank reports first reports everything.
     pub fn agree<T, E: Display>(&self, step: &str, local: Result<T, E>) -> Result<T, ClusterError> {
-        let failed = u8::from(local.is_err());
-        let mut flags = vec![0u8; self.size];
-        self.with(|w| w.all_gather_into(&failed, &mut flags[..]));
-        let ranks: Vec<usize> = (0..self.size).filter(|&r| flags[r] != 0).collect();
+        // A flag byte, then the reason: never an empty buffer, whose dangling address (1 for
+        // bytes) Open MPI would take for `MPI_IN_PLACE`.
+        let mut mine = vec![u8::from(local.is_err())];
+        if let Err(e) = &local {
+            mine.extend_from_slice(e.to_string().as_bytes());
+        }
+        let reasons: Vec<(usize, String)> = self
+            .all_gather_bytes(&mine)
+            .into_iter()
+            .enumerate()
+            .filter(|(_, m)| m.first() == Some(&1))
+            .map(|(rank, m)| {
+                let why = String::from_utf8_lossy(&m[1..]).into_owned();
+                let why = if why.is_empty() {
+                    "(no message)".into()
+                } else {
+                    why
+                };
+                (rank, why)
+            })
+            .collect();
         match local {
-            Ok(value) if ranks.is_empty() => Ok(value),
-            local => Err(ClusterError::Failed {
+            Ok(value) if reasons.is_empty() => Ok(value),
+            _ => Err(ClusterError::Failed {
                 step: step.to_string(),
-                ranks,
-                mine: local.err().map(|e| format!("rank {}: {e}", self.rank)),
+                reasons,
             }),
         }
+    }
+
+    /// Every rank's `local` bytes, in rank order, on every rank.
+    fn all_gather_bytes(&self, local: &[u8]) -> Vec<Vec<u8>> {
+        let (counts, all) = self.all_gather_varcount(local);
+        let mut at = 0;
+        counts
+            .iter()
+            .map(|&c| {
+                let part = all[at..at + c].to_vec();
+                at += c;
+                part
+            })
+            .collect()
     }
 
     /// Concatenates every rank's `local` values in rank order, on every rank (the slices may
     /// differ in length).
     pub fn all_gather_f64(&self, local: &[f64]) -> Vec<f64> {
+        self.all_gather_varcount(local).1
+    }
+
+    /// Each rank's count and the concatenation of every rank's `local`, on every rank.
+    fn all_gather_varcount<V>(&self, local: &[V]) -> (Vec<usize>, Vec<V>)
+    where
+        V: mpi::datatype::Equivalence + Default + Clone,
+    {
         let n = Count::try_from(local.len()).unwrap_or(Count::MAX);
         let mut counts: Vec<Count> = vec![0; self.size];
         self.with(|w| w.all_gather_into(&n, &mut counts[..]));
@@ -175,13 +213,17 @@ impl Cluster {
                 Some(d)
             })
             .collect();
-        let total: usize = counts.iter().map(|&c| c as usize).sum();
-        let mut all = vec![0.0f64; total];
+        let sizes: Vec<usize> = counts.iter().map(|&c| c as usize).collect();
+        let mut all = vec![V::default(); sizes.iter().sum()];
+        if all.is_empty() {
+            // Nothing to move, and an empty buffer's address could read as `MPI_IN_PLACE`.
+            return (sizes, all);
+        }
         self.with(|w| {
             let mut part = PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
             w.all_gather_varcount_into(local, &mut part);
         });
-        all
+        (sizes, all)
     }
 
     /// Rank 0's `bytes` on every rank (the others pass anything; it is replaced).
@@ -189,7 +231,9 @@ impl Cluster {
         let mut len = bytes.len() as u64;
         self.with(|w| w.process_at_rank(0).broadcast_into(&mut len));
         bytes.resize(len as usize, 0);
-        self.with(|w| w.process_at_rank(0).broadcast_into(&mut bytes[..]));
+        if !bytes.is_empty() {
+            self.with(|w| w.process_at_rank(0).broadcast_into(&mut bytes[..]));
+        }
     }
 
     /// One-way latency from rank 0 to each rank, half the median of `rounds` blocking

@@ -16,14 +16,12 @@ pub enum ClusterError {
         got: String,
     },
     /// A step failed on some ranks, so every rank stops.
-    #[error("{step} failed on rank(s) {ranks:?}{}", mine.as_ref().map(|m| format!("; on this rank: {m}")).unwrap_or_default())]
+    #[error("{step} failed on {}", reasons.iter().map(|(r, why)| format!("rank {r}: {why}")).collect::<Vec<_>>().join("; "))]
     Failed {
         /// What the ranks were doing (e.g. `loading the scene`).
         step: String,
-        /// The ranks where it failed, in order.
-        ranks: Vec<usize>,
-        /// This rank's own error, if it was one of them.
-        mine: Option<String>,
+        /// Each rank that failed, in order, with its reason.
+        reasons: Vec<(usize, String)>,
     },
     /// A message between ranks could not be read: a protocol bug or a mismatched build.
     #[error("malformed message from rank {rank}: {why}")]
