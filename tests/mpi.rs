@@ -171,3 +171,69 @@ fn a_scene_missing_on_one_rank_ends_every_rank() {
     );
     assert!(!here.join("never.png").exists());
 }
+
+#[test]
+fn bench_over_mpi_reports_balance_communication_and_simulated_clusters() {
+    let dir = temp_dir("mpi-bench");
+    let launch = [
+        "-np",
+        "2",
+        COBALT,
+        "bench",
+        "--mpi",
+        "--size",
+        "32x32",
+        "--shaders",
+        "ao",
+        "--ao-samples",
+        "2",
+        "--task-sizes",
+        "256",
+        "--devices",
+        "cpu:1",
+        "--json",
+        "bench.json",
+    ];
+    let run = mpirun(&launch, &dir);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(stdout.contains("Over MPI: 2 rank(s)"), "{stdout}");
+    let records: Vec<serde_json::Value> = serde_json::from_slice(
+        &std::fs::read(dir.join("bench.json")).expect("rank 0 wrote the records"),
+    )
+    .expect("JSON");
+    let measured: Vec<_> = records.iter().filter(|r| r["source"] == "mpi").collect();
+    let policies: Vec<_> = measured.iter().map(|r| r["policy"].clone()).collect();
+    assert_eq!(policies, ["static-lpt", "queue-fifo", "queue-sorted"]);
+    for r in &measured {
+        let balance = r["balance_efficiency"].as_f64().expect("balance");
+        assert!(balance > 0.0 && balance <= 1.0 + 1e-9, "{r}");
+        assert!(r["comm_seconds"].as_f64().expect("comm") > 0.0, "{r}");
+        assert!(r["batches"].as_u64().expect("batches") > 0, "{r}");
+        assert!(r["mrays_per_s"].as_f64().expect("rate") > 0.0, "{r}");
+    }
+    // A queue sends rank 1 a batch per task it takes; a static plan one per generation.
+    let batches = |p: &str| {
+        measured.iter().find(|r| r["policy"] == p).expect("run")["batches"]
+            .as_u64()
+            .expect("batches")
+    };
+    assert!(batches("queue-fifo") >= batches("static-lpt"));
+    let simulated: Vec<_> = records
+        .iter()
+        .filter(|r| r["source"] == "simulated-cluster")
+        .collect();
+    // 2 node counts × 2 links × 3 policies, each at a measured, positive latency.
+    assert_eq!(simulated.len(), 12);
+    for r in &simulated {
+        assert!(
+            [16, 64].contains(&r["nodes"].as_u64().expect("nodes")),
+            "{r}"
+        );
+        assert!(r["latency"].as_f64().expect("latency") > 0.0, "{r}");
+    }
+}

@@ -95,9 +95,9 @@ impl<W: Wire> Wire for Vec<W> {
 
     fn decode(bytes: &mut &[u8]) -> Result<Self, WireError> {
         let n = u64::decode(bytes)?;
-        // Every item takes at least one byte, so a corrupt length cannot reserve gigabytes.
-        let n = usize::try_from(n).unwrap_or(usize::MAX).min(bytes.len());
-        let mut v = Vec::with_capacity(n);
+        // Every item takes at least one byte, so a corrupt length cannot reserve gigabytes;
+        // it runs out of bytes instead.
+        let mut v = Vec::with_capacity(usize::try_from(n).unwrap_or(usize::MAX).min(bytes.len()));
         for _ in 0..n {
             v.push(W::decode(bytes)?);
         }
@@ -148,5 +148,10 @@ mod tests {
         let err = Vec::<f64>::decode(&mut &out[..]).unwrap_err();
         assert_eq!(err.wanted, "a u64");
         assert_eq!(err.left, 5);
+        // A length larger than what follows is an error, not a shorter list.
+        let mut long = Vec::new();
+        3u64.encode(&mut long);
+        1.0f64.encode(&mut long);
+        assert!(Vec::<f64>::decode(&mut &long[..]).is_err());
     }
 }
