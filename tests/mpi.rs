@@ -208,7 +208,10 @@ fn bench_over_mpi_reports_balance_communication_and_simulated_clusters() {
     .expect("JSON");
     let measured: Vec<_> = records.iter().filter(|r| r["source"] == "mpi").collect();
     let policies: Vec<_> = measured.iter().map(|r| r["policy"].clone()).collect();
-    assert_eq!(policies, ["static-lpt", "queue-fifo", "queue-sorted"]);
+    assert_eq!(
+        policies,
+        ["static-lpt", "queue-fifo", "queue-sorted", "hybrid"]
+    );
     for r in &measured {
         let balance = r["balance_efficiency"].as_f64().expect("balance");
         assert!(balance > 0.0 && balance <= 1.0 + 1e-9, "{r}");
@@ -227,8 +230,8 @@ fn bench_over_mpi_reports_balance_communication_and_simulated_clusters() {
         .iter()
         .filter(|r| r["source"] == "simulated-cluster")
         .collect();
-    // 2 node counts × 2 links × 3 policies, each at a measured, positive latency.
-    assert_eq!(simulated.len(), 12);
+    // 2 node counts × 2 links × 4 policies, each at a measured, positive latency.
+    assert_eq!(simulated.len(), 16);
     for r in &simulated {
         assert!(
             [16, 64].contains(&r["nodes"].as_u64().expect("nodes")),

@@ -77,7 +77,7 @@ pub struct Args {
     #[arg(long)]
     plots: Option<PathBuf>,
     /// Under `mpirun`: every rank is a node with the `--devices` of its own; compares the
-    /// policies (default static-lpt, queue-fifo, queue-sorted) over the nodes in cost mode,
+    /// policies (default static-lpt, queue-fifo, queue-sorted, hybrid) over the nodes in cost mode,
     /// with balance over nodes and the time spent in MPI, then simulates 16 and 64 nodes
     /// behind the measured latency (feature `mpi`).
     #[cfg(feature = "mpi")]
@@ -172,7 +172,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
     #[cfg(feature = "mpi")]
     if args.mpi {
         let policies = match &args.policies {
-            None => vec![Policy::StaticLpt, Policy::QueueFifo, Policy::QueueSorted],
+            None => vec![
+                Policy::StaticLpt,
+                Policy::QueueFifo,
+                Policy::QueueSorted,
+                Policy::Hybrid,
+            ],
             Some(_) => policies,
         };
         let settings = MpiSettings {
