@@ -19,7 +19,10 @@
 //! [`Settings`]: crate::scheduled::Settings
 //! [`ScheduledTracer`]: crate::scheduled::ScheduledTracer
 
+mod node;
+mod stats;
 mod tracer;
 mod wire;
 
-pub use tracer::{ClusterTracer, NodeGeneration, NodeRun};
+pub use stats::{NodeGeneration, NodeRun};
+pub use tracer::ClusterTracer;

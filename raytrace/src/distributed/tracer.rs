@@ -5,8 +5,10 @@ use std::ops::Range;
 use std::time::Instant;
 
 use sched::mpi::{Cluster, RemoteNode, Wire};
-use sched::{Costs, DeviceError, DeviceFailure, Executor, Runtime, Sink, split_ranges};
+use sched::{Costs, DeviceFailure, Executor, Runtime, split_ranges};
 
+use super::node::{LocalNode, batch_work};
+use super::{NodeGeneration, NodeRun};
 use crate::cost::{ReducedTraversal, Work};
 use crate::scheduled::{Mode, ScheduledTracer, Settings};
 use crate::shade::Tracer;
@@ -25,50 +27,6 @@ pub struct ClusterTracer<'a, 'c> {
     evidence: f64,
     retired: Vec<bool>,
     log: Vec<NodeGeneration>,
-}
-
-/// How one generation went across the nodes (kept on rank 0; the other ranks only count
-/// their communication).
-#[derive(Clone, Debug)]
-pub struct NodeGeneration {
-    /// The ray kind.
-    pub kind: RayKind,
-    /// Rays traced.
-    pub rays: usize,
-    /// Tasks planned over the nodes.
-    pub tasks: usize,
-    /// Wall time of the estimate: this rank's slice and the all-gather.
-    pub estimate_seconds: f64,
-    /// Wall time from the plan to the last node's outputs.
-    pub run_seconds: f64,
-    /// Wall time of broadcasting the hits.
-    pub broadcast_seconds: f64,
-    /// Makespan of the run over the nodes.
-    pub makespan: f64,
-    /// Balance efficiency over the nodes (thesis definition).
-    pub balance_efficiency: f64,
-    /// Per rank that took part: the rank, the speed it was planned at, its busy seconds and
-    /// launches (batches sent to it).
-    pub nodes: Vec<NodeRun>,
-    /// Nodes that failed; their tasks were re-run on the others.
-    pub failures: Vec<DeviceFailure>,
-    /// Every node failed and rank 0 traced the generation itself.
-    pub host_fallback: bool,
-}
-
-/// One rank in one generation.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct NodeRun {
-    /// Its rank.
-    pub rank: usize,
-    /// The relative speed the plan used.
-    pub speed: f64,
-    /// Seconds it was busy (for another rank: round trips included).
-    pub busy: f64,
-    /// Batches it ran.
-    pub launches: u64,
-    /// Tasks it ran.
-    pub tasks: usize,
 }
 
 impl<'a, 'c> ClusterTracer<'a, 'c> {
@@ -318,79 +276,5 @@ impl Tracer for ClusterTracer<'_, '_> {
             self.log.push(stats);
         }
         hits
-    }
-}
-
-/// The work of `batch`'s tasks, found by position: tasks are the fixed-size ranges of
-/// `split_ranges`, so a range is task `start / task_size`. A range that is not one of
-/// `tasks` is refused, naming it.
-fn batch_work(
-    batch: &[Range<usize>],
-    tasks: &[Range<usize>],
-    work: Option<&[Work]>,
-    task_size: usize,
-) -> Result<Option<Vec<Work>>, DeviceError> {
-    let mut part = Vec::with_capacity(batch.len());
-    for range in batch {
-        let i = range.start / task_size;
-        if tasks.get(i) != Some(range) {
-            return Err(DeviceError::msg(format!(
-                "task {range:?} is not one of this generation's {} tasks",
-                tasks.len()
-            )));
-        }
-        if let Some(w) = work {
-            part.push(w[i]);
-        }
-    }
-    Ok(work.map(|_| part))
-}
-
-/// Rank 0's own node as a device of the plan over nodes: its batches run on its devices with
-/// the local policy.
-struct LocalNode<'t, 'a, 'r> {
-    tracer: &'t mut ScheduledTracer<'a>,
-    kind: RayKind,
-    rays: &'r RayBatch,
-    tasks: &'r [Range<usize>],
-    work: Option<&'r [Work]>,
-    task_size: usize,
-    speed: f64,
-}
-
-impl Executor<Range<usize>> for LocalNode<'_, '_, '_> {
-    type Output = HitBatch;
-
-    fn run(&mut self, task: &Range<usize>) -> Result<HitBatch, DeviceError> {
-        let batch = [task.clone()];
-        let part = batch_work(&batch, self.tasks, self.work, self.task_size)?;
-        self.tracer
-            .trace_tasks(self.kind, self.rays, &batch, part.as_deref())
-            .pop()
-            .ok_or_else(|| DeviceError::msg(format!("rank0: no hits for task {task:?}")))
-    }
-
-    fn run_batch(
-        &mut self,
-        tasks: &[&Range<usize>],
-        sink: &mut Sink<HitBatch>,
-    ) -> Result<(), DeviceError> {
-        let batch: Vec<Range<usize>> = tasks.iter().map(|&t| t.clone()).collect();
-        let part = batch_work(&batch, self.tasks, self.work, self.task_size)?;
-        for hits in self
-            .tracer
-            .trace_tasks(self.kind, self.rays, &batch, part.as_deref())
-        {
-            sink.push(hits);
-        }
-        Ok(())
-    }
-
-    fn speed(&self) -> f64 {
-        self.speed
-    }
-
-    fn name(&self) -> String {
-        String::from("rank0")
     }
 }

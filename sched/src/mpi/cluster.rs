@@ -282,8 +282,10 @@ impl Cluster {
             .any(|v| std::env::var_os(v).is_some())
     }
 
-    /// A barrier in which the waiting ranks sleep between polls instead of spinning, so that
-    /// rank 0 can measure something alone with the cores to itself. Every rank calls it.
+    /// A barrier in which the other ranks sleep between polls instead of spinning: they call
+    /// it at once and wait; rank 0 calls it when it is done with work it measures alone (with
+    /// the cores to itself, where ranks share a host), which releases them. Every rank calls
+    /// it once per hold.
     pub fn hold(&self) {
         if self.is_root() {
             self.finish();
