@@ -52,6 +52,10 @@ pub enum CliError {
     /// A cost estimate or one of its metrics could not be computed.
     #[error(transparent)]
     Cost(#[from] raytrace::cost::CostError),
+    /// A step of a run over MPI ranks failed on some rank (feature `mpi`).
+    #[cfg(feature = "mpi")]
+    #[error(transparent)]
+    Cluster(#[from] sched::mpi::ClusterError),
     /// Output could not be written.
     #[error("writing output: {0}")]
     Write(String),

@@ -1,6 +1,8 @@
 //! `cobalt`: cost-balanced scheduling of irregular workloads, from the command line.
 
 mod bench;
+#[cfg(feature = "mpi")]
+mod cluster;
 mod collide;
 mod error;
 mod estimate;
@@ -61,7 +63,10 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("cobalt: error: {e}");
+            // One write for the whole line: under `mpirun` every rank may print at once, and
+            // the pieces `eprintln!` writes one by one would interleave.
+            let line = format!("cobalt: error: {e}\n");
+            let _ = std::io::Write::write_all(&mut std::io::stderr().lock(), line.as_bytes());
             ExitCode::from(2)
         }
     }

@@ -128,6 +128,9 @@ struct GenerationReport {
 #[derive(Debug, Serialize)]
 struct ScheduleReport {
     tasks: usize,
+    /// Rays in the longest task: `--task-size`, or less for a generation too small to give
+    /// every device several tasks.
+    task_size: usize,
     estimate_seconds: f64,
     plan_seconds: f64,
     /// Wall time of the run on the devices.
@@ -227,7 +230,7 @@ struct Report {
 }
 
 /// Where the camera comes from.
-enum CameraChoice {
+pub(crate) enum CameraChoice {
     Thesis(usize),
     LookAt(Vec3, Vec3),
 }
@@ -320,6 +323,32 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }),
         ShaderArg::Whitted => Shader::Whitted(WhittedSettings::default()),
     };
+
+    // Under `mpirun`, every rank renders the same image together (see `crate::cluster`).
+    #[cfg(feature = "mpi")]
+    if sched::mpi::Cluster::launched() {
+        if args.cost_image.is_some() {
+            return Err(arg(
+                "cost-image",
+                &args.cost_image.as_ref().map(|p| p.display().to_string()),
+                "not available under mpirun; render the cost image in one process",
+            ));
+        }
+        return crate::cluster::render(crate::cluster::Job {
+            scene: &args.scene,
+            shader,
+            width,
+            height,
+            camera: camera_choice,
+            preset,
+            specs: &specs,
+            faults: &faults,
+            settings,
+            out: &args.out,
+            report: args.report.as_deref(),
+            json: args.json,
+        });
+    }
 
     let loading = Instant::now();
     let scene = SceneSource::parse(&args.scene)?.load(shader.needs())?;
@@ -430,6 +459,7 @@ fn generation_reports(r: &Rendering, stats: &[GenerationStats]) -> Vec<Generatio
 fn schedule_report(g: &GenerationStats) -> ScheduleReport {
     ScheduleReport {
         tasks: g.tasks,
+        task_size: g.task_size,
         estimate_seconds: g.estimate_seconds,
         plan_seconds: g.plan_seconds,
         run_seconds: g.run_seconds,

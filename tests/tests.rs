@@ -34,3 +34,8 @@ mod bench;
 
 // `cobalt knn` and `cobalt collide`: the bench record shape, full sampling exact, bad input.
 mod spatial;
+
+// `mpirun -np 3 cobalt render`: the image of one process, byte for byte; a scene missing on
+// some ranks ends every rank with an error (feature `mpi`, needs Open MPI's `mpirun`).
+#[cfg(feature = "mpi")]
+mod mpi;

@@ -35,6 +35,8 @@ pub mod cost;
 pub mod cost_image;
 pub mod cpu;
 pub mod devices;
+#[cfg(feature = "mpi")]
+pub mod distributed;
 mod error;
 pub mod film;
 #[cfg(feature = "gpu")]

@@ -42,6 +42,9 @@
 //! The [`bounds`] module states each policy's guarantee and a lower bound on the optimum;
 //! [`exact`] computes the optimum of small instances, against which the guarantees are
 //! property-tested.
+//!
+//! With the `mpi` feature, `mpi` makes the ranks of an MPI job the nodes of one run: a
+//! `RemoteNode` is another rank seen as an [`Executor`] by rank 0's runtime.
 
 pub mod bounds;
 mod cost;
@@ -50,6 +53,8 @@ mod error;
 pub mod exact;
 mod executor;
 mod load;
+#[cfg(feature = "mpi")]
+pub mod mpi;
 mod plan;
 mod policy;
 mod runtime;

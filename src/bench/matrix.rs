@@ -277,7 +277,7 @@ impl Plan<'_> {
     }
 }
 
-fn replay(g: &GenerationStats) -> Replay {
+pub fn replay(g: &GenerationStats) -> Replay {
     Replay {
         rays: g.rays,
         estimate_seconds: g.estimate_seconds,

@@ -8,6 +8,8 @@
 //! on simulated machines; `--plots` draws the thesis's charts.
 
 mod matrix;
+#[cfg(feature = "mpi")]
+mod mpi;
 mod plots;
 mod probe;
 mod simulate;
@@ -74,6 +76,13 @@ pub struct Args {
     /// Draw charts (PNG) into this directory: MRays/s, balance, sampling trade, cost image.
     #[arg(long)]
     plots: Option<PathBuf>,
+    /// Under `mpirun`: every rank is a node with the `--devices` of its own; compares the
+    /// policies (default static-lpt, queue-fifo, queue-sorted, hybrid) over the nodes in cost mode,
+    /// with balance over nodes and the time spent in MPI, then simulates 16 and 64 nodes
+    /// behind the measured latency (feature `mpi`).
+    #[cfg(feature = "mpi")]
+    #[arg(long, conflicts_with_all = ["plots", "simulate", "full"])]
+    mpi: bool,
 }
 
 fn bad(flag: &'static str, value: &str, message: &str) -> CliError {
@@ -160,6 +169,30 @@ pub fn run(args: Args) -> Result<(), CliError> {
     } else {
         SceneNeeds::AO
     };
+    #[cfg(feature = "mpi")]
+    if args.mpi {
+        let policies = match &args.policies {
+            None => vec![
+                Policy::StaticLpt,
+                Policy::QueueFifo,
+                Policy::QueueSorted,
+                Policy::Hybrid,
+            ],
+            Some(_) => policies,
+        };
+        let settings = MpiSettings {
+            width,
+            height,
+            specs: &specs,
+            workloads: &workloads,
+            task_sizes: &task_sizes,
+            policies: &policies,
+            rate,
+            preset,
+        };
+        return run_mpi(&args, &scenes, needs, settings, started);
+    }
+
     // Every scene is loaded before anything is measured, so a bad file fails the command at
     // once instead of after the first scene's runs.
     let loaded = scenes
@@ -267,6 +300,78 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
         let text = serde_json::to_vec_pretty(&all).map_err(|e| CliError::Write(e.to_string()))?;
         crate::write_file(path, &text)?;
+    }
+    Ok(())
+}
+
+/// The checked arguments `cobalt bench --mpi` runs with.
+#[cfg(feature = "mpi")]
+struct MpiSettings<'a> {
+    width: u32,
+    height: u32,
+    specs: &'a [raytrace::devices::DeviceSpec],
+    workloads: &'a [Workload],
+    task_sizes: &'a [usize],
+    policies: &'a [Policy],
+    rate: SampleRate,
+    preset: BuildPreset,
+}
+
+/// `cobalt bench --mpi` on every rank: every rank loads every scene (and all agree that it
+/// did), then the ranks bench together and rank 0 prints the tables.
+#[cfg(feature = "mpi")]
+fn run_mpi(
+    args: &Args,
+    scenes: &[String],
+    needs: SceneNeeds,
+    s: MpiSettings<'_>,
+    started: Instant,
+) -> Result<(), CliError> {
+    let cluster = sched::mpi::Cluster::init()?;
+    let loaded: Result<Vec<_>, raytrace::Error> = scenes
+        .iter()
+        .map(|name| {
+            let scene = SceneSource::parse(name)?.load(needs)?;
+            let bvh = Bvh::build(&scene, s.preset)?;
+            Ok((scene, bvh))
+        })
+        .collect();
+    let loaded = cluster.agree("loading the scenes", loaded)?;
+    let plans: Vec<mpi::Plan<'_>> = scenes
+        .iter()
+        .zip(&loaded)
+        .map(|(name, (scene, bvh))| mpi::Plan {
+            scene_name: name,
+            scene,
+            bvh,
+            devices: s.specs,
+            device_list: &args.devices,
+            workloads: s.workloads,
+            task_sizes: s.task_sizes,
+            policies: s.policies,
+            width: s.width,
+            height: s.height,
+            ao_samples: args.ao_samples,
+            sample_rate: s.rate,
+        })
+        .collect();
+    let Some((mut text, json)) = mpi::bench(&cluster, &plans)? else {
+        return Ok(());
+    };
+    text = format!(
+        "cobalt bench --mpi: {} at {}x{}, camera 0, sample rate {}\n\n{text}\n{} MPI runs and {} simulated in {:.1} s.\n",
+        scenes.join(", "),
+        s.width,
+        s.height,
+        s.rate.get(),
+        json.iter().filter(|v| v["source"] == "mpi").count(),
+        json.iter().filter(|v| v["source"] != "mpi").count(),
+        started.elapsed().as_secs_f64(),
+    );
+    crate::print_text(&text)?;
+    if let Some(path) = &args.json {
+        let bytes = serde_json::to_vec_pretty(&json).map_err(|e| CliError::Write(e.to_string()))?;
+        crate::write_file(path, &bytes)?;
     }
     Ok(())
 }

@@ -15,7 +15,8 @@ pub struct GenerationStats {
     pub rays: usize,
     /// Tasks the rays were cut into.
     pub tasks: usize,
-    /// Rays per task (the last may hold fewer).
+    /// Rays in the longest task: the settings' task size, or less for a small generation
+    /// (see `Settings::task_size_for`).
     pub task_size: usize,
     /// The policy that planned it.
     pub policy: Policy,

@@ -1,6 +1,7 @@
 //! The scheduled tracer: every generation cut into tasks, costed, planned by a policy and run
 //! on devices by `sched`'s runtime (DESIGN.md, "How data flows").
 
+use std::ops::Range;
 use std::time::Instant;
 
 use sched::{Costs, DeviceFailure, RunReport, Runtime, SchedError, split_ranges};
@@ -114,20 +115,57 @@ impl<'a> ScheduledTracer<'a> {
     }
 }
 
-impl<'a> Tracer for ScheduledTracer<'a> {
-    fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
-        let active = self.retired.iter().filter(|r| !**r).count();
-        let task_size = self.settings.task_size_for(rays.len(), active);
-        let tasks = split_ranges(rays.len(), task_size);
+impl<'a> ScheduledTracer<'a> {
+    /// The cost model the next plan of `kind` uses (see `planning_model`): what another
+    /// process planning this tracer's work needs to turn estimated work into costs.
+    pub fn cost_model(&self, kind: RayKind) -> CostModel {
+        self.planning_model(kind)
+    }
 
-        let estimating = Instant::now();
-        let (costs, work, estimate_error) = self.costs(kind, rays, &tasks);
-        // Regular mode has nothing to estimate: no overhead to report.
-        let estimate_seconds = match self.settings.mode {
-            Mode::Regular => 0.0,
-            Mode::Cost => estimating.elapsed().as_secs_f64(),
+    /// Traces `tasks` (ranges of `rays`, any subset of a generation, each traced whole) on
+    /// this tracer's devices with its policy, and returns their hits in the order of `tasks`.
+    /// `work` is each task's estimated work, made elsewhere (a cluster estimates once, on all
+    /// ranks in parallel); in cost mode without it, tasks are planned as equal.
+    pub fn trace_tasks(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        tasks: &[Range<usize>],
+        work: Option<&[Work]>,
+    ) -> Vec<HitBatch> {
+        let work = work.filter(|w| self.settings.mode == Mode::Cost && w.len() == tasks.len());
+        let costs = work.and_then(|w| Costs::new(self.planning_model(kind).costs(w)).ok());
+        let planned = match costs {
+            Some(costs) => Planned {
+                costs,
+                work,
+                estimate_seconds: 0.0,
+                estimate_error: None,
+            },
+            None => Planned {
+                costs: Costs::uniform(tasks.len()),
+                work: None,
+                estimate_seconds: 0.0,
+                estimate_error: None,
+            },
         };
+        self.run_tasks(kind, rays, tasks, planned)
+    }
 
+    /// Runs `tasks` as `planned`, logs the generation and returns one hit batch per task.
+    fn run_tasks(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        tasks: &[Range<usize>],
+        planned: Planned<'_>,
+    ) -> Vec<HitBatch> {
+        let Planned {
+            costs,
+            work,
+            estimate_seconds,
+            estimate_error,
+        } = planned;
         let active: Vec<usize> = (0..self.devices.len())
             .filter(|&d| !self.retired[d])
             .collect();
@@ -141,15 +179,15 @@ impl<'a> Tracer for ScheduledTracer<'a> {
             .map(|(d, device)| Bound::new(device.as_mut(), kind, rays, speeds[d]))
             .collect();
         let running = Instant::now();
-        let result = Runtime::new(self.settings.policy).run(&tasks, &costs, &mut bound);
+        let result = Runtime::new(self.settings.policy).run(tasks, &costs, &mut bound);
         let run_seconds = running.elapsed().as_secs_f64();
         drop(bound);
 
         let mut stats = GenerationStats {
             kind,
-            rays: rays.len(),
+            rays: tasks.iter().map(|t| t.len()).sum(),
             tasks: tasks.len(),
-            task_size,
+            task_size: tasks.iter().map(|t| t.len()).max().unwrap_or(0),
             policy: self.settings.policy,
             mode: self.settings.mode,
             estimate_seconds,
@@ -166,7 +204,7 @@ impl<'a> Tracer for ScheduledTracer<'a> {
             host_fallback: false,
         };
         let hits = match result {
-            Ok(report) => self.learn(&mut stats, &active, &costs, work.as_deref(), report),
+            Ok(report) => self.learn(&mut stats, &active, &costs, work, report),
             Err(e) => {
                 // Every device failed (or none was left): the image must still be complete,
                 // so the caller's thread traces the generation, and the report says so.
@@ -187,16 +225,53 @@ impl<'a> Tracer for ScheduledTracer<'a> {
                 }
                 stats.host_fallback = true;
                 let start = Instant::now();
-                let hits = if kind.is_occlusion() {
-                    any_hits(self.bvh, rays)
-                } else {
-                    closest_hits(self.bvh, rays)
-                };
+                let hits = tasks
+                    .iter()
+                    .map(|t| {
+                        let part: RayBatch = t.clone().map(|i| rays.get(i)).collect();
+                        if kind.is_occlusion() {
+                            any_hits(self.bvh, &part)
+                        } else {
+                            closest_hits(self.bvh, &part)
+                        }
+                    })
+                    .collect();
                 stats.run_seconds += start.elapsed().as_secs_f64();
                 hits
             }
         };
         self.log.push(stats);
+        hits
+    }
+}
+
+impl<'a> Tracer for ScheduledTracer<'a> {
+    fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
+        let active = self.retired.iter().filter(|r| !**r).count();
+        let tasks = split_ranges(rays.len(), self.settings.task_size_for(rays.len(), active));
+
+        let estimating = Instant::now();
+        let (costs, work, estimate_error) = self.costs(kind, rays, &tasks);
+        // Regular mode has nothing to estimate: no overhead to report.
+        let estimate_seconds = match self.settings.mode {
+            Mode::Regular => 0.0,
+            Mode::Cost => estimating.elapsed().as_secs_f64(),
+        };
+        let planned = Planned {
+            costs,
+            work: work.as_deref(),
+            estimate_seconds,
+            estimate_error,
+        };
+        let outputs = self.run_tasks(kind, rays, &tasks, planned);
+        let mut hits = HitBatch {
+            t: Vec::with_capacity(rays.len()),
+            prim: Vec::with_capacity(rays.len()),
+        };
+        for out in outputs {
+            hits.t.extend_from_slice(&out.t);
+            hits.prim.extend_from_slice(&out.prim);
+        }
         hits
     }
 
@@ -208,7 +283,7 @@ impl<'a> Tracer for ScheduledTracer<'a> {
 
 impl ScheduledTracer<'_> {
     /// Fills `stats` from a successful run, updates speeds, calibrations and retired devices,
-    /// and assembles the hits in ray order. `active[i]` is the tracer's index of the run's
+    /// and returns the hits of each task, in task order. `active[i]` is the tracer's index of the run's
     /// device `i`.
     fn learn(
         &mut self,
@@ -217,7 +292,7 @@ impl ScheduledTracer<'_> {
         costs: &Costs,
         work: Option<&[Work]>,
         report: RunReport<HitBatch>,
-    ) -> HitBatch {
+    ) -> Vec<HitBatch> {
         let names: Vec<String> = active.iter().map(|&d| self.devices[d].name()).collect();
         let old: Vec<f64> = active.iter().map(|&d| self.speeds[d]).collect();
         let class = class_indices(active.iter().map(|&d| self.devices[d].class()));
@@ -290,16 +365,17 @@ impl ScheduledTracer<'_> {
             })
             .collect();
 
-        let mut hits = HitBatch {
-            t: Vec::with_capacity(stats.rays),
-            prim: Vec::with_capacity(stats.rays),
-        };
-        for out in report.outputs {
-            hits.t.extend_from_slice(&out.t);
-            hits.prim.extend_from_slice(&out.prim);
-        }
-        hits
+        report.outputs
     }
+}
+
+/// A generation's tasks, costed: the costs the plan uses, the work behind them (cost mode),
+/// and what estimating took or why it failed.
+struct Planned<'w> {
+    costs: Costs,
+    work: Option<&'w [Work]>,
+    estimate_seconds: f64,
+    estimate_error: Option<String>,
 }
 
 /// Dense indices of `classes`, equal where the class names are equal.
