@@ -134,7 +134,7 @@ fn gather_columns(rays: &RayBatch, index: &[usize]) -> RayBatch {
 }
 
 /// Every task non-empty and inside a consistent batch: checked before any ray is read.
-pub(super) fn check_tasks(rays: &RayBatch, tasks: &[Range<usize>]) -> Result<(), CostError> {
+pub(crate) fn check_tasks(rays: &RayBatch, tasks: &[Range<usize>]) -> Result<(), CostError> {
     if !rays.is_consistent() {
         return Err(CostError::InconsistentBatch);
     }

@@ -9,7 +9,8 @@ use crate::scheduled::{BadRange, RayDevice};
 use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
 use super::buffers::{SceneBuffers, pack_rays};
-use super::pipeline::{GpuMode, Kernels, launch, launch_timed};
+use super::estimate::{EstimateKernels, SampledCounts, sampled_counts};
+use super::pipeline::{GpuMode, Kernels, Threads, launch, launch_timed};
 use super::{GpuContext, GpuError};
 
 /// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a generation's rays,
@@ -19,7 +20,9 @@ use super::{GpuContext, GpuError};
 pub struct GpuDevice {
     ctx: GpuContext,
     kernels: Kernels,
+    estimate: EstimateKernels,
     scene: SceneBuffers,
+    threads: Threads,
     /// The last launch's GPU seconds as `f64` bits; NaN when unknown.
     last_seconds: AtomicU64,
 }
@@ -33,12 +36,26 @@ impl GpuDevice {
     pub fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
         let kernels = Kernels::new(&ctx.device, bvh.depth())?;
         let scene = SceneBuffers::upload(&ctx, bvh)?;
+        let estimate = EstimateKernels::new(&ctx.device);
         Ok(Self {
             ctx,
             kernels,
+            estimate,
             scene,
+            threads: Threads::default(),
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
         })
+    }
+
+    /// The same device handing rays to invocations as `threads` says (persistent threads by
+    /// default).
+    pub fn with_threads(self, threads: Threads) -> Self {
+        Self { threads, ..self }
+    }
+
+    /// How rays are handed to invocations.
+    pub fn threads(&self) -> Threads {
+        self.threads
     }
 
     /// The GPU time of the last hit launch in seconds, from timestamp queries; `None` where
@@ -76,7 +93,14 @@ impl GpuDevice {
             GpuMode::Closest
         };
         let packed = pack_rays(rays, ranges);
-        let (out, seconds) = launch_timed(&self.ctx, &self.kernels, &self.scene, &packed, mode)?;
+        let (out, seconds) = launch_timed(
+            &self.ctx,
+            &self.kernels,
+            &self.scene,
+            &packed,
+            mode,
+            self.threads,
+        )?;
         self.last_seconds
             .store(seconds.unwrap_or(f64::NAN).to_bits(), Ordering::Relaxed);
         Ok(HitBatch {
@@ -110,6 +134,34 @@ impl GpuDevice {
             .into_iter()
             .map(|[nodes, tris]| Counts { nodes, tris })
             .collect())
+    }
+}
+
+impl GpuDevice {
+    /// The estimator's sums on the device: every task of `rays` sampled at `rate` exactly as
+    /// [`crate::cost::Compacted::gather`] samples it, the samples compacted and traced by the
+    /// reduced traversal, and their `B` and `T` summed per task (see
+    /// [`super::GpuReducedTraversal`] for the estimator built on it).
+    ///
+    /// # Errors
+    /// [`GpuError::BadTasks`] for an empty task or one beyond the batch,
+    /// [`GpuError::TaskTooLong`] for a task beyond [`super::MAX_TASK_RAYS`] rays, and the
+    /// errors of [`launch`].
+    pub fn sampled_counts(
+        &self,
+        rays: &RayBatch,
+        tasks: &[Range<usize>],
+        rate: crate::cost::SampleRate,
+    ) -> Result<Vec<SampledCounts>, GpuError> {
+        sampled_counts(
+            &self.ctx,
+            &self.kernels,
+            &self.estimate,
+            &self.scene,
+            rays,
+            tasks,
+            rate,
+        )
     }
 }
 

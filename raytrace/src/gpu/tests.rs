@@ -8,10 +8,12 @@
 use std::sync::Once;
 
 use glam::Vec3;
+use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers, pack_rays};
-use super::pipeline::{GpuMode, Kernels, launch};
-use super::{GpuContext, GpuDevice, GpuError, GpuOptions};
+use super::pipeline::{GpuMode, Kernels, Threads, launch, launch_timed};
+use super::{GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, MAX_TASK_RAYS};
+use crate::cost::{Compacted, ReducedTraversal, SampleRate, full_work};
 use crate::devices::GpuSelect;
 use crate::{BuildPreset, Bvh, HitBatch, Ray, RayBatch, Rng, SceneNeeds, SceneSource};
 use crate::{testkit, traverse, workload};
@@ -244,5 +246,150 @@ fn throughput() {
             rayon::current_num_threads(),
             rays.len() as f64 / cpu_s / 1e6,
         );
+    }
+}
+
+/// The GPU estimator samples the CPU's rays and sums their counts exactly: per-task sums equal
+/// the CPU's (the CPU sample traced on the CPU, summed in integers), and so does the scaled
+/// work, bit for bit, for primary and AO rays, several task sizes (a last task shorter than
+/// the rest, tasks of one ray) and every thesis rate.
+fn check_estimates(name: &str) {
+    let Some(ctx) = gpu() else { return };
+    let scene = SceneSource::parse(name)
+        .and_then(|s| s.load(SceneNeeds::AO))
+        .expect("built-in scene");
+    let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+    let dev = GpuDevice::new(ctx, &bvh).expect("upload");
+    let primary = workload::thesis_primary(&scene, 64, 64, [1]);
+    let ao = workload::thesis_ao(&scene, &bvh, 32, 32, 0, 8).rays;
+    for (what, rays) in [("primary", &primary), ("ao", &ao)] {
+        assert!(rays.len() > 4000, "{name} {what}: {} rays", rays.len());
+        for size in [1, 100, 512, 4096] {
+            let tasks = sched::split_ranges(rays.len(), size);
+            for rate in [0.125, 0.25, 0.5, 1.0] {
+                let rate = SampleRate::new(rate).expect("rate");
+                let at = format!("{name} {what}, tasks of {size}, rate {}", rate.get());
+                let gpu = dev
+                    .sampled_counts(rays, &tasks, rate)
+                    .expect("GPU estimate");
+                let sample = Compacted::gather(rays, &tasks, rate).expect("CPU sample");
+                let counts = traverse::reduced_counts_at(&bvh, rays, &sample.index);
+                assert_eq!(gpu.len(), tasks.len(), "{at}");
+                for (t, g) in gpu.iter().enumerate() {
+                    let (a, b) = (sample.offsets[t], sample.offsets[t + 1]);
+                    let cpu = counts[a..b].iter().fold((0u64, 0u64), |(n, k), c| {
+                        (n + u64::from(c.nodes), k + u64::from(c.tris))
+                    });
+                    assert_eq!(
+                        (g.nodes, g.tris, g.sampled, g.len),
+                        (cpu.0, cpu.1, b - a, tasks[t].len()),
+                        "{at}: task {t}"
+                    );
+                }
+                let cpu_work = ReducedTraversal::new(&bvh, rays, rate)
+                    .try_work(&tasks)
+                    .expect("CPU estimate");
+                let gpu_work = GpuReducedTraversal::new(&dev, rays, rate)
+                    .try_work(&tasks)
+                    .expect("GPU estimate");
+                assert_eq!(gpu_work, cpu_work, "{at}");
+                if rate == SampleRate::FULL {
+                    assert_eq!(
+                        gpu_work,
+                        full_work(&bvh, rays, &tasks).expect("full"),
+                        "{at}"
+                    );
+                }
+            }
+        }
+        // The estimate is not trivial: the rays see the scene.
+        let one = 0..rays.len().min(MAX_TASK_RAYS);
+        let all = dev
+            .sampled_counts(rays, std::slice::from_ref(&one), SampleRate::FULL)
+            .expect("one task");
+        assert!(all[0].nodes > all[0].len as u64, "{name} {what}: {all:?}");
+    }
+}
+
+#[test]
+fn cornell_estimates_equal_cpu() {
+    check_estimates("builtin:cornell:0.2");
+}
+
+#[test]
+fn forest_estimates_equal_cpu() {
+    check_estimates("builtin:forest:0.05");
+}
+
+/// Bad tasks are refused before anything runs, naming the task; as a `sched` estimator the
+/// GPU's costs are the CPU's, and a failure gives NaN costs that `estimate_timed` rejects.
+#[test]
+fn estimator_refuses_bad_tasks_and_serves_sched() {
+    let Some(ctx) = gpu() else { return };
+    let scene = SceneSource::parse("builtin:cornell:0.2")
+        .and_then(|s| s.load(SceneNeeds::AO))
+        .expect("built-in scene");
+    let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+    let dev = GpuDevice::new(ctx, &bvh).expect("upload");
+    let rays = workload::thesis_primary(&scene, 32, 32, [0]);
+    let n = rays.len();
+    let rate = SampleRate::THESIS;
+    let e = dev
+        .sampled_counts(&rays, &[0..10, 10..10], rate)
+        .expect_err("empty task");
+    assert!(e.to_string().contains("task 1 is empty"), "{e}");
+    let e = dev
+        .sampled_counts(&rays, &[0..10, 5..n + 1], rate)
+        .expect_err("beyond the batch");
+    assert!(e.to_string().contains("task 1"), "{e}");
+    let long: RayBatch = (0..MAX_TASK_RAYS + 2)
+        .map(|_| Ray::new(Vec3::ZERO, Vec3::X))
+        .collect();
+    let e = dev
+        .sampled_counts(&long, &[0..1, 1..long.len()], rate)
+        .expect_err("too long");
+    assert!(
+        matches!(e, GpuError::TaskTooLong { task: 1, len, .. } if len == MAX_TASK_RAYS + 1),
+        "{e}"
+    );
+    assert!(
+        dev.sampled_counts(&rays, &[], rate)
+            .expect("none")
+            .is_empty()
+    );
+    let tasks = sched::split_ranges(n, 128);
+    let gpu = GpuReducedTraversal::new(&dev, &rays, rate)
+        .estimate_timed(&tasks)
+        .expect("GPU costs");
+    let cpu = ReducedTraversal::new(&bvh, &rays, rate)
+        .estimate_timed(&tasks)
+        .expect("CPU costs");
+    assert_eq!(gpu.costs, cpu.costs);
+    let bad = GpuReducedTraversal::new(&dev, &rays, rate).estimate_timed(&[0..1, 1..1]);
+    assert!(
+        matches!(bad, Err(sched::SchedError::BadCost { .. })),
+        "{bad:?}"
+    );
+}
+
+/// One thread per ray finds exactly what persistent threads find, for every mode, including
+/// a launch whose last workgroup is partial.
+#[test]
+fn per_ray_threads_equal_persistent() {
+    let Some(ctx) = gpu() else { return };
+    let bvh = scene_bvh("builtin:forest:0.05");
+    let rays = rays_for("builtin:forest:0.05", 14);
+    let kernels = Kernels::new(&ctx.device, bvh.depth()).expect("kernels");
+    let scene = SceneBuffers::upload(&ctx, &bvh).expect("upload");
+    let all = 0..rays.len();
+    let packed = pack_rays(&rays, &[&all]);
+    assert_ne!(packed.len() % 64, 0);
+    for mode in [GpuMode::Closest, GpuMode::Any, GpuMode::Reduced] {
+        let run = |threads| {
+            launch_timed(&ctx, &kernels, &scene, &packed, mode, threads)
+                .expect("launch")
+                .0
+        };
+        assert_eq!(run(Threads::Persistent), run(Threads::PerRay), "{mode:?}");
     }
 }
