@@ -9,7 +9,9 @@
 //!   persistent threads until the ray queue is drained;
 //! - [`GpuDevice`]: one adapter as a [`crate::scheduled::RayDevice`], one launch per plan;
 //! - [`GpuReducedTraversal`]: the cost estimator (sampling, compaction, reduced traversal and
-//!   per-task sums) on the device, equal to the CPU's.
+//!   per-task sums) on the device, equal to the CPU's;
+//! - [`GpuRenderer`]: ambient occlusion rendered entirely on the device (ray generation in
+//!   Morton order, traces, AO probes, image).
 //!
 //! The kernels mirror the CPU's traversal operation for operation; they differ only where the
 //! CPU re-evaluates an exactly-zero edge function in f64 (WGSL has no portable f64): a ray
@@ -21,6 +23,7 @@ pub mod context;
 mod device;
 mod estimate;
 pub mod pipeline;
+mod render;
 #[cfg(test)]
 pub(crate) mod tests;
 
@@ -28,6 +31,7 @@ pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
 pub use estimate::{GpuReducedTraversal, MAX_TASK_RAYS, SampledCounts};
 pub use pipeline::{GpuMode, Kernels, Threads};
+pub use render::{GpuRenderer, GpuRendering};
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or
 /// the limit that was hit.

@@ -12,10 +12,13 @@ use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers, pack_rays};
 use super::pipeline::{GpuMode, Kernels, Threads, launch, launch_timed};
-use super::{GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, MAX_TASK_RAYS};
+use super::{
+    GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, GpuRenderer, MAX_TASK_RAYS,
+};
 use crate::cost::{Compacted, ReducedTraversal, SampleRate, full_work};
 use crate::devices::GpuSelect;
-use crate::{BuildPreset, Bvh, HitBatch, Ray, RayBatch, Rng, SceneNeeds, SceneSource};
+use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, render};
+use crate::{BuildPreset, Bvh, Camera, HitBatch, Ray, RayBatch, Rng, SceneNeeds, SceneSource};
 use crate::{testkit, traverse, workload};
 
 /// The first adapter (software ones included), or `None` with a note when there is none
@@ -209,8 +212,10 @@ fn splits_launches_and_names_the_limit() {
 }
 
 /// Throughput on the first adapter against the CPU (all cores), for forest primary and AO
-/// rays: `cargo test -p raytrace --features gpu --lib gpu::tests::throughput -- --ignored
-/// --nocapture`. GPU time includes the rays' upload and the results' read-back.
+/// rays, with persistent threads and with one thread per ray:
+/// `cargo test -p raytrace --features gpu --lib gpu::tests::throughput -- --ignored
+/// --nocapture`. Wall time includes the rays' upload and the results' read-back; kernel time
+/// is from timestamp queries where the device has them. Each figure is the best of three.
 #[test]
 #[ignore = "a measurement, not a check"]
 fn throughput() {
@@ -220,15 +225,12 @@ fn throughput() {
         .and_then(|s| s.load(SceneNeeds::AO))
         .expect("built-in scene");
     let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
-    let dev = GpuDevice::new(ctx, &bvh).expect("upload");
+    let mut dev = GpuDevice::new(ctx, &bvh).expect("upload");
     let primary = workload::thesis_primary(&scene, 512, 512, [0]);
     let ao = workload::thesis_ao(&scene, &bvh, 256, 256, 0, 8).rays;
     for (what, rays, any) in [("primary", &primary, false), ("ao", &ao, true)] {
         let all = 0..rays.len();
-        dev.hits(any, rays, &[&all]).expect("warm-up");
-        let t = std::time::Instant::now();
-        let g = dev.hits(any, rays, &[&all]).expect("GPU");
-        let gpu_s = t.elapsed().as_secs_f64();
+        let mrays = |s: f64| rays.len() as f64 / s / 1e6;
         let t = std::time::Instant::now();
         let c = if any {
             traverse::any_hits(&bvh, rays)
@@ -236,16 +238,32 @@ fn throughput() {
             traverse::closest_hits(&bvh, rays)
         };
         let cpu_s = t.elapsed().as_secs_f64();
-        let same = (0..rays.len()).filter(|&i| g.prim[i] == c.prim[i]).count();
         eprintln!(
-            "forest {} tris, {what}: {} rays; GPU ({name}) {:.2} MRays/s, CPU ({} threads) \
-             {:.2} MRays/s; same ids {same}",
+            "forest {} tris, {what}: {} rays; CPU ({} threads) {:.2} MRays/s",
             scene.len(),
             rays.len(),
-            rays.len() as f64 / gpu_s / 1e6,
             rayon::current_num_threads(),
-            rays.len() as f64 / cpu_s / 1e6,
+            mrays(cpu_s),
         );
+        for threads in [Threads::Persistent, Threads::PerRay] {
+            dev = dev.with_threads(threads);
+            dev.hits(any, rays, &[&all]).expect("warm-up");
+            let (mut wall, mut kernel) = (f64::INFINITY, f64::INFINITY);
+            let mut same = 0;
+            for _ in 0..3 {
+                let t = std::time::Instant::now();
+                let g = dev.hits(any, rays, &[&all]).expect("GPU");
+                wall = wall.min(t.elapsed().as_secs_f64());
+                kernel = kernel.min(dev.last_gpu_seconds().unwrap_or(f64::NAN));
+                same = (0..rays.len()).filter(|&i| g.prim[i] == c.prim[i]).count();
+            }
+            eprintln!(
+                "  GPU ({name}) {:<10} {:.2} MRays/s wall, {:.2} MRays/s kernels; same ids {same}",
+                threads.name(),
+                mrays(wall),
+                mrays(kernel),
+            );
+        }
     }
 }
 
@@ -392,4 +410,92 @@ fn per_ray_threads_equal_persistent() {
         };
         assert_eq!(run(Threads::Persistent), run(Threads::PerRay), "{mode:?}");
     }
+}
+
+/// The GPU's primary rays are the CPU's, bit for bit and in the same Morton order, for square,
+/// wide and odd-sized images.
+#[test]
+fn raygen_equals_cpu_primary_rays() {
+    let Some(ctx) = gpu() else { return };
+    let scene = SceneSource::parse("builtin:cornell:0.2")
+        .and_then(|s| s.load(SceneNeeds::AO))
+        .expect("built-in scene");
+    let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+    let renderer = GpuRenderer::new(ctx, &scene, &bvh).expect("renderer");
+    for (w, h, cam) in [(64, 64, 0), (128, 32, 1), (37, 23, 2), (1, 5, 3)] {
+        let camera = Camera::thesis(&scene.bounds(), cam);
+        let cpu = camera.primary_rays(w, h);
+        let (rays, pixels) = renderer.primary_rays(w, h, &camera).expect("raygen");
+        assert_eq!(pixels, cpu.pixels, "{w}x{h}: Morton order");
+        let all = 0..cpu.rays.len();
+        assert_eq!(rays, pack_rays(&cpu.rays, &[&all]), "{w}x{h}: rays");
+    }
+}
+
+/// The GPU's AO image against `shade::render` with the same settings. Both compute in f32 with
+/// the same operations; they may differ where `cos`/`sin` round differently (a probe direction
+/// moves by an ulp) or at an exact-edge tie, and a probe that changes its verdict moves its
+/// pixel by 1/samples. Tolerance: at most 1 % of pixels differ at all, none by more than
+/// 2/samples, and the mean absolute difference is at most 1e-3. With `split`, the binding
+/// limit is lowered to the primary rays' size, so the probes go in several chunks.
+fn check_ao_image(name: &str, samples: u32, split: bool) {
+    let Some(mut ctx) = gpu() else { return };
+    let scene = SceneSource::parse(name)
+        .and_then(|s| s.load(SceneNeeds::AO))
+        .expect("built-in scene");
+    let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+    // Large enough that the scene's buffers fit the lowered limit.
+    let (w, h) = if split { (96, 64) } else { (64, 48) };
+    if split {
+        ctx.limits.max_storage_buffer_binding_size = u64::from(w * h) * size_of::<GpuRay>() as u64;
+    }
+    let renderer = GpuRenderer::new(ctx, &scene, &bvh).expect("renderer");
+    let camera = Camera::thesis(&scene.bounds(), 1);
+    let settings = AoSettings {
+        samples,
+        seed: 7,
+        ..AoSettings::default()
+    };
+    let options = RenderOptions::new(w, h, camera, Shader::Ao(settings));
+    let cpu = render(&scene, &mut CpuTracer::new(&bvh), &options).film;
+    let gpu = renderer
+        .render_ao(w, h, &camera, &settings)
+        .expect("GPU render");
+    assert_eq!(gpu.primary_rays, (w * h) as usize);
+    let diffs: Vec<f32> = cpu
+        .pixels()
+        .iter()
+        .zip(gpu.film.pixels())
+        .map(|(c, g)| (c.x - g.x).abs())
+        .collect();
+    let differ = diffs.iter().filter(|&&d| d > 0.0).count();
+    let worst = diffs.iter().copied().fold(0.0, f32::max);
+    let mean = diffs.iter().sum::<f32>() / diffs.len() as f32;
+    eprintln!(
+        "{name}, {samples} probes: {differ} of {} pixels differ, worst {worst}, mean {mean}",
+        diffs.len()
+    );
+    assert!(
+        differ * 100 <= diffs.len(),
+        "{name}: {differ} pixels differ"
+    );
+    assert!(
+        worst <= 2.0 / samples as f32 + 1e-6,
+        "{name}: worst {worst}"
+    );
+    assert!(mean <= 1e-3, "{name}: mean {mean}");
+    // The image is not trivial: some pixels are occluded, some open.
+    let grey: Vec<f32> = gpu.film.pixels().iter().map(|p| p.x).collect();
+    assert!(grey.iter().any(|&v| v < 0.9) && grey.contains(&1.0));
+}
+
+#[test]
+fn cornell_ao_image_matches_cpu() {
+    check_ao_image("builtin:cornell:0.2", 8, false);
+    check_ao_image("builtin:cornell:0.2", 5, true);
+}
+
+#[test]
+fn forest_ao_image_matches_cpu() {
+    check_ao_image("builtin:forest:0.05", 8, false);
 }
