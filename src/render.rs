@@ -44,6 +44,16 @@ pub enum ShaderArg {
     Whitted,
 }
 
+/// Where a render runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PipelineArg {
+    /// Every generation scheduled over `--devices` by `--policy`.
+    Scheduled,
+    /// Ambient occlusion entirely on the first GPU adapter (software ones only with
+    /// `COBALT_GPU_SOFTWARE=1`): rays, traces, probes and image stay on the device.
+    Gpu,
+}
+
 /// Arguments of `cobalt render`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -77,6 +87,15 @@ pub struct Args {
     /// adapters (software ones only with `COBALT_GPU_SOFTWARE=1`).
     #[arg(long, default_value = "cpu:2")]
     devices: String,
+    /// `scheduled` (over `--devices`), or `gpu`: ambient occlusion (`--shader ao`) entirely on
+    /// one GPU, without scheduling (`--devices`, `--policy`, `--mode`, `--task-size`,
+    /// `--sample-rate` do not apply).
+    #[arg(long, value_enum, default_value = "scheduled")]
+    pipeline: PipelineArg,
+    /// With `--pipeline gpu`: `persistent` threads (a queue of ray batches) or one thread
+    /// `per-ray`.
+    #[arg(long, value_enum, default_value = "persistent")]
+    gpu_threads: crate::render_gpu::GpuThreadsArg,
     /// How tasks go to devices: static-equal, static-lpt (lpt), queue-fifo (fifo),
     /// queue-sorted (sorted) or hybrid.
     #[arg(long, default_value = "static-lpt")]
@@ -226,6 +245,28 @@ struct Report {
     cost: Option<CostReport>,
 }
 
+/// The report of `--pipeline gpu`.
+#[derive(Debug, Serialize)]
+struct GpuReport {
+    scene: String,
+    triangles: usize,
+    shader: &'static str,
+    pipeline: &'static str,
+    size: String,
+    width: u32,
+    height: u32,
+    camera: Option<usize>,
+    eye: [f32; 3],
+    at: [f32; 3],
+    preset: String,
+    ao_samples: u32,
+    ao_distance: f32,
+    load_seconds: f64,
+    build_seconds: f64,
+    #[serde(flatten)]
+    run: crate::render_gpu::GpuRun,
+}
+
 /// Where the camera comes from.
 enum CameraChoice {
     Thesis(usize),
@@ -321,10 +362,84 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ShaderArg::Whitted => Shader::Whitted(WhittedSettings::default()),
     };
 
+    if args.pipeline == PipelineArg::Gpu {
+        let refuse = |flag: &'static str, value: &Option<String>, why: &str| {
+            Err(arg(flag, value, &format!("{why} with --pipeline gpu")))
+        };
+        if args.shader != ShaderArg::Ao {
+            return refuse(
+                "shader",
+                &Some("whitted".into()),
+                "only ambient occlusion (--shader ao) renders",
+            );
+        }
+        if args.cost_image.is_some() {
+            let path = args.cost_image.as_ref().map(|p| p.display().to_string());
+            return refuse("cost-image", &path, "there is no cost image");
+        }
+        if args.fail.is_some() {
+            return refuse("fail", &args.fail, "there are no devices to fail");
+        }
+    }
+
     let loading = Instant::now();
     let scene = SceneSource::parse(&args.scene)?.load(shader.needs())?;
     let load_seconds = loading.elapsed().as_secs_f64();
     let bvh = Bvh::build(&scene, preset)?;
+    if let (PipelineArg::Gpu, Shader::Ao(ao)) = (args.pipeline, shader) {
+        let (camera, camera_index) = match camera_choice {
+            CameraChoice::Thesis(i) => (Camera::thesis(&scene.bounds(), i), Some(i)),
+            CameraChoice::LookAt(eye, at) => (Camera::look_at(eye, at), None),
+        };
+        let (film, run) = crate::render_gpu::render(
+            &scene,
+            &bvh,
+            (width, height),
+            &camera,
+            &ao,
+            args.gpu_threads,
+        )?;
+        let image = film.png(ToneMap::Srgb)?;
+        let report = GpuReport {
+            scene: args.scene.clone(),
+            triangles: scene.len(),
+            shader: shader.name(),
+            pipeline: "gpu",
+            size: format!("{width}x{height}"),
+            width,
+            height,
+            camera: camera_index,
+            eye: camera.eye.to_array(),
+            at: camera.at.to_array(),
+            preset: preset.name().to_string(),
+            ao_samples: samples,
+            ao_distance: ao.distance(&scene),
+            load_seconds,
+            build_seconds: bvh.report().build_seconds,
+            run,
+        };
+        let json =
+            serde_json::to_string_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
+        crate::write_file(&args.out, &image)?;
+        if let Some(path) = &args.report {
+            crate::write_file(path, format!("{json}\n").as_bytes())?;
+        }
+        return if args.json {
+            crate::print_json(&report)
+        } else {
+            crate::print_text(&format!(
+                "{} ({} triangles), ao, {width}x{height} on the GPU ({}, {} threads): {} rays \
+                 in {:.3} s, {:.2} MRays/s\n",
+                report.scene,
+                report.triangles,
+                report.run.adapter,
+                report.run.gpu_threads,
+                report.run.total_rays,
+                report.run.render_seconds,
+                report.run.mrays_per_s,
+            ))
+        };
+    }
     let devices = build_devices(&bvh, &specs, &faults)?;
     let mut tracer = ScheduledTracer::new(&bvh, devices, settings)?;
     let (camera, camera_index) = match camera_choice {

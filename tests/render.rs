@@ -290,3 +290,79 @@ fn cpu_and_gpu_render_the_cpu_image() {
         assert_eq!(a.expect("cpu png"), b.expect("mixed png"), "{policy}");
     }
 }
+
+/// `--pipeline gpu` renders ambient occlusion on one GPU, ray generation to image, and writes
+/// the CPU's image: at most 1 % of pixels may differ (see `raytrace::gpu::GpuRenderer` for
+/// where the two can differ; on lavapipe they are equal).
+/// Without any adapter: a note, or a failure when `CI` is set. Whitted, a cost image and
+/// fault injection are refused, naming the flag.
+#[test]
+fn gpu_pipeline_renders_the_cpu_image() {
+    let dir = crate::testkit::temp_dir("render-gpu-pipeline");
+    let run = |extra: &[&str], name: &str| {
+        let out = dir.join(name);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
+            .env("COBALT_GPU_SOFTWARE", "1")
+            .args(["render", "--scene", "builtin:cornell", "--shader", "ao"])
+            .args(["--size", "40x24", "--ao-samples", "4", "--json", "--out"])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .expect("the cobalt binary runs");
+        (o, out)
+    };
+    let (cpu, cpu_png) = run(&["--devices", "cpu:2"], "cpu.png");
+    assert!(
+        cpu.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cpu.stderr)
+    );
+    for threads in ["persistent", "per-ray"] {
+        let (gpu, gpu_png) = run(
+            &["--pipeline", "gpu", "--gpu-threads", threads],
+            &format!("gpu-{threads}.png"),
+        );
+        let err = String::from_utf8_lossy(&gpu.stderr);
+        if err.contains("no GPU adapter") {
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI is set but no GPU adapter was found: {err}"
+            );
+            eprintln!("note: no GPU adapter here; the GPU pipeline was not checked");
+            return;
+        }
+        assert!(gpu.status.success(), "{err}");
+        let v: serde_json::Value = serde_json::from_slice(&gpu.stdout).expect("JSON report");
+        assert_eq!(v["pipeline"], "gpu");
+        assert_eq!(v["gpu_threads"], threads);
+        assert_eq!(v["primary_rays"], 40 * 24);
+        assert_eq!(v["probe_rays"], 40 * 24 * 4);
+        let load = |p: &Path| image::open(p).expect("PNG").to_luma8().into_raw();
+        let (a, b) = (load(&cpu_png), load(&gpu_png));
+        assert_eq!(a.len(), b.len());
+        let differ: Vec<(u8, u8)> = a
+            .iter()
+            .zip(&b)
+            .filter(|(x, y)| x != y)
+            .map(|(&x, &y)| (x, y))
+            .collect();
+        assert!(differ.len() * 100 <= a.len(), "{threads}: {differ:?}");
+    }
+    for (extra, flag) in [
+        (&["--shader", "whitted"][..], "--shader"),
+        (
+            &["--shader", "ao", "--cost-image", "c.png"][..],
+            "--cost-image",
+        ),
+        (&["--shader", "ao", "--fail", "0@1"][..], "--fail"),
+    ] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
+            .args(["render", "--scene", "builtin:cornell", "--size", "8x8"])
+            .args(["--pipeline", "gpu"])
+            .args(extra)
+            .output()
+            .expect("the cobalt binary runs");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(flag), "{flag}: {err}");
+    }
+}
