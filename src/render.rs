@@ -109,8 +109,9 @@ pub struct Args {
     /// Fraction of each task's rays the cost estimate traces, in (0, 1].
     #[arg(long, default_value = "0.125")]
     sample_rate: String,
-    /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order)
-    /// fails after completing TASKS tasks; its unfinished tasks are re-run elsewhere.
+    /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order, a
+    /// GPU included) fails after completing TASKS tasks; its unfinished tasks are re-run
+    /// elsewhere.
     #[arg(long)]
     fail: Option<String>,
     /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
@@ -292,8 +293,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
             DeviceSpec::Gpu(_) => 0,
         })
         .sum();
+    // GPU entries open however many adapters exist: their indices are checked once the
+    // devices are built (naming the fault).
+    let has_gpu = specs.iter().any(|s| matches!(s, DeviceSpec::Gpu(_)));
     let faults = match &args.fail {
-        Some(text) => parse_faults(text, device_count)?,
+        Some(text) => parse_faults(text, if has_gpu { usize::MAX } else { device_count })?,
         None => Vec::new(),
     };
     let settings = Settings {
