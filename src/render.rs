@@ -162,6 +162,9 @@ struct ScheduleReport {
     measured_speeds: Vec<Option<f64>>,
     launches: Vec<u64>,
     busy: Vec<f64>,
+    /// Per device: kernel seconds it measured itself (a GPU's timestamp queries), null
+    /// where it cannot.
+    device_seconds: Vec<Option<f64>>,
     reruns: u64,
     failures: Vec<String>,
     host_fallback: bool,
@@ -559,6 +562,7 @@ fn schedule_report(g: &GenerationStats) -> ScheduleReport {
         measured_speeds: g.devices.iter().map(|d| d.measured_speed).collect(),
         launches: g.devices.iter().map(|d| d.launches).collect(),
         busy: g.devices.iter().map(|d| d.busy).collect(),
+        device_seconds: g.devices.iter().map(|d| d.device_seconds).collect(),
         reruns: g.reruns,
         failures: g.failures.iter().map(ToString::to_string).collect(),
         host_fallback: g.host_fallback,

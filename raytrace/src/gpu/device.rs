@@ -25,6 +25,9 @@ pub struct GpuDevice {
     threads: Threads,
     /// The last launch's GPU seconds as `f64` bits; NaN when unknown.
     last_seconds: AtomicU64,
+    /// GPU seconds of the hit launches since [`RayDevice::take_device_seconds`] last took
+    /// them, as `f64` bits (launches take `&self`).
+    kernel_seconds: AtomicU64,
 }
 
 impl GpuDevice {
@@ -44,6 +47,7 @@ impl GpuDevice {
             scene,
             threads: Threads::default(),
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
+            kernel_seconds: AtomicU64::new(0f64.to_bits()),
         })
     }
 
@@ -103,6 +107,15 @@ impl GpuDevice {
         )?;
         self.last_seconds
             .store(seconds.unwrap_or(f64::NAN).to_bits(), Ordering::Relaxed);
+        if let Some(s) = seconds {
+            // One thread launches at a time (the runtime's device thread), but the update is
+            // a loop anyway so that `hits` stays safe to call from several.
+            let _ = self
+                .kernel_seconds
+                .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |b| {
+                    Some((f64::from_bits(b) + s).to_bits())
+                });
+        }
         Ok(HitBatch {
             t: out.iter().map(|r| f32::from_bits(r[0])).collect(),
             prim: out.iter().map(|r| r[1]).collect(),
@@ -202,5 +215,11 @@ impl RayDevice for GpuDevice {
 
     fn name(&self) -> String {
         self.ctx.name()
+    }
+
+    /// The kernels' time from timestamp queries, where the adapter has them.
+    fn take_device_seconds(&mut self) -> Option<f64> {
+        let taken = f64::from_bits(self.kernel_seconds.swap(0f64.to_bits(), Ordering::Relaxed));
+        self.ctx.timestamps.then_some(taken)
     }
 }

@@ -81,6 +81,13 @@ pub trait RayDevice: Send {
     /// A name unique among the devices of a tracer: calibrations are keyed by it.
     fn name(&self) -> String;
 
+    /// Seconds the device itself measured running its kernels since the last call (a GPU's
+    /// timestamp queries), and resets the count; `None` for a device that cannot measure
+    /// them (the default: its busy time is the host's wall time of its launches).
+    fn take_device_seconds(&mut self) -> Option<f64> {
+        None
+    }
+
     /// Devices of one class are the same hardware doing the same work (the `N` devices of a
     /// `cpu:N/T` entry): their speed is measured together, because any difference between
     /// them is noise (the OS scheduling threads, errors of the cost model) that would

@@ -86,4 +86,8 @@ impl RayDevice for FailingAfter<'_> {
     fn class(&self) -> String {
         self.inner.class()
     }
+
+    fn take_device_seconds(&mut self) -> Option<f64> {
+        self.inner.take_device_seconds()
+    }
 }

@@ -72,6 +72,9 @@ pub struct DeviceStats {
     pub tasks: usize,
     /// Time spent running tasks.
     pub busy: f64,
+    /// Kernel time the device measured itself during the generation (a GPU's timestamp
+    /// queries, summed over its launches); `None` where it cannot.
+    pub device_seconds: Option<f64>,
 }
 
 /// One task of a generation.

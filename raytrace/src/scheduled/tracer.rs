@@ -241,6 +241,10 @@ impl ScheduledTracer<'_> {
                 device: active[d],
             };
         }
+        let device_seconds: Vec<Option<f64>> = active
+            .iter()
+            .map(|&d| self.devices[d].take_device_seconds())
+            .collect();
         stats.devices = (0..active.len())
             .map(|i| DeviceStats {
                 index: active[i],
@@ -250,6 +254,7 @@ impl ScheduledTracer<'_> {
                 launches: report.launches[i],
                 tasks: delivered[i],
                 busy: report.metrics.busy[i],
+                device_seconds: device_seconds[i],
             })
             .collect();
         stats.plan_seconds = report.plan_seconds;

@@ -332,6 +332,18 @@ fn cpu_and_gpu_render_the_cpu_image() {
                 gpu_tasks > 0 || policy != Policy::StaticLpt,
                 "{what}: the GPU traced nothing"
             );
+            // The GPU's own kernel time (timestamp queries, lavapipe has them) is reported for
+            // every generation it ran in, and is at most its busy time on the host; a CPU
+            // device measures none.
+            let timestamps = crate::gpu::tests::gpu().is_some_and(|c| c.timestamps);
+            for d in stats.iter().flat_map(|s| &s.devices) {
+                if d.name == "gpu0" && d.tasks > 0 && timestamps {
+                    let k = d.device_seconds.expect("GPU kernel time");
+                    assert!(k > 0.0 && k <= d.busy, "{what}: {k} of {} busy", d.busy);
+                } else if d.name != "gpu0" {
+                    assert_eq!(d.device_seconds, None, "{what}");
+                }
+            }
         }
     }
 }
