@@ -113,7 +113,12 @@ impl GpuRenderer {
             contents: tri_bytes,
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let module = device.create_shader_module(wgpu::include_wgsl!("render.wgsl"));
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("cobalt render.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(
+                concat!(include_str!("shading.wgsl"), include_str!("render.wgsl")).into(),
+            ),
+        });
         let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::COMPUTE,

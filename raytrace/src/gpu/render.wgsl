@@ -1,7 +1,8 @@
 // The GPU-only ambient-occlusion render (issue 5): primary rays in Morton order, AO probes
 // with the CPU's Halton points and per-pixel scrambling, and the image, each stage a kernel
 // over buffers that stay on the device (the traces between them are `traverse.wgsl`'s).
-// Every function mirrors its CPU counterpart operation for operation, in f32:
+// The host puts `shading.wgsl` in front. Every function mirrors its CPU counterpart operation
+// for operation, in f32:
 // - `raygen`: `Camera::ray` and `camera::morton_order` (the pixel's rank among the image's
 //   Morton keys is counted directly, so no sort is needed);
 // - `shade_ao`: `ao::ao_rays` (re-intersection, `Scene::surface_point`, `spawn.rs`'s offset,
@@ -11,10 +12,6 @@
 // rounding; Rust calls the C library's), and an edge function that is exactly 0, which the
 // CPU re-evaluates in f64 (as in `traverse.wgsl`).
 
-struct GpuRay {
-    org: vec4<f32>,
-    dir: vec4<f32>,
-}
 
 struct Params {
     // Camera: eye, and the frame `Camera::ray` builds (forward, right, up), `.w` unused.
@@ -41,12 +38,6 @@ struct Params {
     seed_hi: u32,
 }
 
-// A triangle of the scene by primitive id (`Scene::vertices`), `.w` unused.
-struct SceneTri {
-    v0: vec4<f32>,
-    v1: vec4<f32>,
-    v2: vec4<f32>,
-}
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read_write> primary: array<GpuRay>;
@@ -64,29 +55,6 @@ const MISS: u32 = 0xffffffffu;
 // Invocation index in a two-dimensional grid of 64-wide workgroups.
 fn flat(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
     return (wid.y * nwg.x + wid.x) * 64u + lid;
-}
-
-// ---- vector helpers with glam's operation order ----
-
-fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
-    return ((a.x * b.x) + (a.y * b.y)) + (a.z * b.z);
-}
-
-fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(a.y * b.z - b.y * a.z, a.z * b.x - b.z * a.x, a.x * b.y - b.x * a.y);
-}
-
-fn is_finite(x: f32) -> bool {
-    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
-}
-
-// `Vec3::normalize_or`.
-fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
-    let rcp = 1.0 / sqrt(dot3(v, v));
-    if is_finite(rcp) && rcp > 0.0 {
-        return v * rcp;
-    }
-    return fallback;
 }
 
 // ---- raygen ----
@@ -205,83 +173,6 @@ fn next_f32(state: ptr<function, vec2<u32>>) -> f32 {
     return f32(next_u64(state).y >> 8u) * (1.0 / 16777216.0);
 }
 
-// `f32::signum` (1 for +0, -1 for -0).
-fn signum(x: f32) -> f32 {
-    return select(1.0, -1.0, (bitcast<u32>(x) & 0x80000000u) != 0u);
-}
-
-// `spawn.rs`'s `next_float_up` / `next_float_down` for finite values.
-fn next_up(v: f32) -> f32 {
-    if v == 0.0 {
-        return bitcast<f32>(1u);
-    }
-    let bits = bitcast<u32>(v);
-    return bitcast<f32>(select(bits - 1u, bits + 1u, v > 0.0));
-}
-
-fn next_down(v: f32) -> f32 {
-    if v == 0.0 {
-        return bitcast<f32>(0x80000001u);
-    }
-    let bits = bitcast<u32>(v);
-    return bitcast<f32>(select(bits - 1u, bits + 1u, v < 0.0));
-}
-
-// The watertight test returning (t, u, v) and `.w > 0` on a hit (`intersect_watertight`).
-fn intersect(o: vec3<f32>, d: vec3<f32>, tri: SceneTri, tmin: f32, tmax: f32) -> vec4<f32> {
-    let miss = vec4<f32>(0.0);
-    let ad = abs(d);
-    var kz = 2u;
-    if ad.x >= ad.y && ad.x >= ad.z {
-        kz = 0u;
-    } else if ad.y >= ad.z {
-        kz = 1u;
-    }
-    if d[kz] == 0.0 {
-        return miss;
-    }
-    var kx = select(kz + 1u, 0u, kz == 2u);
-    var ky = select(kx + 1u, 0u, kx == 2u);
-    if d[kz] < 0.0 {
-        let tmp = kx;
-        kx = ky;
-        ky = tmp;
-    }
-    let sx = d[kx] / d[kz];
-    let sy = d[ky] / d[kz];
-    let sz = 1.0 / d[kz];
-    let a = tri.v0.xyz - o;
-    let b = tri.v1.xyz - o;
-    let c = tri.v2.xyz - o;
-    let ax = a[kx] - sx * a[kz];
-    let ay = a[ky] - sy * a[kz];
-    let bx = b[kx] - sx * b[kz];
-    let by = b[ky] - sy * b[kz];
-    let cx = c[kx] - sx * c[kz];
-    let cy = c[ky] - sy * c[kz];
-    let u = cx * by - cy * bx;
-    let v = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return miss;
-    }
-    let det = u + v + w;
-    if det == 0.0 {
-        return miss;
-    }
-    var t_scaled = u * (sz * a[kz]) + v * (sz * b[kz]) + w * (sz * c[kz]);
-    var det_abs = det;
-    if det < 0.0 {
-        t_scaled = -t_scaled;
-        det_abs = -det;
-    }
-    if t_scaled < tmin * det_abs || t_scaled > tmax * det_abs {
-        return miss;
-    }
-    let rcp = 1.0 / det;
-    return vec4<f32>(t_scaled / det_abs + 0.0, v * rcp, w * rcp, 1.0);
-}
-
 // Writes the probes of primary ray `i` to slots `(i - base)·samples ..`; a primary that
 // spawns none (a miss) gets probes with an empty range, which `accumulate` does not count.
 @compute @workgroup_size(64)
@@ -312,14 +203,8 @@ fn shade_ao(
         }
         return;
     }
-    // `Scene::surface_point`.
-    let p0 = tri.v0.xyz;
-    let p1 = tri.v1.xyz;
-    let p2 = tri.v2.xyz;
-    let b0 = max((1.0 - q.y) - q.z, 0.0);
-    let p = ((b0 * p0) + (q.y * p1)) + (q.z * p2);
-    let err = params.gamma8 * ((abs(b0 * p0) + abs(q.y * p1)) + abs(q.z * p2));
-    let n = normalize_or(cross3(p1 - p0, p2 - p0), vec3<f32>(0.0));
+    let sp = surface_point(tri, q.y, q.z, params.gamma8);
+    let n = sp.n;
     let facing = select(-n, n, dot3(n, r.dir.xyz) < 0.0);
     // `Rng::new(seed ^ i·golden)` (the state starts xor-ed with the golden ratio again).
     var state = mul64(vec2<u32>(i, 0u), GOLDEN) ^ vec2<u32>(params.seed_lo, params.seed_hi) ^ GOLDEN;
@@ -331,34 +216,19 @@ fn shade_ao(
     let bb = facing.x * facing.y * a;
     let tan = vec3<f32>(1.0 + sign * facing.x * facing.x * a, sign * bb, -sign * facing.x);
     let bit = vec3<f32>(bb, sign + facing.y * facing.y * a, -facing.y);
-    // `offset_ray_origin`'s distance does not depend on the direction, only its sign does.
-    let an = abs(n);
-    let ap = abs(p);
-    let off = max(max(dot3(an, err), params.gamma8 * max(ap.x, max(ap.y, ap.z))), 1.17549435e-38);
     for (var s = 0u; s < params.samples; s++) {
         let h = halton[s];
         let u1 = fract(h.x + s1);
         let u2 = fract(h.y + s2);
         // `cosine_hemisphere`.
         let rr = sqrt(u1);
-        let phi = 6.28318548 * u2;
+        let phi = bitcast<f32>(0x40c90fdbu) * u2;
         let z = sqrt(max(1.0 - u1, 0.0));
         let dir = normalize_or(
             (tan * (rr * cos(phi)) + bit * (rr * sin(phi))) + facing * z,
             facing,
         );
-        var offset = off * n;
-        if dot3(dir, n) < 0.0 {
-            offset = -offset;
-        }
-        var po = p + offset;
-        for (var c = 0u; c < 3u; c++) {
-            if offset[c] > 0.0 {
-                po[c] = next_up(po[c]);
-            } else if offset[c] < 0.0 {
-                po[c] = next_down(po[c]);
-            }
-        }
+        let po = offset_origin(sp, dir, params.gamma8);
         probes[first + s] = GpuRay(vec4<f32>(po, 0.0), vec4<f32>(dir, params.max_distance));
     }
 }
