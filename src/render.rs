@@ -49,8 +49,8 @@ pub enum ShaderArg {
 pub enum PipelineArg {
     /// Every generation scheduled over `--devices` by `--policy`.
     Scheduled,
-    /// Ambient occlusion entirely on the first GPU adapter (software ones only with
-    /// `COBALT_GPU_SOFTWARE=1`): rays, traces, probes and image stay on the device.
+    /// The whole render on the first GPU adapter (software ones only with
+    /// `COBALT_GPU_SOFTWARE=1`): rays, traces, shading and image stay on the device.
     Gpu,
 }
 
@@ -87,8 +87,8 @@ pub struct Args {
     /// adapters (software ones only with `COBALT_GPU_SOFTWARE=1`).
     #[arg(long, default_value = "cpu:2")]
     devices: String,
-    /// `scheduled` (over `--devices`), or `gpu`: ambient occlusion (`--shader ao`) entirely on
-    /// one GPU, without scheduling (`--devices`, `--policy`, `--mode`, `--task-size`,
+    /// `scheduled` (over `--devices`), or `gpu`: the whole render (either shader) on one
+    /// GPU, without scheduling (`--devices`, `--policy`, `--mode`, `--task-size`,
     /// `--sample-rate` do not apply).
     #[arg(long, value_enum, default_value = "scheduled")]
     pipeline: PipelineArg,
@@ -263,8 +263,12 @@ struct GpuReport {
     eye: [f32; 3],
     at: [f32; 3],
     preset: String,
-    ao_samples: u32,
-    ao_distance: f32,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ao_samples: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ao_distance: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    bounces: Option<u32>,
     load_seconds: f64,
     build_seconds: f64,
     #[serde(flatten)]
@@ -373,13 +377,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
         let refuse = |flag: &'static str, value: &Option<String>, why: &str| {
             Err(arg(flag, value, &format!("{why} with --pipeline gpu")))
         };
-        if args.shader != ShaderArg::Ao {
-            return refuse(
-                "shader",
-                &Some("whitted".into()),
-                "only ambient occlusion (--shader ao) renders",
-            );
-        }
         if args.cost_image.is_some() {
             let path = args.cost_image.as_ref().map(|p| p.display().to_string());
             return refuse("cost-image", &path, "there is no cost image");
@@ -393,7 +390,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let scene = SceneSource::parse(&args.scene)?.load(shader.needs())?;
     let load_seconds = loading.elapsed().as_secs_f64();
     let bvh = Bvh::build(&scene, preset)?;
-    if let (PipelineArg::Gpu, Shader::Ao(ao)) = (args.pipeline, shader) {
+    if args.pipeline == PipelineArg::Gpu {
         let (camera, camera_index) = match camera_choice {
             CameraChoice::Thesis(i) => (Camera::thesis(&scene.bounds(), i), Some(i)),
             CameraChoice::LookAt(eye, at) => (Camera::look_at(eye, at), None),
@@ -403,7 +400,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             &bvh,
             (width, height),
             &camera,
-            &ao,
+            &shader,
             args.gpu_threads,
         )?;
         let image = film.png(ToneMap::Srgb)?;
@@ -419,8 +416,15 @@ pub fn run(args: Args) -> Result<(), CliError> {
             eye: camera.eye.to_array(),
             at: camera.at.to_array(),
             preset: preset.name().to_string(),
-            ao_samples: samples,
-            ao_distance: ao.distance(&scene),
+            ao_samples: matches!(shader, Shader::Ao(_)).then_some(samples),
+            ao_distance: match shader {
+                Shader::Ao(s) => Some(s.distance(&scene)),
+                Shader::Whitted(_) => None,
+            },
+            bounces: match shader {
+                Shader::Whitted(s) => Some(s.bounces),
+                Shader::Ao(_) => None,
+            },
             load_seconds,
             build_seconds: bvh.report().build_seconds,
             run,
@@ -435,10 +439,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
             crate::print_json(&report)
         } else {
             crate::print_text(&format!(
-                "{} ({} triangles), ao, {width}x{height} on the GPU ({}, {} threads): {} rays \
+                "{} ({} triangles), {}, {width}x{height} on the GPU ({}, {} threads): {} rays \
                  in {:.3} s, {:.2} MRays/s\n",
                 report.scene,
                 report.triangles,
+                report.shader,
                 report.run.adapter,
                 report.run.gpu_threads,
                 report.run.total_rays,

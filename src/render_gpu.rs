@@ -1,12 +1,13 @@
-//! `cobalt render --pipeline gpu`: ambient occlusion rendered entirely on one GPU
-//! ([`raytrace::gpu::GpuRenderer`]): primary rays generated in Morton order, traced, AO probes
-//! generated and traced, and the image accumulated on the device; only the image comes back.
+//! `cobalt render --pipeline gpu`: ambient occlusion or Whitted shading rendered entirely on
+//! one GPU ([`raytrace::gpu::GpuRenderer`]): primary rays generated in Morton order, traced,
+//! AO probes (or shadow and mirror rays) generated and traced, and the image accumulated on the
+//! device; only the image comes back.
 //! Nothing is scheduled, so `--devices`, `--policy`, `--mode`, `--task-size` and
 //! `--sample-rate` do not apply.
 
 use serde::Serialize;
 
-use raytrace::shade::AoSettings;
+use raytrace::shade::Shader;
 use raytrace::{Bvh, Camera, Film, Scene};
 
 use crate::error::CliError;
@@ -27,10 +28,10 @@ pub struct GpuRun {
     pub adapter: String,
     /// `persistent` or `per-ray`.
     pub gpu_threads: &'static str,
-    /// Primary rays plus probe slots traced.
+    /// Primary rays plus the secondary ray slots traced.
     pub total_rays: usize,
     pub primary_rays: usize,
-    pub probe_rays: usize,
+    pub secondary_rays: usize,
     /// Wall time of the render on the device: uploads, kernels, the image's read-back.
     pub render_seconds: f64,
     /// Rendering efficiency: total rays over `render_seconds`.
@@ -47,7 +48,7 @@ pub fn render(
     bvh: &Bvh,
     size: (u32, u32),
     camera: &Camera,
-    settings: &AoSettings,
+    shader: &Shader,
     threads: GpuThreadsArg,
 ) -> Result<(Film, GpuRun), CliError> {
     use raytrace::devices::GpuSelect;
@@ -68,16 +69,18 @@ pub fn render(
     let renderer = GpuRenderer::new(ctx, scene, bvh)
         .map_err(gpu_err)?
         .with_threads(threads);
-    let r = renderer
-        .render_ao(size.0, size.1, camera, settings)
-        .map_err(gpu_err)?;
-    let total_rays = r.primary_rays + r.probe_rays;
+    let r = match shader {
+        Shader::Ao(ao) => renderer.render_ao(size.0, size.1, camera, ao),
+        Shader::Whitted(w) => renderer.render_whitted(size.0, size.1, camera, w),
+    }
+    .map_err(gpu_err)?;
+    let total_rays = r.primary_rays + r.secondary_rays;
     let run = GpuRun {
         adapter,
         gpu_threads: threads.name(),
         total_rays,
         primary_rays: r.primary_rays,
-        probe_rays: r.probe_rays,
+        secondary_rays: r.secondary_rays,
         render_seconds: r.seconds,
         mrays_per_s: total_rays as f64 / r.seconds.max(1e-12) / 1e6,
         trace_gpu_seconds: r.trace_gpu_seconds,
@@ -92,7 +95,7 @@ pub fn render(
     _: &Bvh,
     _: (u32, u32),
     _: &Camera,
-    _: &AoSettings,
+    _: &Shader,
     _: GpuThreadsArg,
 ) -> Result<(Film, GpuRun), CliError> {
     Err(CliError::Arg {

@@ -291,19 +291,18 @@ fn cpu_and_gpu_render_the_cpu_image() {
     }
 }
 
-/// `--pipeline gpu` renders ambient occlusion on one GPU, ray generation to image, and writes
-/// the CPU's image: at most 1 % of pixels may differ (see `raytrace::gpu::GpuRenderer` for
-/// where the two can differ; on lavapipe they are equal).
-/// Without any adapter: a note, or a failure when `CI` is set. Whitted, a cost image and
-/// fault injection are refused, naming the flag.
+/// `--pipeline gpu` renders on one GPU, ray generation to image, and writes the CPU's image for
+/// both shaders: at most 1 % of pixels may differ (see `raytrace::gpu::GpuRenderer` for where
+/// the two can differ; on lavapipe they are equal). Without any adapter: a note, or a failure
+/// when `CI` is set. A cost image and fault injection are refused, naming the flag.
 #[test]
 fn gpu_pipeline_renders_the_cpu_image() {
     let dir = crate::testkit::temp_dir("render-gpu-pipeline");
-    let run = |extra: &[&str], name: &str| {
+    let run = |shader: &str, extra: &[&str], name: &str| {
         let out = dir.join(name);
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
             .env("COBALT_GPU_SOFTWARE", "1")
-            .args(["render", "--scene", "builtin:cornell", "--shader", "ao"])
+            .args(["render", "--scene", "builtin:cornell", "--shader", shader])
             .args(["--size", "40x24", "--ao-samples", "4", "--json", "--out"])
             .arg(&out)
             .args(extra)
@@ -311,16 +310,25 @@ fn gpu_pipeline_renders_the_cpu_image() {
             .expect("the cobalt binary runs");
         (o, out)
     };
-    let (cpu, cpu_png) = run(&["--devices", "cpu:2"], "cpu.png");
-    assert!(
-        cpu.status.success(),
-        "{}",
-        String::from_utf8_lossy(&cpu.stderr)
-    );
-    for threads in ["persistent", "per-ray"] {
+    for (shader, threads) in [
+        ("ao", "persistent"),
+        ("ao", "per-ray"),
+        ("whitted", "persistent"),
+    ] {
+        let (cpu, cpu_png) = run(
+            shader,
+            &["--devices", "cpu:2"],
+            &format!("cpu-{shader}.png"),
+        );
+        assert!(
+            cpu.status.success(),
+            "{}",
+            String::from_utf8_lossy(&cpu.stderr)
+        );
         let (gpu, gpu_png) = run(
+            shader,
             &["--pipeline", "gpu", "--gpu-threads", threads],
-            &format!("gpu-{threads}.png"),
+            &format!("gpu-{shader}-{threads}.png"),
         );
         let err = String::from_utf8_lossy(&gpu.stderr);
         if err.contains("no GPU adapter") {
@@ -334,22 +342,24 @@ fn gpu_pipeline_renders_the_cpu_image() {
         assert!(gpu.status.success(), "{err}");
         let v: serde_json::Value = serde_json::from_slice(&gpu.stdout).expect("JSON report");
         assert_eq!(v["pipeline"], "gpu");
+        assert_eq!(v["shader"], shader);
         assert_eq!(v["gpu_threads"], threads);
         assert_eq!(v["primary_rays"], 40 * 24);
-        assert_eq!(v["probe_rays"], 40 * 24 * 4);
-        let load = |p: &Path| image::open(p).expect("PNG").to_luma8().into_raw();
+        if shader == "ao" {
+            assert_eq!(v["secondary_rays"], 40 * 24 * 4);
+        } else {
+            assert_eq!(v["bounces"], 2);
+        }
+        let load = |p: &Path| image::open(p).expect("PNG").to_rgb8().into_raw();
         let (a, b) = (load(&cpu_png), load(&gpu_png));
         assert_eq!(a.len(), b.len());
-        let differ: Vec<(u8, u8)> = a
-            .iter()
-            .zip(&b)
-            .filter(|(x, y)| x != y)
-            .map(|(&x, &y)| (x, y))
-            .collect();
-        assert!(differ.len() * 100 <= a.len(), "{threads}: {differ:?}");
+        let differ = a.chunks(3).zip(b.chunks(3)).filter(|(x, y)| x != y).count();
+        assert!(
+            differ * 100 <= a.len() / 3,
+            "{shader} {threads}: {differ} pixels differ"
+        );
     }
     for (extra, flag) in [
-        (&["--shader", "whitted"][..], "--shader"),
         (
             &["--shader", "ao", "--cost-image", "c.png"][..],
             "--cost-image",

@@ -10,8 +10,8 @@
 //! - [`GpuDevice`]: one adapter as a [`crate::scheduled::RayDevice`], one launch per plan;
 //! - [`GpuReducedTraversal`]: the cost estimator (sampling, compaction, reduced traversal and
 //!   per-task sums) on the device, equal to the CPU's;
-//! - [`GpuRenderer`]: ambient occlusion rendered entirely on the device (ray generation in
-//!   Morton order, traces, AO probes, image).
+//! - [`GpuRenderer`]: ambient occlusion and Whitted shading rendered entirely on the device
+//!   (ray generation in Morton order, traces, AO probes or shadow and mirror rays, image).
 //!
 //! The kernels mirror the CPU's traversal operation for operation; they differ only where the
 //! CPU re-evaluates an exactly-zero edge function in f64 (WGSL has no portable f64): a ray
@@ -26,6 +26,7 @@ pub mod pipeline;
 mod render;
 #[cfg(test)]
 pub(crate) mod tests;
+mod whitted;
 
 pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;

@@ -25,7 +25,7 @@ use crate::{Bvh, Camera, Film, Scene};
 /// The uniform block of `render.wgsl` (`struct Params`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-struct Params {
+pub(super) struct Params {
     eye: [f32; 4],
     fwd: [f32; 4],
     right: [f32; 4],
@@ -60,9 +60,10 @@ pub struct GpuRendering {
     pub film: Film,
     /// Primary rays traced.
     pub primary_rays: usize,
-    /// Probe slots traced: `samples` per primary ray (a primary that missed has empty-range
-    /// probes, which end at once and are not counted in its pixel).
-    pub probe_rays: usize,
+    /// Ray slots traced after the primaries: `samples` AO probes per primary ray, or per
+    /// bounce one shadow ray per light and one mirror ray per pixel (slots of paths that ended
+    /// hold empty-range rays, which end at once and add nothing).
+    pub secondary_rays: usize,
     /// Kernel time of the traces from timestamp queries, where the device has them.
     pub trace_gpu_seconds: Option<f64>,
     /// Wall time of the whole render, uploads and the image's read-back included.
@@ -73,15 +74,16 @@ pub struct GpuRendering {
 /// device.
 #[derive(Debug)]
 pub struct GpuRenderer {
-    ctx: GpuContext,
-    kernels: Kernels,
-    scene: SceneBuffers,
-    tris: wgpu::Buffer,
+    pub(super) ctx: GpuContext,
+    pub(super) kernels: Kernels,
+    pub(super) scene: SceneBuffers,
+    pub(super) tris: wgpu::Buffer,
+    pub(super) whitted: super::whitted::WhittedKernels,
     layout: wgpu::BindGroupLayout,
     raygen: wgpu::ComputePipeline,
     shade_ao: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
-    threads: Threads,
+    pub(super) threads: Threads,
     /// The scene's bounding-box diagonal, for the default probe length.
     diagonal: f32,
 }
@@ -160,7 +162,9 @@ impl GpuRenderer {
                 cache: None,
             })
         };
+        let whitted = super::whitted::WhittedKernels::new(&ctx, scene);
         Ok(Self {
+            whitted,
             raygen: make("raygen", "cobalt raygen pipeline"),
             shade_ao: make("shade_ao", "cobalt AO shading pipeline"),
             accumulate: make("accumulate", "cobalt AO accumulate pipeline"),
@@ -185,7 +189,7 @@ impl GpuRenderer {
     }
 
     /// Checks the image, creates the buffers of a render and generates the primary rays.
-    fn begin(
+    pub(super) fn begin(
         &self,
         width: u32,
         height: u32,
@@ -327,7 +331,7 @@ impl GpuRenderer {
     }
 
     /// Commands running `pipeline` over `items` invocations.
-    fn run(
+    pub(super) fn run(
         &self,
         pipeline: &wgpu::ComputePipeline,
         group: &wgpu::BindGroup,
@@ -353,7 +357,7 @@ impl GpuRenderer {
     }
 
     /// Copies the first `bytes` of `buffer` back.
-    fn fetch(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
+    pub(super) fn fetch(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
         let device = &self.ctx.device;
         let readback = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("cobalt render read-back"),
@@ -389,10 +393,10 @@ impl GpuRenderer {
         let stage = self.begin(width, height, camera, settings)?;
         let n = stage.n;
         let samples = settings.samples;
-        let rendering = |film: Film, probe_rays: usize, gpu: Option<f64>| GpuRendering {
+        let rendering = |film: Film, secondary_rays: usize, gpu: Option<f64>| GpuRendering {
             film,
             primary_rays: n as usize,
-            probe_rays,
+            secondary_rays,
             trace_gpu_seconds: gpu,
             seconds: start.elapsed().as_secs_f64(),
         };
@@ -478,17 +482,17 @@ impl GpuRenderer {
 }
 
 /// The buffers of one render, on the device.
-struct Stage {
+pub(super) struct Stage {
     /// Primary rays (pixels).
-    n: u32,
+    pub(super) n: u32,
     /// Primaries whose probes are traced together.
-    chunk: u32,
-    params: Params,
-    primary: wgpu::Buffer,
-    pixel_of: wgpu::Buffer,
-    hits: wgpu::Buffer,
-    probes: wgpu::Buffer,
-    probe_hits: wgpu::Buffer,
-    film: wgpu::Buffer,
-    halton: wgpu::Buffer,
+    pub(super) chunk: u32,
+    pub(super) params: Params,
+    pub(super) primary: wgpu::Buffer,
+    pub(super) pixel_of: wgpu::Buffer,
+    pub(super) hits: wgpu::Buffer,
+    pub(super) probes: wgpu::Buffer,
+    pub(super) probe_hits: wgpu::Buffer,
+    pub(super) film: wgpu::Buffer,
+    pub(super) halton: wgpu::Buffer,
 }
