@@ -512,13 +512,28 @@ fn forest_ao_image_matches_cpu() {
 /// both compute in f32 with the same operations and the same order of additions per pixel, so
 /// they differ only at an exact-edge tie (a different triangle, or a shadow or mirror ray
 /// spawned from it). Tolerance: at most 1 % of pixels differ at all, and the mean absolute
-/// difference per channel is at most 1e-3.
-fn check_whitted_image(name: &str) {
+/// difference per channel is at most 1e-3. With `bent`, the scene gets vertex normals and a
+/// second light.
+fn check_whitted_image(name: &str, bent: bool) {
     let Some(ctx) = gpu() else { return };
     let shader = Shader::Whitted(WhittedSettings::default());
-    let scene = SceneSource::parse(name)
+    let mut scene = SceneSource::parse(name)
         .and_then(|s| s.load(shader.needs()))
         .expect("built-in scene");
+    if bent {
+        // Vertex normals leaning off the faces (so shading normals are interpolated, some past
+        // the surface) and a second, coloured light.
+        let mut rng = Rng::new(testkit::seed(21));
+        let normals = (0..scene.positions.len())
+            .map(|_| (Vec3::Y + 0.6 * rng.unit_vector()).normalize_or(Vec3::Y))
+            .collect();
+        scene.normals = Some(normals);
+        let b = scene.bounds();
+        scene.lights.push(crate::Light::Point {
+            position: b.center() + Vec3::new(0.3, 0.45, -0.2) * b.extent(),
+            intensity: Vec3::new(0.8, 0.5, 0.3) * b.extent().length_squared(),
+        });
+    }
     let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
     let renderer = GpuRenderer::new(ctx, &scene, &bvh).expect("renderer");
     let (w, h) = (64, 48);
@@ -561,10 +576,11 @@ fn check_whitted_image(name: &str) {
 
 #[test]
 fn cornell_whitted_image_matches_cpu() {
-    check_whitted_image("builtin:cornell:0.2");
+    check_whitted_image("builtin:cornell:0.2", false);
+    check_whitted_image("builtin:cornell:0.2", true);
 }
 
 #[test]
 fn forest_whitted_image_matches_cpu() {
-    check_whitted_image("builtin:forest:0.05");
+    check_whitted_image("builtin:forest:0.05", false);
 }
