@@ -175,6 +175,9 @@ struct ScheduleReport {
     task_costs: Vec<f64>,
     task_seconds: Vec<f64>,
     task_devices: Vec<usize>,
+    /// Per task: the kernel time its device measured (a GPU's timestamp queries) where the
+    /// task had a launch of its own (queue policies), else null.
+    task_device_seconds: Vec<Option<f64>>,
 }
 
 /// `kB`, `kT` of one device for one ray kind, fitted by least squares to measured task times.
@@ -576,6 +579,7 @@ fn schedule_report(g: &GenerationStats) -> ScheduleReport {
         task_costs: g.task_stats.iter().map(|t| t.cost).collect(),
         task_seconds: g.task_stats.iter().map(|t| t.seconds).collect(),
         task_devices: g.task_stats.iter().map(|t| t.device).collect(),
+        task_device_seconds: g.task_stats.iter().map(|t| t.device_seconds).collect(),
     }
 }
 

@@ -28,6 +28,9 @@ pub struct GpuDevice {
     /// GPU seconds of the hit launches since [`RayDevice::take_device_seconds`] last took
     /// them, as `f64` bits (launches take `&self`).
     kernel_seconds: AtomicU64,
+    /// GPU seconds of each single-range launch since [`RayDevice::take_task_seconds`], by
+    /// the range's first ray.
+    task_seconds: Vec<(usize, f64)>,
 }
 
 impl GpuDevice {
@@ -48,6 +51,7 @@ impl GpuDevice {
             threads: Threads::default(),
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
             kernel_seconds: AtomicU64::new(0f64.to_bits()),
+            task_seconds: Vec::new(),
         })
     }
 
@@ -178,6 +182,15 @@ impl GpuDevice {
     }
 }
 
+impl GpuDevice {
+    /// Records the last launch's kernel time as `range`'s, where timestamps measured it.
+    fn note_task(&mut self, range: &Range<usize>) {
+        if let Some(s) = self.last_gpu_seconds() {
+            self.task_seconds.push((range.start, s));
+        }
+    }
+}
+
 impl RayDevice for GpuDevice {
     fn trace_range(
         &mut self,
@@ -186,7 +199,9 @@ impl RayDevice for GpuDevice {
         range: &Range<usize>,
     ) -> Result<HitBatch, DeviceError> {
         self.check(rays, range)?;
-        Ok(self.hits(kind.is_occlusion(), rays, &[range])?)
+        let hits = self.hits(kind.is_occlusion(), rays, &[range])?;
+        self.note_task(range);
+        Ok(hits)
     }
 
     /// One launch for all `ranges`; each range's hits are cut out of its results in order.
@@ -201,6 +216,9 @@ impl RayDevice for GpuDevice {
             self.check(rays, r)?;
         }
         let all = self.hits(kind.is_occlusion(), rays, ranges)?;
+        if let [one] = ranges {
+            self.note_task(one);
+        }
         let mut start = 0;
         for r in ranges {
             let end = start + r.len();
@@ -215,6 +233,10 @@ impl RayDevice for GpuDevice {
 
     fn name(&self) -> String {
         self.ctx.name()
+    }
+
+    fn take_task_seconds(&mut self) -> Vec<(usize, f64)> {
+        std::mem::take(&mut self.task_seconds)
     }
 
     /// The kernels' time from timestamp queries, where the adapter has them.

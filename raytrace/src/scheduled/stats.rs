@@ -86,6 +86,9 @@ pub struct TaskStats {
     pub seconds: f64,
     /// The device (index in the tracer's list) that delivered it.
     pub device: usize,
+    /// Kernel time the device measured itself for this task (a GPU's timestamp queries),
+    /// where the task had a launch of its own; `None` otherwise.
+    pub device_seconds: Option<f64>,
 }
 
 /// A calibration of `C = kB·B + kT·T` on one device for one kind of ray.

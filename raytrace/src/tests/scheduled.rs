@@ -344,6 +344,21 @@ fn cpu_and_gpu_render_the_cpu_image() {
                     assert_eq!(d.device_seconds, None, "{what}");
                 }
             }
+            // A queue launches each task alone: every GPU task then has its own kernel time,
+            // at most the task's host time; CPU tasks have none.
+            let gpu_index = stats[0]
+                .devices
+                .iter()
+                .find(|d| d.name == "gpu0")
+                .map(|d| d.index);
+            for t in stats.iter().flat_map(|s| &s.task_stats) {
+                if Some(t.device) != gpu_index {
+                    assert_eq!(t.device_seconds, None, "{what}");
+                } else if policy == Policy::QueueSorted && timestamps {
+                    let k = t.device_seconds.expect("per-task GPU time");
+                    assert!(k > 0.0 && k <= t.seconds, "{what}: {k} of {}", t.seconds);
+                }
+            }
         }
     }
 }
