@@ -66,9 +66,24 @@ pub struct Args {
     /// Every timing is repeated this many times and the least kept.
     #[arg(long, default_value_t = 3)]
     repeats: usize,
+    /// Where the estimator and the full trace run: `cpu` (all cores) or `gpu` (the first
+    /// usable adapter; software ones only with `COBALT_GPU_SOFTWARE=1`): sampling,
+    /// compaction, reduced traversal and per-task sums on the device, the same estimates as
+    /// the CPU's. Measured task times (the calibration) stay single-thread CPU times.
+    #[arg(long, value_enum, default_value = "cpu")]
+    device: DeviceArg,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
+}
+
+/// Where the estimate runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum DeviceArg {
+    /// All CPU cores.
+    Cpu,
+    /// The first usable GPU adapter.
+    Gpu,
 }
 
 /// A calibrated model, for the report.
@@ -113,14 +128,21 @@ struct Report {
     sampled_rays: usize,
     threads: usize,
     repeats: usize,
+    /// Where the estimate and the full trace ran: `cpu` or `gpu`.
+    device: &'static str,
+    /// The GPU adapter's name with `--device gpu`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    adapter: Option<String>,
     /// The thesis's: Σ|est − full| / Σ full of `C` under the default model.
     prediction_error: Option<f64>,
     /// The same for `B` and for `T` alone.
     prediction_error_nodes: Option<f64>,
     prediction_error_tris: Option<f64>,
-    /// Reduced traversal of the sample, gather included, on all cores.
+    /// Reduced traversal of the sample, gather included, on all cores (or on the GPU, the
+    /// rays' upload included).
     estimate_seconds: f64,
-    /// Full trace (closest or any hit, with triangle tests) of all rays, on all cores.
+    /// Full trace (closest or any hit, with triangle tests) of all rays, on all cores (or on
+    /// the GPU, upload and read-back included).
     trace_seconds: f64,
     overhead: f64,
     /// Calibrated estimates against measured single-thread task times.
@@ -167,6 +189,17 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
     if args.camera > 3 {
         return Err(arg("camera", &args.camera, "must be 0, 1, 2 or 3".into()));
+    }
+    #[cfg(feature = "gpu")]
+    if args.device == DeviceArg::Gpu && args.task_size > raytrace::gpu::MAX_TASK_RAYS {
+        return Err(arg(
+            "task-size",
+            &args.task_size,
+            format!(
+                "the GPU estimator samples tasks of at most {} rays",
+                raytrace::gpu::MAX_TASK_RAYS
+            ),
+        ));
     }
     if args.repeats == 0 {
         return Err(arg("repeats", &0, "must be at least 1".into()));
@@ -255,19 +288,29 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ));
     }
 
-    let estimator = ReducedTraversal::new(&bvh, &rays, rate);
-    let (estimate_seconds, est) = min_time(args.repeats, || estimator.try_work(&tasks))?;
-    let (trace_seconds, ()) = min_time(args.repeats, || {
-        for (batch, kind) in &segments {
-            let hits = if kind.is_occlusion() {
-                traverse::any_hits(&bvh, batch)
-            } else {
-                traverse::closest_hits(&bvh, batch)
-            };
-            std::hint::black_box(hits);
+    let (estimate_seconds, est, trace_seconds, adapter) = match args.device {
+        DeviceArg::Cpu => {
+            let estimator = ReducedTraversal::new(&bvh, &rays, rate);
+            let (estimate_seconds, est) = min_time(args.repeats, || estimator.try_work(&tasks))?;
+            let (trace_seconds, ()) = min_time(args.repeats, || {
+                for (batch, kind) in &segments {
+                    let hits = if kind.is_occlusion() {
+                        traverse::any_hits(&bvh, batch)
+                    } else {
+                        traverse::closest_hits(&bvh, batch)
+                    };
+                    std::hint::black_box(hits);
+                }
+                Ok::<_, CliError>(())
+            })?;
+            (estimate_seconds, est, trace_seconds, None)
         }
-        Ok::<_, CliError>(())
-    })?;
+        DeviceArg::Gpu => {
+            let (e, est, t, name) =
+                gpu_estimate(&bvh, &rays, &segments, &tasks, rate, args.repeats)?;
+            (e, est, t, Some(name))
+        }
+    };
     let full = full_work(&bvh, &rays, &tasks)?;
     let mut measured = Vec::with_capacity(tasks.len());
     for (batch, kind) in &segments {
@@ -316,6 +359,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
         sampled_rays: tasks.iter().map(|t| rate.samples(t.len())).sum(),
         threads: rayon::current_num_threads(),
         repeats: args.repeats,
+        device: match args.device {
+            DeviceArg::Cpu => "cpu",
+            DeviceArg::Gpu => "gpu",
+        },
+        adapter,
         prediction_error: prediction_error(&model.costs(&est), &model.costs(&full)).ok(),
         prediction_error_nodes: prediction_error(&est_b, &full_b).ok(),
         prediction_error_tris: prediction_error(&est_t, &full_t).ok(),
@@ -343,6 +391,61 @@ pub fn run(args: Args) -> Result<(), CliError> {
     } else {
         crate::print_text(&table(&report))
     }
+}
+
+/// The estimate and the full trace on the first usable GPU adapter: the best of `repeats`
+/// times of each, the estimates, and the adapter's name.
+#[cfg(feature = "gpu")]
+fn gpu_estimate(
+    bvh: &Bvh,
+    rays: &RayBatch,
+    segments: &[(RayBatch, RayKind)],
+    tasks: &[std::ops::Range<usize>],
+    rate: SampleRate,
+    repeats: usize,
+) -> Result<(f64, Vec<Work>, f64, String), CliError> {
+    use raytrace::devices::GpuSelect;
+    use raytrace::gpu::{GpuContext, GpuDevice, GpuOptions, GpuReducedTraversal};
+    let gpu_err = |e: raytrace::gpu::GpuError| CliError::Arg {
+        flag: "device",
+        value: "gpu".into(),
+        message: e.to_string(),
+    };
+    let ctx = GpuContext::open(GpuSelect::All, GpuOptions::from_env())
+        .map_err(gpu_err)?
+        .swap_remove(0);
+    let name = ctx.info.name.clone();
+    let dev = GpuDevice::new(ctx, bvh).map_err(gpu_err)?;
+    let estimator = GpuReducedTraversal::new(&dev, rays, rate);
+    let (estimate_seconds, est) = min_time(repeats, || estimator.try_work(tasks).map_err(gpu_err))?;
+    let (trace_seconds, ()) = min_time(repeats, || {
+        for (batch, kind) in segments {
+            let all = 0..batch.len();
+            let hits = dev
+                .hits(kind.is_occlusion(), batch, &[&all])
+                .map_err(gpu_err)?;
+            std::hint::black_box(hits);
+        }
+        Ok::<_, CliError>(())
+    })?;
+    Ok((estimate_seconds, est, trace_seconds, name))
+}
+
+/// Without the `gpu` feature, `--device gpu` is refused.
+#[cfg(not(feature = "gpu"))]
+fn gpu_estimate(
+    _: &Bvh,
+    _: &RayBatch,
+    _: &[(RayBatch, RayKind)],
+    _: &[std::ops::Range<usize>],
+    _: SampleRate,
+    _: usize,
+) -> Result<(f64, Vec<Work>, f64, String), CliError> {
+    Err(CliError::Arg {
+        flag: "device",
+        value: "gpu".into(),
+        message: "this cobalt was built without the `gpu` feature".into(),
+    })
 }
 
 /// Where the rays come from.
@@ -398,6 +501,14 @@ where
         .ok_or_else(|| CliError::Write("no timing was taken".into()))
 }
 
+/// Where the estimate and the full trace ran, for the table.
+fn ran_on(r: &Report) -> String {
+    match &r.adapter {
+        Some(name) => format!("the GPU ({name})"),
+        None => format!("{} threads", r.threads),
+    }
+}
+
 fn table(r: &Report) -> String {
     let pct = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{:.2} %", 100.0 * v));
     let num = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.3}"));
@@ -435,10 +546,13 @@ fn table(r: &Report) -> String {
                 pct(r.prediction_error_tris)
             ),
         ),
-        ("estimate", format!("{:.4} s", r.estimate_seconds)),
+        (
+            "estimate",
+            format!("{:.4} s on {}", r.estimate_seconds, ran_on(r)),
+        ),
         (
             "full trace",
-            format!("{:.4} s on {} threads", r.trace_seconds, r.threads),
+            format!("{:.4} s on {}", r.trace_seconds, ran_on(r)),
         ),
         ("overhead", pct(Some(r.overhead))),
         (

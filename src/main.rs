@@ -9,6 +9,7 @@ mod estimate;
 mod input;
 mod knn;
 mod render;
+mod render_gpu;
 mod schedule;
 mod spatial;
 mod trace;

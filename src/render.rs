@@ -44,6 +44,16 @@ pub enum ShaderArg {
     Whitted,
 }
 
+/// Where a render runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PipelineArg {
+    /// Every generation scheduled over `--devices` by `--policy`.
+    Scheduled,
+    /// The whole render on the first GPU adapter (software ones only with
+    /// `COBALT_GPU_SOFTWARE=1`): rays, traces, shading and image stay on the device.
+    Gpu,
+}
+
 /// Arguments of `cobalt render`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -77,6 +87,15 @@ pub struct Args {
     /// adapters (software ones only with `COBALT_GPU_SOFTWARE=1`).
     #[arg(long, default_value = "cpu:2")]
     devices: String,
+    /// `scheduled` (over `--devices`), or `gpu`: the whole render (either shader) on one
+    /// GPU, without scheduling (`--devices`, `--policy`, `--mode`, `--task-size`,
+    /// `--sample-rate` do not apply).
+    #[arg(long, value_enum, default_value = "scheduled")]
+    pipeline: PipelineArg,
+    /// With `--pipeline gpu`: `persistent` threads (a queue of ray batches) or one thread
+    /// `per-ray`.
+    #[arg(long, value_enum, default_value = "persistent")]
+    gpu_threads: crate::render_gpu::GpuThreadsArg,
     /// How tasks go to devices: static-equal, static-lpt (lpt), queue-fifo (fifo),
     /// queue-sorted (sorted) or hybrid.
     #[arg(long, default_value = "static-lpt")]
@@ -90,8 +109,9 @@ pub struct Args {
     /// Fraction of each task's rays the cost estimate traces, in (0, 1].
     #[arg(long, default_value = "0.125")]
     sample_rate: String,
-    /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order)
-    /// fails after completing TASKS tasks; its unfinished tasks are re-run elsewhere.
+    /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order, a
+    /// GPU included) fails after completing TASKS tasks; its unfinished tasks are re-run
+    /// elsewhere.
     #[arg(long)]
     fail: Option<String>,
     /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
@@ -145,6 +165,9 @@ struct ScheduleReport {
     measured_speeds: Vec<Option<f64>>,
     launches: Vec<u64>,
     busy: Vec<f64>,
+    /// Per device: kernel seconds it measured itself (a GPU's timestamp queries), null
+    /// where it cannot.
+    device_seconds: Vec<Option<f64>>,
     reruns: u64,
     failures: Vec<String>,
     host_fallback: bool,
@@ -155,6 +178,9 @@ struct ScheduleReport {
     task_costs: Vec<f64>,
     task_seconds: Vec<f64>,
     task_devices: Vec<usize>,
+    /// Per task: the kernel time its device measured (a GPU's timestamp queries) where the
+    /// task had a launch of its own (queue policies), else null.
+    task_device_seconds: Vec<Option<f64>>,
 }
 
 /// `kB`, `kT` of one device for one ray kind, fitted by least squares to measured task times.
@@ -229,6 +255,32 @@ struct Report {
     cost: Option<CostReport>,
 }
 
+/// The report of `--pipeline gpu`.
+#[derive(Debug, Serialize)]
+struct GpuReport {
+    scene: String,
+    triangles: usize,
+    shader: &'static str,
+    pipeline: &'static str,
+    size: String,
+    width: u32,
+    height: u32,
+    camera: Option<usize>,
+    eye: [f32; 3],
+    at: [f32; 3],
+    preset: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ao_samples: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ao_distance: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    bounces: Option<u32>,
+    load_seconds: f64,
+    build_seconds: f64,
+    #[serde(flatten)]
+    run: crate::render_gpu::GpuRun,
+}
+
 /// Where the camera comes from.
 pub(crate) enum CameraChoice {
     Thesis(usize),
@@ -254,8 +306,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
             DeviceSpec::Gpu(_) => 0,
         })
         .sum();
+    // GPU entries open however many adapters exist: their indices are checked once the
+    // devices are built (naming the fault).
+    let has_gpu = specs.iter().any(|s| matches!(s, DeviceSpec::Gpu(_)));
     let faults = match &args.fail {
-        Some(text) => parse_faults(text, device_count)?,
+        Some(text) => parse_faults(text, if has_gpu { usize::MAX } else { device_count })?,
         None => Vec::new(),
     };
     let settings = Settings {
@@ -334,6 +389,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 "not available under mpirun; render the cost image in one process",
             ));
         }
+        if args.pipeline == PipelineArg::Gpu {
+            return Err(arg(
+                "pipeline",
+                &Some("gpu".to_string()),
+                "not available under mpirun; give each rank `--devices …,gpu:all` instead",
+            ));
+        }
         return crate::cluster::render(crate::cluster::Job {
             scene: &args.scene,
             shader,
@@ -350,10 +412,85 @@ pub fn run(args: Args) -> Result<(), CliError> {
         });
     }
 
+    if args.pipeline == PipelineArg::Gpu {
+        let refuse = |flag: &'static str, value: &Option<String>, why: &str| {
+            Err(arg(flag, value, &format!("{why} with --pipeline gpu")))
+        };
+        if args.cost_image.is_some() {
+            let path = args.cost_image.as_ref().map(|p| p.display().to_string());
+            return refuse("cost-image", &path, "there is no cost image");
+        }
+        if args.fail.is_some() {
+            return refuse("fail", &args.fail, "there are no devices to fail");
+        }
+    }
+
     let loading = Instant::now();
     let scene = SceneSource::parse(&args.scene)?.load(shader.needs())?;
     let load_seconds = loading.elapsed().as_secs_f64();
     let bvh = Bvh::build(&scene, preset)?;
+    if args.pipeline == PipelineArg::Gpu {
+        let (camera, camera_index) = match camera_choice {
+            CameraChoice::Thesis(i) => (Camera::thesis(&scene.bounds(), i), Some(i)),
+            CameraChoice::LookAt(eye, at) => (Camera::look_at(eye, at), None),
+        };
+        let (film, run) = crate::render_gpu::render(
+            &scene,
+            &bvh,
+            (width, height),
+            &camera,
+            &shader,
+            args.gpu_threads,
+        )?;
+        let image = film.png(ToneMap::Srgb)?;
+        let report = GpuReport {
+            scene: args.scene.clone(),
+            triangles: scene.len(),
+            shader: shader.name(),
+            pipeline: "gpu",
+            size: format!("{width}x{height}"),
+            width,
+            height,
+            camera: camera_index,
+            eye: camera.eye.to_array(),
+            at: camera.at.to_array(),
+            preset: preset.name().to_string(),
+            ao_samples: matches!(shader, Shader::Ao(_)).then_some(samples),
+            ao_distance: match shader {
+                Shader::Ao(s) => Some(s.distance(&scene)),
+                Shader::Whitted(_) => None,
+            },
+            bounces: match shader {
+                Shader::Whitted(s) => Some(s.bounces),
+                Shader::Ao(_) => None,
+            },
+            load_seconds,
+            build_seconds: bvh.report().build_seconds,
+            run,
+        };
+        let json =
+            serde_json::to_string_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
+        crate::write_file(&args.out, &image)?;
+        if let Some(path) = &args.report {
+            crate::write_file(path, format!("{json}\n").as_bytes())?;
+        }
+        return if args.json {
+            crate::print_json(&report)
+        } else {
+            crate::print_text(&format!(
+                "{} ({} triangles), {}, {width}x{height} on the GPU ({}, {} threads): {} rays \
+                 in {:.3} s, {:.2} MRays/s\n",
+                report.scene,
+                report.triangles,
+                report.shader,
+                report.run.adapter,
+                report.run.gpu_threads,
+                report.run.total_rays,
+                report.run.render_seconds,
+                report.run.mrays_per_s,
+            ))
+        };
+    }
     let devices = build_devices(&bvh, &specs, &faults)?;
     let mut tracer = ScheduledTracer::new(&bvh, devices, settings)?;
     let (camera, camera_index) = match camera_choice {
@@ -470,6 +607,7 @@ fn schedule_report(g: &GenerationStats) -> ScheduleReport {
         measured_speeds: g.devices.iter().map(|d| d.measured_speed).collect(),
         launches: g.devices.iter().map(|d| d.launches).collect(),
         busy: g.devices.iter().map(|d| d.busy).collect(),
+        device_seconds: g.devices.iter().map(|d| d.device_seconds).collect(),
         reruns: g.reruns,
         failures: g.failures.iter().map(ToString::to_string).collect(),
         host_fallback: g.host_fallback,
@@ -478,6 +616,7 @@ fn schedule_report(g: &GenerationStats) -> ScheduleReport {
         task_costs: g.task_stats.iter().map(|t| t.cost).collect(),
         task_seconds: g.task_stats.iter().map(|t| t.seconds).collect(),
         task_devices: g.task_stats.iter().map(|t| t.device).collect(),
+        task_device_seconds: g.task_stats.iter().map(|t| t.device_seconds).collect(),
     }
 }
 

@@ -169,3 +169,81 @@ fn bad_arguments_exit_2_naming_flag_and_value() {
         }
     }
 }
+
+/// `--device gpu` samples, compacts, traverses and sums on the GPU, and its estimates are the
+/// CPU's: the same prediction errors to the bit, for primary, AO and Whitted rays. Without any
+/// adapter: a note, or a failure when `CI` is set. A task beyond the GPU's limit is refused,
+/// naming `--task-size`.
+#[test]
+fn gpu_estimates_equal_cpu_estimates() {
+    let run = |args: &[&str]| {
+        let all = with_defaults(
+            args,
+            &[
+                ["--scene", SCENE],
+                ["--size", "48x48"],
+                ["--task-size", "300"],
+                ["--ao-samples", "4"],
+                ["--repeats", "1"],
+            ],
+        );
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"));
+        cmd.env("COBALT_GPU_SOFTWARE", "1")
+            .arg("estimate")
+            .args(all);
+        cmd.arg("--json").output().expect("the cobalt binary runs")
+    };
+    for rays in ["primary", "ao", "whitted"] {
+        let cpu = run(&["--rays", rays]);
+        assert!(
+            cpu.status.success(),
+            "{}",
+            String::from_utf8_lossy(&cpu.stderr)
+        );
+        let gpu = run(&["--rays", rays, "--device", "gpu"]);
+        let err = String::from_utf8_lossy(&gpu.stderr);
+        if err.contains("no GPU adapter") {
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI is set but no GPU adapter was found: {err}"
+            );
+            eprintln!("note: no GPU adapter here; the GPU estimator was not checked");
+            return;
+        }
+        assert!(gpu.status.success(), "{err}");
+        let parse = |o: &Output| -> serde_json::Value {
+            serde_json::from_slice(&o.stdout).expect("one JSON object")
+        };
+        let (c, g) = (parse(&cpu), parse(&gpu));
+        assert_eq!(
+            (c["device"].as_str(), g["device"].as_str()),
+            (Some("cpu"), Some("gpu"))
+        );
+        assert!(g["adapter"].is_string(), "{g}");
+        for key in [
+            "prediction_error",
+            "prediction_error_nodes",
+            "prediction_error_tris",
+            "sampled_rays",
+            "tasks",
+        ] {
+            assert_eq!(c[key], g[key], "{rays}: {key}");
+        }
+        assert!(num(&g, "prediction_error") > 0.0, "{rays}: {g}");
+    }
+    let too_long = cobalt(&[
+        "--scene",
+        SCENE,
+        "--rays",
+        "primary",
+        "--device",
+        "gpu",
+        "--task-size",
+        "50000",
+    ]);
+    let err = String::from_utf8_lossy(&too_long.stderr);
+    assert!(
+        !too_long.status.success() && err.contains("--task-size"),
+        "{err}"
+    );
+}

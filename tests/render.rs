@@ -295,3 +295,140 @@ fn cpu_and_gpu_render_the_cpu_image() {
         assert_eq!(a.expect("cpu png"), b.expect("mixed png"), "{policy}");
     }
 }
+
+/// `--pipeline gpu` renders on one GPU, ray generation to image, and writes the CPU's image for
+/// both shaders: at most 1 % of pixels may differ (see `raytrace::gpu::GpuRenderer` for where
+/// the two can differ; on lavapipe they are equal). Without any adapter: a note, or a failure
+/// when `CI` is set. A cost image and fault injection are refused, naming the flag.
+#[test]
+fn gpu_pipeline_renders_the_cpu_image() {
+    let dir = crate::testkit::temp_dir("render-gpu-pipeline");
+    let run = |shader: &str, extra: &[&str], name: &str| {
+        let out = dir.join(name);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
+            .env("COBALT_GPU_SOFTWARE", "1")
+            .args(["render", "--scene", "builtin:cornell", "--shader", shader])
+            .args(["--size", "40x24", "--ao-samples", "4", "--json", "--out"])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .expect("the cobalt binary runs");
+        (o, out)
+    };
+    for (shader, threads) in [
+        ("ao", "persistent"),
+        ("ao", "per-ray"),
+        ("whitted", "persistent"),
+    ] {
+        let (cpu, cpu_png) = run(
+            shader,
+            &["--devices", "cpu:2"],
+            &format!("cpu-{shader}.png"),
+        );
+        assert!(
+            cpu.status.success(),
+            "{}",
+            String::from_utf8_lossy(&cpu.stderr)
+        );
+        let (gpu, gpu_png) = run(
+            shader,
+            &["--pipeline", "gpu", "--gpu-threads", threads],
+            &format!("gpu-{shader}-{threads}.png"),
+        );
+        let err = String::from_utf8_lossy(&gpu.stderr);
+        if err.contains("no GPU adapter") {
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI is set but no GPU adapter was found: {err}"
+            );
+            eprintln!("note: no GPU adapter here; the GPU pipeline was not checked");
+            return;
+        }
+        assert!(gpu.status.success(), "{err}");
+        let v: serde_json::Value = serde_json::from_slice(&gpu.stdout).expect("JSON report");
+        assert_eq!(v["pipeline"], "gpu");
+        assert_eq!(v["shader"], shader);
+        assert_eq!(v["gpu_threads"], threads);
+        assert_eq!(v["primary_rays"], 40 * 24);
+        if shader == "ao" {
+            assert_eq!(v["secondary_rays"], 40 * 24 * 4);
+        } else {
+            assert_eq!(v["bounces"], 2);
+        }
+        let load = |p: &Path| image::open(p).expect("PNG").to_rgb8().into_raw();
+        let (a, b) = (load(&cpu_png), load(&gpu_png));
+        assert_eq!(a.len(), b.len());
+        let differ = a.chunks(3).zip(b.chunks(3)).filter(|(x, y)| x != y).count();
+        assert!(
+            differ * 100 <= a.len() / 3,
+            "{shader} {threads}: {differ} pixels differ"
+        );
+    }
+    for (extra, flag) in [
+        (
+            &["--shader", "ao", "--cost-image", "c.png"][..],
+            "--cost-image",
+        ),
+        (&["--shader", "ao", "--fail", "0@1"][..], "--fail"),
+    ] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
+            .args(["render", "--scene", "builtin:cornell", "--size", "8x8"])
+            .args(["--pipeline", "gpu"])
+            .args(extra)
+            .output()
+            .expect("the cobalt binary runs");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(flag), "{flag}: {err}");
+    }
+}
+
+/// `--fail 1@1` on a GPU (device 1 of `cpu:1,gpu:all`): the GPU fails after one task, its
+/// tasks are re-run on the CPU, the report names the fault, and the image is the CPU's.
+/// Without any adapter: a note, or a failure when `CI` is set.
+#[test]
+fn a_failing_gpu_is_reported_and_the_image_is_still_complete() {
+    let dir = crate::testkit::temp_dir("render-gpu-fail");
+    let run = |devices: &str, extra: &[&str], name: &str| {
+        let out = dir.join(name);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
+            .env("COBALT_GPU_SOFTWARE", "1")
+            .args(["render", "--scene", "builtin:cornell", "--shader", "ao"])
+            .args(["--size", "32x32", "--ao-samples", "4", "--task-size", "128"])
+            .args(["--policy", "static-equal", "--json", "--devices", devices])
+            .args(extra)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .expect("the cobalt binary runs");
+        (o, out)
+    };
+    let (cpu, cpu_png) = run("cpu:1", &[], "cpu.png");
+    assert!(
+        cpu.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cpu.stderr)
+    );
+    let (gpu, gpu_png) = run("cpu:1,gpu:all", &["--fail", "1@1"], "fail.png");
+    let err = String::from_utf8_lossy(&gpu.stderr);
+    if err.contains("no GPU adapter") {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI is set but no GPU adapter was found: {err}"
+        );
+        eprintln!("note: no GPU adapter here; the failing GPU was not checked");
+        return;
+    }
+    assert!(gpu.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_slice(&gpu.stdout).expect("JSON report");
+    assert!(v["reruns"].as_u64().unwrap() > 0, "{v}");
+    let first = &v["generations"][0]["failures"][0];
+    let reason = first.as_str().unwrap_or_default();
+    assert!(
+        reason.contains("gpu0") && reason.contains("injected fault"),
+        "{v}"
+    );
+    assert_eq!(
+        std::fs::read(cpu_png).expect("cpu png"),
+        std::fs::read(gpu_png).expect("gpu png")
+    );
+}

@@ -60,14 +60,27 @@ impl Camera {
 
     /// The ray through pixel `(x, y)` (`y = 0` is the top row), through the pixel centre.
     pub fn ray(&self, x: u32, y: u32, width: u32, height: u32) -> Ray {
-        let fwd = (self.at - self.eye).normalize_or(Vec3::NEG_Z);
-        let right = fwd.cross(self.up).normalize_or(Vec3::X);
-        let up = right.cross(fwd);
-        let h = (self.fov_y_degrees.to_radians() * 0.5).tan();
-        let w = h * width as f32 / height as f32;
-        let px = ((x as f32 + 0.5) / width as f32 * 2.0 - 1.0) * w;
-        let py = (1.0 - (y as f32 + 0.5) / height as f32 * 2.0) * h;
-        Ray::new(self.eye, (fwd + px * right + py * up).normalize())
+        let f = self.frame(width, height);
+        let px = ((x as f32 + 0.5) / width as f32 * 2.0 - 1.0) * f.half_width;
+        let py = (1.0 - (y as f32 + 0.5) / height as f32 * 2.0) * f.half_height;
+        Ray::new(self.eye, (f.forward + px * f.right + py * f.up).normalize())
+    }
+
+    /// The orthonormal frame and image-plane half extents that [`Camera::ray`] uses for an
+    /// image of `width × height` (the GPU's ray generation takes them from here, so both
+    /// agree to the bit).
+    pub fn frame(&self, width: u32, height: u32) -> CameraFrame {
+        let forward = (self.at - self.eye).normalize_or(Vec3::NEG_Z);
+        let right = forward.cross(self.up).normalize_or(Vec3::X);
+        let up = right.cross(forward);
+        let half_height = (self.fov_y_degrees.to_radians() * 0.5).tan();
+        CameraFrame {
+            forward,
+            right,
+            up,
+            half_width: half_height * width as f32 / height as f32,
+            half_height,
+        }
     }
 
     /// One ray per pixel in Morton order; `pixels[i]` is ray `i`'s pixel index `y * width + x`.
@@ -82,6 +95,22 @@ impl Camera {
             pixels: order,
         }
     }
+}
+
+/// What [`Camera::ray`] computes once per image: the view direction, the image plane's axes
+/// and its half extents at distance 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraFrame {
+    /// Unit view direction.
+    pub forward: Vec3,
+    /// Unit image-plane x axis.
+    pub right: Vec3,
+    /// Image-plane y axis.
+    pub up: Vec3,
+    /// Half the image plane's width.
+    pub half_width: f32,
+    /// Half its height: `tan(fov_y / 2)`.
+    pub half_height: f32,
 }
 
 /// Primary rays and the pixel each came from.

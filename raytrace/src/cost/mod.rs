@@ -48,4 +48,6 @@ pub use estimator::{ReducedTraversal, full_work};
 pub use measure::measure_seconds;
 pub use metrics::{error_vs_time, prediction_error, spearman};
 pub use model::{Calibrations, CostModel, Work};
-pub use sample::{Compacted, SampleRate};
+#[cfg(feature = "gpu")]
+pub(crate) use sample::check_tasks;
+pub use sample::{Compacted, SAMPLE_RUN, SampleRate};

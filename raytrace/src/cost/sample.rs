@@ -1,6 +1,6 @@
 //! Uniform task sampling and compaction (thesis, figure 3.1 b and section 3.3): every task
-//! keeps rays at a fixed stride (pairs of neighbours, see [`RUN`]), and the kept rays of all tasks are gathered into one
-//! contiguous batch, so the reduced trace streams through memory and its parallel loop sees
+//! keeps rays at a fixed stride (pairs of neighbours, see [`SAMPLE_RUN`]), and the kept rays
+//! of all tasks are gathered into one contiguous batch, so the reduced trace streams through memory and its parallel loop sees
 //! one flat array instead of many short strided ones.
 
 use std::ops::Range;
@@ -52,15 +52,24 @@ impl SampleRate {
 /// is the corner of a sub-block, while the pair astride it stands for both halves of the
 /// stratum; in AO order (a pixel's Halton probes in a row) it keeps two successive probes.
 /// Longer runs trace faster (the packets share more nodes) but err more on coherent rays.
-pub const RUN: usize = 2;
+pub const SAMPLE_RUN: usize = 2;
 
 /// Indices (within a task of `len` rays) of its `k` samples, `0 < k <= len`, in order: all of
-/// them when `k == len`, else runs of [`RUN`] adjacent rays centred in `ceil(k / RUN)` equal
-/// strata. A stratum holds at least `RUN` rays when `k < len`, so runs never overlap.
+/// them when `k == len`, else runs of [`SAMPLE_RUN`] adjacent rays centred in
+/// `ceil(k / SAMPLE_RUN)` equal strata. A stratum holds at least `SAMPLE_RUN` rays when
+/// `k < len`, so runs never overlap. `estimate.wgsl`'s `sample_index` is the same on the GPU.
 fn sample_indices(k: usize, len: usize) -> impl Iterator<Item = usize> {
-    let runs = if k == len { len } else { k.div_ceil(RUN) };
+    let runs = if k == len {
+        len
+    } else {
+        k.div_ceil(SAMPLE_RUN)
+    };
     (0..runs).flat_map(move |j| {
-        let width = if k == len { 1 } else { RUN.min(k - RUN * j) };
+        let width = if k == len {
+            1
+        } else {
+            SAMPLE_RUN.min(k - SAMPLE_RUN * j)
+        };
         // Integer strata bounds: never past the task, never overflowing below 2^62 rays.
         let (lo, hi) = (j * len / runs, (j + 1) * len / runs);
         let start = lo + (hi - lo - width) / 2;
@@ -151,7 +160,7 @@ fn gather_columns(rays: &RayBatch, index: &[usize]) -> RayBatch {
 }
 
 /// Every task non-empty and inside a consistent batch: checked before any ray is read.
-pub(super) fn check_tasks(rays: &RayBatch, tasks: &[Range<usize>]) -> Result<(), CostError> {
+pub(crate) fn check_tasks(rays: &RayBatch, tasks: &[Range<usize>]) -> Result<(), CostError> {
     if !rays.is_consistent() {
         return Err(CostError::InconsistentBatch);
     }

@@ -9,7 +9,8 @@ use crate::scheduled::{BadRange, RayDevice};
 use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
 use super::buffers::{SceneBuffers, pack_rays};
-use super::pipeline::{GpuMode, Kernels, launch, launch_timed};
+use super::estimate::{EstimateKernels, SampledCounts, sampled_counts};
+use super::pipeline::{GpuMode, Kernels, Threads, launch, launch_timed};
 use super::{GpuContext, GpuError};
 
 /// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a generation's rays,
@@ -19,9 +20,17 @@ use super::{GpuContext, GpuError};
 pub struct GpuDevice {
     ctx: GpuContext,
     kernels: Kernels,
+    estimate: EstimateKernels,
     scene: SceneBuffers,
+    threads: Threads,
     /// The last launch's GPU seconds as `f64` bits; NaN when unknown.
     last_seconds: AtomicU64,
+    /// GPU seconds of the hit launches since [`RayDevice::take_device_seconds`] last took
+    /// them, as `f64` bits (launches take `&self`).
+    kernel_seconds: AtomicU64,
+    /// GPU seconds of each single-range launch since [`RayDevice::take_task_seconds`], by
+    /// the range's first ray.
+    task_seconds: Vec<(usize, f64)>,
 }
 
 impl GpuDevice {
@@ -33,12 +42,28 @@ impl GpuDevice {
     pub fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
         let kernels = Kernels::new(&ctx.device, bvh.depth())?;
         let scene = SceneBuffers::upload(&ctx, bvh)?;
+        let estimate = EstimateKernels::new(&ctx.device);
         Ok(Self {
             ctx,
             kernels,
+            estimate,
             scene,
+            threads: Threads::default(),
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
+            kernel_seconds: AtomicU64::new(0f64.to_bits()),
+            task_seconds: Vec::new(),
         })
+    }
+
+    /// The same device handing rays to invocations as `threads` says (persistent threads by
+    /// default).
+    pub fn with_threads(self, threads: Threads) -> Self {
+        Self { threads, ..self }
+    }
+
+    /// How rays are handed to invocations.
+    pub fn threads(&self) -> Threads {
+        self.threads
     }
 
     /// The GPU time of the last hit launch in seconds, from timestamp queries; `None` where
@@ -76,9 +101,25 @@ impl GpuDevice {
             GpuMode::Closest
         };
         let packed = pack_rays(rays, ranges);
-        let (out, seconds) = launch_timed(&self.ctx, &self.kernels, &self.scene, &packed, mode)?;
+        let (out, seconds) = launch_timed(
+            &self.ctx,
+            &self.kernels,
+            &self.scene,
+            &packed,
+            mode,
+            self.threads,
+        )?;
         self.last_seconds
             .store(seconds.unwrap_or(f64::NAN).to_bits(), Ordering::Relaxed);
+        if let Some(s) = seconds {
+            // One thread launches at a time (the runtime's device thread), but the update is
+            // a loop anyway so that `hits` stays safe to call from several.
+            let _ = self
+                .kernel_seconds
+                .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |b| {
+                    Some((f64::from_bits(b) + s).to_bits())
+                });
+        }
         Ok(HitBatch {
             t: out.iter().map(|r| f32::from_bits(r[0])).collect(),
             prim: out.iter().map(|r| r[1]).collect(),
@@ -113,6 +154,43 @@ impl GpuDevice {
     }
 }
 
+impl GpuDevice {
+    /// The estimator's sums on the device: every task of `rays` sampled at `rate` exactly as
+    /// [`crate::cost::Compacted::gather`] samples it, the samples compacted and traced by the
+    /// reduced traversal, and their `B` and `T` summed per task (see
+    /// [`super::GpuReducedTraversal`] for the estimator built on it).
+    ///
+    /// # Errors
+    /// [`GpuError::BadTasks`] for an empty task or one beyond the batch,
+    /// [`GpuError::TaskTooLong`] for a task beyond [`super::MAX_TASK_RAYS`] rays, and the
+    /// errors of [`launch`].
+    pub fn sampled_counts(
+        &self,
+        rays: &RayBatch,
+        tasks: &[Range<usize>],
+        rate: crate::cost::SampleRate,
+    ) -> Result<Vec<SampledCounts>, GpuError> {
+        sampled_counts(
+            &self.ctx,
+            &self.kernels,
+            &self.estimate,
+            &self.scene,
+            rays,
+            tasks,
+            rate,
+        )
+    }
+}
+
+impl GpuDevice {
+    /// Records the last launch's kernel time as `range`'s, where timestamps measured it.
+    fn note_task(&mut self, range: &Range<usize>) {
+        if let Some(s) = self.last_gpu_seconds() {
+            self.task_seconds.push((range.start, s));
+        }
+    }
+}
+
 impl RayDevice for GpuDevice {
     fn trace_range(
         &mut self,
@@ -121,7 +199,9 @@ impl RayDevice for GpuDevice {
         range: &Range<usize>,
     ) -> Result<HitBatch, DeviceError> {
         self.check(rays, range)?;
-        Ok(self.hits(kind.is_occlusion(), rays, &[range])?)
+        let hits = self.hits(kind.is_occlusion(), rays, &[range])?;
+        self.note_task(range);
+        Ok(hits)
     }
 
     /// One launch for all `ranges`; each range's hits are cut out of its results in order.
@@ -136,6 +216,9 @@ impl RayDevice for GpuDevice {
             self.check(rays, r)?;
         }
         let all = self.hits(kind.is_occlusion(), rays, ranges)?;
+        if let [one] = ranges {
+            self.note_task(one);
+        }
         let mut start = 0;
         for r in ranges {
             let end = start + r.len();
@@ -150,5 +233,15 @@ impl RayDevice for GpuDevice {
 
     fn name(&self) -> String {
         self.ctx.name()
+    }
+
+    fn take_task_seconds(&mut self) -> Vec<(usize, f64)> {
+        std::mem::take(&mut self.task_seconds)
+    }
+
+    /// The kernels' time from timestamp queries, where the adapter has them.
+    fn take_device_seconds(&mut self) -> Option<f64> {
+        let taken = f64::from_bits(self.kernel_seconds.swap(0f64.to_bits(), Ordering::Relaxed));
+        self.ctx.timestamps.then_some(taken)
     }
 }

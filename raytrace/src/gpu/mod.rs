@@ -7,7 +7,11 @@
 //! - [`buffers`]: the scene and ray buffers, checked against the binding-size limits;
 //! - [`pipeline`]: the kernels (`traverse.wgsl`) and the host loop that re-dispatches the
 //!   persistent threads until the ray queue is drained;
-//! - [`GpuDevice`]: one adapter as a [`crate::scheduled::RayDevice`], one launch per plan.
+//! - [`GpuDevice`]: one adapter as a [`crate::scheduled::RayDevice`], one launch per plan;
+//! - [`GpuReducedTraversal`]: the cost estimator (sampling, compaction, reduced traversal and
+//!   per-task sums) on the device, equal to the CPU's;
+//! - [`GpuRenderer`]: ambient occlusion and Whitted shading rendered entirely on the device
+//!   (ray generation in Morton order, traces, AO probes or shadow and mirror rays, image).
 //!
 //! The kernels mirror the CPU's traversal operation for operation; they differ only where the
 //! CPU re-evaluates an exactly-zero edge function in f64 (WGSL has no portable f64): a ray
@@ -17,13 +21,18 @@
 pub mod buffers;
 pub mod context;
 mod device;
+mod estimate;
 pub mod pipeline;
+mod render;
 #[cfg(test)]
 pub(crate) mod tests;
+mod whitted;
 
 pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
-pub use pipeline::{GpuMode, Kernels};
+pub use estimate::{GpuReducedTraversal, MAX_TASK_RAYS, SampledCounts};
+pub use pipeline::{GpuMode, Kernels, Threads};
+pub use render::{GpuRenderer, GpuRendering};
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or
 /// the limit that was hit.
@@ -90,6 +99,23 @@ pub enum GpuError {
         what: &'static str,
         /// wgpu's reason.
         why: String,
+    },
+    /// The estimator was given a task it cannot sample (empty, beyond the batch, or a batch
+    /// whose columns disagree).
+    #[error("cannot estimate these tasks: {why}")]
+    BadTasks {
+        /// The cost module's reason, naming the task.
+        why: String,
+    },
+    /// A task is longer than the GPU estimator's integer stride arithmetic allows.
+    #[error("task {task} has {len} rays; the GPU estimator samples tasks of at most {max} rays")]
+    TaskTooLong {
+        /// Index of the task.
+        task: usize,
+        /// Its rays.
+        len: usize,
+        /// The longest allowed.
+        max: usize,
     },
     /// The implementation cut a traversal loop short (lavapipe's loop limit), so some results
     /// would be wrong.

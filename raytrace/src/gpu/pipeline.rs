@@ -45,11 +45,41 @@ impl GpuMode {
     }
 }
 
+/// How rays are handed to invocations (issue 5: persistent threads, measured against one
+/// thread per ray).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Threads {
+    /// Persistent workgroups take batches of 64 rays from a queue head ([`BATCHES`] per
+    /// dispatch), so a workgroup whose rays finish early takes more: intra-GPU balancing.
+    #[default]
+    Persistent,
+    /// One invocation per ray in one dispatch, no queue: the hardware scheduler alone balances.
+    PerRay,
+}
+
+impl Threads {
+    fn index(self) -> usize {
+        match self {
+            Self::Persistent => 0,
+            Self::PerRay => 1,
+        }
+    }
+
+    /// The name used in reports: `persistent` or `per-ray`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Persistent => "persistent",
+            Self::PerRay => "per-ray",
+        }
+    }
+}
+
 /// The compiled kernels for trees up to a given depth.
 #[derive(Debug)]
 pub struct Kernels {
-    layout: wgpu::BindGroupLayout,
-    pipelines: [wgpu::ComputePipeline; 3],
+    pub(crate) layout: wgpu::BindGroupLayout,
+    /// By [`Threads::index`], then [`GpuMode::index`].
+    pipelines: [[wgpu::ComputePipeline; 3]; 2],
     stack: usize,
 }
 
@@ -111,12 +141,12 @@ impl Kernels {
             immediate_size: 0,
         });
         let far_scale = f64::from(crate::slab::far_scale());
-        let make = |mode: u32, label: &str| {
+        let make = |mode: u32, entry: &str, label: &str| {
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(label),
                 layout: Some(&pipeline_layout),
                 module: &module,
-                entry_point: Some("main"),
+                entry_point: Some(entry),
                 compilation_options: wgpu::PipelineCompilationOptions {
                     constants: &[
                         ("MODE", f64::from(mode)),
@@ -130,9 +160,24 @@ impl Kernels {
         };
         Ok(Self {
             pipelines: [
-                make(0, "cobalt closest-hit pipeline"),
-                make(1, "cobalt any-hit pipeline"),
-                make(2, "cobalt reduced-traversal pipeline"),
+                [
+                    make(0, "main", "cobalt closest-hit pipeline"),
+                    make(1, "main", "cobalt any-hit pipeline"),
+                    make(2, "main", "cobalt reduced-traversal pipeline"),
+                ],
+                [
+                    make(
+                        0,
+                        "per_ray",
+                        "cobalt closest-hit pipeline, one thread per ray",
+                    ),
+                    make(1, "per_ray", "cobalt any-hit pipeline, one thread per ray"),
+                    make(
+                        2,
+                        "per_ray",
+                        "cobalt reduced-traversal pipeline, one thread per ray",
+                    ),
+                ],
             ],
             layout,
             stack,
@@ -159,11 +204,11 @@ pub fn launch(
     rays: &[GpuRay],
     mode: GpuMode,
 ) -> Result<Vec<[u32; 2]>, GpuError> {
-    Ok(launch_timed(ctx, kernels, scene, rays, mode)?.0)
+    Ok(launch_timed(ctx, kernels, scene, rays, mode, Threads::Persistent)?.0)
 }
 
-/// [`launch`], also returning the kernels' GPU time in seconds (from timestamp queries, summed
-/// over the dispatch rounds) where the device has them.
+/// [`launch`] with a choice of [`Threads`], also returning the kernels' GPU time in seconds
+/// (from timestamp queries, summed over the dispatch rounds) where the device has them.
 ///
 /// # Errors
 /// As [`launch`].
@@ -173,6 +218,7 @@ pub fn launch_timed(
     scene: &SceneBuffers,
     rays: &[GpuRay],
     mode: GpuMode,
+    threads: Threads,
 ) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     if scene.empty {
         let none = match mode {
@@ -184,25 +230,26 @@ pub fn launch_timed(
     let mut out = Vec::with_capacity(rays.len());
     let mut seconds = ctx.timestamps.then_some(0.0);
     for chunk in rays.chunks(rays_per_launch(&ctx.limits)) {
-        let (r, s) = launch_one(ctx, kernels, scene, chunk, mode)?;
+        let (r, s) = launch_one(ctx, kernels, scene, chunk, mode, threads)?;
         out.extend(r);
         seconds = seconds.zip(s).map(|(a, b)| a + b);
     }
     Ok((out, seconds))
 }
 
+/// Uploads `rays`, traces them and reads the results back.
 fn launch_one(
     ctx: &GpuContext,
     kernels: &Kernels,
     scene: &SceneBuffers,
     rays: &[GpuRay],
     mode: GpuMode,
+    threads: Threads,
 ) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     if rays.is_empty() {
         return Ok((Vec::new(), Some(0.0)));
     }
     let device = &ctx.device;
-    let name = ctx.info.name.as_str();
     // `rays_per_launch` keeps a launch far below 2^32 rays.
     let n = u32::try_from(rays.len()).unwrap_or(u32::MAX);
     let out_bytes = u64::from(n) * RESULT_BYTES;
@@ -217,6 +264,53 @@ fn launch_one(
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
+    let seconds = trace_resident(ctx, kernels, scene, &ray_buf, &out_buf, n, mode, threads)?;
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("cobalt results read-back"),
+        size: out_bytes,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("cobalt results copy"),
+    });
+    encoder.copy_buffer_to_buffer(&out_buf, 0, &readback, 0, out_bytes);
+    ctx.queue.submit([encoder.finish()]);
+    let bytes = read_back(device, &ctx.info.name, &readback)?;
+    Ok((bytemuck::pod_collect_to_vec(&bytes), seconds))
+}
+
+/// A two-dimensional grid of `workgroups` workgroups: one dimension holds at most
+/// `max_compute_workgroups_per_dimension`.
+pub(crate) fn grid(limits: &wgpu::Limits, workgroups: u32) -> (u32, u32) {
+    let max = limits.max_compute_workgroups_per_dimension.max(1);
+    let x = workgroups.clamp(1, max);
+    (x, workgroups.div_ceil(x).max(1))
+}
+
+/// Traces the first `n` rays of `rays` (a storage buffer of [`GpuRay`]s already on the device)
+/// into `out` (`n` results of [`RESULT_BYTES`]), leaving the results on the device; returns
+/// the kernels' GPU seconds where timestamps exist. Waits for the GPU: only the queue's state
+/// (8 bytes) and the timestamps are read back.
+///
+/// # Errors
+/// As [`launch`].
+#[allow(clippy::too_many_arguments)] // the buffers and the two choices of a trace
+pub(crate) fn trace_resident(
+    ctx: &GpuContext,
+    kernels: &Kernels,
+    scene: &SceneBuffers,
+    rays: &wgpu::Buffer,
+    out: &wgpu::Buffer,
+    n: u32,
+    mode: GpuMode,
+    threads: Threads,
+) -> Result<Option<f64>, GpuError> {
+    if n == 0 {
+        return Ok(ctx.timestamps.then_some(0.0));
+    }
+    let device = &ctx.device;
+    let name = ctx.info.name.as_str();
     let queue_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("cobalt ray queue"),
         contents: bytemuck::cast_slice(&[0u32, 0]),
@@ -228,8 +322,8 @@ fn launch_one(
         usage: wgpu::BufferUsages::UNIFORM,
     });
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("cobalt results read-back"),
-        size: out_bytes + 8 + 16,
+        label: Some("cobalt queue state read-back"),
+        size: 8 + 16,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
@@ -247,11 +341,11 @@ fn launch_one(
             },
             wgpu::BindGroupEntry {
                 binding: 2,
-                resource: ray_buf.as_entire_binding(),
+                resource: rays.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
                 binding: 3,
-                resource: out_buf.as_entire_binding(),
+                resource: out.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
                 binding: 4,
@@ -264,9 +358,21 @@ fn launch_one(
         ],
     });
     let batches = n.div_ceil(64);
-    let max_wg = MAX_WORKGROUPS.min(ctx.limits.max_compute_workgroups_per_dimension);
-    let workgroups = batches.div_ceil(BATCHES).clamp(1, max_wg);
-    let per_dispatch = u64::from(workgroups) * u64::from(BATCHES) * 64;
+    let (grid_x, grid_y, per_dispatch) = match threads {
+        Threads::Persistent => {
+            let max_wg = MAX_WORKGROUPS.min(ctx.limits.max_compute_workgroups_per_dimension);
+            let workgroups = batches.div_ceil(BATCHES).clamp(1, max_wg);
+            (
+                workgroups,
+                1,
+                u64::from(workgroups) * u64::from(BATCHES) * 64,
+            )
+        }
+        Threads::PerRay => {
+            let (x, y) = grid(&ctx.limits, batches);
+            (x, y, u64::from(x) * u64::from(y) * 64)
+        }
+    };
     let mut dispatches = u64::from(n).div_ceil(per_dispatch);
     // Timestamps at the start of the first pass and the end of the last, per round.
     let timing = ctx.timestamps.then(|| {
@@ -285,6 +391,7 @@ fn launch_one(
     });
     let period = f64::from(ctx.queue.get_timestamp_period());
     let mut gpu_seconds = 0.0;
+    let pipeline = &kernels.pipelines[threads.index()][mode.index()];
     loop {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("cobalt traverse commands"),
@@ -302,20 +409,18 @@ fn launch_one(
                 label: Some("cobalt traverse pass"),
                 timestamp_writes,
             });
-            pass.set_pipeline(&kernels.pipelines[mode.index()]);
+            pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(workgroups, 1, 1);
+            pass.dispatch_workgroups(grid_x, grid_y, 1);
         }
-        encoder.copy_buffer_to_buffer(&out_buf, 0, &readback, 0, out_bytes);
-        encoder.copy_buffer_to_buffer(&queue_buf, 0, &readback, out_bytes, 8);
+        encoder.copy_buffer_to_buffer(&queue_buf, 0, &readback, 0, 8);
         if let Some((set, resolve)) = &timing {
             encoder.resolve_query_set(set, 0..2, resolve, 0);
-            encoder.copy_buffer_to_buffer(resolve, 0, &readback, out_bytes + 8, 16);
+            encoder.copy_buffer_to_buffer(resolve, 0, &readback, 8, 16);
         }
         ctx.queue.submit([encoder.finish()]);
         let bytes = read_back(device, name, &readback)?;
-        let (rest, stamps) = bytes.split_at(bytes.len() - 16);
-        let (results, status) = rest.split_at(rest.len() - 8);
+        let (status, stamps) = bytes.split_at(8);
         let status: [u32; 2] = bytemuck::pod_read_unaligned(status);
         let stamps: [u64; 2] = bytemuck::pod_read_unaligned(stamps);
         // Ticks to seconds; a counter that went backwards (a reset) counts as nothing.
@@ -326,9 +431,9 @@ fn launch_one(
                 batches: BATCHES,
             });
         }
-        if status[0] >= n {
-            let seconds = timing.is_some().then_some(gpu_seconds);
-            return Ok((bytemuck::pod_collect_to_vec(results), seconds));
+        // One thread per ray covers every ray in its one dispatch; the queue is not used.
+        if threads == Threads::PerRay || status[0] >= n {
+            return Ok(timing.is_some().then_some(gpu_seconds));
         }
         // Some workgroups stopped early: dispatch again for what is left.
         dispatches = u64::from(n - status[0]).div_ceil(per_dispatch).max(1);

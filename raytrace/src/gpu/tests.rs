@@ -8,12 +8,17 @@
 use std::sync::Once;
 
 use glam::Vec3;
+use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers, pack_rays};
-use super::pipeline::{GpuMode, Kernels, launch};
-use super::{GpuContext, GpuDevice, GpuError, GpuOptions};
+use super::pipeline::{GpuMode, Kernels, Threads, launch, launch_timed};
+use super::{
+    GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, GpuRenderer, MAX_TASK_RAYS,
+};
+use crate::cost::{Compacted, ReducedTraversal, SampleRate, full_work};
 use crate::devices::GpuSelect;
-use crate::{BuildPreset, Bvh, HitBatch, Ray, RayBatch, Rng, SceneNeeds, SceneSource};
+use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, WhittedSettings, render};
+use crate::{BuildPreset, Bvh, Camera, HitBatch, Ray, RayBatch, Rng, SceneNeeds, SceneSource};
 use crate::{testkit, traverse, workload};
 
 /// The first adapter (software ones included), or `None` with a note when there is none
@@ -207,8 +212,10 @@ fn splits_launches_and_names_the_limit() {
 }
 
 /// Throughput on the first adapter against the CPU (all cores), for forest primary and AO
-/// rays: `cargo test -p raytrace --features gpu --lib gpu::tests::throughput -- --ignored
-/// --nocapture`. GPU time includes the rays' upload and the results' read-back.
+/// rays, with persistent threads and with one thread per ray:
+/// `cargo test -p raytrace --features gpu --lib gpu::tests::throughput -- --ignored
+/// --nocapture`. Wall time includes the rays' upload and the results' read-back; kernel time
+/// is from timestamp queries where the device has them. Each figure is the best of three.
 #[test]
 #[ignore = "a measurement, not a check"]
 fn throughput() {
@@ -218,15 +225,12 @@ fn throughput() {
         .and_then(|s| s.load(SceneNeeds::AO))
         .expect("built-in scene");
     let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
-    let dev = GpuDevice::new(ctx, &bvh).expect("upload");
+    let mut dev = GpuDevice::new(ctx, &bvh).expect("upload");
     let primary = workload::thesis_primary(&scene, 512, 512, [0]);
     let ao = workload::thesis_ao(&scene, &bvh, 256, 256, 0, 8).rays;
     for (what, rays, any) in [("primary", &primary, false), ("ao", &ao, true)] {
         let all = 0..rays.len();
-        dev.hits(any, rays, &[&all]).expect("warm-up");
-        let t = std::time::Instant::now();
-        let g = dev.hits(any, rays, &[&all]).expect("GPU");
-        let gpu_s = t.elapsed().as_secs_f64();
+        let mrays = |s: f64| rays.len() as f64 / s / 1e6;
         let t = std::time::Instant::now();
         let c = if any {
             traverse::any_hits(&bvh, rays)
@@ -234,15 +238,349 @@ fn throughput() {
             traverse::closest_hits(&bvh, rays)
         };
         let cpu_s = t.elapsed().as_secs_f64();
-        let same = (0..rays.len()).filter(|&i| g.prim[i] == c.prim[i]).count();
         eprintln!(
-            "forest {} tris, {what}: {} rays; GPU ({name}) {:.2} MRays/s, CPU ({} threads) \
-             {:.2} MRays/s; same ids {same}",
+            "forest {} tris, {what}: {} rays; CPU ({} threads) {:.2} MRays/s",
             scene.len(),
             rays.len(),
-            rays.len() as f64 / gpu_s / 1e6,
             rayon::current_num_threads(),
-            rays.len() as f64 / cpu_s / 1e6,
+            mrays(cpu_s),
         );
+        for threads in [Threads::Persistent, Threads::PerRay] {
+            dev = dev.with_threads(threads);
+            dev.hits(any, rays, &[&all]).expect("warm-up");
+            let (mut wall, mut kernel) = (f64::INFINITY, f64::INFINITY);
+            let mut same = 0;
+            for _ in 0..3 {
+                let t = std::time::Instant::now();
+                let g = dev.hits(any, rays, &[&all]).expect("GPU");
+                wall = wall.min(t.elapsed().as_secs_f64());
+                kernel = kernel.min(dev.last_gpu_seconds().unwrap_or(f64::NAN));
+                same = (0..rays.len()).filter(|&i| g.prim[i] == c.prim[i]).count();
+            }
+            eprintln!(
+                "  GPU ({name}) {:<10} {:.2} MRays/s wall, {:.2} MRays/s kernels; same ids {same}",
+                threads.name(),
+                mrays(wall),
+                mrays(kernel),
+            );
+        }
     }
+}
+
+/// The GPU estimator samples the CPU's rays and sums their counts exactly: per-task sums equal
+/// the CPU's (the CPU sample traced on the CPU, summed in integers), and so does the scaled
+/// work, bit for bit, for primary and AO rays, several task sizes (a last task shorter than
+/// the rest, tasks of one ray) and every thesis rate.
+fn check_estimates(name: &str) {
+    let Some(ctx) = gpu() else { return };
+    let scene = SceneSource::parse(name)
+        .and_then(|s| s.load(SceneNeeds::AO))
+        .expect("built-in scene");
+    let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+    let dev = GpuDevice::new(ctx, &bvh).expect("upload");
+    let primary = workload::thesis_primary(&scene, 64, 64, [1]);
+    let ao = workload::thesis_ao(&scene, &bvh, 32, 32, 0, 8).rays;
+    for (what, rays) in [("primary", &primary), ("ao", &ao)] {
+        assert!(rays.len() > 4000, "{name} {what}: {} rays", rays.len());
+        for size in [1, 100, 512, 4096] {
+            let tasks = sched::split_ranges(rays.len(), size);
+            for rate in [0.125, 0.25, 0.5, 1.0] {
+                let rate = SampleRate::new(rate).expect("rate");
+                let at = format!("{name} {what}, tasks of {size}, rate {}", rate.get());
+                let gpu = dev
+                    .sampled_counts(rays, &tasks, rate)
+                    .expect("GPU estimate");
+                let sample = Compacted::gather(rays, &tasks, rate).expect("CPU sample");
+                let counts = traverse::reduced_counts_at(&bvh, rays, &sample.index);
+                assert_eq!(gpu.len(), tasks.len(), "{at}");
+                for (t, g) in gpu.iter().enumerate() {
+                    let (a, b) = (sample.offsets[t], sample.offsets[t + 1]);
+                    let cpu = counts[a..b].iter().fold((0u64, 0u64), |(n, k), c| {
+                        (n + u64::from(c.nodes), k + u64::from(c.tris))
+                    });
+                    assert_eq!(
+                        (g.nodes, g.tris, g.sampled, g.len),
+                        (cpu.0, cpu.1, b - a, tasks[t].len()),
+                        "{at}: task {t}"
+                    );
+                }
+                let cpu_work = ReducedTraversal::new(&bvh, rays, rate)
+                    .try_work(&tasks)
+                    .expect("CPU estimate");
+                let gpu_work = GpuReducedTraversal::new(&dev, rays, rate)
+                    .try_work(&tasks)
+                    .expect("GPU estimate");
+                assert_eq!(gpu_work, cpu_work, "{at}");
+                if rate == SampleRate::FULL {
+                    assert_eq!(
+                        gpu_work,
+                        full_work(&bvh, rays, &tasks).expect("full"),
+                        "{at}"
+                    );
+                }
+            }
+        }
+        // The estimate is not trivial: the rays see the scene.
+        let one = 0..rays.len().min(MAX_TASK_RAYS);
+        let all = dev
+            .sampled_counts(rays, std::slice::from_ref(&one), SampleRate::FULL)
+            .expect("one task");
+        assert!(all[0].nodes > all[0].len as u64, "{name} {what}: {all:?}");
+    }
+}
+
+#[test]
+fn cornell_estimates_equal_cpu() {
+    check_estimates("builtin:cornell:0.2");
+}
+
+#[test]
+fn forest_estimates_equal_cpu() {
+    check_estimates("builtin:forest:0.05");
+}
+
+/// Bad tasks are refused before anything runs, naming the task; as a `sched` estimator the
+/// GPU's costs are the CPU's, and a failure gives NaN costs that `estimate_timed` rejects.
+#[test]
+fn estimator_refuses_bad_tasks_and_serves_sched() {
+    let Some(ctx) = gpu() else { return };
+    let scene = SceneSource::parse("builtin:cornell:0.2")
+        .and_then(|s| s.load(SceneNeeds::AO))
+        .expect("built-in scene");
+    let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+    let dev = GpuDevice::new(ctx, &bvh).expect("upload");
+    let rays = workload::thesis_primary(&scene, 32, 32, [0]);
+    let n = rays.len();
+    let rate = SampleRate::THESIS;
+    let e = dev
+        .sampled_counts(&rays, &[0..10, 10..10], rate)
+        .expect_err("empty task");
+    assert!(e.to_string().contains("task 1 is empty"), "{e}");
+    let e = dev
+        .sampled_counts(&rays, &[0..10, 5..n + 1], rate)
+        .expect_err("beyond the batch");
+    assert!(e.to_string().contains("task 1"), "{e}");
+    let long: RayBatch = (0..MAX_TASK_RAYS + 2)
+        .map(|_| Ray::new(Vec3::ZERO, Vec3::X))
+        .collect();
+    let e = dev
+        .sampled_counts(&long, &[0..1, 1..long.len()], rate)
+        .expect_err("too long");
+    assert!(
+        matches!(e, GpuError::TaskTooLong { task: 1, len, .. } if len == MAX_TASK_RAYS + 1),
+        "{e}"
+    );
+    assert!(
+        dev.sampled_counts(&rays, &[], rate)
+            .expect("none")
+            .is_empty()
+    );
+    let tasks = sched::split_ranges(n, 128);
+    let gpu = GpuReducedTraversal::new(&dev, &rays, rate)
+        .estimate_timed(&tasks)
+        .expect("GPU costs");
+    let cpu = ReducedTraversal::new(&bvh, &rays, rate)
+        .estimate_timed(&tasks)
+        .expect("CPU costs");
+    assert_eq!(gpu.costs, cpu.costs);
+    let bad = GpuReducedTraversal::new(&dev, &rays, rate).estimate_timed(&[0..1, 1..1]);
+    assert!(
+        matches!(bad, Err(sched::SchedError::BadCost { .. })),
+        "{bad:?}"
+    );
+}
+
+/// One thread per ray finds exactly what persistent threads find, for every mode, including
+/// a launch whose last workgroup is partial.
+#[test]
+fn per_ray_threads_equal_persistent() {
+    let Some(ctx) = gpu() else { return };
+    let bvh = scene_bvh("builtin:forest:0.05");
+    let rays = rays_for("builtin:forest:0.05", 14);
+    let kernels = Kernels::new(&ctx.device, bvh.depth()).expect("kernels");
+    let scene = SceneBuffers::upload(&ctx, &bvh).expect("upload");
+    let all = 0..rays.len();
+    let packed = pack_rays(&rays, &[&all]);
+    assert_ne!(packed.len() % 64, 0);
+    for mode in [GpuMode::Closest, GpuMode::Any, GpuMode::Reduced] {
+        let run = |threads| {
+            launch_timed(&ctx, &kernels, &scene, &packed, mode, threads)
+                .expect("launch")
+                .0
+        };
+        assert_eq!(run(Threads::Persistent), run(Threads::PerRay), "{mode:?}");
+    }
+}
+
+/// The GPU's primary rays are the CPU's, bit for bit and in the same Morton order, for square,
+/// wide and odd-sized images.
+#[test]
+fn raygen_equals_cpu_primary_rays() {
+    let Some(ctx) = gpu() else { return };
+    let scene = SceneSource::parse("builtin:cornell:0.2")
+        .and_then(|s| s.load(SceneNeeds::AO))
+        .expect("built-in scene");
+    let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+    let renderer = GpuRenderer::new(ctx, &scene, &bvh).expect("renderer");
+    for (w, h, cam) in [(64, 64, 0), (128, 32, 1), (37, 23, 2), (1, 5, 3)] {
+        let camera = Camera::thesis(&scene.bounds(), cam);
+        let cpu = camera.primary_rays(w, h);
+        let (rays, pixels) = renderer.primary_rays(w, h, &camera).expect("raygen");
+        assert_eq!(pixels, cpu.pixels, "{w}x{h}: Morton order");
+        let all = 0..cpu.rays.len();
+        assert_eq!(rays, pack_rays(&cpu.rays, &[&all]), "{w}x{h}: rays");
+    }
+}
+
+/// The GPU's AO image against `shade::render` with the same settings. Both compute in f32 with
+/// the same operations; they may differ where `cos`/`sin` round differently (a probe direction
+/// moves by an ulp) or at an exact-edge tie, and a probe that changes its verdict moves its
+/// pixel by 1/samples. Tolerance: at most 1 % of pixels differ at all, none by more than
+/// 2/samples, and the mean absolute difference is at most 1e-3. With `split`, the binding
+/// limit is lowered to the primary rays' size, so the probes go in several chunks.
+fn check_ao_image(name: &str, samples: u32, split: bool) {
+    let Some(mut ctx) = gpu() else { return };
+    let scene = SceneSource::parse(name)
+        .and_then(|s| s.load(SceneNeeds::AO))
+        .expect("built-in scene");
+    let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+    // Large enough that the scene's buffers fit the lowered limit.
+    let (w, h) = if split { (96, 64) } else { (64, 48) };
+    if split {
+        ctx.limits.max_storage_buffer_binding_size = u64::from(w * h) * size_of::<GpuRay>() as u64;
+    }
+    let renderer = GpuRenderer::new(ctx, &scene, &bvh).expect("renderer");
+    let camera = Camera::thesis(&scene.bounds(), 1);
+    let settings = AoSettings {
+        samples,
+        seed: 7,
+        ..AoSettings::default()
+    };
+    let options = RenderOptions::new(w, h, camera, Shader::Ao(settings));
+    let cpu = render(&scene, &mut CpuTracer::new(&bvh), &options).film;
+    let gpu = renderer
+        .render_ao(w, h, &camera, &settings)
+        .expect("GPU render");
+    assert_eq!(gpu.primary_rays, (w * h) as usize);
+    let diffs: Vec<f32> = cpu
+        .pixels()
+        .iter()
+        .zip(gpu.film.pixels())
+        .map(|(c, g)| (c.x - g.x).abs())
+        .collect();
+    let differ = diffs.iter().filter(|&&d| d > 0.0).count();
+    let worst = diffs.iter().copied().fold(0.0, f32::max);
+    let mean = diffs.iter().sum::<f32>() / diffs.len() as f32;
+    eprintln!(
+        "{name}, {samples} probes: {differ} of {} pixels differ, worst {worst}, mean {mean}",
+        diffs.len()
+    );
+    assert!(
+        differ * 100 <= diffs.len(),
+        "{name}: {differ} pixels differ"
+    );
+    assert!(
+        worst <= 2.0 / samples as f32 + 1e-6,
+        "{name}: worst {worst}"
+    );
+    assert!(mean <= 1e-3, "{name}: mean {mean}");
+    // The image is not trivial: some pixels are occluded, some open.
+    let grey: Vec<f32> = gpu.film.pixels().iter().map(|p| p.x).collect();
+    assert!(grey.iter().any(|&v| v < 0.9) && grey.contains(&1.0));
+    if split {
+        // Under the lowered limit the materials and normals do not fit: AO renders without
+        // them, Whitted is refused naming them.
+        let e = renderer
+            .render_whitted(w, h, &camera, &WhittedSettings::default())
+            .expect_err("materials beyond the limit");
+        assert!(e.to_string().contains("materials and normals"), "{e}");
+    }
+}
+
+#[test]
+fn cornell_ao_image_matches_cpu() {
+    check_ao_image("builtin:cornell:0.2", 8, false);
+    check_ao_image("builtin:cornell:0.2", 5, true);
+}
+
+#[test]
+fn forest_ao_image_matches_cpu() {
+    check_ao_image("builtin:forest:0.05", 8, false);
+}
+
+/// The GPU's Whitted image against `shade::render` with the same settings (two bounces):
+/// both compute in f32 with the same operations and the same order of additions per pixel, so
+/// they differ only at an exact-edge tie (a different triangle, or a shadow or mirror ray
+/// spawned from it). Tolerance: at most 1 % of pixels differ at all, and the mean absolute
+/// difference per channel is at most 1e-3. With `bent`, the scene gets vertex normals and a
+/// second light.
+fn check_whitted_image(name: &str, bent: bool) {
+    let Some(ctx) = gpu() else { return };
+    let shader = Shader::Whitted(WhittedSettings::default());
+    let mut scene = SceneSource::parse(name)
+        .and_then(|s| s.load(shader.needs()))
+        .expect("built-in scene");
+    if bent {
+        // Vertex normals leaning off the faces (so shading normals are interpolated, some past
+        // the surface) and a second, coloured light.
+        let mut rng = Rng::new(testkit::seed(21));
+        let normals = (0..scene.positions.len())
+            .map(|_| (Vec3::Y + 0.6 * rng.unit_vector()).normalize_or(Vec3::Y))
+            .collect();
+        scene.normals = Some(normals);
+        let b = scene.bounds();
+        scene.lights.push(crate::Light::Point {
+            position: b.center() + Vec3::new(0.3, 0.45, -0.2) * b.extent(),
+            intensity: Vec3::new(0.8, 0.5, 0.3) * b.extent().length_squared(),
+        });
+    }
+    let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+    let renderer = GpuRenderer::new(ctx, &scene, &bvh).expect("renderer");
+    let (w, h) = (64, 48);
+    let camera = Camera::thesis(&scene.bounds(), 2);
+    let options = RenderOptions::new(w, h, camera, shader);
+    let cpu = render(&scene, &mut CpuTracer::new(&bvh), &options);
+    let gpu = renderer
+        .render_whitted(w, h, &camera, &WhittedSettings::default())
+        .expect("GPU render");
+    let diffs: Vec<f32> = cpu
+        .film
+        .pixels()
+        .iter()
+        .zip(gpu.film.pixels())
+        .map(|(c, g)| (*c - *g).abs().max_element())
+        .collect();
+    let differ = diffs.iter().filter(|&&d| d > 0.0).count();
+    let mean = diffs.iter().sum::<f32>() / diffs.len() as f32;
+    eprintln!(
+        "{name} Whitted: {differ} of {} pixels differ, mean {mean}; {} lights, CPU {} rays",
+        diffs.len(),
+        scene.lights.len(),
+        cpu.total_rays()
+    );
+    assert!(
+        differ * 100 <= diffs.len(),
+        "{name}: {differ} pixels differ"
+    );
+    assert!(mean <= 1e-3, "{name}: mean {mean}");
+    // The image is not trivial: shadow rays and mirror rays were traced, and lit.
+    assert!(cpu.generations.len() >= 3, "{:?}", cpu.generations);
+    let distinct: std::collections::BTreeSet<u32> =
+        gpu.film.pixels().iter().map(|p| p.x.to_bits()).collect();
+    assert!(
+        distinct.len() > 50,
+        "{name}: {} distinct values",
+        distinct.len()
+    );
+}
+
+#[test]
+fn cornell_whitted_image_matches_cpu() {
+    check_whitted_image("builtin:cornell:0.2", false);
+    check_whitted_image("builtin:cornell:0.2", true);
+}
+
+#[test]
+fn forest_whitted_image_matches_cpu() {
+    check_whitted_image("builtin:forest:0.05", false);
 }

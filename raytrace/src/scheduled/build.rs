@@ -6,7 +6,7 @@ use crate::cpu::CpuDevice;
 use crate::devices::DeviceSpec;
 use crate::{Bvh, Error, Result};
 
-use super::RayDevice;
+use super::{FailingAfter, RayDevice};
 
 /// Fault injection: device `device` (index in the list) fails after `tasks` tasks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -21,8 +21,9 @@ pub struct FailAfter {
 ///
 /// GPU entries open adapters (see [`crate::gpu::context`]) and upload `bvh` to each. Where
 /// `gpu:all` finds no usable adapter but the list has other devices, a note says so once on
-/// stderr and the others render alone; a list left with no device is an error. Faults can
-/// only be injected into CPU devices.
+/// stderr and the others render alone; a list left with no device is an error. Faults go
+/// into any device: CPU devices count their own tasks, others are wrapped in a
+/// [`FailingAfter`].
 pub fn build_devices<'a>(
     bvh: &'a Bvh,
     specs: &[DeviceSpec],
@@ -51,40 +52,33 @@ pub fn build_devices<'a>(
         eprintln!("note: {arg}: {why}; rendering without a GPU");
     }
     let m = devices.len();
-    for f in faults {
-        let why = match devices.get(f.device) {
-            None => format!("no device {} to fail (there are {m})", f.device),
-            Some(Built::Other(_)) => String::from("faults can only be injected into CPU devices"),
-            Some(Built::Cpu(_)) => continue,
-        };
+    if let Some(f) = faults.iter().find(|f| f.device >= m) {
         return Err(Error::DeviceArg {
             arg: format!("{}@{}", f.device, f.tasks),
-            why,
+            why: format!("no device {} to fail (there are {m})", f.device),
         });
     }
     Ok(devices
         .into_iter()
         .enumerate()
-        .map(|(i, d)| match d {
-            Built::Other(d) => d,
-            Built::Cpu(cpu) => {
-                // The earliest of several faults on one device is the one that happens.
-                let cpu = match faults
-                    .iter()
-                    .filter(|f| f.device == i)
-                    .map(|f| f.tasks)
-                    .min()
-                {
-                    Some(tasks) => cpu.failing_after(tasks),
-                    None => cpu,
-                };
-                Box::new(cpu) as Box<dyn RayDevice + 'a>
+        .map(|(i, d)| {
+            // The earliest of several faults on one device is the one that happens.
+            let fault = faults
+                .iter()
+                .filter(|f| f.device == i)
+                .map(|f| f.tasks)
+                .min();
+            match (d, fault) {
+                (Built::Cpu(cpu), Some(tasks)) => Box::new(cpu.failing_after(tasks)),
+                (Built::Cpu(cpu), None) => Box::new(cpu) as Box<dyn RayDevice + 'a>,
+                (Built::Other(d), Some(tasks)) => Box::new(FailingAfter::new(d, tasks)),
+                (Built::Other(d), None) => d,
             }
         })
         .collect())
 }
 
-/// A device of the list before faults are injected (only CPU devices take them).
+/// A device of the list before faults are injected (CPU devices take them themselves).
 enum Built<'a> {
     Cpu(CpuDevice<'a>),
     Other(Box<dyn RayDevice + 'a>),

@@ -81,6 +81,21 @@ pub trait RayDevice: Send {
     /// A name unique among the devices of a tracer: calibrations are keyed by it.
     fn name(&self) -> String;
 
+    /// Seconds the device itself measured running its kernels since the last call (a GPU's
+    /// timestamp queries), and resets the count; `None` for a device that cannot measure
+    /// them (the default: its busy time is the host's wall time of its launches).
+    fn take_device_seconds(&mut self) -> Option<f64> {
+        None
+    }
+
+    /// The kernel seconds the device measured for each launch that held exactly one task
+    /// (every launch of a queue policy) since the last call, by the task's first ray, and
+    /// resets the list; empty for a device that cannot measure them (the default). A launch
+    /// of several tasks has one time for all of them, so it gives none per task.
+    fn take_task_seconds(&mut self) -> Vec<(usize, f64)> {
+        Vec::new()
+    }
+
     /// Devices of one class are the same hardware doing the same work (the `N` devices of a
     /// `cpu:N/T` entry): their speed is measured together, because any difference between
     /// them is noise (the OS scheduling threads, errors of the cost model) that would

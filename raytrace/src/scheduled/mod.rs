@@ -34,6 +34,7 @@
 
 mod build;
 mod device;
+mod fault;
 mod learn;
 mod settings;
 mod stats;
@@ -41,6 +42,7 @@ mod tracer;
 
 pub use build::{FailAfter, build_devices};
 pub use device::{BadRange, Bound, RayDevice};
+pub use fault::FailingAfter;
 pub use settings::{Mode, Settings};
 pub use stats::{DeviceFit, DeviceStats, GenerationStats, TaskStats};
 pub use tracer::ScheduledTracer;

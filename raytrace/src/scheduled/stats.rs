@@ -73,6 +73,9 @@ pub struct DeviceStats {
     pub tasks: usize,
     /// Time spent running tasks.
     pub busy: f64,
+    /// Kernel time the device measured itself during the generation (a GPU's timestamp
+    /// queries, summed over its launches); `None` where it cannot.
+    pub device_seconds: Option<f64>,
 }
 
 /// One task of a generation.
@@ -84,6 +87,9 @@ pub struct TaskStats {
     pub seconds: f64,
     /// The device (index in the tracer's list) that delivered it.
     pub device: usize,
+    /// Kernel time the device measured itself for this task (a GPU's timestamp queries),
+    /// where the task had a launch of its own; `None` otherwise.
+    pub device_seconds: Option<f64>,
 }
 
 /// A calibration of `C = kB·B + kT·T` on one device for one kind of ray.

@@ -6,6 +6,8 @@ use std::num::NonZeroUsize;
 use sched::Policy;
 
 use crate::devices::parse_devices;
+#[cfg(feature = "gpu")]
+use crate::scheduled::RayDevice;
 use crate::scheduled::{
     FailAfter, GenerationStats, Mode, ScheduledTracer, Settings, build_devices,
 };
@@ -300,8 +302,7 @@ fn bad_device_lists_and_faults_are_named() {
     assert!(ScheduledTracer::new(&bvh, Vec::new(), Settings::default()).is_err());
 }
 
-/// CPU and GPU render one image together, equal to the CPU's, whatever the policy; faults
-/// cannot be injected into a GPU. Skipped (with a note) without an adapter, except under CI.
+/// CPU and GPU render one image together, equal to the CPU's, whatever the policy. Skipped (with a note) without an adapter, except under CI.
 #[cfg(feature = "gpu")]
 #[test]
 fn cpu_and_gpu_render_the_cpu_image() {
@@ -338,15 +339,83 @@ fn cpu_and_gpu_render_the_cpu_image() {
                 gpu_tasks > 0 || policy != Policy::StaticLpt,
                 "{what}: the GPU traced nothing"
             );
+            // The GPU's own kernel time (timestamp queries, lavapipe has them) is reported for
+            // every generation it ran in, and is at most its busy time on the host; a CPU
+            // device measures none.
+            let timestamps = crate::gpu::tests::gpu().is_some_and(|c| c.timestamps);
+            for d in stats.iter().flat_map(|s| &s.devices) {
+                if d.name == "gpu0" && d.tasks > 0 && timestamps {
+                    let k = d.device_seconds.expect("GPU kernel time");
+                    assert!(k > 0.0 && k <= d.busy, "{what}: {k} of {} busy", d.busy);
+                } else if d.name != "gpu0" {
+                    assert_eq!(d.device_seconds, None, "{what}");
+                }
+            }
+            // A queue launches each task alone: every GPU task then has its own kernel time,
+            // at most the task's host time; CPU tasks have none.
+            let gpu_index = stats[0]
+                .devices
+                .iter()
+                .find(|d| d.name == "gpu0")
+                .map(|d| d.index);
+            for t in stats.iter().flat_map(|s| &s.task_stats) {
+                if Some(t.device) != gpu_index {
+                    assert_eq!(t.device_seconds, None, "{what}");
+                } else if policy == Policy::QueueSorted && timestamps {
+                    let k = t.device_seconds.expect("per-task GPU time");
+                    assert!(k > 0.0 && k <= t.seconds, "{what}: {k} of {}", t.seconds);
+                }
+            }
         }
     }
+}
+
+/// A GPU that fails mid-render, by an injected fault (`--fail 1@2`) or because its device is
+/// lost (destroyed under the renderer), is handled like any failed executor: its tasks are
+/// re-run on the CPU and the image is the CPU's. Skipped (with a note) without an adapter,
+/// except under CI.
+#[cfg(feature = "gpu")]
+#[test]
+fn a_failing_or_lost_gpu_has_its_tasks_rerun_elsewhere() {
+    if crate::gpu::tests::gpu().is_none() {
+        return;
+    }
+    let shader = ao();
+    let (scene, bvh) = load("builtin:cornell", shader);
+    let want = reference(&scene, &bvh, shader);
+    // Static plans: the GPU gets tasks from the first generation on, so it must fail.
+    let s = settings(Policy::StaticLpt, Mode::Cost, 96);
     let fault = [FailAfter {
         device: 1,
-        tasks: 1,
+        tasks: 2,
     }];
-    let (_, bvh) = load("builtin:cornell", whitted());
-    let e = build_devices(&bvh, &parse_devices("cpu:1,gpu:0").unwrap(), &fault)
-        .err()
-        .unwrap();
-    assert!(e.to_string().contains("only be injected into CPU"), "{e}");
+    let (got, stats) = scheduled(&scene, &bvh, shader, "cpu:1,gpu:0", &fault, s);
+    assert_eq!(got.film, want.film, "injected fault");
+    let failures: Vec<_> = stats.iter().flat_map(|g| &g.failures).collect();
+    assert!(
+        failures
+            .iter()
+            .any(|f| f.name == "gpu0" && f.reason.contains("injected fault after 2 tasks")),
+        "{failures:?}"
+    );
+    assert!(stats.iter().map(|g| g.reruns).sum::<u64>() > 0);
+
+    // A lost device: wgpu reports errors (or panics) on every later use of it.
+    let ctx = crate::gpu::tests::gpu().expect("adapter");
+    let gpu = crate::gpu::GpuDevice::new(ctx, &bvh).expect("upload");
+    gpu.context().device.destroy();
+    let cpu = crate::cpu::CpuDevice::new(&bvh, 0, 1).expect("cpu");
+    let devices: Vec<Box<dyn RayDevice + '_>> = vec![Box::new(cpu), Box::new(gpu)];
+    let mut tracer = ScheduledTracer::new(&bvh, devices, s).expect("tracer");
+    let options = RenderOptions::new(N, N, Camera::thesis(&scene.bounds(), 1), shader);
+    let got = render(&scene, &mut tracer, &options);
+    assert_eq!(got.film, want.film, "lost device");
+    let lost: Vec<_> = tracer
+        .stats()
+        .iter()
+        .flat_map(|g| &g.failures)
+        .filter(|f| f.name == "gpu0")
+        .collect();
+    assert!(!lost.is_empty(), "the lost GPU never failed");
+    eprintln!("lost GPU: {}", lost[0].reason);
 }

@@ -1,0 +1,327 @@
+//! Whitted shading on the GPU ([`GpuRenderer::render_whitted`]): primary rays from the render
+//! kernels' `raygen`, then per bounce a closest-hit trace, `whitted.wgsl`'s `shade` (emission,
+//! ambient, one shadow ray per light, the mirror ray), an any-hit trace of the shadow rays and
+//! `shadows` (their light); every buffer stays on the device until the image is read back.
+//!
+//! Every path keeps its slot through the bounces (a finished one traces an empty-range ray),
+//! so nothing is compacted between generations; the image is [`crate::shade::render`]'s with
+//! [`crate::shade::Shader::Whitted`] up to the differences `shading.wgsl` lists.
+
+use std::time::Instant;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use wgpu::util::DeviceExt;
+
+use super::buffers::{GpuRay, RESULT_BYTES, check_size};
+use super::pipeline::{GpuMode, trace_resident};
+use super::render::{GpuRenderer, GpuRendering};
+use super::{GpuContext, GpuError};
+use crate::shade::{AMBIENT, AoSettings, SKY, WhittedSettings};
+use crate::{Camera, Film, Light, Scene};
+
+/// `whitted.wgsl`'s `struct Params`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct Params {
+    sky: [f32; 4],
+    count: u32,
+    lights: u32,
+    bounce: u32,
+    bounces: u32,
+    gamma8: f32,
+    ambient: f32,
+    shadow_tmax: f32,
+    has_normals: u32,
+}
+
+const _: () = assert!(size_of::<Params>() == 48);
+
+/// `struct PrimShading`: material and vertex normals of one primitive.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct PrimShading {
+    diffuse: [f32; 4],
+    emission: [f32; 4],
+    normals: [[f32; 4]; 3],
+}
+
+/// The Whitted kernels and the scene's shading data on the device.
+#[derive(Debug)]
+pub(crate) struct WhittedKernels {
+    layout: wgpu::BindGroupLayout,
+    shade: wgpu::ComputePipeline,
+    shadows: wgpu::ComputePipeline,
+    /// Materials and normals by primitive, or why they do not fit one binding (an AO render
+    /// does not need them, so only a Whitted render fails).
+    prims: Result<wgpu::Buffer, GpuError>,
+    lights: wgpu::Buffer,
+    light_count: u32,
+    has_normals: bool,
+}
+
+impl WhittedKernels {
+    /// Compiles the kernels and uploads `scene`'s materials, normals and lights.
+    pub(crate) fn new(ctx: &GpuContext, scene: &Scene) -> Self {
+        let device = &ctx.device;
+        let v4 = |v: Vec3, w: f32| v.extend(w).to_array();
+        let mut prims: Vec<PrimShading> = (0..scene.len())
+            .map(|prim| {
+                let m = scene
+                    .material_ids
+                    .get(prim)
+                    .and_then(|&m| scene.materials.get(m as usize))
+                    .copied()
+                    .unwrap_or_default();
+                let normals = match &scene.normals {
+                    Some(n) => scene.triangles[prim].map(|k| v4(n[k as usize], 0.0)),
+                    None => [[0.0; 4]; 3],
+                };
+                PrimShading {
+                    diffuse: v4(m.diffuse, m.reflectance),
+                    emission: v4(m.emission, 0.0),
+                    normals,
+                }
+            })
+            .collect();
+        if prims.is_empty() {
+            // A binding may not be empty; nothing reads it when nothing is hit.
+            prims.push(PrimShading::default());
+        }
+        let mut lights: Vec<[[f32; 4]; 2]> = scene
+            .lights
+            .iter()
+            .map(
+                |Light::Point {
+                     position,
+                     intensity,
+                 }| [v4(*position, 0.0), v4(*intensity, 0.0)],
+            )
+            .collect();
+        let light_count = u32::try_from(lights.len()).unwrap_or(u32::MAX);
+        if lights.is_empty() {
+            lights.push([[0.0; 4]; 2]);
+        }
+        let prim_bytes: &[u8] = bytemuck::cast_slice(&prims);
+        let init = |label: &str, contents: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("cobalt whitted.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(
+                concat!(include_str!("shading.wgsl"), include_str!("whitted.wgsl")).into(),
+            ),
+        });
+        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let read = wgpu::BufferBindingType::Storage { read_only: true };
+        let write = wgpu::BufferBindingType::Storage { read_only: false };
+        let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
+        for (binding, writable) in [
+            (1, false),
+            (2, false),
+            (3, false),
+            (4, false),
+            (5, false),
+            (6, true),
+            (7, false),
+            (8, true),
+            (9, true),
+            (10, true),
+            (11, false),
+            (12, true),
+        ] {
+            entries.push(entry(binding, if writable { write } else { read }));
+        }
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cobalt whitted bind group layout"),
+            entries: &entries,
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("cobalt whitted pipeline layout"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let make = |entry: &str, label: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                cache: None,
+            })
+        };
+        Self {
+            shade: make("shade", "cobalt Whitted shading pipeline"),
+            shadows: make("shadows", "cobalt Whitted shadows pipeline"),
+            layout,
+            prims: check_size(ctx, "materials and normals", prim_bytes.len() as u64)
+                .map(|()| init("cobalt materials and normals", prim_bytes)),
+            lights: init("cobalt lights", bytemuck::cast_slice(&lights)),
+            light_count,
+            has_normals: scene.normals.is_some(),
+        }
+    }
+}
+
+impl GpuRenderer {
+    /// Renders Whitted shading as [`crate::shade::render`] does with
+    /// [`crate::shade::Shader::Whitted`]`(settings)`, with the scene's materials, normals and
+    /// lights (those of the scene this renderer was made with).
+    ///
+    /// # Errors
+    /// [`GpuError::TooLarge`] when the primary rays, the shadow rays (one per pixel and
+    /// light) or the scene's materials and normals exceed a binding, or a side of the image is not in 1..=65536, and the errors of
+    /// a trace.
+    pub fn render_whitted(
+        &self,
+        width: u32,
+        height: u32,
+        camera: &Camera,
+        settings: &WhittedSettings,
+    ) -> Result<GpuRendering, GpuError> {
+        let start = Instant::now();
+        // No probes: the stage's probe buffer (one ray per pixel) holds the mirror rays.
+        let no_probes = AoSettings {
+            samples: 0,
+            ..AoSettings::default()
+        };
+        let stage = self.begin(width, height, camera, &no_probes)?;
+        let n = stage.n;
+        let ctx = &self.ctx;
+        let device = &ctx.device;
+        let w = &self.whitted;
+        let prims = w.prims.as_ref().map_err(Clone::clone)?;
+        let lights = w.light_count;
+        let slots = u64::from(n) * u64::from(lights);
+        let ray_bytes = size_of::<GpuRay>() as u64;
+        check_size(ctx, "shadow rays", slots * ray_bytes)?;
+        let storage = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(16),
+                usage: wgpu::BufferUsages::STORAGE | usage,
+                mapped_at_creation: false,
+            })
+        };
+        let none = wgpu::BufferUsages::empty();
+        let paths = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("cobalt Whitted paths"),
+            contents: bytemuck::cast_slice(&vec![[1.0f32; 4]; n as usize]),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let film = storage(
+            "cobalt Whitted film",
+            u64::from(n) * 16,
+            wgpu::BufferUsages::COPY_SRC,
+        );
+        let shadow_rays = storage("cobalt shadow rays", slots * ray_bytes, none);
+        let shadow_light = storage("cobalt shadow light", slots * 16, none);
+        let shadow_hits = storage("cobalt shadow hits", slots * RESULT_BYTES, none);
+        let base = Params {
+            sky: SKY.extend(0.0).to_array(),
+            count: n,
+            lights,
+            bounce: 0,
+            bounces: settings.bounces,
+            gamma8: crate::spawn::gamma(8),
+            ambient: AMBIENT,
+            shadow_tmax: 1.0 - 1e-4,
+            has_normals: u32::from(w.has_normals),
+        };
+        let bind = |params: &Params, rays: &wgpu::Buffer, next: &wgpu::Buffer| {
+            let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("cobalt Whitted parameters"),
+                contents: bytemuck::bytes_of(params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("cobalt Whitted bind group"),
+                layout: &w.layout,
+                entries: &[
+                    (0, &uniform),
+                    (1, rays),
+                    (2, &stage.hits),
+                    (3, &self.tris),
+                    (4, prims),
+                    (5, &w.lights),
+                    (6, &paths),
+                    (7, &stage.pixel_of),
+                    (8, &film),
+                    (9, &shadow_rays),
+                    (10, &shadow_light),
+                    (11, &shadow_hits),
+                    (12, next),
+                ]
+                .map(|(binding, b)| wgpu::BindGroupEntry {
+                    binding,
+                    resource: b.as_entire_binding(),
+                }),
+            })
+        };
+        let mut gpu_seconds = ctx.timestamps.then_some(0.0);
+        let mut traced = 0usize;
+        let (mut rays, mut next) = (&stage.primary, &stage.probes);
+        if !self.scene.empty {
+            for bounce in 0..=settings.bounces {
+                let trace = |rays: &wgpu::Buffer, out: &wgpu::Buffer, count: u32, mode| {
+                    trace_resident(
+                        ctx,
+                        &self.kernels,
+                        &self.scene,
+                        rays,
+                        out,
+                        count,
+                        mode,
+                        self.threads,
+                    )
+                };
+                let s = trace(rays, &stage.hits, n, GpuMode::Closest)?;
+                gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
+                let group = bind(&Params { bounce, ..base }, rays, next);
+                ctx.queue.submit([self.run(&w.shade, &group, n).finish()]);
+                if lights > 0 {
+                    // `slots` fits one binding, so far below 2^32.
+                    let s = trace(&shadow_rays, &shadow_hits, slots as u32, GpuMode::Any)?;
+                    gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
+                    ctx.queue.submit([self.run(&w.shadows, &group, n).finish()]);
+                }
+                traced += n as usize + slots as usize;
+                std::mem::swap(&mut rays, &mut next);
+            }
+        }
+        let bytes = self.fetch(&film, u64::from(n) * 16)?;
+        let values: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
+        let mut out = Film::new(width, height);
+        if self.scene.empty {
+            // Every primary misses and sees the sky.
+            for p in 0..n as usize {
+                out.set(p, SKY);
+            }
+        } else {
+            for (p, v) in values.iter().enumerate() {
+                out.set(p, Vec3::new(v[0], v[1], v[2]));
+            }
+        }
+        Ok(GpuRendering {
+            film: out,
+            primary_rays: n as usize,
+            secondary_rays: traced.saturating_sub(n as usize),
+            trace_gpu_seconds: gpu_seconds,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+}

@@ -1,0 +1,97 @@
+//! Fault injection for any [`RayDevice`] (`--fail D@K` on a GPU, say): the wrapped device
+//! completes `K` tasks in its lifetime and then fails, so its unfinished work must be re-run
+//! elsewhere. A launch of several ranges that crosses the limit delivers the ranges before it
+//! (from one launch of the inner device) and then fails, as a device lost mid-launch would.
+//!
+//! CPU devices count their own tasks ([`crate::cpu::CpuDevice::failing_after`]); this wrapper
+//! is for devices that cannot.
+
+use std::ops::Range;
+
+use sched::{DeviceError, Sink};
+
+use super::RayDevice;
+use crate::cpu::InjectedFault;
+use crate::{HitBatch, RayBatch, RayKind};
+
+/// `inner`, failing once it has completed `after` tasks.
+pub struct FailingAfter<'a> {
+    inner: Box<dyn RayDevice + 'a>,
+    after: u64,
+    done: u64,
+}
+
+impl<'a> FailingAfter<'a> {
+    /// `inner`, failing after `after` tasks.
+    pub fn new(inner: Box<dyn RayDevice + 'a>, after: u64) -> Self {
+        Self {
+            inner,
+            after,
+            done: 0,
+        }
+    }
+
+    /// Ranges it may still run before failing.
+    fn left(&self) -> u64 {
+        self.after.saturating_sub(self.done)
+    }
+
+    fn fault(&self) -> DeviceError {
+        InjectedFault {
+            device: self.inner.name(),
+            after: self.after,
+        }
+        .into()
+    }
+}
+
+impl RayDevice for FailingAfter<'_> {
+    fn trace_range(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        range: &Range<usize>,
+    ) -> Result<HitBatch, DeviceError> {
+        if self.left() == 0 {
+            return Err(self.fault());
+        }
+        let hits = self.inner.trace_range(kind, rays, range)?;
+        self.done += 1;
+        Ok(hits)
+    }
+
+    fn trace_ranges(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        ranges: &[&Range<usize>],
+        sink: &mut Sink<HitBatch>,
+    ) -> Result<(), DeviceError> {
+        let allowed = usize::try_from(self.left()).unwrap_or(usize::MAX);
+        let run = &ranges[..allowed.min(ranges.len())];
+        if !run.is_empty() {
+            self.inner.trace_ranges(kind, rays, run, sink)?;
+            self.done += run.len() as u64;
+        }
+        if run.len() < ranges.len() {
+            return Err(self.fault());
+        }
+        Ok(())
+    }
+
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+
+    fn class(&self) -> String {
+        self.inner.class()
+    }
+
+    fn take_device_seconds(&mut self) -> Option<f64> {
+        self.inner.take_device_seconds()
+    }
+
+    fn take_task_seconds(&mut self) -> Vec<(usize, f64)> {
+        self.inner.take_task_seconds()
+    }
+}
