@@ -66,7 +66,7 @@ impl<T: Task, E: Executor<T> + ?Sized> Executor<T> for Box<E> {
 /// Receives the outputs of a batch, in order, and stamps each with the time it arrived.
 #[derive(Debug)]
 pub struct Sink<O> {
-    outputs: Vec<(O, Instant)>,
+    outputs: Vec<(O, Instant, Option<f64>)>,
     capacity: usize,
 }
 
@@ -84,12 +84,26 @@ impl<O> Sink<O> {
     /// Panics if the batch already has all its outputs: an executor bug, which the runtime
     /// treats like any other panic (the device is retired, its unfinished tasks re-run).
     pub fn push(&mut self, output: O) {
+        self.deliver(output, None);
+    }
+
+    /// Delivers the output of the next task of the batch with the time the device itself
+    /// measured for it (a GPU's timestamp queries): the task's [`crate::Span::device_seconds`]
+    /// in the timeline. The span itself stays the host's wall time.
+    ///
+    /// # Panics
+    /// As [`Sink::push`].
+    pub fn push_timed(&mut self, output: O, device_seconds: f64) {
+        self.deliver(output, Some(device_seconds));
+    }
+
+    fn deliver(&mut self, output: O, device_seconds: Option<f64>) {
         assert!(
             self.outputs.len() < self.capacity,
             "executor delivered more outputs than the {} tasks of its batch",
             self.capacity
         );
-        self.outputs.push((output, Instant::now()));
+        self.outputs.push((output, Instant::now(), device_seconds));
     }
 
     /// How many outputs have been delivered so far.
@@ -102,7 +116,7 @@ impl<O> Sink<O> {
         self.outputs.is_empty()
     }
 
-    pub(crate) fn into_outputs(self) -> Vec<(O, Instant)> {
+    pub(crate) fn into_outputs(self) -> Vec<(O, Instant, Option<f64>)> {
         self.outputs
     }
 }

@@ -236,13 +236,14 @@ fn device_loop<T: Task, E: Executor<T>>(
         let mut from = shared.seconds(started);
         let outputs = sink.into_outputs();
         let done = outputs.len();
-        for (&task, (output, at)) in launch.iter().zip(outputs) {
+        for (&task, (output, at, device_seconds)) in launch.iter().zip(outputs) {
             let end = shared.seconds(at);
             state.spans.push(Span {
                 device: device as u32,
                 task,
                 start: from,
                 end,
+                device_seconds,
             });
             from = end;
             state.outputs[task as usize] = Some(output);
@@ -273,4 +274,63 @@ fn panic_message(panic: &(dyn std::any::Any + Send)) -> &str {
         .copied()
         .or_else(|| panic.downcast_ref::<String>().map(String::as_str))
         .unwrap_or("(no message)")
+}
+
+#[cfg(test)]
+mod tests {
+    use std::ops::Range;
+
+    use super::*;
+
+    /// Reports a made-up device time (the task's length in milliseconds) for every task.
+    struct Timed;
+
+    impl Executor<Range<usize>> for Timed {
+        type Output = usize;
+        fn run(&mut self, task: &Range<usize>) -> Result<usize, DeviceError> {
+            Ok(task.len())
+        }
+        fn run_batch(
+            &mut self,
+            tasks: &[&Range<usize>],
+            sink: &mut Sink<usize>,
+        ) -> Result<(), DeviceError> {
+            for t in tasks {
+                sink.push_timed(t.len(), t.len() as f64 * 1e-3);
+            }
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn device_measured_times_reach_the_timeline_and_host_times_stay_unset() {
+        let tasks = crate::split_ranges(100, 7);
+        let costs = Costs::uniform(tasks.len());
+        for policy in Policy::ALL {
+            let run = Runtime::new(policy)
+                .run(&tasks, &costs, &mut [Timed, Timed])
+                .expect("run");
+            assert_eq!(run.timeline.spans.len(), tasks.len());
+            for s in &run.timeline.spans {
+                let want = tasks[s.task as usize].len() as f64 * 1e-3;
+                assert_eq!(s.device_seconds, Some(want), "{policy:?}");
+            }
+        }
+        struct Plain;
+        impl Executor<Range<usize>> for Plain {
+            type Output = usize;
+            fn run(&mut self, task: &Range<usize>) -> Result<usize, DeviceError> {
+                Ok(task.len())
+            }
+        }
+        let run = Runtime::new(Policy::QueueFifo)
+            .run(&tasks, &costs, &mut [Plain])
+            .expect("run");
+        assert!(
+            run.timeline
+                .spans
+                .iter()
+                .all(|s| s.device_seconds.is_none())
+        );
+    }
 }

@@ -199,6 +199,7 @@ impl Simulation {
                         task: t,
                         start: clock.value(),
                         end: end.value(),
+                        device_seconds: None,
                     });
                 }
                 clock = end;

@@ -10,6 +10,10 @@ pub struct Span {
     pub start: f64,
     /// When its output was delivered.
     pub end: f64,
+    /// The task's time as the device itself measured it (a GPU's timestamp queries, for a
+    /// launch of its own), where the executor reported one ([`crate::Sink::push_timed`]):
+    /// the share of the span spent computing rather than transferring and launching.
+    pub device_seconds: Option<f64>,
 }
 
 /// What happened during a run (real or simulated): every task run that delivered an output.
@@ -91,12 +95,14 @@ mod tests {
                     task: 0,
                     start: 0.0,
                     end: 4.0,
+                    device_seconds: None,
                 },
                 Span {
                     device: 1,
                     task: 1,
                     start: 0.0,
                     end: 2.0,
+                    device_seconds: Some(1.5),
                 },
             ],
         };

@@ -28,9 +28,6 @@ pub struct GpuDevice {
     /// GPU seconds of the hit launches since [`RayDevice::take_device_seconds`] last took
     /// them, as `f64` bits (launches take `&self`).
     kernel_seconds: AtomicU64,
-    /// GPU seconds of each single-range launch since [`RayDevice::take_task_seconds`], by
-    /// the range's first ray.
-    task_seconds: Vec<(usize, f64)>,
 }
 
 impl GpuDevice {
@@ -51,7 +48,6 @@ impl GpuDevice {
             threads: Threads::default(),
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
             kernel_seconds: AtomicU64::new(0f64.to_bits()),
-            task_seconds: Vec::new(),
         })
     }
 
@@ -182,15 +178,6 @@ impl GpuDevice {
     }
 }
 
-impl GpuDevice {
-    /// Records the last launch's kernel time as `range`'s, where timestamps measured it.
-    fn note_task(&mut self, range: &Range<usize>) {
-        if let Some(s) = self.last_gpu_seconds() {
-            self.task_seconds.push((range.start, s));
-        }
-    }
-}
-
 impl RayDevice for GpuDevice {
     fn trace_range(
         &mut self,
@@ -199,9 +186,7 @@ impl RayDevice for GpuDevice {
         range: &Range<usize>,
     ) -> Result<HitBatch, DeviceError> {
         self.check(rays, range)?;
-        let hits = self.hits(kind.is_occlusion(), rays, &[range])?;
-        self.note_task(range);
-        Ok(hits)
+        Ok(self.hits(kind.is_occlusion(), rays, &[range])?)
     }
 
     /// One launch for all `ranges`; each range's hits are cut out of its results in order.
@@ -216,8 +201,11 @@ impl RayDevice for GpuDevice {
             self.check(rays, r)?;
         }
         let all = self.hits(kind.is_occlusion(), rays, ranges)?;
-        if let [one] = ranges {
-            self.note_task(one);
+        // A launch of one task (every launch of a queue policy) times that task on the GPU;
+        // a launch of several has one time for all of them, so none per task.
+        if let ([_], Some(seconds)) = (ranges, self.last_gpu_seconds()) {
+            sink.push_timed(all, seconds);
+            return Ok(());
         }
         let mut start = 0;
         for r in ranges {
@@ -233,10 +221,6 @@ impl RayDevice for GpuDevice {
 
     fn name(&self) -> String {
         self.ctx.name()
-    }
-
-    fn take_task_seconds(&mut self) -> Vec<(usize, f64)> {
-        std::mem::take(&mut self.task_seconds)
     }
 
     /// The kernels' time from timestamp queries, where the adapter has them.

@@ -88,14 +88,6 @@ pub trait RayDevice: Send {
         None
     }
 
-    /// The kernel seconds the device measured for each launch that held exactly one task
-    /// (every launch of a queue policy) since the last call, by the task's first ray, and
-    /// resets the list; empty for a device that cannot measure them (the default). A launch
-    /// of several tasks has one time for all of them, so it gives none per task.
-    fn take_task_seconds(&mut self) -> Vec<(usize, f64)> {
-        Vec::new()
-    }
-
     /// Devices of one class are the same hardware doing the same work (the `N` devices of a
     /// `cpu:N/T` entry): their speed is measured together, because any difference between
     /// them is noise (the OS scheduling threads, errors of the cost model) that would

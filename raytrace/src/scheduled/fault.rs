@@ -90,8 +90,4 @@ impl RayDevice for FailingAfter<'_> {
     fn take_device_seconds(&mut self) -> Option<f64> {
         self.inner.take_device_seconds()
     }
-
-    fn take_task_seconds(&mut self) -> Vec<(usize, f64)> {
-        self.inner.take_task_seconds()
-    }
 }

@@ -97,6 +97,7 @@ mod tests {
             task,
             start,
             end,
+            device_seconds: None,
         }
     }
 

@@ -204,7 +204,7 @@ impl<'a> ScheduledTracer<'a> {
             host_fallback: false,
         };
         let hits = match result {
-            Ok(report) => self.learn(&mut stats, &active, tasks, &costs, work, report),
+            Ok(report) => self.learn(&mut stats, &active, &costs, work, report),
             Err(e) => {
                 // Every device failed (or none was left): the image must still be complete,
                 // so the caller's thread traces the generation, and the report says so.
@@ -289,7 +289,6 @@ impl ScheduledTracer<'_> {
         &mut self,
         stats: &mut GenerationStats,
         active: &[usize],
-        tasks: &[std::ops::Range<usize>],
         costs: &Costs,
         work: Option<&[Work]>,
         report: RunReport<HitBatch>,
@@ -309,12 +308,6 @@ impl ScheduledTracer<'_> {
             };
             costs.len()
         ];
-        // Per device, the kernel time of each task that had a launch of its own, by its first
-        // ray (the tasks of one generation start at distinct rays).
-        let task_seconds: Vec<std::collections::HashMap<usize, f64>> = active
-            .iter()
-            .map(|&d| self.devices[d].take_task_seconds().into_iter().collect())
-            .collect();
         let mut delivered = vec![0usize; active.len()];
         for s in &report.timeline.spans {
             let d = s.device as usize;
@@ -323,7 +316,7 @@ impl ScheduledTracer<'_> {
                 cost: costs[s.task as usize],
                 seconds: s.end - s.start,
                 device: active[d],
-                device_seconds: task_seconds[d].get(&tasks[s.task as usize].start).copied(),
+                device_seconds: s.device_seconds,
             };
         }
         let device_seconds: Vec<Option<f64>> = active

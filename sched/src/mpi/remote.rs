@@ -61,7 +61,7 @@ impl<T: Task + Wire + Clone, O: Wire + Send> Executor<T> for RemoteNode<'_, T, O
         self.run_batch(&[task], &mut sink)?;
         sink.into_outputs()
             .pop()
-            .map(|(o, _)| o)
+            .map(|(o, ..)| o)
             .ok_or_else(|| DeviceError::msg(format!("rank {}: no output", self.rank)))
     }
 
