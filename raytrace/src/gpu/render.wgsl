@@ -50,13 +50,6 @@ struct Params {
 @group(0) @binding(7) var<storage, read> probe_hits: array<vec2<u32>>;
 @group(0) @binding(8) var<storage, read_write> film: array<f32>;
 
-const MISS: u32 = 0xffffffffu;
-
-// Invocation index in a two-dimensional grid of 64-wide workgroups.
-fn flat(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
-    return (wid.y * nwg.x + wid.x) * 64u + lid;
-}
-
 // ---- raygen ----
 
 // Bits of `v` (16 of them) spread to the even positions (`camera.rs`'s `spread`).
@@ -199,7 +192,7 @@ fn shade_ao(
     }
     if !ok {
         for (var s = 0u; s < params.samples; s++) {
-            probes[first + s] = GpuRay(vec4<f32>(0.0, 0.0, 0.0, 1.0), vec4<f32>(1.0, 0.0, 0.0, 0.0));
+            probes[first + s] = no_ray();
         }
         return;
     }

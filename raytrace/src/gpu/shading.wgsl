@@ -16,6 +16,19 @@ struct SceneTri {
     v2: vec4<f32>,
 }
 
+// A hit buffer's primitive for a miss.
+const MISS: u32 = 0xffffffffu;
+
+// Invocation index in a two-dimensional grid of 64-wide workgroups.
+fn flat(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
+    return (wid.y * nwg.x + wid.x) * 64u + lid;
+}
+
+// A ray with an empty range: traced, it misses at once.
+fn no_ray() -> GpuRay {
+    return GpuRay(vec4<f32>(0.0, 0.0, 0.0, 1.0), vec4<f32>(1.0, 0.0, 0.0, 0.0));
+}
+
 // ---- vector helpers with glam's operation order ----
 
 fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {

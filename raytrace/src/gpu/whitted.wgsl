@@ -57,17 +57,6 @@ struct Light {
 @group(0) @binding(11) var<storage, read> shadow_hits: array<vec2<u32>>;
 @group(0) @binding(12) var<storage, read_write> next_rays: array<GpuRay>;
 
-const MISS: u32 = 0xffffffffu;
-
-fn flat(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
-    return (wid.y * nwg.x + wid.x) * 64u + lid;
-}
-
-// A ray with an empty range: traced, it misses at once.
-fn no_ray() -> GpuRay {
-    return GpuRay(vec4<f32>(0.0, 0.0, 0.0, 1.0), vec4<f32>(1.0, 0.0, 0.0, 0.0));
-}
-
 fn add(pixel: u32, value: vec3<f32>) {
     film[pixel] = vec4<f32>(film[pixel].xyz + value, 0.0);
 }
