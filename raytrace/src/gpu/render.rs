@@ -272,17 +272,11 @@ impl GpuRenderer {
     /// A bind group of `stage`'s buffers with `params`.
     fn bind(&self, stage: &Stage, params: &Params) -> wgpu::BindGroup {
         let device = &self.ctx.device;
-        let uniform = init(
+        self.program.bind_params(
             device,
-            "cobalt render parameters",
+            "render",
             bytemuck::bytes_of(params),
-            wgpu::BufferUsages::UNIFORM,
-        );
-        self.program.bind(
-            device,
-            "cobalt render bind group",
             &[
-                &uniform,
                 &stage.primary,
                 &stage.pixel_of,
                 &stage.hits,

@@ -189,17 +189,11 @@ impl GpuRenderer {
             has_normals: u32::from(w.has_normals),
         };
         let bind = |params: &Params, rays: &wgpu::Buffer, next: &wgpu::Buffer| {
-            let uniform = init(
+            w.program.bind_params(
                 device,
-                "cobalt Whitted parameters",
+                "Whitted",
                 bytemuck::bytes_of(params),
-                wgpu::BufferUsages::UNIFORM,
-            );
-            w.program.bind(
-                device,
-                "cobalt Whitted bind group",
                 &[
-                    &uniform,
                     rays,
                     &stage.hits,
                     &self.tris,
