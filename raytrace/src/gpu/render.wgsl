@@ -95,12 +95,8 @@ fn morton_rank(key: u32) -> u32 {
 }
 
 @compute @workgroup_size(64)
-fn raygen(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let p = flat(wid, nwg, lid);
+fn raygen(inv: Invocation) {
+    let p = flat(inv);
     if p >= params.count {
         return;
     }
@@ -169,12 +165,8 @@ fn next_f32(state: ptr<function, vec2<u32>>) -> f32 {
 // Writes the probes of primary ray `i` to slots `(i - base)·samples ..`; a primary that
 // spawns none (a miss) gets probes with an empty range, which `accumulate` does not count.
 @compute @workgroup_size(64)
-fn shade_ao(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let k = flat(wid, nwg, lid);
+fn shade_ao(inv: Invocation) {
+    let k = flat(inv);
     if k >= params.chunk {
         return;
     }
@@ -228,12 +220,8 @@ fn shade_ao(
 
 // The pixel of primary ray `i`: the fraction of its probes that escaped, 1 without probes.
 @compute @workgroup_size(64)
-fn accumulate(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let k = flat(wid, nwg, lid);
+fn accumulate(inv: Invocation) {
+    let k = flat(inv);
     if k >= params.chunk {
         return;
     }

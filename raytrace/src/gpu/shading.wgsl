@@ -19,9 +19,16 @@ struct SceneTri {
 // A hit buffer's primitive for a miss.
 const MISS: u32 = 0xffffffffu;
 
+// What a kernel's invocation knows of where it stands: every kernel takes one item.
+struct Invocation {
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+}
+
 // Invocation index in a two-dimensional grid of 64-wide workgroups.
-fn flat(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
-    return (wid.y * nwg.x + wid.x) * 64u + lid;
+fn flat(inv: Invocation) -> u32 {
+    return (inv.wid.y * inv.nwg.x + inv.wid.x) * 64u + inv.lid;
 }
 
 // A ray with an empty range: traced, it misses at once.

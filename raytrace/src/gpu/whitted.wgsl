@@ -91,12 +91,8 @@ fn full_hit(r: GpuRay, tri: SceneTri, t: f32) -> vec2<f32> {
 }
 
 @compute @workgroup_size(64)
-fn shade(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let k = flat(wid, nwg, lid);
+fn shade(inv: Invocation) {
+    let k = flat(inv);
     if k >= params.count {
         return;
     }
@@ -165,12 +161,8 @@ fn shade(
 }
 
 @compute @workgroup_size(64)
-fn shadows(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let k = flat(wid, nwg, lid);
+fn shadows(inv: Invocation) {
+    let k = flat(inv);
     if k >= params.count {
         return;
     }
