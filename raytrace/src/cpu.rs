@@ -10,7 +10,7 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
-pub use crate::scheduled::BadRange;
+pub use crate::scheduled::{BadRange, InjectedFault};
 use sched::{DeviceError, Sink};
 
 use crate::scheduled::RayDevice;
@@ -20,23 +20,12 @@ use crate::{Bvh, Error, Hit, HitBatch, RayBatch, RayKind, Result};
 /// task still spreads over several threads.
 const CHUNK: usize = 64;
 
-/// Why a CPU device stopped on purpose: the fault injected by [`CpuDevice::failing_after`].
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{device}: injected fault after {after} tasks")]
-pub struct InjectedFault {
-    /// The device's name.
-    pub device: String,
-    /// Tasks it completed before failing.
-    pub after: u64,
-}
-
 /// One CPU device. See the module documentation.
 pub struct CpuDevice<'a> {
     bvh: &'a Bvh,
     index: usize,
     threads: usize,
     pool: Option<rayon::ThreadPool>,
-    fail_after: Option<u64>,
     done: u64,
 }
 
@@ -62,7 +51,6 @@ impl<'a> CpuDevice<'a> {
             index,
             threads: threads.max(1),
             pool,
-            fail_after: None,
             done: 0,
         })
     }
@@ -72,15 +60,6 @@ impl<'a> CpuDevice<'a> {
         (first..first + count)
             .map(|i| Self::new(bvh, i, threads))
             .collect()
-    }
-
-    /// The same device, failing (returning a [`DeviceError`]) once it has completed `tasks`
-    /// tasks in its lifetime: fault injection, to show that its work is re-run elsewhere.
-    pub fn failing_after(self, tasks: u64) -> Self {
-        Self {
-            fail_after: Some(tasks),
-            ..self
-        }
     }
 
     /// Threads that trace.
@@ -94,13 +73,6 @@ impl<'a> CpuDevice<'a> {
     }
 
     fn check(&self, rays: &RayBatch, range: &Range<usize>) -> Result<(), DeviceError> {
-        if let Some(after) = self.fail_after.filter(|&k| self.done >= k) {
-            return Err(InjectedFault {
-                device: self.name(),
-                after,
-            }
-            .into());
-        }
         BadRange::check(|| self.name(), rays, range)?;
         Ok(())
     }

@@ -116,12 +116,7 @@ impl SceneBuffers {
         check_size(ctx, "BVH nodes", nodes.len() as u64)?;
         check_size(ctx, "BVH triangles", tris.len() as u64)?;
         let init = |label: &str, contents: &[u8]| {
-            ctx.device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents,
-                    usage: wgpu::BufferUsages::STORAGE,
-                })
+            init(&ctx.device, label, contents, wgpu::BufferUsages::STORAGE)
         };
         Ok(Self {
             nodes: init("cobalt bvh nodes", nodes),
@@ -130,6 +125,63 @@ impl SceneBuffers {
             depth: bvh.depth(),
         })
     }
+}
+
+/// A storage buffer of `size` bytes, also usable as `usage`, left for the kernels to fill.
+pub(crate) fn storage(
+    device: &wgpu::Device,
+    label: &str,
+    size: u64,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | usage,
+        mapped_at_creation: false,
+    })
+}
+
+/// A buffer of `usage` holding `contents`.
+pub(crate) fn init(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage,
+    })
+}
+
+/// Copies the first `bytes` of `buffer` (usage `COPY_SRC`) back, once the work submitted
+/// before has run.
+///
+/// # Errors
+/// As [`read_back`].
+pub(crate) fn fetch(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<Vec<u8>, GpuError> {
+    let device = &ctx.device;
+    // A mapped buffer may not be empty.
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("cobalt read-back"),
+        size: bytes.max(16),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("cobalt read-back copy"),
+    });
+    encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, bytes);
+    ctx.queue.submit([encoder.finish()]);
+    let mut all = read_back(device, &ctx.info.name, &readback)?;
+    all.truncate(bytes as usize);
+    Ok(all)
 }
 
 /// Waits for `buffer` (usage `MAP_READ`) to map and returns a copy of its bytes.

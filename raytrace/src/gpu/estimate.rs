@@ -13,10 +13,11 @@
 
 use std::ops::Range;
 
-use wgpu::util::DeviceExt;
-
-use super::buffers::{GpuRay, SceneBuffers, check_size, pack_rays, rays_per_launch, read_back};
+use super::buffers::{
+    GpuRay, SceneBuffers, check_size, fetch, init, pack_rays, rays_per_launch, storage,
+};
 use super::pipeline::{GpuMode, Kernels, Threads, grid, trace_resident};
+use super::program::{Program, READ, UNIFORM, WRITE, dispatch};
 use super::{GpuContext, GpuDevice, GpuError};
 use crate::RayBatch;
 use crate::cost::{CostError, CostModel, SampleRate, Work, check_tasks};
@@ -53,7 +54,7 @@ impl SampledCounts {
 /// The compiled `gather` and `sum` kernels of `estimate.wgsl`.
 #[derive(Debug)]
 pub(crate) struct EstimateKernels {
-    layout: wgpu::BindGroupLayout,
+    program: Program,
     gather: wgpu::ComputePipeline,
     sum: wgpu::ComputePipeline,
 }
@@ -65,52 +66,16 @@ impl EstimateKernels {
             "const RUN: u32 = 2u;",
             &format!("const RUN: u32 = {}u;", crate::cost::SAMPLE_RUN),
         );
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("cobalt estimate.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
-        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let read = wgpu::BufferBindingType::Storage { read_only: true };
-        let write = wgpu::BufferBindingType::Storage { read_only: false };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cobalt estimate bind group layout"),
-            entries: &[
-                entry(0, read),
-                entry(1, read),
-                entry(2, write),
-                entry(3, read),
-                entry(4, write),
-                entry(5, wgpu::BufferBindingType::Uniform),
-            ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("cobalt estimate pipeline layout"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let make = |entry: &str, label: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(label),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            })
-        };
+        let program = Program::new(
+            device,
+            "estimate",
+            source,
+            &[READ, READ, WRITE, READ, WRITE, UNIFORM],
+        );
         Self {
-            gather: make("gather", "cobalt sample gather pipeline"),
-            sum: make("sum", "cobalt sample sums pipeline"),
-            layout,
+            gather: program.pipeline(device, "gather", "cobalt sample gather pipeline"),
+            sum: program.pipeline(device, "sum", "cobalt sample sums pipeline"),
+            program,
         }
     }
 }
@@ -219,88 +184,55 @@ fn group(
     check_size(ctx, "sampled rays", (samples * size_of::<GpuRay>()) as u64)?;
     let n_tasks = u32::try_from(tasks.len()).unwrap_or(u32::MAX);
     let n_samples = u32::try_from(samples).unwrap_or(u32::MAX);
-    let storage = |label: &str, size: u64, usage: wgpu::BufferUsages| {
-        device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage: wgpu::BufferUsages::STORAGE | usage,
-            mapped_at_creation: false,
-        })
-    };
-    let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
-        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents,
-            usage,
-        })
-    };
     let table_buf = init(
+        device,
         "cobalt estimate tasks",
         bytemuck::cast_slice(&table),
         wgpu::BufferUsages::STORAGE,
     );
     let ray_buf = init(
+        device,
         "cobalt estimate rays",
         bytemuck::cast_slice(&packed),
         wgpu::BufferUsages::STORAGE,
     );
     let params = init(
+        device,
         "cobalt estimate parameters",
         bytemuck::cast_slice(&[n_tasks, 0, 0, 0]),
         wgpu::BufferUsages::UNIFORM,
     );
     let ray_bytes = size_of::<GpuRay>() as u64;
     let sampled = storage(
+        device,
         "cobalt sampled rays",
         u64::from(n_samples) * ray_bytes,
         wgpu::BufferUsages::empty(),
     );
     let counts = storage(
+        device,
         "cobalt sampled counts",
         u64::from(n_samples) * 8,
         wgpu::BufferUsages::empty(),
     );
     let sums_bytes = u64::from(n_tasks) * 16;
-    let sums = storage("cobalt task sums", sums_bytes, wgpu::BufferUsages::COPY_SRC);
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("cobalt task sums read-back"),
-        size: sums_bytes,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("cobalt estimate bind group"),
-        layout: &estimate.layout,
-        entries: &[
-            (0, &table_buf),
-            (1, &ray_buf),
-            (2, &sampled),
-            (3, &counts),
-            (4, &sums),
-            (5, &params),
-        ]
-        .map(|(binding, b)| wgpu::BindGroupEntry {
-            binding,
-            resource: b.as_entire_binding(),
-        }),
-    });
-    let (gx, gy) = grid(&ctx.limits, n_tasks);
+    let sums = storage(
+        device,
+        "cobalt task sums",
+        sums_bytes,
+        wgpu::BufferUsages::COPY_SRC,
+    );
+    let bind = estimate.program.bind(
+        device,
+        "cobalt estimate bind group",
+        &[&table_buf, &ray_buf, &sampled, &counts, &sums, &params],
+    );
+    let grid = grid(&ctx.limits, n_tasks);
     let pass = |pipeline: &wgpu::ComputePipeline, label: &str| {
-        let mut encoder =
-            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(label),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(gx, gy, 1);
-        }
-        encoder
+        dispatch(device, label, pipeline, &bind, grid).finish()
     };
     ctx.queue
-        .submit([pass(&estimate.gather, "cobalt sample gather").finish()]);
+        .submit([pass(&estimate.gather, "cobalt sample gather")]);
     trace_resident(
         ctx,
         kernels,
@@ -311,10 +243,9 @@ fn group(
         GpuMode::Reduced,
         Threads::Persistent,
     )?;
-    let mut encoder = pass(&estimate.sum, "cobalt sample sums");
-    encoder.copy_buffer_to_buffer(&sums, 0, &readback, 0, sums_bytes);
-    ctx.queue.submit([encoder.finish()]);
-    let bytes = read_back(device, &ctx.info.name, &readback)?;
+    ctx.queue
+        .submit([pass(&estimate.sum, "cobalt sample sums")]);
+    let bytes = fetch(ctx, &sums, sums_bytes)?;
     Ok(result(&bytemuck::pod_collect_to_vec::<u8, [u32; 4]>(
         &bytes,
     )))

@@ -7,6 +7,8 @@
 //! - [`buffers`]: the scene and ray buffers, checked against the binding-size limits;
 //! - [`pipeline`]: the kernels (`traverse.wgsl`) and the host loop that re-dispatches the
 //!   persistent threads until the ray queue is drained;
+//! - `program`: a shader module with its bind group's layout, and the pipelines and dispatches
+//!   every kernel family shares;
 //! - [`GpuDevice`]: one adapter as a [`crate::scheduled::RayDevice`], one launch per plan;
 //! - [`GpuReducedTraversal`]: the cost estimator (sampling, compaction, reduced traversal and
 //!   per-task sums) on the device, equal to the CPU's;
@@ -23,6 +25,7 @@ pub mod context;
 mod device;
 mod estimate;
 pub mod pipeline;
+mod program;
 mod render;
 #[cfg(test)]
 pub(crate) mod tests;

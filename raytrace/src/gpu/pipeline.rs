@@ -8,9 +8,10 @@
 //! again while rays remain (an implementation that ends loops early, as lavapipe may, still
 //! drains), and fails with [`GpuError::LoopCut`] if a traversal loop itself was cut short.
 
-use wgpu::util::DeviceExt;
-
-use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, rays_per_launch, read_back};
+use super::buffers::{
+    GpuRay, RESULT_BYTES, SceneBuffers, fetch, init, rays_per_launch, read_back, storage,
+};
+use super::program::{Program, READ, UNIFORM, WRITE};
 use super::{GpuContext, GpuError};
 
 /// Batches of 64 rays a workgroup takes per dispatch: few enough that one invocation stays far
@@ -77,7 +78,7 @@ impl Threads {
 /// The compiled kernels for trees up to a given depth.
 #[derive(Debug)]
 pub struct Kernels {
-    pub(crate) layout: wgpu::BindGroupLayout,
+    program: Program,
     /// By [`Threads::index`], then [`GpuMode::index`].
     pipelines: [[wgpu::ComputePipeline; 3]; 2],
     stack: usize,
@@ -101,53 +102,19 @@ impl Kernels {
             "const STACK: u32 = 64u;",
             &format!("const STACK: u32 = {stack}u;"),
         );
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("cobalt traverse.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
-        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cobalt traverse bind group layout"),
-            entries: &[
-                storage(0, true),
-                storage(1, true),
-                storage(2, true),
-                storage(3, false),
-                storage(4, false),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 5,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-            ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("cobalt traverse pipeline layout"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
+        let program = Program::new(
+            device,
+            "traverse",
+            source,
+            &[READ, READ, READ, WRITE, WRITE, UNIFORM],
+        );
         let far_scale = f64::from(crate::slab::far_scale());
         let make = |mode: u32, entry: &str, label: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(label),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions {
+            program.pipeline_with(
+                device,
+                entry,
+                label,
+                wgpu::PipelineCompilationOptions {
                     constants: &[
                         ("MODE", f64::from(mode)),
                         ("BATCHES", f64::from(BATCHES)),
@@ -155,8 +122,7 @@ impl Kernels {
                     ],
                     zero_initialize_workgroup_memory: true,
                 },
-                cache: None,
-            })
+            )
         };
         Ok(Self {
             pipelines: [
@@ -179,7 +145,7 @@ impl Kernels {
                     ),
                 ],
             ],
-            layout,
+            program,
             stack,
         })
     }
@@ -253,30 +219,20 @@ fn launch_one(
     // `rays_per_launch` keeps a launch far below 2^32 rays.
     let n = u32::try_from(rays.len()).unwrap_or(u32::MAX);
     let out_bytes = u64::from(n) * RESULT_BYTES;
-    let ray_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("cobalt rays"),
-        contents: bytemuck::cast_slice(rays),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
-    let out_buf = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("cobalt results"),
-        size: out_bytes,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
+    let ray_buf = init(
+        device,
+        "cobalt rays",
+        bytemuck::cast_slice(rays),
+        wgpu::BufferUsages::STORAGE,
+    );
+    let out_buf = storage(
+        device,
+        "cobalt results",
+        out_bytes,
+        wgpu::BufferUsages::COPY_SRC,
+    );
     let seconds = trace_resident(ctx, kernels, scene, &ray_buf, &out_buf, n, mode, threads)?;
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("cobalt results read-back"),
-        size: out_bytes,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-        label: Some("cobalt results copy"),
-    });
-    encoder.copy_buffer_to_buffer(&out_buf, 0, &readback, 0, out_bytes);
-    ctx.queue.submit([encoder.finish()]);
-    let bytes = read_back(device, &ctx.info.name, &readback)?;
+    let bytes = fetch(ctx, &out_buf, out_bytes)?;
     Ok((bytemuck::pod_collect_to_vec(&bytes), seconds))
 }
 
@@ -311,52 +267,29 @@ pub(crate) fn trace_resident(
     }
     let device = &ctx.device;
     let name = ctx.info.name.as_str();
-    let queue_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("cobalt ray queue"),
-        contents: bytemuck::cast_slice(&[0u32, 0]),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-    });
-    let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("cobalt launch parameters"),
-        contents: bytemuck::cast_slice(&[n, 0, 0, 0]),
-        usage: wgpu::BufferUsages::UNIFORM,
-    });
+    let queue_buf = init(
+        device,
+        "cobalt ray queue",
+        bytemuck::cast_slice(&[0u32, 0]),
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    );
+    let params = init(
+        device,
+        "cobalt launch parameters",
+        bytemuck::cast_slice(&[n, 0, 0, 0]),
+        wgpu::BufferUsages::UNIFORM,
+    );
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("cobalt queue state read-back"),
         size: 8 + 16,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("cobalt traverse bind group"),
-        layout: &kernels.layout,
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: scene.nodes.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: scene.tris.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: rays.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 3,
-                resource: out.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 4,
-                resource: queue_buf.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 5,
-                resource: params.as_entire_binding(),
-            },
-        ],
-    });
+    let bind = kernels.program.bind(
+        device,
+        "cobalt traverse bind group",
+        &[&scene.nodes, &scene.tris, rays, out, &queue_buf, &params],
+    );
     let batches = n.div_ceil(64);
     let (grid_x, grid_y, per_dispatch) = match threads {
         Threads::Persistent => {

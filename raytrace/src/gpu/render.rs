@@ -14,10 +14,12 @@ use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-use wgpu::util::DeviceExt;
 
-use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, check_size, rays_per_launch, read_back};
+use super::buffers::{
+    GpuRay, RESULT_BYTES, SceneBuffers, check_size, fetch, init, rays_per_launch, storage,
+};
 use super::pipeline::{GpuMode, Kernels, Threads, grid, trace_resident};
+use super::program::{Program, READ, UNIFORM, WRITE, dispatch, with_shading};
 use super::{GpuContext, GpuError};
 use crate::shade::AoSettings;
 use crate::{Bvh, Camera, Film, Scene};
@@ -79,7 +81,7 @@ pub struct GpuRenderer {
     pub(super) scene: SceneBuffers,
     pub(super) tris: wgpu::Buffer,
     pub(super) whitted: super::whitted::WhittedKernels,
-    layout: wgpu::BindGroupLayout,
+    program: Program,
     raygen: wgpu::ComputePipeline,
     shade_ao: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
@@ -110,65 +112,26 @@ impl GpuRenderer {
         let tri_bytes: &[u8] = bytemuck::cast_slice(&tris);
         check_size(&ctx, "scene triangles", tri_bytes.len() as u64)?;
         let device = &ctx.device;
-        let tris = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("cobalt scene triangles by id"),
-            contents: tri_bytes,
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("cobalt render.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(
-                concat!(include_str!("shading.wgsl"), include_str!("render.wgsl")).into(),
-            ),
-        });
-        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let read = wgpu::BufferBindingType::Storage { read_only: true };
-        let write = wgpu::BufferBindingType::Storage { read_only: false };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cobalt render bind group layout"),
-            entries: &[
-                entry(0, wgpu::BufferBindingType::Uniform),
-                entry(1, write),
-                entry(2, write),
-                entry(3, read),
-                entry(4, read),
-                entry(5, read),
-                entry(6, write),
-                entry(7, read),
-                entry(8, write),
-            ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("cobalt render pipeline layout"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let make = |entry: &str, label: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(label),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            })
-        };
+        let tris = init(
+            device,
+            "cobalt scene triangles by id",
+            tri_bytes,
+            wgpu::BufferUsages::STORAGE,
+        );
+        let program = Program::new(
+            device,
+            "render",
+            with_shading(include_str!("render.wgsl")),
+            &[UNIFORM, WRITE, WRITE, READ, READ, READ, WRITE, READ, WRITE],
+        );
+        let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
         let whitted = super::whitted::WhittedKernels::new(&ctx, scene);
         Ok(Self {
             whitted,
             raygen: make("raygen", "cobalt raygen pipeline"),
             shade_ao: make("shade_ao", "cobalt AO shading pipeline"),
             accumulate: make("accumulate", "cobalt AO accumulate pipeline"),
-            layout,
+            program,
             tris,
             diagonal: scene.bounds().extent().length(),
             ctx,
@@ -268,14 +231,7 @@ impl GpuRenderer {
             seed_lo: settings.seed as u32,
             seed_hi: (settings.seed >> 32) as u32,
         };
-        let storage = |label: &str, size: u64, usage: wgpu::BufferUsages| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: size.max(16),
-                usage: wgpu::BufferUsages::STORAGE | usage,
-                mapped_at_creation: false,
-            })
-        };
+        let storage = |label: &str, size: u64, usage| self.scratch(label, size, usage);
         let none = wgpu::BufferUsages::empty();
         let copy = wgpu::BufferUsages::COPY_SRC;
         let ray_bytes = size_of::<GpuRay>() as u64;
@@ -289,11 +245,12 @@ impl GpuRenderer {
             probes: storage("cobalt AO probes", probe_slots * ray_bytes, none),
             probe_hits: storage("cobalt AO probe hits", probe_slots * RESULT_BYTES, none),
             film: storage("cobalt film", u64::from(n) * 4, copy),
-            halton: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("cobalt Halton points"),
-                contents: bytemuck::cast_slice(&halton),
-                usage: wgpu::BufferUsages::STORAGE,
-            }),
+            halton: init(
+                device,
+                "cobalt Halton points",
+                bytemuck::cast_slice(&halton),
+                wgpu::BufferUsages::STORAGE,
+            ),
         };
         let group = self.bind(&stage, &params);
         ctx.queue
@@ -301,33 +258,35 @@ impl GpuRenderer {
         Ok(stage)
     }
 
+    /// A storage buffer of at least `size` bytes (a binding may not be empty), also usable
+    /// as `usage`.
+    pub(super) fn scratch(
+        &self,
+        label: &str,
+        size: u64,
+        usage: wgpu::BufferUsages,
+    ) -> wgpu::Buffer {
+        storage(&self.ctx.device, label, size.max(16), usage)
+    }
+
     /// A bind group of `stage`'s buffers with `params`.
     fn bind(&self, stage: &Stage, params: &Params) -> wgpu::BindGroup {
         let device = &self.ctx.device;
-        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("cobalt render parameters"),
-            contents: bytemuck::bytes_of(params),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("cobalt render bind group"),
-            layout: &self.layout,
-            entries: &[
-                (0, &uniform),
-                (1, &stage.primary),
-                (2, &stage.pixel_of),
-                (3, &stage.hits),
-                (4, &self.tris),
-                (5, &stage.halton),
-                (6, &stage.probes),
-                (7, &stage.probe_hits),
-                (8, &stage.film),
-            ]
-            .map(|(binding, b)| wgpu::BindGroupEntry {
-                binding,
-                resource: b.as_entire_binding(),
-            }),
-        })
+        self.program.bind_params(
+            device,
+            "render",
+            bytemuck::bytes_of(params),
+            &[
+                &stage.primary,
+                &stage.pixel_of,
+                &stage.hits,
+                &self.tris,
+                &stage.halton,
+                &stage.probes,
+                &stage.probe_hits,
+                &stage.film,
+            ],
+        )
     }
 
     /// Commands running `pipeline` over `items` invocations.
@@ -337,42 +296,14 @@ impl GpuRenderer {
         group: &wgpu::BindGroup,
         items: u32,
     ) -> wgpu::CommandEncoder {
-        let mut encoder = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("cobalt render commands"),
-            });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("cobalt render pass"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, group, &[]);
-            let (x, y) = grid(&self.ctx.limits, items.div_ceil(64));
-            pass.dispatch_workgroups(x, y, 1);
-        }
-        encoder
-    }
-
-    /// Copies the first `bytes` of `buffer` back.
-    pub(super) fn fetch(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
-        let device = &self.ctx.device;
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("cobalt render read-back"),
-            size: bytes.max(16),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("cobalt render copy"),
-        });
-        encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, bytes);
-        self.ctx.queue.submit([encoder.finish()]);
-        let mut all = read_back(device, &self.ctx.info.name, &readback)?;
-        all.truncate(bytes as usize);
-        Ok(all)
+        let grid = grid(&self.ctx.limits, items.div_ceil(64));
+        dispatch(
+            &self.ctx.device,
+            "cobalt render pass",
+            pipeline,
+            group,
+            grid,
+        )
     }
 
     /// Renders ambient occlusion as [`crate::shade::render`] does with
@@ -450,7 +381,7 @@ impl GpuRenderer {
                 .submit([self.run(&self.accumulate, &group, len).finish()]);
             base += len;
         }
-        let bytes = self.fetch(&stage.film, u64::from(n) * 4)?;
+        let bytes = fetch(&self.ctx, &stage.film, u64::from(n) * 4)?;
         let values: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
         let mut film = Film::new(width, height);
         for (p, &v) in values.iter().enumerate() {
@@ -472,8 +403,8 @@ impl GpuRenderer {
     ) -> Result<(Vec<GpuRay>, Vec<u32>), GpuError> {
         let stage = self.begin(width, height, camera, &AoSettings::default())?;
         let n = u64::from(stage.n);
-        let rays = self.fetch(&stage.primary, n * size_of::<GpuRay>() as u64)?;
-        let pixels = self.fetch(&stage.pixel_of, n * 4)?;
+        let rays = fetch(&self.ctx, &stage.primary, n * size_of::<GpuRay>() as u64)?;
+        let pixels = fetch(&self.ctx, &stage.pixel_of, n * 4)?;
         Ok((
             bytemuck::pod_collect_to_vec(&rays),
             bytemuck::pod_collect_to_vec(&pixels),

@@ -50,13 +50,6 @@ struct Params {
 @group(0) @binding(7) var<storage, read> probe_hits: array<vec2<u32>>;
 @group(0) @binding(8) var<storage, read_write> film: array<f32>;
 
-const MISS: u32 = 0xffffffffu;
-
-// Invocation index in a two-dimensional grid of 64-wide workgroups.
-fn flat(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
-    return (wid.y * nwg.x + wid.x) * 64u + lid;
-}
-
 // ---- raygen ----
 
 // Bits of `v` (16 of them) spread to the even positions (`camera.rs`'s `spread`).
@@ -102,12 +95,8 @@ fn morton_rank(key: u32) -> u32 {
 }
 
 @compute @workgroup_size(64)
-fn raygen(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let p = flat(wid, nwg, lid);
+fn raygen(inv: Invocation) {
+    let p = flat(inv);
     if p >= params.count {
         return;
     }
@@ -176,12 +165,8 @@ fn next_f32(state: ptr<function, vec2<u32>>) -> f32 {
 // Writes the probes of primary ray `i` to slots `(i - base)·samples ..`; a primary that
 // spawns none (a miss) gets probes with an empty range, which `accumulate` does not count.
 @compute @workgroup_size(64)
-fn shade_ao(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let k = flat(wid, nwg, lid);
+fn shade_ao(inv: Invocation) {
+    let k = flat(inv);
     if k >= params.chunk {
         return;
     }
@@ -199,7 +184,7 @@ fn shade_ao(
     }
     if !ok {
         for (var s = 0u; s < params.samples; s++) {
-            probes[first + s] = GpuRay(vec4<f32>(0.0, 0.0, 0.0, 1.0), vec4<f32>(1.0, 0.0, 0.0, 0.0));
+            probes[first + s] = no_ray();
         }
         return;
     }
@@ -235,12 +220,8 @@ fn shade_ao(
 
 // The pixel of primary ray `i`: the fraction of its probes that escaped, 1 without probes.
 @compute @workgroup_size(64)
-fn accumulate(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let k = flat(wid, nwg, lid);
+fn accumulate(inv: Invocation) {
+    let k = flat(inv);
     if k >= params.chunk {
         return;
     }

@@ -16,6 +16,26 @@ struct SceneTri {
     v2: vec4<f32>,
 }
 
+// A hit buffer's primitive for a miss.
+const MISS: u32 = 0xffffffffu;
+
+// What a kernel's invocation knows of where it stands: every kernel takes one item.
+struct Invocation {
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+}
+
+// Invocation index in a two-dimensional grid of 64-wide workgroups.
+fn flat(inv: Invocation) -> u32 {
+    return (inv.wid.y * inv.nwg.x + inv.wid.x) * 64u + inv.lid;
+}
+
+// A ray with an empty range: traced, it misses at once.
+fn no_ray() -> GpuRay {
+    return GpuRay(vec4<f32>(0.0, 0.0, 0.0, 1.0), vec4<f32>(1.0, 0.0, 0.0, 0.0));
+}
+
 // ---- vector helpers with glam's operation order ----
 
 fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {

@@ -11,10 +11,10 @@ use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-use wgpu::util::DeviceExt;
 
-use super::buffers::{GpuRay, RESULT_BYTES, check_size};
+use super::buffers::{GpuRay, RESULT_BYTES, check_size, fetch, init};
 use super::pipeline::{GpuMode, trace_resident};
+use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
 use super::render::{GpuRenderer, GpuRendering};
 use super::{GpuContext, GpuError};
 use crate::shade::{AMBIENT, AoSettings, SKY, WhittedSettings};
@@ -49,7 +49,7 @@ struct PrimShading {
 /// The Whitted kernels and the scene's shading data on the device.
 #[derive(Debug)]
 pub(crate) struct WhittedKernels {
-    layout: wgpu::BindGroupLayout,
+    program: Program,
     shade: wgpu::ComputePipeline,
     shadows: wgpu::ComputePipeline,
     /// Materials and normals by primitive, or why they do not fit one binding (an AO render
@@ -104,70 +104,22 @@ impl WhittedKernels {
         }
         let prim_bytes: &[u8] = bytemuck::cast_slice(&prims);
         let init = |label: &str, contents: &[u8]| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::STORAGE,
-            })
+            init(device, label, contents, wgpu::BufferUsages::STORAGE)
         };
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("cobalt whitted.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(
-                concat!(include_str!("shading.wgsl"), include_str!("whitted.wgsl")).into(),
-            ),
-        });
-        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let read = wgpu::BufferBindingType::Storage { read_only: true };
-        let write = wgpu::BufferBindingType::Storage { read_only: false };
-        let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
-        for (binding, writable) in [
-            (1, false),
-            (2, false),
-            (3, false),
-            (4, false),
-            (5, false),
-            (6, true),
-            (7, false),
-            (8, true),
-            (9, true),
-            (10, true),
-            (11, false),
-            (12, true),
-        ] {
-            entries.push(entry(binding, if writable { write } else { read }));
-        }
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cobalt whitted bind group layout"),
-            entries: &entries,
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("cobalt whitted pipeline layout"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let make = |entry: &str, label: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(label),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            })
-        };
+        let program = Program::new(
+            device,
+            "whitted",
+            with_shading(include_str!("whitted.wgsl")),
+            &[
+                UNIFORM, READ, READ, READ, READ, READ, WRITE, READ, WRITE, WRITE, WRITE, READ,
+                WRITE,
+            ],
+        );
+        let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
         Self {
             shade: make("shade", "cobalt Whitted shading pipeline"),
             shadows: make("shadows", "cobalt Whitted shadows pipeline"),
-            layout,
+            program,
             prims: check_size(ctx, "materials and normals", prim_bytes.len() as u64)
                 .map(|()| init("cobalt materials and normals", prim_bytes)),
             lights: init("cobalt lights", bytemuck::cast_slice(&lights)),
@@ -209,20 +161,14 @@ impl GpuRenderer {
         let slots = u64::from(n) * u64::from(lights);
         let ray_bytes = size_of::<GpuRay>() as u64;
         check_size(ctx, "shadow rays", slots * ray_bytes)?;
-        let storage = |label: &str, size: u64, usage: wgpu::BufferUsages| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: size.max(16),
-                usage: wgpu::BufferUsages::STORAGE | usage,
-                mapped_at_creation: false,
-            })
-        };
+        let storage = |label: &str, size: u64, usage| self.scratch(label, size, usage);
         let none = wgpu::BufferUsages::empty();
-        let paths = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("cobalt Whitted paths"),
-            contents: bytemuck::cast_slice(&vec![[1.0f32; 4]; n as usize]),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
+        let paths = init(
+            device,
+            "cobalt Whitted paths",
+            bytemuck::cast_slice(&vec![[1.0f32; 4]; n as usize]),
+            wgpu::BufferUsages::STORAGE,
+        );
         let film = storage(
             "cobalt Whitted film",
             u64::from(n) * 16,
@@ -243,34 +189,25 @@ impl GpuRenderer {
             has_normals: u32::from(w.has_normals),
         };
         let bind = |params: &Params, rays: &wgpu::Buffer, next: &wgpu::Buffer| {
-            let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("cobalt Whitted parameters"),
-                contents: bytemuck::bytes_of(params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("cobalt Whitted bind group"),
-                layout: &w.layout,
-                entries: &[
-                    (0, &uniform),
-                    (1, rays),
-                    (2, &stage.hits),
-                    (3, &self.tris),
-                    (4, prims),
-                    (5, &w.lights),
-                    (6, &paths),
-                    (7, &stage.pixel_of),
-                    (8, &film),
-                    (9, &shadow_rays),
-                    (10, &shadow_light),
-                    (11, &shadow_hits),
-                    (12, next),
-                ]
-                .map(|(binding, b)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: b.as_entire_binding(),
-                }),
-            })
+            w.program.bind_params(
+                device,
+                "Whitted",
+                bytemuck::bytes_of(params),
+                &[
+                    rays,
+                    &stage.hits,
+                    &self.tris,
+                    prims,
+                    &w.lights,
+                    &paths,
+                    &stage.pixel_of,
+                    &film,
+                    &shadow_rays,
+                    &shadow_light,
+                    &shadow_hits,
+                    next,
+                ],
+            )
         };
         let mut gpu_seconds = ctx.timestamps.then_some(0.0);
         let mut traced = 0usize;
@@ -303,7 +240,7 @@ impl GpuRenderer {
                 std::mem::swap(&mut rays, &mut next);
             }
         }
-        let bytes = self.fetch(&film, u64::from(n) * 16)?;
+        let bytes = fetch(&self.ctx, &film, u64::from(n) * 16)?;
         let values: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
         let mut out = Film::new(width, height);
         if self.scene.empty {

@@ -57,17 +57,6 @@ struct Light {
 @group(0) @binding(11) var<storage, read> shadow_hits: array<vec2<u32>>;
 @group(0) @binding(12) var<storage, read_write> next_rays: array<GpuRay>;
 
-const MISS: u32 = 0xffffffffu;
-
-fn flat(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
-    return (wid.y * nwg.x + wid.x) * 64u + lid;
-}
-
-// A ray with an empty range: traced, it misses at once.
-fn no_ray() -> GpuRay {
-    return GpuRay(vec4<f32>(0.0, 0.0, 0.0, 1.0), vec4<f32>(1.0, 0.0, 0.0, 0.0));
-}
-
 fn add(pixel: u32, value: vec3<f32>) {
     film[pixel] = vec4<f32>(film[pixel].xyz + value, 0.0);
 }
@@ -102,12 +91,8 @@ fn full_hit(r: GpuRay, tri: SceneTri, t: f32) -> vec2<f32> {
 }
 
 @compute @workgroup_size(64)
-fn shade(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let k = flat(wid, nwg, lid);
+fn shade(inv: Invocation) {
+    let k = flat(inv);
     if k >= params.count {
         return;
     }
@@ -176,12 +161,8 @@ fn shade(
 }
 
 @compute @workgroup_size(64)
-fn shadows(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let k = flat(wid, nwg, lid);
+fn shadows(inv: Invocation) {
+    let k = flat(inv);
     if k >= params.count {
         return;
     }

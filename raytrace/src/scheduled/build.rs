@@ -21,15 +21,14 @@ pub struct FailAfter {
 ///
 /// GPU entries open adapters (see [`crate::gpu::context`]) and upload `bvh` to each. Where
 /// `gpu:all` finds no usable adapter but the list has other devices, a note says so once on
-/// stderr and the others render alone; a list left with no device is an error. Faults go
-/// into any device: CPU devices count their own tasks, others are wrapped in a
-/// [`FailingAfter`].
+/// stderr and the others render alone; a list left with no device is an error. A device
+/// with a fault is wrapped in a [`FailingAfter`].
 pub fn build_devices<'a>(
     bvh: &'a Bvh,
     specs: &[DeviceSpec],
     faults: &[FailAfter],
 ) -> Result<Vec<Box<dyn RayDevice + 'a>>> {
-    let mut devices: Vec<Built<'a>> = Vec::new();
+    let mut devices: Vec<Box<dyn RayDevice + 'a>> = Vec::new();
     let mut cpu_count = 0;
     let mut skipped_gpu = None;
     for spec in specs {
@@ -37,10 +36,13 @@ pub fn build_devices<'a>(
             DeviceSpec::Cpu { count, threads } => {
                 let cpus = CpuDevice::many(bvh, cpu_count, count, threads)?;
                 cpu_count += cpus.len();
-                devices.extend(cpus.into_iter().map(Built::Cpu));
+                devices.extend(
+                    cpus.into_iter()
+                        .map(|cpu| Box::new(cpu) as Box<dyn RayDevice + 'a>),
+                );
             }
             DeviceSpec::Gpu(select) => match gpu_devices(bvh, select, spec)? {
-                Ok(gpus) => devices.extend(gpus.into_iter().map(Built::Other)),
+                Ok(gpus) => devices.extend(gpus),
                 Err(why) => skipped_gpu = Some((spec.to_string(), why)),
             },
         }
@@ -68,20 +70,12 @@ pub fn build_devices<'a>(
                 .filter(|f| f.device == i)
                 .map(|f| f.tasks)
                 .min();
-            match (d, fault) {
-                (Built::Cpu(cpu), Some(tasks)) => Box::new(cpu.failing_after(tasks)),
-                (Built::Cpu(cpu), None) => Box::new(cpu) as Box<dyn RayDevice + 'a>,
-                (Built::Other(d), Some(tasks)) => Box::new(FailingAfter::new(d, tasks)),
-                (Built::Other(d), None) => d,
+            match fault {
+                Some(tasks) => Box::new(FailingAfter::new(d, tasks)),
+                None => d,
             }
         })
         .collect())
-}
-
-/// A device of the list before faults are injected (CPU devices take them themselves).
-enum Built<'a> {
-    Cpu(CpuDevice<'a>),
-    Other(Box<dyn RayDevice + 'a>),
 }
 
 /// The GPU devices of one entry: `Ok(Err(why))` when `gpu:all` finds no adapter (skippable),

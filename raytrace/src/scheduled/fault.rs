@@ -3,16 +3,25 @@
 //! elsewhere. A launch of several ranges that crosses the limit delivers the ranges before it
 //! (from one launch of the inner device) and then fails, as a device lost mid-launch would.
 //!
-//! CPU devices count their own tasks ([`crate::cpu::CpuDevice::failing_after`]); this wrapper
-//! is for devices that cannot.
+//! Every device of a `--devices` list takes its faults this way, CPU and GPU alike, so they
+//! fail alike.
 
 use std::ops::Range;
 
 use sched::{DeviceError, Sink};
 
 use super::RayDevice;
-use crate::cpu::InjectedFault;
 use crate::{HitBatch, RayBatch, RayKind};
+
+/// Why a device stopped on purpose: the fault a [`FailingAfter`] injected.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{device}: injected fault after {after} tasks")]
+pub struct InjectedFault {
+    /// The device's name.
+    pub device: String,
+    /// Tasks it completed before failing.
+    pub after: u64,
+}
 
 /// `inner`, failing once it has completed `after` tasks.
 pub struct FailingAfter<'a> {

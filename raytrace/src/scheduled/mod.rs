@@ -42,7 +42,7 @@ mod tracer;
 
 pub use build::{FailAfter, build_devices};
 pub use device::{BadRange, Bound, RayDevice};
-pub use fault::FailingAfter;
+pub use fault::{FailingAfter, InjectedFault};
 pub use settings::{Mode, Settings};
 pub use stats::{DeviceFit, DeviceStats, GenerationStats, TaskStats};
 pub use tracer::ScheduledTracer;
