@@ -128,28 +128,20 @@ impl Runtime {
             changed: Condvar::new(),
             start: Instant::now(),
         };
-        // Device 0 runs on the calling thread, which is already running: a small generation
-        // (a few milliseconds) then waits for one thread start fewer.
         let per_device: Vec<(f64, u64)> = crossbeam::thread::scope(|scope| {
-            let Some((first, rest)) = executors.split_first_mut() else {
-                return Vec::new();
-            };
-            let handles: Vec<_> = rest
+            let handles: Vec<_> = executors
                 .iter_mut()
                 .enumerate()
                 .map(|(d, exec)| {
-                    let (shared, d) = (&shared, d + 1);
+                    let shared = &shared;
                     let name = &names[d];
                     scope.spawn(move |_| device_loop(d, name, exec, tasks, shared))
                 })
                 .collect();
-            // As a spawned device's panic is caught by its join.
-            let inline = catch_unwind(AssertUnwindSafe(|| {
-                device_loop(0, &names[0], first, tasks, &shared)
-            }));
-            let mut out = vec![inline.unwrap_or((0.0, 0))];
-            out.extend(handles.into_iter().map(|h| h.join().unwrap_or((0.0, 0))));
-            out
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or((0.0, 0)))
+                .collect()
         })
         .unwrap_or_else(|_| vec![(0.0, 0); m]);
 
