@@ -88,7 +88,7 @@ fn three_ranks_render_the_image_of_one_process_byte_for_byte() {
             "{policy}: the image over 3 ranks differs"
         );
 
-        // Every rank took part, and every task was traced exactly once.
+        // Every task was traced exactly once, and (under a plan) every rank took part.
         let report: serde_json::Value = serde_json::from_slice(
             &std::fs::read(dir.join("report.json")).expect("rank 0 wrote the report"),
         )
@@ -113,7 +113,11 @@ fn three_ranks_render_the_image_of_one_process_byte_for_byte() {
             .iter()
             .map(|l| l["batches"].as_u64().expect("batches"))
             .sum();
-        assert!(batches > 0, "{policy}: no batch went to ranks 1 and 2");
+        // A plan gives ranks 1 and 2 their shares; a queue gives them whatever they take
+        // before rank 0 drains it, which on a loaded host may be nothing.
+        if !policy.starts_with("queue") {
+            assert!(batches > 0, "{policy}: no batch went to ranks 1 and 2");
+        }
     }
 }
 
