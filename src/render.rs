@@ -19,7 +19,7 @@ use raytrace::scheduled::{
     FailAfter, GenerationStats, Mode, ScheduledTracer, Settings, build_devices,
 };
 use raytrace::shade::{AoSettings, RenderOptions, Rendering, Shader, WhittedSettings, render};
-use raytrace::{BuildPreset, Bvh, Camera, SceneSource};
+use raytrace::{BuildPreset, Bvh, Camera, Scene, SceneSource};
 use sched::Policy;
 use serde::Serialize;
 
@@ -207,15 +207,8 @@ struct CostReport {
 
 #[derive(Debug, Serialize)]
 struct Report {
-    scene: String,
-    triangles: usize,
-    shader: &'static str,
-    size: String,
-    width: u32,
-    height: u32,
-    camera: Option<usize>,
-    eye: [f32; 3],
-    at: [f32; 3],
+    #[serde(flatten)]
+    header: Header,
     devices: String,
     /// Every device, in order.
     device_names: Vec<String>,
@@ -225,15 +218,6 @@ struct Report {
     mode: &'static str,
     task_size: usize,
     sample_rate: f64,
-    preset: String,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    ao_samples: Option<u32>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    ao_distance: Option<f32>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    bounces: Option<u32>,
-    load_seconds: f64,
-    build_seconds: f64,
     generations: Vec<GenerationReport>,
     total_rays: usize,
     /// Sum of the generations' trace times.
@@ -258,10 +242,19 @@ struct Report {
 /// The report of `--pipeline gpu`.
 #[derive(Debug, Serialize)]
 struct GpuReport {
+    #[serde(flatten)]
+    header: Header,
+    pipeline: &'static str,
+    #[serde(flatten)]
+    run: crate::render_gpu::GpuRun,
+}
+
+/// What every render report opens with: the scene, the image, the camera and the shader.
+#[derive(Debug, Serialize)]
+struct Header {
     scene: String,
     triangles: usize,
     shader: &'static str,
-    pipeline: &'static str,
     size: String,
     width: u32,
     height: u32,
@@ -277,8 +270,47 @@ struct GpuReport {
     bounces: Option<u32>,
     load_seconds: f64,
     build_seconds: f64,
-    #[serde(flatten)]
-    run: crate::render_gpu::GpuRun,
+}
+
+impl Header {
+    #[allow(clippy::too_many_arguments)] // one call per report kind, every value named there
+    fn new(
+        source: &str,
+        scene: &Scene,
+        bvh: &Bvh,
+        shader: &Shader,
+        (width, height): (u32, u32),
+        (camera, index): (&Camera, Option<usize>),
+        preset: BuildPreset,
+        load_seconds: f64,
+    ) -> Self {
+        Self {
+            scene: source.to_string(),
+            triangles: scene.len(),
+            shader: shader.name(),
+            size: format!("{width}x{height}"),
+            width,
+            height,
+            camera: index,
+            eye: camera.eye.to_array(),
+            at: camera.at.to_array(),
+            preset: preset.name().to_string(),
+            ao_samples: match shader {
+                Shader::Ao(s) => Some(s.samples),
+                Shader::Whitted(_) => None,
+            },
+            ao_distance: match shader {
+                Shader::Ao(s) => Some(s.distance(scene)),
+                Shader::Whitted(_) => None,
+            },
+            bounces: match shader {
+                Shader::Whitted(s) => Some(s.bounces),
+                Shader::Ao(_) => None,
+            },
+            load_seconds,
+            build_seconds: bvh.report().build_seconds,
+        }
+    }
 }
 
 /// Where the camera comes from.
@@ -444,28 +476,17 @@ pub fn run(args: Args) -> Result<(), CliError> {
         )?;
         let image = film.png(ToneMap::Srgb)?;
         let report = GpuReport {
-            scene: args.scene.clone(),
-            triangles: scene.len(),
-            shader: shader.name(),
+            header: Header::new(
+                &args.scene,
+                &scene,
+                &bvh,
+                &shader,
+                (width, height),
+                (&camera, camera_index),
+                preset,
+                load_seconds,
+            ),
             pipeline: "gpu",
-            size: format!("{width}x{height}"),
-            width,
-            height,
-            camera: camera_index,
-            eye: camera.eye.to_array(),
-            at: camera.at.to_array(),
-            preset: preset.name().to_string(),
-            ao_samples: matches!(shader, Shader::Ao(_)).then_some(samples),
-            ao_distance: match shader {
-                Shader::Ao(s) => Some(s.distance(&scene)),
-                Shader::Whitted(_) => None,
-            },
-            bounces: match shader {
-                Shader::Whitted(s) => Some(s.bounces),
-                Shader::Ao(_) => None,
-            },
-            load_seconds,
-            build_seconds: bvh.report().build_seconds,
             run,
         };
         let json =
@@ -480,9 +501,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
             crate::print_text(&format!(
                 "{} ({} triangles), {}, {width}x{height} on the GPU ({}, {} threads): {} rays \
                  in {:.3} s, {:.2} MRays/s\n",
-                report.scene,
-                report.triangles,
-                report.shader,
+                report.header.scene,
+                report.header.triangles,
+                report.header.shader,
                 report.run.adapter,
                 report.run.gpu_threads,
                 report.run.total_rays,
@@ -508,15 +529,16 @@ pub fn run(args: Args) -> Result<(), CliError> {
         _ => None,
     };
     let report = Report {
-        scene: args.scene.clone(),
-        triangles: scene.len(),
-        shader: shader.name(),
-        size: format!("{width}x{height}"),
-        width,
-        height,
-        camera: camera_index,
-        eye: camera.eye.to_array(),
-        at: camera.at.to_array(),
+        header: Header::new(
+            &args.scene,
+            &scene,
+            &bvh,
+            &shader,
+            (width, height),
+            (&camera, camera_index),
+            preset,
+            load_seconds,
+        ),
         devices: args.devices.clone(),
         device_names: tracer.device_names(),
         threads,
@@ -524,18 +546,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
         mode: settings.mode.name(),
         task_size: settings.task_size.get(),
         sample_rate: settings.sample_rate.get(),
-        preset: preset.name().to_string(),
-        ao_samples: matches!(shader, Shader::Ao(_)).then_some(samples),
-        ao_distance: match shader {
-            Shader::Ao(s) => Some(s.distance(&scene)),
-            Shader::Whitted(_) => None,
-        },
-        bounces: match shader {
-            Shader::Whitted(s) => Some(s.bounces),
-            Shader::Ao(_) => None,
-        },
-        load_seconds,
-        build_seconds: bvh.report().build_seconds,
         generations: generation_reports(&rendering, tracer.stats()),
         total_rays: rendering.total_rays(),
         trace_seconds: rendering.trace_seconds(),
@@ -666,10 +676,10 @@ fn final_calibration(stats: &[GenerationStats]) -> Vec<FitReport> {
 fn summary(r: &Report) -> String {
     let mut s = format!(
         "{} {} of {} ({} triangles) on {} ({} thread(s)), {} {}, tasks of {}: {} rays in {:.3} s, {:.2} MRays/s, balance {:.1} %\n",
-        r.shader,
-        r.size,
-        r.scene,
-        r.triangles,
+        r.header.shader,
+        r.header.size,
+        r.header.scene,
+        r.header.triangles,
         r.devices,
         r.threads,
         r.policy,
