@@ -16,7 +16,7 @@ use raytrace::devices::DeviceSpec;
 use raytrace::film::ToneMap;
 use raytrace::glam::Vec3;
 use raytrace::scheduled::{
-    FailAfter, GenerationStats, Mode, ScheduledTracer, Settings, build_devices,
+    EstimateOn, FailAfter, GenerationStats, Mode, ScheduledTracer, Settings, build_devices,
 };
 use raytrace::shade::{AoSettings, RenderOptions, Rendering, Shader, WhittedSettings, render};
 use raytrace::{BuildPreset, Bvh, Camera, Scene, SceneSource};
@@ -109,6 +109,10 @@ pub struct Args {
     /// Fraction of each task's rays the cost estimate traces, in (0, 1].
     #[arg(long, default_value = "0.125")]
     sample_rate: String,
+    /// Where cost mode's estimate runs: `cpu` (the host's cores) or `gpu` (the first GPU
+    /// among `--devices`, as the thesis does; the host where there is none).
+    #[arg(long, default_value = "cpu")]
+    estimate_on: EstimateOn,
     /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order, a
     /// GPU included) fails after completing TASKS tasks; its unfinished tasks are re-run
     /// elsewhere.
@@ -173,6 +177,9 @@ struct ScheduleReport {
     host_fallback: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
     estimate_error: Option<String>,
+    /// Where the estimate ran (cost mode): a device's name or `host`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    estimated_on: Option<String>,
     calibration: Vec<FitReport>,
     /// Per task, in task order: planned cost, measured seconds, device index.
     task_costs: Vec<f64>,
@@ -359,6 +366,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 ));
             }
         },
+        estimate_on: args.estimate_on,
     };
     let camera_choice = match (&args.camera, &args.eye, &args.at) {
         (_, Some(eye), Some(at)) => {
@@ -419,6 +427,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 "cost-image",
                 &args.cost_image.as_ref().map(|p| p.display().to_string()),
                 "not available under mpirun; render the cost image in one process",
+            ));
+        }
+        if args.estimate_on == EstimateOn::Gpu {
+            return Err(arg(
+                "estimate-on",
+                &Some("gpu".to_string()),
+                "not available under mpirun: every rank estimates its slice on its host",
             ));
         }
         if args.pipeline == PipelineArg::Gpu {
@@ -622,6 +637,7 @@ fn schedule_report(g: &GenerationStats) -> ScheduleReport {
         failures: g.failures.iter().map(ToString::to_string).collect(),
         host_fallback: g.host_fallback,
         estimate_error: g.estimate_error.clone(),
+        estimated_on: g.estimated_on.clone(),
         calibration: g.calibrations.iter().map(fit_report).collect(),
         task_costs: g.task_stats.iter().map(|t| t.cost).collect(),
         task_seconds: g.task_stats.iter().map(|t| t.seconds).collect(),

@@ -255,8 +255,13 @@ fn a_failing_device_is_reported_and_the_image_is_still_complete() {
 #[test]
 fn cpu_and_gpu_render_the_cpu_image() {
     let dir = crate::testkit::temp_dir("render-gpu");
-    let run = |devices: &str, policy: &str| {
-        let out = dir.join(format!("{}-{policy}.png", devices.replace([':', ','], "_")));
+    let run = |devices: &str, policy: &str, extra: &[&str]| {
+        let tag = format!(
+            "{}-{policy}-{}",
+            devices.replace([':', ','], "_"),
+            extra.len()
+        );
+        let out = dir.join(format!("{tag}.png"));
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
             .env("COBALT_GPU_SOFTWARE", "1")
             .args([
@@ -269,18 +274,19 @@ fn cpu_and_gpu_render_the_cpu_image() {
             ])
             .args(["128", "--policy", policy, "--devices", devices, "--out"])
             .arg(&out)
+            .args(extra)
             .output()
             .expect("the cobalt binary runs");
         (o, out)
     };
     for policy in ["static-lpt", "hybrid"] {
-        let (cpu, cpu_png) = run("cpu:2", policy);
+        let (cpu, cpu_png) = run("cpu:2", policy, &[]);
         assert!(
             cpu.status.success(),
             "{}",
             String::from_utf8_lossy(&cpu.stderr)
         );
-        let (mixed, mixed_png) = run("cpu:1,gpu:all", policy);
+        let (mixed, mixed_png) = run("cpu:1,gpu:all", policy, &[]);
         let err = String::from_utf8_lossy(&mixed.stderr);
         if err.contains("no GPU adapter") {
             assert!(
@@ -291,8 +297,27 @@ fn cpu_and_gpu_render_the_cpu_image() {
             return;
         }
         assert!(mixed.status.success(), "{err}");
-        let (a, b) = (std::fs::read(cpu_png), std::fs::read(mixed_png));
+        let (a, b) = (std::fs::read(&cpu_png), std::fs::read(mixed_png));
         assert_eq!(a.expect("cpu png"), b.expect("mixed png"), "{policy}");
+
+        // The estimate on the GPU: the same image, and the report says where it ran.
+        let report = dir.join(format!("estimate-on-gpu-{policy}.json"));
+        let report_arg = report.to_str().expect("a UTF-8 temp path");
+        let extra = ["--estimate-on", "gpu", "--report", report_arg];
+        let (on_gpu, on_gpu_png) = run("cpu:1,gpu:all", policy, &extra);
+        let err = String::from_utf8_lossy(&on_gpu.stderr);
+        assert!(on_gpu.status.success(), "{err}");
+        let (a, b) = (std::fs::read(&cpu_png), std::fs::read(on_gpu_png));
+        assert_eq!(
+            a.expect("cpu png"),
+            b.expect("png"),
+            "{policy} --estimate-on gpu"
+        );
+        let v: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("JSON");
+        for g in v["generations"].as_array().expect("generations") {
+            assert_eq!(g["estimated_on"], "gpu0", "{policy}: {g}");
+        }
     }
 }
 

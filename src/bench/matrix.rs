@@ -115,6 +115,8 @@ pub struct Plan<'a> {
     pub height: u32,
     pub ao_samples: u32,
     pub sample_rate: SampleRate,
+    /// Where cost mode's estimate runs.
+    pub estimate_on: raytrace::scheduled::EstimateOn,
 }
 
 impl Plan<'_> {
@@ -191,6 +193,7 @@ impl Plan<'_> {
                             mode,
                             task_size: size,
                             sample_rate: self.sample_rate,
+                            estimate_on: self.estimate_on,
                         };
                         let probe = mode == Mode::Cost && error.is_none();
                         let (stats, sums) = self.render_all(w, settings, probe)?;

@@ -60,6 +60,10 @@ pub struct Args {
     /// Share of each task's rays traced to estimate it (cost mode).
     #[arg(long, default_value_t = 0.125)]
     sample_rate: f64,
+    /// Where cost mode's estimate runs: `cpu` (the host's cores) or `gpu` (the first GPU
+    /// among `--devices`, as the thesis does).
+    #[arg(long, default_value = "cpu")]
+    estimate_on: raytrace::scheduled::EstimateOn,
     /// AO probes per primary hit.
     #[arg(long, default_value_t = 32)]
     ao_samples: u32,
@@ -220,6 +224,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             height,
             ao_samples: args.ao_samples,
             sample_rate: rate,
+            estimate_on: args.estimate_on,
         };
         let bar = ProgressBar::new(plan.runs() as u64);
         bar.set_style(

@@ -108,6 +108,8 @@ impl Plan<'_> {
             mode: Mode::Cost,
             task_size: NonZeroUsize::new(task_size).unwrap_or(Settings::DEFAULT_TASK_SIZE),
             sample_rate: self.sample_rate,
+            // Each rank estimates its slice of the tasks on its own host.
+            estimate_on: raytrace::scheduled::EstimateOn::Cpu,
         }
     }
 

@@ -223,6 +223,18 @@ impl RayDevice for GpuDevice {
         self.ctx.name()
     }
 
+    /// The thesis's estimate on the GPU: sample, compact, reduced traversal and per-task sums
+    /// on the device ([`super::GpuReducedTraversal`]), equal to the CPU's.
+    fn estimate_work(
+        &mut self,
+        rays: &RayBatch,
+        tasks: &[Range<usize>],
+        rate: crate::cost::SampleRate,
+    ) -> Option<Result<Vec<crate::cost::Work>, DeviceError>> {
+        let estimator = super::GpuReducedTraversal::new(self, rays, rate);
+        Some(estimator.try_work(tasks).map_err(DeviceError::from))
+    }
+
     /// The kernels' time from timestamp queries, where the adapter has them.
     fn take_device_seconds(&mut self) -> Option<f64> {
         let taken = f64::from_bits(self.kernel_seconds.swap(0f64.to_bits(), Ordering::Relaxed));

@@ -10,6 +10,7 @@ use std::ops::Range;
 
 use sched::{DeviceError, Executor, Sink};
 
+use crate::cost::{SampleRate, Work};
 use crate::{HitBatch, RayBatch, RayKind};
 
 /// Why a device refused a task: a range outside the generation.
@@ -80,6 +81,20 @@ pub trait RayDevice: Send {
 
     /// A name unique among the devices of a tracer: calibrations are keyed by it.
     fn name(&self) -> String;
+
+    /// The estimate of `tasks` computed on this device (the thesis estimates on the GPU):
+    /// each task's sampled reduced-traversal work at `rate`, equal to
+    /// [`crate::cost::ReducedTraversal::try_work`]'s. `None` for a device that does not
+    /// estimate (the default: the CPU estimates in parallel on the host instead).
+    fn estimate_work(
+        &mut self,
+        rays: &RayBatch,
+        tasks: &[Range<usize>],
+        rate: SampleRate,
+    ) -> Option<Result<Vec<Work>, DeviceError>> {
+        let _ = (rays, tasks, rate);
+        None
+    }
 
     /// Seconds the device itself measured running its kernels since the last call (a GPU's
     /// timestamp queries), and resets the count; `None` for a device that cannot measure

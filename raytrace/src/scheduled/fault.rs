@@ -11,6 +11,7 @@ use std::ops::Range;
 use sched::{DeviceError, Sink};
 
 use super::RayDevice;
+use crate::cost::{SampleRate, Work};
 use crate::{HitBatch, RayBatch, RayKind};
 
 /// Why a device stopped on purpose: the fault a [`FailingAfter`] injected.
@@ -98,5 +99,15 @@ impl RayDevice for FailingAfter<'_> {
 
     fn take_device_seconds(&mut self) -> Option<f64> {
         self.inner.take_device_seconds()
+    }
+
+    /// Estimating is not a task: it neither counts towards the fault nor is refused by it.
+    fn estimate_work(
+        &mut self,
+        rays: &RayBatch,
+        tasks: &[Range<usize>],
+        rate: SampleRate,
+    ) -> Option<Result<Vec<Work>, DeviceError>> {
+        self.inner.estimate_work(rays, tasks, rate)
     }
 }

@@ -43,6 +43,6 @@ mod tracer;
 pub use build::{FailAfter, build_devices};
 pub use device::{BadRange, Bound, RayDevice};
 pub use fault::{FailingAfter, InjectedFault};
-pub use settings::{Mode, Settings};
+pub use settings::{EstimateOn, Mode, Settings};
 pub use stats::{DeviceFit, DeviceStats, GenerationStats, TaskStats};
 pub use tracer::ScheduledTracer;

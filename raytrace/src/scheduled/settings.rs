@@ -49,6 +49,40 @@ impl FromStr for Mode {
     }
 }
 
+/// Where cost mode's estimate runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum EstimateOn {
+    /// On the host, in parallel over its cores (packets of 8 rays with AVX2).
+    #[default]
+    Cpu,
+    /// On the first GPU among the devices, as the thesis does (its kernels sample, compact,
+    /// traverse and sum per task on the device); on the host where no GPU is left.
+    Gpu,
+}
+
+impl EstimateOn {
+    /// Both, in order.
+    pub const ALL: [Self; 2] = [Self::Cpu, Self::Gpu];
+
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Cpu => "cpu",
+            Self::Gpu => "gpu",
+        }
+    }
+}
+
+impl FromStr for EstimateOn {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|e| e.name() == s.trim())
+            .ok_or_else(|| format!("unknown estimator device `{s}` (expected cpu or gpu)"))
+    }
+}
+
 /// The scheduling settings of every generation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
@@ -61,6 +95,8 @@ pub struct Settings {
     pub task_size: NonZeroUsize,
     /// Fraction of each task's rays the estimate traces (cost mode).
     pub sample_rate: SampleRate,
+    /// Where the estimate runs (cost mode).
+    pub estimate_on: EstimateOn,
 }
 
 impl Settings {
@@ -97,6 +133,7 @@ impl Default for Settings {
             mode: Mode::Cost,
             task_size: Self::DEFAULT_TASK_SIZE,
             sample_rate: SampleRate::THESIS,
+            estimate_on: EstimateOn::Cpu,
         }
     }
 }

@@ -44,6 +44,9 @@ pub struct GenerationStats {
     pub calibrations: Vec<DeviceFit>,
     /// Why the estimate failed and uniform costs were used instead, if it did.
     pub estimate_error: Option<String>,
+    /// Where the estimate ran (cost mode): a device's name, or `host` (with why not on a
+    /// GPU, where one was asked for); `None` when it was made elsewhere or not at all.
+    pub estimated_on: Option<String>,
     /// True when no device was left and the caller's thread traced the generation.
     pub host_fallback: bool,
 }

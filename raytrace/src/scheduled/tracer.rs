@@ -7,7 +7,9 @@ use std::time::Instant;
 use sched::{Costs, DeviceFailure, RunReport, Runtime, SchedError, split_ranges};
 
 use super::learn::{fit_devices, measured_speeds};
-use super::{Bound, DeviceStats, GenerationStats, Mode, RayDevice, Settings, TaskStats};
+use super::{
+    Bound, DeviceStats, EstimateOn, GenerationStats, Mode, RayDevice, Settings, TaskStats,
+};
 use crate::cost::{Calibrations, CostModel, ReducedTraversal, Work};
 use crate::shade::Tracer;
 use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
@@ -93,29 +95,66 @@ impl<'a> ScheduledTracer<'a> {
 
     /// Task costs of `tasks`, the work behind them (cost mode) and why an estimate failed.
     fn costs(
-        &self,
+        &mut self,
         kind: RayKind,
         rays: &RayBatch,
         tasks: &[std::ops::Range<usize>],
-    ) -> (Costs, Option<Vec<Work>>, Option<String>) {
+    ) -> (Costs, Option<Vec<Work>>, Option<String>, Option<String>) {
         if self.settings.mode == Mode::Regular {
-            return (Costs::uniform(tasks.len()), None, None);
+            return (Costs::uniform(tasks.len()), None, None, None);
         }
         let model = self.planning_model(kind);
-        let estimator = ReducedTraversal::new(self.bvh, rays, self.settings.sample_rate);
         // Tasks come from `split_ranges` over a non-empty batch, so neither step can fail;
         // if one did, the generation is planned in regular mode and the report says why.
-        match estimator.try_work(tasks) {
-            Ok(work) => match Costs::new(model.costs(&work)) {
-                Ok(costs) => (costs, Some(work), None),
-                Err(e) => (Costs::uniform(tasks.len()), None, Some(e.to_string())),
+        match self.estimate_work(rays, tasks) {
+            Ok((work, on)) => match Costs::new(model.costs(&work)) {
+                Ok(costs) => (costs, Some(work), None, Some(on)),
+                Err(e) => (
+                    Costs::uniform(tasks.len()),
+                    None,
+                    Some(e.to_string()),
+                    Some(on),
+                ),
             },
-            Err(e) => (Costs::uniform(tasks.len()), None, Some(e.to_string())),
+            Err(e) => (Costs::uniform(tasks.len()), None, Some(e), None),
         }
     }
 }
 
 impl<'a> ScheduledTracer<'a> {
+    /// The sampled work of `tasks`: on the first working device that estimates, when the
+    /// settings ask for a GPU and one does (a device that fails to estimate is not retired:
+    /// the host estimates instead, and tracing will show whether the device still works);
+    /// else on the host.
+    ///
+    /// Returns the work and where it was estimated: a device's name, or `host` (with why no
+    /// device did, when one was asked for).
+    fn estimate_work(
+        &mut self,
+        rays: &RayBatch,
+        tasks: &[Range<usize>],
+    ) -> Result<(Vec<Work>, String), String> {
+        let rate = self.settings.sample_rate;
+        let mut on = String::from("host");
+        if self.settings.estimate_on == EstimateOn::Gpu {
+            on.push_str(" (no GPU among the devices)");
+            for (device, retired) in self.devices.iter_mut().zip(&self.retired) {
+                if *retired {
+                    continue;
+                }
+                match device.estimate_work(rays, tasks, rate) {
+                    Some(Ok(work)) => return Ok((work, device.name())),
+                    Some(Err(e)) => on = format!("host ({} could not: {e})", device.name()),
+                    None => {}
+                }
+            }
+        }
+        let work = ReducedTraversal::new(self.bvh, rays, rate)
+            .try_work(tasks)
+            .map_err(|e| e.to_string())?;
+        Ok((work, on))
+    }
+
     /// The cost model the next plan of `kind` uses (see `planning_model`): what another
     /// process planning this tracer's work needs to turn estimated work into costs.
     pub fn cost_model(&self, kind: RayKind) -> CostModel {
@@ -141,12 +180,14 @@ impl<'a> ScheduledTracer<'a> {
                 work,
                 estimate_seconds: 0.0,
                 estimate_error: None,
+                estimated_on: None,
             },
             None => Planned {
                 costs: Costs::uniform(tasks.len()),
                 work: None,
                 estimate_seconds: 0.0,
                 estimate_error: None,
+                estimated_on: None,
             },
         };
         self.run_tasks(kind, rays, tasks, planned)
@@ -165,6 +206,7 @@ impl<'a> ScheduledTracer<'a> {
             work,
             estimate_seconds,
             estimate_error,
+            estimated_on,
         } = planned;
         let active: Vec<usize> = (0..self.devices.len())
             .filter(|&d| !self.retired[d])
@@ -201,6 +243,7 @@ impl<'a> ScheduledTracer<'a> {
             task_stats: Vec::new(),
             calibrations: Vec::new(),
             estimate_error,
+            estimated_on,
             host_fallback: false,
         };
         let hits = match result {
@@ -251,7 +294,7 @@ impl<'a> Tracer for ScheduledTracer<'a> {
         let tasks = split_ranges(rays.len(), self.settings.task_size_for(rays.len(), active));
 
         let estimating = Instant::now();
-        let (costs, work, estimate_error) = self.costs(kind, rays, &tasks);
+        let (costs, work, estimate_error, estimated_on) = self.costs(kind, rays, &tasks);
         // Regular mode has nothing to estimate: no overhead to report.
         let estimate_seconds = match self.settings.mode {
             Mode::Regular => 0.0,
@@ -262,6 +305,7 @@ impl<'a> Tracer for ScheduledTracer<'a> {
             work: work.as_deref(),
             estimate_seconds,
             estimate_error,
+            estimated_on,
         };
         let outputs = self.run_tasks(kind, rays, &tasks, planned);
         let mut hits = HitBatch {
@@ -383,6 +427,8 @@ struct Planned<'w> {
     work: Option<&'w [Work]>,
     estimate_seconds: f64,
     estimate_error: Option<String>,
+    /// Where the estimate ran (a device's name or `host`), if it ran here.
+    estimated_on: Option<String>,
 }
 
 /// Dense indices of `classes`, equal where the class names are equal.

@@ -419,3 +419,46 @@ fn a_failing_or_lost_gpu_has_its_tasks_rerun_elsewhere() {
     assert!(!lost.is_empty(), "the lost GPU never failed");
     eprintln!("lost GPU: {}", lost[0].reason);
 }
+
+/// `EstimateOn::Gpu` estimates every generation on the GPU, with exactly the host's costs (so
+/// the same plans) and the same image; without a GPU among the devices the host estimates
+/// and the stats say why. Skipped (with a note) without an adapter, except under CI.
+#[cfg(feature = "gpu")]
+#[test]
+fn estimates_on_the_gpu_equal_the_hosts() {
+    use crate::scheduled::EstimateOn;
+    if crate::gpu::tests::gpu().is_none() {
+        return;
+    }
+    let shader = whitted();
+    let (scene, bvh) = load("builtin:cornell", shader);
+    let want = reference(&scene, &bvh, shader);
+    let on = |estimate_on, devices| {
+        let settings = Settings {
+            estimate_on,
+            ..settings(Policy::StaticLpt, Mode::Cost, 96)
+        };
+        scheduled(&scene, &bvh, shader, devices, &[], settings)
+    };
+    let (host, host_stats) = on(EstimateOn::Cpu, "cpu:1,gpu:0");
+    let (gpu, gpu_stats) = on(EstimateOn::Gpu, "cpu:1,gpu:0");
+    assert_eq!(host.film, want.film);
+    assert_eq!(gpu.film, want.film);
+    // The first generation is planned with the default model on both: equal work, equal
+    // costs, to the bit.
+    let costs = |s: &GenerationStats| s.task_stats.iter().map(|t| t.cost).collect::<Vec<_>>();
+    assert_eq!(costs(&gpu_stats[0]), costs(&host_stats[0]));
+    for s in &gpu_stats {
+        assert_eq!(s.estimated_on.as_deref(), Some("gpu0"), "{:?}", s.kind);
+    }
+    assert!(
+        host_stats
+            .iter()
+            .all(|s| s.estimated_on.as_deref() == Some("host"))
+    );
+    let (_, cpu_only) = on(EstimateOn::Gpu, "cpu:2");
+    assert_eq!(
+        cpu_only[0].estimated_on.as_deref(),
+        Some("host (no GPU among the devices)")
+    );
+}
