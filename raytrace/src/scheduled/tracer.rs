@@ -93,30 +93,37 @@ impl<'a> ScheduledTracer<'a> {
             .unwrap_or_default()
     }
 
-    /// Task costs of `tasks`, the work behind them (cost mode) and why an estimate failed.
+    /// Task costs of `tasks`, the work behind them (cost mode), why an estimate failed and
+    /// where it ran.
     fn costs(
         &mut self,
         kind: RayKind,
         rays: &RayBatch,
         tasks: &[std::ops::Range<usize>],
-    ) -> (Costs, Option<Vec<Work>>, Option<String>, Option<String>) {
+    ) -> Costed {
+        let uniform = |error: Option<String>, on: Option<String>| Costed {
+            costs: Costs::uniform(tasks.len()),
+            work: None,
+            error,
+            on,
+        };
         if self.settings.mode == Mode::Regular {
-            return (Costs::uniform(tasks.len()), None, None, None);
+            return uniform(None, None);
         }
         let model = self.planning_model(kind);
         // Tasks come from `split_ranges` over a non-empty batch, so neither step can fail;
         // if one did, the generation is planned in regular mode and the report says why.
         match self.estimate_work(rays, tasks) {
             Ok((work, on)) => match Costs::new(model.costs(&work)) {
-                Ok(costs) => (costs, Some(work), None, Some(on)),
-                Err(e) => (
-                    Costs::uniform(tasks.len()),
-                    None,
-                    Some(e.to_string()),
-                    Some(on),
-                ),
+                Ok(costs) => Costed {
+                    costs,
+                    work: Some(work),
+                    error: None,
+                    on: Some(on),
+                },
+                Err(e) => uniform(Some(e.to_string()), Some(on)),
             },
-            Err(e) => (Costs::uniform(tasks.len()), None, Some(e), None),
+            Err(e) => uniform(Some(e), None),
         }
     }
 }
@@ -294,18 +301,18 @@ impl<'a> Tracer for ScheduledTracer<'a> {
         let tasks = split_ranges(rays.len(), self.settings.task_size_for(rays.len(), active));
 
         let estimating = Instant::now();
-        let (costs, work, estimate_error, estimated_on) = self.costs(kind, rays, &tasks);
+        let costed = self.costs(kind, rays, &tasks);
         // Regular mode has nothing to estimate: no overhead to report.
         let estimate_seconds = match self.settings.mode {
             Mode::Regular => 0.0,
             Mode::Cost => estimating.elapsed().as_secs_f64(),
         };
         let planned = Planned {
-            costs,
-            work: work.as_deref(),
+            costs: costed.costs,
+            work: costed.work.as_deref(),
             estimate_seconds,
-            estimate_error,
-            estimated_on,
+            estimate_error: costed.error,
+            estimated_on: costed.on,
         };
         let outputs = self.run_tasks(kind, rays, &tasks, planned);
         let mut hits = HitBatch {
@@ -418,6 +425,15 @@ impl ScheduledTracer<'_> {
 
         report.outputs
     }
+}
+
+/// What [`ScheduledTracer::costs`] found: the costs the plan uses, the work behind them
+/// (cost mode), why the estimate failed (uniform costs then) and where it ran.
+struct Costed {
+    costs: Costs,
+    work: Option<Vec<Work>>,
+    error: Option<String>,
+    on: Option<String>,
 }
 
 /// A generation's tasks, costed: the costs the plan uses, the work behind them (cost mode),
