@@ -1,7 +1,7 @@
 //! Uniform task sampling and compaction (thesis, figure 3.1 b and section 3.3): every task
 //! keeps rays at a fixed stride (pairs of neighbours, see [`SAMPLE_RUN`]), and the kept rays
-//! of all tasks are gathered into one contiguous batch, so the reduced trace streams through memory and its parallel loop sees
-//! one flat array instead of many short strided ones.
+//! of all tasks are gathered into one contiguous batch, so the reduced trace streams through
+//! memory and its parallel loop sees one flat array instead of many short strided ones.
 
 use std::ops::Range;
 
@@ -45,9 +45,9 @@ impl SampleRate {
 /// Adjacent rays kept together: a task's samples are runs of this many neighbours (the last
 /// run of an odd sample count has one), each run at the middle of one of equal strata.
 ///
-/// Two measured better than one ray per stratum on every scene and ray kind we tried
-/// (`cobalt estimate`, 12.5 %, tasks of 4096 and 512: forest, hairball, Sibenik, Conference,
-/// primary, Whitted and AO rays; 11 cases of 12), at no cost: e.g. Conference primary rays
+/// Two predicted better than one ray per stratum in 11 of the 12 cases we measured
+/// (`cobalt estimate`, 12.5 %, tasks of 4096 and 512: forest, hairball, Sibenik, Conference;
+/// Whitted and AO rays; the exception, hairball Whitted at 512, 2.68 → 2.86 %), at no cost: e.g. Conference primary rays
 /// 0.87 → 0.48 % at 4096, AO 5.98 → 4.85 % at 512. In Morton order a stratum's middle index
 /// is the corner of a sub-block, while the pair astride it stands for both halves of the
 /// stratum; in AO order (a pixel's Halton probes in a row) it keeps two successive probes.
@@ -70,7 +70,8 @@ fn sample_indices(k: usize, len: usize) -> impl Iterator<Item = usize> {
         } else {
             SAMPLE_RUN.min(k - SAMPLE_RUN * j)
         };
-        // Integer strata bounds: never past the task, never overflowing below 2^62 rays.
+        // Integer strata bounds, never past the task: `(j + 1)·len <= len²` does not overflow
+        // for tasks below 2^32 rays.
         let (lo, hi) = (j * len / runs, (j + 1) * len / runs);
         let start = lo + (hi - lo - width) / 2;
         start..start + width
