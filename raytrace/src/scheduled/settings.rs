@@ -107,8 +107,8 @@ impl Settings {
     /// [`Self::MIN_TASK_RAYS`] rays.
     pub const MIN_TASKS_PER_DEVICE: usize = 4;
 
-    /// The fewest rays a task is cut down to (tens of microseconds of tracing): below it, a
-    /// task costs more to dispatch and estimate than to trace.
+    /// The fewest rays a task is cut down to: a floor, so that a tiny generation is not cut
+    /// into tasks of a few rays whose dispatch would cost more than their tracing.
     pub const MIN_TASK_RAYS: usize = 64;
 
     /// Rays per task for a generation of `rays` rays on `devices` devices: [`Self::task_size`],
