@@ -109,7 +109,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
         task_size: args.task_size,
         tasks: sched::split_ranges(batch.len(), args.task_size),
         estimate: Box::new(move |rate| {
-            let rate = SampleRate::new(rate).map_err(knn_err("sample-rate", rate.to_string()))?;
+            let rate = SampleRate::new(rate)
+                .map_err(|e| knn_err("sample-rate", rate.to_string())(e.into()))?;
             let tasks = sched::split_ranges(batch.len(), args.task_size);
             let e = if density {
                 DensityEstimator::new(grid, batch, rate).estimate_timed(&tasks)?

@@ -2,8 +2,8 @@
 #[derive(Debug, thiserror::Error)]
 pub enum CollisionError {
     /// The sampling rate is not in (0, 1].
-    #[error("sample rate {0} must be in (0, 1]")]
-    BadSampleRate(f64),
+    #[error(transparent)]
+    BadSampleRate(#[from] sched::BadSampleRate),
     /// The static mesh could not be built (no triangles, bad indices…).
     #[error("building the triangle mesh: {0}")]
     Mesh(String),

@@ -2,36 +2,13 @@ use std::ops::Range;
 
 use sched::CostEstimator;
 
-use crate::{CollisionError, World, broad};
+use crate::{World, broad};
 
 /// A narrow-phase test costs about this many BVH node tests (GJK/EPA or a specialised
 /// contact against a box test): the weight of a candidate against a node in the cost.
 pub const CANDIDATE_WEIGHT: f64 = 20.0;
 
-/// Share of each task's bodies the estimator looks at, in (0, 1].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SampleRate(f64);
-
-impl SampleRate {
-    /// Checks the rate.
-    pub fn new(rate: f64) -> Result<Self, CollisionError> {
-        if rate > 0.0 && rate <= 1.0 {
-            Ok(SampleRate(rate))
-        } else {
-            Err(CollisionError::BadSampleRate(rate))
-        }
-    }
-
-    /// The rate.
-    pub fn get(self) -> f64 {
-        self.0
-    }
-
-    /// Every `stride`-th body of a task is sampled (at least its first).
-    pub fn stride(self) -> usize {
-        ((1.0 / self.0).round() as usize).max(1)
-    }
-}
+pub use sched::SampleRate;
 
 /// The thesis's estimator for collision: the broad phase of a sample of each task's bodies,
 /// counting BVH nodes `B` and candidate pairs `N` without any narrow phase, `C = B + w·N`,

@@ -18,8 +18,8 @@ pub enum KnnError {
         point: [f32; 3],
     },
     /// The sampling rate is not in (0, 1].
-    #[error("sample rate {0} must be in (0, 1]")]
-    BadSampleRate(f64),
+    #[error(transparent)]
+    BadSampleRate(#[from] sched::BadSampleRate),
     /// kiddo could not build its tree.
     #[error("building the k-d tree: {0}")]
     Tree(String),

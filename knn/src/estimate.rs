@@ -4,7 +4,7 @@ use std::time::Instant;
 
 use sched::CostEstimator;
 
-use crate::{DensityGrid, KnnError, KnnIndex, KnnQueries};
+use crate::{DensityGrid, KnnIndex, KnnQueries};
 
 /// What a query costs beyond the points it examines, in the same unit: descending the tree
 /// and scanning the first leaf (kiddo's leaves hold 32 points).
@@ -14,30 +14,7 @@ const DESCENT: f64 = 32.0;
 /// the points inside it: count the points in a cube this much wider.
 const SHELL: f32 = 1.5;
 
-/// Share of each task's queries the estimator looks at, in (0, 1].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SampleRate(f64);
-
-impl SampleRate {
-    /// Checks the rate.
-    pub fn new(rate: f64) -> Result<Self, KnnError> {
-        if rate > 0.0 && rate <= 1.0 {
-            Ok(SampleRate(rate))
-        } else {
-            Err(KnnError::BadSampleRate(rate))
-        }
-    }
-
-    /// The rate.
-    pub fn get(self) -> f64 {
-        self.0
-    }
-
-    /// Every `stride`-th query of a task is sampled (at least its first).
-    pub fn stride(self) -> usize {
-        ((1.0 / self.0).round() as usize).max(1)
-    }
-}
+pub use sched::SampleRate;
 
 /// Estimates a task's cost from a density grid, never touching the k-d tree: for each
 /// sampled query, the grid gives the half-width `r` of the cube expected to hold `k`

@@ -57,7 +57,7 @@ fn points(
     });
     let mut out = Vec::new();
     for rate in RATES {
-        let rate = SampleRate::new(rate).map_err(cost_err)?;
+        let rate = SampleRate::new(rate).map_err(|e| cost_err(e.into()))?;
         let estimator = ReducedTraversal::new(bvh, rays, rate);
         let mut est = Vec::new();
         let seconds = best_of_3(|| est = estimator.try_estimate(&tasks).unwrap_or_default());

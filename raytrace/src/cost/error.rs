@@ -5,11 +5,8 @@
 #[non_exhaustive]
 pub enum CostError {
     /// The sampling rate is not a number in `(0, 1]`.
-    #[error("sample rate {value} is invalid: it must be in (0, 1]")]
-    BadRate {
-        /// The rejected rate.
-        value: f64,
-    },
+    #[error(transparent)]
+    BadRate(#[from] sched::BadSampleRate),
     /// A task holds no rays, so no ray can represent it.
     #[error("task {task} is empty: every task needs at least one ray")]
     EmptyTask {

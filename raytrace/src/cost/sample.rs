@@ -8,39 +8,9 @@ use std::ops::Range;
 use super::CostError;
 use crate::RayBatch;
 
-/// The fraction of each task's rays that is traced, in `(0, 1]`.
-#[derive(Clone, Copy, Debug, PartialEq, PartialOrd)]
-pub struct SampleRate(f64);
-
-impl SampleRate {
-    /// Every ray: the estimate equals the full reduced traversal.
-    pub const FULL: Self = Self(1.0);
-    /// 12.5 %, the thesis's chosen trade-off between overhead and accuracy (Table 4.1).
-    pub const THESIS: Self = Self(0.125);
-
-    /// Checks the rate: finite and in `(0, 1]`.
-    pub fn new(rate: f64) -> Result<Self, CostError> {
-        if rate.is_finite() && rate > 0.0 && rate <= 1.0 {
-            Ok(Self(rate))
-        } else {
-            Err(CostError::BadRate { value: rate })
-        }
-    }
-
-    /// The rate as a fraction.
-    pub fn get(self) -> f64 {
-        self.0
-    }
-
-    /// How many of `len` rays are kept: `ceil(len · rate)`, at least one for a non-empty task.
-    /// The tiny epsilon keeps `4096 · 0.125` at 512 despite rounding in the rate.
-    pub fn samples(self, len: usize) -> usize {
-        if len == 0 {
-            return 0;
-        }
-        ((len as f64 * self.0 - 1e-9).ceil() as usize).clamp(1, len)
-    }
-}
+/// The fraction of each task's rays that is traced, in `(0, 1]`: `sched`'s, shared by
+/// every estimator of the workspace.
+pub use sched::SampleRate;
 
 /// Adjacent rays kept together: a task's samples are runs of this many neighbours (the last
 /// run of an odd sample count has one), each run at the middle of one of equal strata.
@@ -191,15 +161,6 @@ mod tests {
         (0..n)
             .map(|i| Ray::new(Vec3::new(i as f32, 0.0, 0.0), Vec3::X))
             .collect()
-    }
-
-    #[test]
-    fn rates_outside_zero_one_are_rejected_by_value() {
-        for bad in [0.0, -0.5, 1.5, f64::NAN, f64::INFINITY] {
-            let err = SampleRate::new(bad).unwrap_err();
-            assert!(err.to_string().contains("sample rate"), "{err}");
-        }
-        assert_eq!(SampleRate::new(0.125).unwrap(), SampleRate::THESIS);
     }
 
     #[test]
