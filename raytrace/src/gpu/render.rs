@@ -91,6 +91,27 @@ pub struct GpuRenderer {
 }
 
 impl GpuRenderer {
+    /// Traces `count` rays already on the device from `rays` into `out` (both renderers'
+    /// traces): the GPU seconds, where timestamps measured them.
+    pub(super) fn trace(
+        &self,
+        rays: &wgpu::Buffer,
+        out: &wgpu::Buffer,
+        count: u32,
+        mode: GpuMode,
+    ) -> Result<Option<f64>, GpuError> {
+        trace_resident(
+            &self.ctx,
+            &self.kernels,
+            &self.scene,
+            rays,
+            out,
+            count,
+            mode,
+            self.threads,
+        )
+    }
+
     /// Uploads `scene` (its triangles by primitive id, for shading) and `bvh` (built from it)
     /// and compiles the kernels.
     ///
@@ -341,19 +362,7 @@ impl GpuRenderer {
         }
         let ctx = &self.ctx;
         let mut gpu_seconds = ctx.timestamps.then_some(0.0);
-        let trace = |rays: &wgpu::Buffer, out: &wgpu::Buffer, count: u32, mode: GpuMode| {
-            trace_resident(
-                ctx,
-                &self.kernels,
-                &self.scene,
-                rays,
-                out,
-                count,
-                mode,
-                self.threads,
-            )
-        };
-        let s = trace(&stage.primary, &stage.hits, n, GpuMode::Closest)?;
+        let s = self.trace(&stage.primary, &stage.hits, n, GpuMode::Closest)?;
         gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
         let mut base = 0;
         while base < n {
@@ -369,7 +378,7 @@ impl GpuRenderer {
             if samples > 0 {
                 ctx.queue
                     .submit([self.run(&self.shade_ao, &group, len).finish()]);
-                let s = trace(
+                let s = self.trace(
                     &stage.probes,
                     &stage.probe_hits,
                     len * samples,

@@ -13,7 +13,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::buffers::{GpuRay, RESULT_BYTES, check_size, fetch, init};
-use super::pipeline::{GpuMode, trace_resident};
+use super::pipeline::GpuMode;
 use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
 use super::render::{GpuRenderer, GpuRendering};
 use super::{GpuContext, GpuError};
@@ -214,25 +214,13 @@ impl GpuRenderer {
         let (mut rays, mut next) = (&stage.primary, &stage.probes);
         if !self.scene.empty {
             for bounce in 0..=settings.bounces {
-                let trace = |rays: &wgpu::Buffer, out: &wgpu::Buffer, count: u32, mode| {
-                    trace_resident(
-                        ctx,
-                        &self.kernels,
-                        &self.scene,
-                        rays,
-                        out,
-                        count,
-                        mode,
-                        self.threads,
-                    )
-                };
-                let s = trace(rays, &stage.hits, n, GpuMode::Closest)?;
+                let s = self.trace(rays, &stage.hits, n, GpuMode::Closest)?;
                 gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
                 let group = bind(&Params { bounce, ..base }, rays, next);
                 ctx.queue.submit([self.run(&w.shade, &group, n).finish()]);
                 if lights > 0 {
                     // `slots` fits one binding, so far below 2^32.
-                    let s = trace(&shadow_rays, &shadow_hits, slots as u32, GpuMode::Any)?;
+                    let s = self.trace(&shadow_rays, &shadow_hits, slots as u32, GpuMode::Any)?;
                     gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
                     ctx.queue.submit([self.run(&w.shadows, &group, n).finish()]);
                 }
