@@ -246,11 +246,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             width,
             height,
             args.ao_samples,
-            task_sizes
-                .iter()
-                .copied()
-                .find(|&t| t == 4096)
-                .unwrap_or(task_sizes[0]),
+            &task_sizes,
         )?);
         if args.plots.is_some() && cost_png.is_none() {
             cost_png = Some(cost_image(scene, &bvh, width, height)?);
@@ -302,6 +298,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
         for r in &sims {
             all.push(serde_json::to_value(r).map_err(|e| CliError::Write(e.to_string()))?);
+        }
+        for p in &points {
+            all.push(serde_json::to_value(p).map_err(|e| CliError::Write(e.to_string()))?);
         }
         let text = serde_json::to_vec_pretty(&all).map_err(|e| CliError::Write(e.to_string()))?;
         crate::write_file(path, &text)?;

@@ -182,8 +182,21 @@ fn bars(
     save(path, rgb, W, h)
 }
 
-/// Prediction error against overhead, one line per ray kind, points labelled by sampling rate.
+/// Prediction error against overhead, one line per ray kind, points labelled by sampling rate:
+/// the first scene's, at tasks of 4096 rays if measured (else the first size).
 fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
+    let Some(first) = points.first() else {
+        return Ok(());
+    };
+    let size = points
+        .iter()
+        .map(|p| p.task_size)
+        .find(|&t| t == 4096)
+        .unwrap_or(first.task_size);
+    let points: Vec<&TradePoint> = points
+        .iter()
+        .filter(|p| p.scene == first.scene && p.task_size == size)
+        .collect();
     let (w, h) = (900u32, 560u32);
     let mut rgb = vec![255u8; (w * h * 3) as usize];
     {
@@ -201,10 +214,12 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
             .fold(0.0, f64::max)
             * 1.25
             + 0.5;
-        let scene = points.first().map_or("", |p| p.scene.as_str());
         let mut chart = ChartBuilder::on(&root)
             .caption(
-                format!("Sampling rate: prediction error vs overhead ({scene})"),
+                format!(
+                    "Sampling rate: prediction error vs overhead ({}, tasks of {size} rays)",
+                    first.scene
+                ),
                 ("sans-serif", 20),
             )
             .margin(14)
