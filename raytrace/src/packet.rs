@@ -9,6 +9,13 @@
 //! rays, the Halton probes of one pixel) share most of their nodes, so one box test serves up
 //! to four rays. This is what makes estimation cheap on a CPU, where, unlike the thesis's GPU,
 //! fetching triangles is not what dominates a trace.
+//!
+//! Measured and dropped (forest and Conference, 12.5 % samples of 4096-ray tasks): a
+//! branch-free walk that counts children as they are tested and pushes only inner ones
+//! (slower: without speculation each step waits on the last), a software prefetch of the
+//! pushed children's pair (no gain), and two packets walked in one loop to overlap their
+//! latencies (5–14 % slower). An AO packet's lanes share a node 3.1–3.8 times on average, a
+//! coherent packet's 5–7 times.
 
 use crate::{Bvh, Counts, RayBatch};
 
