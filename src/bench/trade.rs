@@ -15,24 +15,39 @@ use crate::error::CliError;
 /// The sampling rates measured: the thesis's four, and two below them.
 pub const RATES: [f64; 6] = [0.03125, 0.0625, 0.125, 0.25, 0.5, 1.0];
 
-/// Thesis Table 4.1 (averaged over its nine scenes), `(rate, error, overhead)` per ray kind.
-const THESIS: [(&str, [(f64, f64, f64); 4]); 2] = [
+/// One cell pair of thesis Table 4.1: error and overhead at a sampling rate.
+struct Published {
+    rate: f64,
+    error: f64,
+    overhead: f64,
+}
+
+const fn published(rate: f64, error: f64, overhead: f64) -> Published {
+    Published {
+        rate,
+        error,
+        overhead,
+    }
+}
+
+/// Thesis Table 4.1 (averaged over its nine scenes), per ray kind.
+const THESIS: [(&str, [Published; 4]); 2] = [
     (
         "coherent",
         [
-            (0.125, 0.032, 0.050),
-            (0.25, 0.025, 0.125),
-            (0.5, 0.007, 0.225),
-            (1.0, 0.0, 0.425),
+            published(0.125, 0.032, 0.050),
+            published(0.25, 0.025, 0.125),
+            published(0.5, 0.007, 0.225),
+            published(1.0, 0.0, 0.425),
         ],
     ),
     (
         "diffuse",
         [
-            (0.125, 0.041, 0.062),
-            (0.25, 0.027, 0.152),
-            (0.5, 0.012, 0.235),
-            (1.0, 0.0, 0.435),
+            published(0.125, 0.041, 0.062),
+            published(0.25, 0.027, 0.152),
+            published(0.5, 0.012, 0.235),
+            published(1.0, 0.0, 0.435),
         ],
     ),
 ];
@@ -104,7 +119,7 @@ fn points(
             let seconds = best_of_3(|| est = estimator.try_estimate(&tasks).unwrap_or_default());
             let prediction_error = prediction_error(&est, &full).map_err(cost_err)?;
             let overhead = seconds / trace.max(1e-12);
-            let published = thesis.and_then(|t| t.iter().find(|p| p.0 == rate.get()));
+            let thesis_at = thesis.and_then(|t| t.iter().find(|p| p.rate == rate.get()));
             out.push(TradePoint {
                 source: "sampling_trade",
                 scene: scene.to_string(),
@@ -114,8 +129,8 @@ fn points(
                 sample_rate: rate.get(),
                 prediction_error,
                 overhead,
-                thesis_prediction_error: published.map(|p| p.1),
-                thesis_overhead: published.map(|p| p.2),
+                thesis_prediction_error: thesis_at.map(|p| p.error),
+                thesis_overhead: thesis_at.map(|p| p.overhead),
                 meets_target: meets_target(kind, prediction_error, overhead),
             });
         }
