@@ -46,16 +46,5 @@ impl CostEstimator<Range<usize>> for BroadPhaseCount<'_> {
     }
 }
 
-/// The thesis's prediction error: Σ|estimated − full| / Σ full. `None` if `full` sums to 0
-/// or the lengths differ.
-pub fn prediction_error(estimated: &[f64], full: &[f64]) -> Option<f64> {
-    let total: f64 = full.iter().sum();
-    (estimated.len() == full.len() && total > 0.0).then(|| {
-        estimated
-            .iter()
-            .zip(full)
-            .map(|(e, f)| (e - f).abs())
-            .sum::<f64>()
-            / total
-    })
-}
+/// The thesis's prediction error, `sched`'s: shared by every estimator of the workspace.
+pub use sched::prediction_error;

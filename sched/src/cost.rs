@@ -139,6 +139,21 @@ impl<T: Task, F: Fn(&T) -> f64> CostEstimator<T> for F {
     }
 }
 
+/// The thesis's prediction error: `Σ|estimated − full| / Σ full`, where "full" is the same
+/// estimator over every item (so sampling everything gives 0). `None` if `full` sums to 0 or
+/// the lengths differ.
+pub fn prediction_error(estimated: &[f64], full: &[f64]) -> Option<f64> {
+    let total: f64 = full.iter().sum();
+    (estimated.len() == full.len() && total > 0.0).then(|| {
+        estimated
+            .iter()
+            .zip(full)
+            .map(|(e, f)| (e - f).abs())
+            .sum::<f64>()
+            / total
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

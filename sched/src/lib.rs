@@ -64,7 +64,7 @@ mod speeds;
 mod task;
 mod timeline;
 
-pub use cost::{ByItems, CostEstimator, Costs, Estimate, Uniform};
+pub use cost::{ByItems, CostEstimator, Costs, Estimate, Uniform, prediction_error};
 pub use dispatch::Dispatch;
 pub use error::{DeviceFailure, SchedError};
 pub use executor::{DeviceError, Executor, Sink};
