@@ -404,16 +404,9 @@ fn gpu_estimate(
     rate: SampleRate,
     repeats: usize,
 ) -> Result<(f64, Vec<Work>, f64, String), CliError> {
-    use raytrace::devices::GpuSelect;
-    use raytrace::gpu::{GpuContext, GpuDevice, GpuOptions, GpuReducedTraversal};
-    let gpu_err = |e: raytrace::gpu::GpuError| CliError::Arg {
-        flag: "device",
-        value: "gpu".into(),
-        message: e.to_string(),
-    };
-    let ctx = GpuContext::open(GpuSelect::All, GpuOptions::from_env())
-        .map_err(gpu_err)?
-        .swap_remove(0);
+    use raytrace::gpu::{GpuDevice, GpuReducedTraversal};
+    let gpu_err = crate::render_gpu::gpu_err("device");
+    let ctx = crate::render_gpu::first_gpu("device")?;
     let name = ctx.info.name.clone();
     let dev = GpuDevice::new(ctx, bvh).map_err(gpu_err)?;
     let estimator = GpuReducedTraversal::new(&dev, rays, rate);

@@ -42,6 +42,27 @@ pub struct GpuRun {
 
 /// Renders on the first usable adapter (software adapters only with
 /// `COBALT_GPU_SOFTWARE=1`).
+/// How a GPU error reads on the command line: it names the flag (`--flag gpu`) that asked
+/// for the GPU.
+#[cfg(feature = "gpu")]
+pub fn gpu_err(flag: &'static str) -> impl Fn(raytrace::gpu::GpuError) -> CliError + Copy {
+    move |e| CliError::Arg {
+        flag,
+        value: "gpu".into(),
+        message: e.to_string(),
+    }
+}
+
+/// The first GPU found (`COBALT_GPU_*` options from the environment), for `--flag gpu`.
+#[cfg(feature = "gpu")]
+pub fn first_gpu(flag: &'static str) -> Result<raytrace::gpu::GpuContext, CliError> {
+    use raytrace::devices::GpuSelect;
+    use raytrace::gpu::{GpuContext, GpuOptions};
+    Ok(GpuContext::open(GpuSelect::All, GpuOptions::from_env())
+        .map_err(gpu_err(flag))?
+        .swap_remove(0))
+}
+
 #[cfg(feature = "gpu")]
 pub fn render(
     scene: &Scene,
@@ -51,16 +72,9 @@ pub fn render(
     shader: &Shader,
     threads: GpuThreadsArg,
 ) -> Result<(Film, GpuRun), CliError> {
-    use raytrace::devices::GpuSelect;
-    use raytrace::gpu::{GpuContext, GpuOptions, GpuRenderer, Threads};
-    let gpu_err = |e: raytrace::gpu::GpuError| CliError::Arg {
-        flag: "pipeline",
-        value: "gpu".into(),
-        message: e.to_string(),
-    };
-    let ctx = GpuContext::open(GpuSelect::All, GpuOptions::from_env())
-        .map_err(gpu_err)?
-        .swap_remove(0);
+    use raytrace::gpu::{GpuRenderer, Threads};
+    let gpu_err = gpu_err("pipeline");
+    let ctx = first_gpu("pipeline")?;
     let adapter = ctx.info.name.clone();
     let threads = match threads {
         GpuThreadsArg::Persistent => Threads::Persistent,
