@@ -58,6 +58,11 @@ impl Executor<Range<usize>> for Device<'_> {
         Ok(pairs)
     }
 
+    /// Pairs are tested on the runtime's device thread itself: a launch costs nothing.
+    fn launch_overhead(&self) -> Option<f64> {
+        Some(0.0)
+    }
+
     fn name(&self) -> String {
         format!("cpu{} (parry3d)", self.id)
     }

@@ -60,6 +60,11 @@ impl Executor<Range<usize>> for Device<'_> {
         self.speed
     }
 
+    /// Queries run on the runtime's device thread itself: a launch costs nothing.
+    fn launch_overhead(&self) -> Option<f64> {
+        Some(0.0)
+    }
+
     fn name(&self) -> String {
         format!("cpu{} (kiddo)", self.id)
     }

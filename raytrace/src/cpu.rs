@@ -121,6 +121,12 @@ impl RayDevice for CpuDevice<'_> {
         format!("cpu{}", self.index)
     }
 
+    /// Free on one thread: the runtime's device thread traces the launch itself. Entering a
+    /// pool hands the launch to other threads, a cost not measured here.
+    fn launch_overhead(&self) -> Option<f64> {
+        self.pool.is_none().then_some(0.0)
+    }
+
     fn class(&self) -> String {
         format!("cpu/{}", self.threads())
     }

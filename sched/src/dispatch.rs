@@ -10,8 +10,10 @@ use crate::Costs;
 pub trait Dispatch: Send {
     /// Fills `launch` (given empty) with the tasks `device` should run next, as one launch.
     /// Leaving it empty means "nothing for you now"; the caller waits until a failure
-    /// releases work or every task is done.
-    fn next(&mut self, device: usize, launch: &mut Vec<u32>);
+    /// releases work or every task is done. `now` is the time of the call in seconds since
+    /// the run started, on the runtime's wall clock or the simulation's clock; a device asks
+    /// only once its previous launch is done, so a policy can time launches with it.
+    fn next(&mut self, device: usize, now: f64, launch: &mut Vec<u32>);
 
     /// `device` has failed and will never ask again; `undone` are tasks it was given but did
     /// not finish. They, and anything else the device still held, must be handed out again.

@@ -37,6 +37,15 @@ pub trait Executor<T: Task>: Send {
         1.0
     }
 
+    /// Seconds a launch costs on top of its tasks (a kernel dispatch, a network round trip,
+    /// a thread pool to enter), where known. `Hybrid` sizes its launches by it: one task at a
+    /// time when launching is free, so every task not yet started can still be stolen;
+    /// launches that amortise a known cost; halves of what is left when it is unknown (the
+    /// default).
+    fn launch_overhead(&self) -> Option<f64> {
+        None
+    }
+
     /// A name for reports and errors.
     fn name(&self) -> String {
         String::from("device")
@@ -57,6 +66,9 @@ impl<T: Task, E: Executor<T> + ?Sized> Executor<T> for Box<E> {
     }
     fn speed(&self) -> f64 {
         (**self).speed()
+    }
+    fn launch_overhead(&self) -> Option<f64> {
+        (**self).launch_overhead()
     }
     fn name(&self) -> String {
         (**self).name()

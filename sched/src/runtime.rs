@@ -87,6 +87,13 @@ impl Runtime {
         Runtime { policy }
     }
 
+    /// Starts (if not yet parked) the threads a run on `devices` devices uses, so that the
+    /// first run does not wait for new threads: call it while setting up. Runs drive device
+    /// 0 on the calling thread and the others on parked threads kept between runs.
+    pub fn start_threads(devices: usize) {
+        workers::give_back(workers::take(devices.saturating_sub(1)));
+    }
+
     /// Runs every task exactly once across `executors` and returns their outputs in task
     /// order. Speeds come from [`Executor::speed`]. A device that errors or panics is retired
     /// and its unfinished tasks go to the others; only if every device fails is the run an
@@ -113,7 +120,10 @@ impl Runtime {
         let m = executors.len();
 
         let planning = Instant::now();
-        let dispatch = self.policy.dispatcher(costs, &speeds);
+        let overheads: Vec<Option<f64>> = executors.iter().map(|e| e.launch_overhead()).collect();
+        let dispatch = self
+            .policy
+            .dispatcher_with_overheads(costs, &speeds, &overheads);
         let plan_seconds = planning.elapsed().as_secs_f64();
 
         let shared = Shared {
@@ -128,22 +138,27 @@ impl Runtime {
             changed: Condvar::new(),
             start: Instant::now(),
         };
-        let per_device: Vec<(f64, u64)> = crossbeam::thread::scope(|scope| {
-            let handles: Vec<_> = executors
-                .iter_mut()
-                .enumerate()
-                .map(|(d, exec)| {
-                    let shared = &shared;
-                    let name = &names[d];
-                    scope.spawn(move |_| device_loop(d, name, exec, tasks, shared))
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().unwrap_or((0.0, 0)))
-                .collect()
-        })
-        .unwrap_or_else(|_| vec![(0.0, 0); m]);
+        let mut per_device = vec![(0.0, 0u64); m];
+        let mut pool = workers::take(m.saturating_sub(1));
+        pool.scoped(|scope| {
+            let shared = &shared;
+            let mut devices = executors.iter_mut().zip(per_device.iter_mut()).enumerate();
+            let first = devices.next();
+            for (d, (exec, out)) in devices {
+                let name = &names[d];
+                scope.execute(move || {
+                    *out = catch_unwind(AssertUnwindSafe(|| {
+                        device_loop(d, name, exec, tasks, shared)
+                    }))
+                    .unwrap_or((0.0, 0));
+                });
+            }
+            // The calling thread is device 0: it starts at once.
+            if let Some((d, (exec, out))) = first {
+                *out = device_loop(d, &names[d], exec, tasks, shared);
+            }
+        });
+        workers::give_back(pool);
 
         let state = shared.state.into_inner().unwrap_or_else(|p| p.into_inner());
         let n = tasks.len();
@@ -172,6 +187,30 @@ impl Runtime {
     }
 }
 
+/// Parked threads for the devices after the first, kept between runs: a thread woken from a
+/// park starts at once, where a new one waited up to 4 ms on two busy cores.
+mod workers {
+    use std::sync::Mutex;
+
+    use scoped_threadpool::Pool;
+
+    static IDLE: Mutex<Vec<Pool>> = Mutex::new(Vec::new());
+
+    /// A pool of at least `threads` threads that no other run is using.
+    pub(super) fn take(threads: usize) -> Pool {
+        let threads = u32::try_from(threads.max(1)).unwrap_or(u32::MAX);
+        let mut idle = IDLE.lock().unwrap_or_else(|p| p.into_inner());
+        match idle.iter().position(|p| p.thread_count() >= threads) {
+            Some(i) => idle.swap_remove(i),
+            None => Pool::new(threads),
+        }
+    }
+
+    pub(super) fn give_back(pool: Pool) {
+        IDLE.lock().unwrap_or_else(|p| p.into_inner()).push(pool);
+    }
+}
+
 /// One device's thread. The order it looks for work in is the policy's (see `Dispatch`);
 /// here it only waits when there is none, runs launches unlocked and delivers their outputs.
 /// Returns its dispatch time and launch count.
@@ -193,7 +232,9 @@ fn device_loop<T: Task, E: Executor<T>>(
                 return (dispatch_seconds + asked.elapsed().as_secs_f64(), launches);
             }
             launch.clear();
-            state.dispatch.next(device, &mut launch);
+            state
+                .dispatch
+                .next(device, shared.seconds(Instant::now()), &mut launch);
             if !launch.is_empty() {
                 break;
             }

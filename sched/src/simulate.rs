@@ -125,7 +125,11 @@ impl Simulation {
         }
 
         let planning = std::time::Instant::now();
-        let mut dispatch = self.policy.dispatcher(estimated, &self.speeds);
+        let mut dispatch = self.policy.dispatcher_with_overheads(
+            estimated,
+            &self.speeds,
+            &vec![Some(self.latency); m],
+        );
         let plan_seconds = planning.elapsed().as_secs_f64();
         let mut events: BinaryHeap<Reverse<(Load, Kind, u32)>> = (0..m as u32)
             .map(|d| Reverse((Load::ZERO, Kind::Ready, d)))
@@ -173,7 +177,7 @@ impl Simulation {
                 continue;
             }
             launch.clear();
-            dispatch.next(du, &mut launch);
+            dispatch.next(du, now.value(), &mut launch);
             if launch.is_empty() {
                 waiting.push(d);
                 continue;

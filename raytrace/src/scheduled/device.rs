@@ -82,6 +82,12 @@ pub trait RayDevice: Send {
     /// A name unique among the devices of a tracer: calibrations are keyed by it.
     fn name(&self) -> String;
 
+    /// Seconds a launch costs beyond its ranges, where known: see
+    /// [`sched::Executor::launch_overhead`]. Unknown by default.
+    fn launch_overhead(&self) -> Option<f64> {
+        None
+    }
+
     /// The estimate of `tasks` computed on this device (the thesis estimates on the GPU):
     /// each task's sampled reduced-traversal work at `rate`, equal to
     /// [`crate::cost::ReducedTraversal::try_work`]'s. `None` for a device that does not
@@ -155,6 +161,10 @@ impl Executor<Range<usize>> for Bound<'_, '_> {
     /// The speed measured on earlier generations (1 before the first).
     fn speed(&self) -> f64 {
         self.speed
+    }
+
+    fn launch_overhead(&self) -> Option<f64> {
+        self.device.launch_overhead()
     }
 
     fn name(&self) -> String {

@@ -97,6 +97,10 @@ impl RayDevice for FailingAfter<'_> {
         self.inner.class()
     }
 
+    fn launch_overhead(&self) -> Option<f64> {
+        self.inner.launch_overhead()
+    }
+
     fn take_device_seconds(&mut self) -> Option<f64> {
         self.inner.take_device_seconds()
     }

@@ -44,6 +44,8 @@ impl<'a> ScheduledTracer<'a> {
             return Err(SchedError::NoDevices);
         }
         let m = devices.len();
+        // Before the first generation, which would otherwise wait for them.
+        Runtime::start_threads(m);
         Ok(Self {
             bvh,
             devices,

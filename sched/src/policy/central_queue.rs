@@ -33,7 +33,7 @@ impl QueueDispatch {
 }
 
 impl Dispatch for QueueDispatch {
-    fn next(&mut self, _device: usize, launch: &mut Vec<u32>) {
+    fn next(&mut self, _device: usize, _now: f64, launch: &mut Vec<u32>) {
         launch.extend(self.queue.pop_front());
     }
 

@@ -4,45 +4,75 @@ use super::plan_lpt;
 use crate::dispatch::Orphans;
 use crate::{Costs, Dispatch, Load, Speeds};
 
+/// A launch is made long enough that a known launch overhead is at most this fraction of it.
+const AMORTISED: f64 = 1.0 / 64.0;
+
 /// LPT start, then stealing of the tail.
 ///
-/// Each device holds its LPT list, largest first, and launches the front *half* of what is
-/// left each time it goes idle, so it pays O(log n) launches instead of one per task while
+/// Each device holds its LPT list, largest first, and launches from its front each time it
+/// goes idle. How much it launches depends on what a launch costs it (see
+/// [`crate::Executor::launch_overhead`]): one task when launching is free, so that every
+/// task not yet started stays within reach of a thief; enough tasks to amortise a known
+/// overhead to [`AMORTISED`], but never more than half of what is left; half of what is left
+/// when the overhead is unknown, which pays O(log n) launches instead of one per task while
 /// the small tasks at the back stay available. A device with nothing left looks for work in
-/// this order:
-/// finish what was planned for it, then take tasks orphaned by a failed device, then steal
-/// the smallest unlaunched tasks of the device with the most unlaunched work, as many as it
-/// can finish no later than that device would finish the rest.
+/// this order: tasks orphaned by a failed device, then the smallest unlaunched tasks of the
+/// device expected to finish last, as many as it can finish no later than that device would
+/// finish the rest. Stolen tasks join the thief's list and are launched like its own.
 ///
-/// That last rule is why stealing never makes the makespan worse than the LPT plan when
-/// estimates are exact: the thief ends before the victim, and the victim ends earlier than
-/// planned. When estimates are wrong, the tail moves to whoever is idle.
+/// "Would finish" counts the victim's launch in flight, not only its unlaunched tasks. Each
+/// device's pace (seconds per unit of cost) is measured on its own completed launches of
+/// this run, so the launch in flight has `its cost × pace − time since it started` left.
+/// Ignoring it, as a rule in cost units alone must, left the victim's last unlaunched task
+/// unstolen even when the thief would have finished it long before the victim's launch in
+/// flight ended.
+///
+/// That rule is why stealing never makes the makespan worse than the LPT plan when
+/// estimates and paces are exact: the thief ends before the victim, and the victim ends
+/// earlier than planned. When estimates are wrong, the tail moves to whoever is idle.
 #[derive(Debug)]
 pub struct HybridDispatch<'a> {
     queues: Vec<VecDeque<u32>>,
-    /// Unlaunched work of each device, in time (cost / speed).
+    /// Unlaunched cost of each device.
     pending: Vec<Load>,
     speeds: Vec<f64>,
+    /// Seconds one launch costs each device beyond its tasks, where known.
+    overheads: Vec<Option<f64>>,
+    /// Each device's launch in flight: when it started (seconds) and its cost.
+    in_flight: Vec<Option<(f64, f64)>>,
+    /// Each device's completed launches: their cost and the seconds they took.
+    done: Vec<(Load, f64)>,
     orphans: Orphans,
     costs: &'a Costs,
 }
 
 impl<'a> HybridDispatch<'a> {
-    /// Plans `costs` by LPT on `speeds`.
+    /// Plans `costs` by LPT on `speeds`; launch overheads unknown (launches in halves).
     pub fn new(costs: &'a Costs, speeds: &Speeds) -> Self {
+        Self::with_overheads(costs, speeds, &vec![None; speeds.len()])
+    }
+
+    /// Plans `costs` by LPT on `speeds`, sizing each device's launches by its launch
+    /// overhead in seconds (`None` where unknown; missing entries are unknown).
+    pub fn with_overheads(costs: &'a Costs, speeds: &Speeds, overheads: &[Option<f64>]) -> Self {
         let plan = plan_lpt(costs, speeds);
         let queues: Vec<VecDeque<u32>> = (0..speeds.len())
             .map(|d| plan.tasks(d).iter().copied().collect())
             .collect();
         let pending = queues
             .iter()
-            .zip(speeds.as_slice())
-            .map(|(q, s)| Load::sum(q.iter().map(|&t| costs[t as usize] / s)))
+            .map(|q| Load::sum(q.iter().map(|&t| costs[t as usize])))
             .collect();
+        let known = |o: &Option<f64>| o.filter(|o| o.is_finite() && *o >= 0.0);
         HybridDispatch {
             queues,
             pending,
             speeds: speeds.as_slice().to_vec(),
+            overheads: (0..speeds.len())
+                .map(|d| overheads.get(d).and_then(known))
+                .collect(),
+            in_flight: vec![None; speeds.len()],
+            done: vec![(Load::ZERO, 0.0); speeds.len()],
             orphans: Orphans::default(),
             costs,
         }
@@ -52,60 +82,140 @@ impl<'a> HybridDispatch<'a> {
         self.costs[task as usize]
     }
 
+    /// Seconds per unit of cost on `device`: measured on its own completed launches, else on
+    /// everyone's, scaled by the planned speeds; `None` before any launch completed.
+    fn pace(&self, device: usize) -> Option<f64> {
+        let measured = |(cost, secs): (Load, f64)| {
+            (cost.value() > 0.0 && secs > 0.0).then(|| secs / cost.value())
+        };
+        measured(self.done[device]).or_else(|| {
+            let (mut cost, mut secs) = (0.0, 0.0);
+            for (d, &(c, s)) in self.done.iter().enumerate() {
+                if measured((c, s)).is_some() {
+                    cost += c.value();
+                    secs += s * self.speeds[d];
+                }
+            }
+            (cost > 0.0).then(|| secs / cost / self.speeds[device])
+        })
+    }
+
+    /// How many tasks from the front of `device`'s list its next launch takes.
+    fn launch_size(&self, device: usize) -> usize {
+        let queue = &self.queues[device];
+        let half = queue.len().div_ceil(2);
+        match (self.overheads[device], self.pace(device)) {
+            (Some(0.0), _) => queue.len().min(1),
+            (Some(o), Some(pace)) => {
+                let (mut k, mut secs) = (0, 0.0);
+                for &t in queue.iter().take(half) {
+                    k += 1;
+                    secs += self.cost(t) * pace;
+                    if o <= AMORTISED * secs {
+                        break;
+                    }
+                }
+                k
+            }
+            _ => half,
+        }
+    }
+
     fn launch_own(&mut self, device: usize, launch: &mut Vec<u32>) -> bool {
-        let queue = &mut self.queues[device];
-        let take = queue.len().div_ceil(2);
-        launch.extend(queue.drain(..take));
-        self.pending[device] = Load::sum(
-            queue
+        let take = self.launch_size(device);
+        let first = launch.len();
+        launch.extend(self.queues[device].drain(..take));
+        // Subtracted, not re-summed: with one task per launch, re-summing the list each
+        // time made dispatch quadratic in the tasks (tens of ms for 4000 of them).
+        self.pending[device] = if self.queues[device].is_empty() {
+            Load::ZERO
+        } else {
+            launch[first..]
                 .iter()
-                .map(|&t| self.costs[t as usize] / self.speeds[device]),
-        );
+                .fold(self.pending[device], |p, &t| p.plus(-self.cost(t)))
+        };
         take > 0
     }
 
-    fn steal(&mut self, thief: usize, launch: &mut Vec<u32>) -> bool {
+    /// When `device` would finish what it holds, counted from `now`: in seconds once paces
+    /// are measured (`paces` is the thief's and this device's), else in planned time (cost /
+    /// speed, nothing in flight).
+    fn finish(&self, device: usize, now: f64, paces: Option<(f64, f64)>) -> f64 {
+        match paces {
+            Some((_, pace)) => {
+                let flight = self.in_flight[device]
+                    .map_or(0.0, |(at, cost)| (cost * pace - (now - at)).max(0.0));
+                flight + self.pending[device].value() * pace
+            }
+            None => self.pending[device].value() / self.speeds[device],
+        }
+    }
+
+    /// Moves the smallest unlaunched tasks of the device expected to finish last into the
+    /// (idle, empty-handed) thief's list; see the type's docs for how many.
+    fn steal(&mut self, thief: usize, now: f64) -> bool {
+        let paces_of = |v: usize| self.pace(thief).zip(self.pace(v));
         let Some(victim) = (0..self.queues.len())
             .filter(|&v| v != thief && !self.queues[v].is_empty())
-            .max_by(|&a, &b| self.pending[a].cmp(&self.pending[b]).then(b.cmp(&a)))
+            .max_by(|&a, &b| {
+                let fa = self.finish(a, now, paces_of(a));
+                let fb = self.finish(b, now, paces_of(b));
+                fa.total_cmp(&fb).then(b.cmp(&a))
+            })
         else {
             return false;
         };
-        let (st, sv) = (self.speeds[thief], self.speeds[victim]);
-        let mut stolen = Load::ZERO; // in cost units
-        let mut left = self.pending[victim]; // in the victim's time
+        let paces = paces_of(victim);
+        // Time per unit of cost on the thief and on the victim, in one unit.
+        let (pt, pv) = paces.unwrap_or((1.0 / self.speeds[thief], 1.0 / self.speeds[victim]));
+        let mut stolen = Load::ZERO;
+        let mut victim_ends = self.finish(victim, now, paces);
+        let mut took = Vec::new();
         while let Some(&t) = self.queues[victim].back() {
             let c = self.cost(t);
-            let thief_ends = stolen.plus(c).value() / st;
-            let victim_ends = left.plus(-c / sv).value();
-            if thief_ends > victim_ends {
+            if stolen.plus(c).value() * pt > victim_ends - c * pv {
                 break;
             }
             self.queues[victim].pop_back();
             stolen = stolen.plus(c);
-            left = left.plus(-c / sv);
-            launch.push(t);
+            victim_ends -= c * pv;
+            self.pending[victim] = self.pending[victim].plus(-c);
+            took.push(t);
         }
-        // Stolen from the back, smallest first; run the largest first like everyone else.
-        launch.reverse();
-        self.pending[victim] = left;
-        !launch.is_empty()
+        // Taken from the back, smallest first; the thief runs the largest first like
+        // everyone else.
+        self.queues[thief].extend(took.iter().rev());
+        self.pending[thief] = self.pending[thief].plus_load(stolen);
+        !took.is_empty()
     }
 }
 
 impl Dispatch for HybridDispatch<'_> {
-    fn next(&mut self, device: usize, launch: &mut Vec<u32>) {
-        let _found = self.launch_own(device, launch)
-            || {
-                launch.extend(self.orphans.pop());
-                !launch.is_empty()
+    fn next(&mut self, device: usize, now: f64, launch: &mut Vec<u32>) {
+        // Asking again means the last launch is done: it measures the device's pace.
+        if let Some((at, cost)) = self.in_flight[device].take() {
+            let (c, s) = self.done[device];
+            self.done[device] = (c.plus(cost), s + (now - at).max(0.0));
+        }
+        if self.queues[device].is_empty() {
+            launch.extend(self.orphans.pop());
+            if launch.is_empty() {
+                self.steal(device, now);
             }
-            || self.steal(device, launch);
+        }
+        if launch.is_empty() {
+            self.launch_own(device, launch);
+        }
+        if !launch.is_empty() {
+            let cost = launch.iter().map(|&t| self.cost(t)).sum();
+            self.in_flight[device] = Some((now, cost));
+        }
     }
 
     fn fail(&mut self, device: usize, undone: &[u32]) {
         let left: Vec<u32> = self.queues[device].drain(..).collect();
         self.pending[device] = Load::ZERO;
+        self.in_flight[device] = None;
         self.orphans
             .extend(self.costs, undone.iter().copied().chain(left));
     }
@@ -115,9 +225,9 @@ impl Dispatch for HybridDispatch<'_> {
 mod tests {
     use super::*;
 
-    fn drain(d: &mut HybridDispatch, device: usize) -> Vec<u32> {
+    fn drain(d: &mut HybridDispatch, device: usize, now: f64) -> Vec<u32> {
         let mut launch = Vec::new();
-        d.next(device, &mut launch);
+        d.next(device, now, &mut launch);
         launch
     }
 
@@ -126,20 +236,58 @@ mod tests {
         let costs = Costs::new(vec![8.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]).unwrap();
         let mut d = HybridDispatch::new(&costs, &Speeds::identical(2).unwrap());
         // LPT: device 0 gets 8, device 1 gets the eight 1s; device 0 then has nothing.
-        assert_eq!(drain(&mut d, 0), vec![0]);
-        assert_eq!(drain(&mut d, 1), vec![1, 2, 3, 4]);
-        // Device 0 idle: device 1 has 4 unlaunched; stealing 2 splits them evenly.
-        assert_eq!(drain(&mut d, 0), vec![7, 8]);
-        assert_eq!(drain(&mut d, 1), vec![5]);
-        assert_eq!(drain(&mut d, 1), vec![6]);
-        assert!(drain(&mut d, 0).is_empty());
+        assert_eq!(drain(&mut d, 0, 0.0), vec![0]);
+        assert_eq!(drain(&mut d, 1, 0.0), vec![1, 2, 3, 4]);
+        // Device 0 idle, no pace measured yet: device 1 has 4 unlaunched; stealing 2 splits
+        // them evenly, and the thief launches them in halves too.
+        assert_eq!(drain(&mut d, 0, 0.0), vec![7]);
+        assert_eq!(drain(&mut d, 1, 0.0), vec![5]);
+        assert_eq!(drain(&mut d, 1, 0.0), vec![6]);
+        assert_eq!(drain(&mut d, 0, 0.0), vec![8]);
+        assert!(drain(&mut d, 0, 0.0).is_empty());
+    }
+
+    #[test]
+    fn the_victims_launch_in_flight_counts() {
+        let costs = Costs::new(vec![5.0, 2.0, 1.0, 1.0, 1.0]).unwrap();
+        let mut d = HybridDispatch::new(&costs, &Speeds::identical(2).unwrap());
+        assert_eq!(drain(&mut d, 0, 0.0), vec![0]);
+        assert_eq!(drain(&mut d, 1, 0.0), vec![1, 2]);
+        // Device 1 took 3 s for 3 units of cost and launches one of its last two tasks.
+        assert_eq!(drain(&mut d, 1, 3.0), vec![3]);
+        // Device 0 ran faster than planned (5 units in 3.2 s). Device 1 will finish its
+        // launch at 4.0 and then its last task at 5.0; the thief finishes that task at 3.84.
+        // Counting unlaunched work only (1 unit, nothing to gain), it would stay idle.
+        assert_eq!(drain(&mut d, 0, 3.2), vec![4]);
+        assert!(drain(&mut d, 1, 4.0).is_empty());
     }
 
     #[test]
     fn a_slow_thief_takes_nothing_it_cannot_finish_in_time() {
-        let costs = Costs::new(vec![1.0, 1.0, 1.0]).unwrap();
+        let costs = Costs::new(vec![1.0; 4]).unwrap();
         let mut d = HybridDispatch::new(&costs, &Speeds::new(vec![100.0, 0.01]).unwrap());
-        assert_eq!(drain(&mut d, 0), vec![0, 1]);
-        assert!(drain(&mut d, 1).is_empty());
+        assert_eq!(drain(&mut d, 0, 0.0), vec![0, 1]);
+        assert!(drain(&mut d, 1, 0.0).is_empty());
+        // Device 0 did 2 units in 0.02 s; device 1, 10⁴ times slower, would need 100 s for
+        // a task that device 0 ends in 0.02 s with its last one.
+        assert_eq!(drain(&mut d, 0, 0.02), vec![2]);
+        assert!(drain(&mut d, 1, 0.02).is_empty());
+    }
+
+    #[test]
+    fn launches_are_sized_by_the_launch_overhead() {
+        let costs = Costs::new(vec![1.0; 10]).unwrap();
+        let one = Speeds::identical(1).unwrap();
+        // Free launches: one task each, from the start.
+        let mut free = HybridDispatch::with_overheads(&costs, &one, &[Some(0.0)]);
+        assert_eq!(drain(&mut free, 0, 0.0), vec![0]);
+        assert_eq!(drain(&mut free, 0, 1.0), vec![1]);
+        // A known overhead: halves until the pace is measured, then as many tasks as
+        // amortise it (1 s tasks amortise 1 ms), but never more than half of what is left.
+        for (overhead, second) in [(0.001, vec![5]), (0.1, vec![5, 6, 7])] {
+            let mut d = HybridDispatch::with_overheads(&costs, &one, &[Some(overhead)]);
+            assert_eq!(drain(&mut d, 0, 0.0), vec![0, 1, 2, 3, 4]);
+            assert_eq!(drain(&mut d, 0, 5.0), second, "overhead {overhead}");
+        }
     }
 }

@@ -34,10 +34,10 @@ pub enum Policy {
     QueueFifo,
     /// A central queue in decreasing cost. One launch per task.
     QueueSorted,
-    /// An LPT plan whose devices launch their queues in halves; an idle device steals the
-    /// smallest remaining tasks of the most loaded one, but only as many as it can finish
-    /// before that device would. Never worse than `StaticLpt` with exact costs and no
-    /// latency, and robust to wrong estimates.
+    /// An LPT plan whose devices launch their lists in pieces sized by their launch
+    /// overhead; an idle device steals the smallest unlaunched tasks of the one expected to
+    /// finish last, but only as many as it can finish before that device would. Never worse
+    /// than `StaticLpt` with exact costs and no latency, and robust to wrong estimates.
     Hybrid,
 }
 
@@ -77,8 +77,20 @@ impl Policy {
         }
     }
 
-    /// The run-time state of this policy for one workload: the planning step.
+    /// The run-time state of this policy for one workload: the planning step. Launch
+    /// overheads are unknown; see [`Policy::dispatcher_with_overheads`].
     pub fn dispatcher<'a>(self, costs: &'a Costs, speeds: &Speeds) -> Box<dyn Dispatch + 'a> {
+        self.dispatcher_with_overheads(costs, speeds, &[])
+    }
+
+    /// [`Policy::dispatcher`] for devices whose launch overheads in seconds are known
+    /// (`None`, or a missing entry, where not): `Hybrid` sizes its launches by them.
+    pub fn dispatcher_with_overheads<'a>(
+        self,
+        costs: &'a Costs,
+        speeds: &Speeds,
+        overheads: &[Option<f64>],
+    ) -> Box<dyn Dispatch + 'a> {
         match self {
             Policy::StaticEqual | Policy::StaticLpt => {
                 let plan = self.plan(costs, speeds).unwrap_or_else(|| unreachable!());
@@ -86,7 +98,7 @@ impl Policy {
             }
             Policy::QueueFifo => Box::new(QueueDispatch::fifo(costs)),
             Policy::QueueSorted => Box::new(QueueDispatch::sorted(costs)),
-            Policy::Hybrid => Box::new(HybridDispatch::new(costs, speeds)),
+            Policy::Hybrid => Box::new(HybridDispatch::with_overheads(costs, speeds, overheads)),
         }
     }
 }

@@ -24,7 +24,7 @@ impl<'a> StaticDispatch<'a> {
 }
 
 impl Dispatch for StaticDispatch<'_> {
-    fn next(&mut self, device: usize, launch: &mut Vec<u32>) {
+    fn next(&mut self, device: usize, _now: f64, launch: &mut Vec<u32>) {
         if !self.launched[device] {
             self.launched[device] = true;
             if !self.plan.tasks(device).is_empty() {
