@@ -193,10 +193,14 @@ fn every_policy_mode_and_device_list_renders_the_same_image() {
                     assert!(balance > 0.0 && balance <= 1.0 + 1e-9, "{tag}");
                     for g in v["generations"].as_array().unwrap() {
                         let rays = g["rays"].as_u64().unwrap();
-                        // 128 rays a task, or fewer (not below 64) where a generation is
-                        // too small to give each of the 2 devices 4 tasks.
+                        // 128 rays a task, or, where a generation is too small to give
+                        // each of the 2 devices 4 tasks, 16 tasks each (not below 64 rays).
                         let size = g["task_size"].as_u64().unwrap();
-                        let want = 128.min(rays.div_ceil(8).max(64));
+                        let want = if rays >= 2 * 4 * 128 {
+                            128
+                        } else {
+                            128.min(rays.div_ceil(32).max(64))
+                        };
                         assert_eq!(size, want.min(rays), "{tag}");
                         assert_eq!(g["tasks"].as_u64().unwrap(), rays.div_ceil(want), "{tag}");
                         assert!(g["balance_efficiency"].as_f64().is_some(), "{tag}");
