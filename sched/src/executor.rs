@@ -38,10 +38,9 @@ pub trait Executor<T: Task>: Send {
     }
 
     /// Seconds a launch costs on top of its tasks (a kernel dispatch, a network round trip,
-    /// a thread pool to enter), where known. `Hybrid` sizes its launches by it: one task at a
-    /// time when launching is free, so every task not yet started can still be stolen;
-    /// launches that amortise a known cost; halves of what is left when it is unknown (the
-    /// default).
+    /// a thread pool to enter), where known (`None`, the default, where not). `Hybrid`
+    /// launches one task at a time where it is `Some(0.0)`, so every task not yet started can
+    /// still be stolen, and halves of what is left otherwise.
     fn launch_overhead(&self) -> Option<f64> {
         None
     }

@@ -4,21 +4,19 @@ use super::plan_lpt;
 use crate::dispatch::Orphans;
 use crate::{Costs, Dispatch, Load, Speeds};
 
-/// A launch is made long enough that a known launch overhead is at most this fraction of it.
-const AMORTISED: f64 = 1.0 / 64.0;
-
 /// LPT start, then stealing of the tail.
 ///
 /// Each device holds its LPT list, largest first, and launches from its front each time it
-/// goes idle. How much it launches depends on what a launch costs it (see
-/// [`crate::Executor::launch_overhead`]): one task when launching is free, so that every
-/// task not yet started stays within reach of a thief; enough tasks to amortise a known
-/// overhead to [`AMORTISED`], but never more than half of what is left; half of what is left
-/// when the overhead is unknown, which pays O(log n) launches instead of one per task while
-/// the small tasks at the back stay available. A device with nothing left looks for work in
-/// this order: tasks orphaned by a failed device, then the smallest unlaunched tasks of the
-/// device expected to finish last, as many as it can finish no later than that device would
-/// finish the rest. Stolen tasks join the thief's list and are launched like its own.
+/// goes idle: one task where launching is free (see [`crate::Executor::launch_overhead`]),
+/// so that every task not yet started stays within reach of a thief; else the front *half*
+/// of what is left, which pays O(log n) launches instead of one per task while the small
+/// tasks at the back stay available. (Launches long enough to amortise a known overhead
+/// to 1/64, capped at half, ended further from the lower bound than plain halves in the
+/// simulator: 1.0062–1.0067 against 1.0031–1.0044 on 8 mixed devices at 10 µs.) A device
+/// with nothing left looks for work in this order: tasks orphaned by a failed device, then
+/// the smallest unlaunched tasks of the device expected to finish last, as many as it can
+/// finish no later than that device would finish the rest. Stolen tasks join the thief's
+/// list and are launched like its own.
 ///
 /// "Would finish" counts the victim's launch in flight, not only its unlaunched tasks. Each
 /// device's pace (seconds per unit of cost) is measured on its own completed launches of
@@ -100,24 +98,14 @@ impl<'a> HybridDispatch<'a> {
         })
     }
 
-    /// How many tasks from the front of `device`'s list its next launch takes.
+    /// How many tasks from the front of `device`'s list its next launch takes: one where
+    /// launching is free, else half of what is left.
     fn launch_size(&self, device: usize) -> usize {
         let queue = &self.queues[device];
-        let half = queue.len().div_ceil(2);
-        match (self.overheads[device], self.pace(device)) {
-            (Some(0.0), _) => queue.len().min(1),
-            (Some(o), Some(pace)) => {
-                let (mut k, mut secs) = (0, 0.0);
-                for &t in queue.iter().take(half) {
-                    k += 1;
-                    secs += self.cost(t) * pace;
-                    if o <= AMORTISED * secs {
-                        break;
-                    }
-                }
-                k
-            }
-            _ => half,
+        if self.overheads[device] == Some(0.0) {
+            queue.len().min(1)
+        } else {
+            queue.len().div_ceil(2)
         }
     }
 
@@ -275,19 +263,14 @@ mod tests {
     }
 
     #[test]
-    fn launches_are_sized_by_the_launch_overhead() {
+    fn free_launches_take_one_task_and_others_halves() {
         let costs = Costs::new(vec![1.0; 10]).unwrap();
         let one = Speeds::identical(1).unwrap();
-        // Free launches: one task each, from the start.
         let mut free = HybridDispatch::with_overheads(&costs, &one, &[Some(0.0)]);
         assert_eq!(drain(&mut free, 0, 0.0), vec![0]);
         assert_eq!(drain(&mut free, 0, 1.0), vec![1]);
-        // A known overhead: halves until the pace is measured, then as many tasks as
-        // amortise it (1 s tasks amortise 1 ms), but never more than half of what is left.
-        for (overhead, second) in [(0.001, vec![5]), (0.1, vec![5, 6, 7])] {
-            let mut d = HybridDispatch::with_overheads(&costs, &one, &[Some(overhead)]);
-            assert_eq!(drain(&mut d, 0, 0.0), vec![0, 1, 2, 3, 4]);
-            assert_eq!(drain(&mut d, 0, 5.0), second, "overhead {overhead}");
-        }
+        let mut costly = HybridDispatch::with_overheads(&costs, &one, &[Some(1e-3)]);
+        assert_eq!(drain(&mut costly, 0, 0.0), vec![0, 1, 2, 3, 4]);
+        assert_eq!(drain(&mut costly, 0, 5.0), vec![5, 6, 7]);
     }
 }
