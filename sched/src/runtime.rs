@@ -144,18 +144,20 @@ impl Runtime {
             let shared = &shared;
             let mut devices = executors.iter_mut().zip(per_device.iter_mut()).enumerate();
             let first = devices.next();
+            // Executors' panics are caught inside the loop; this catches a bug of the loop
+            // itself, so that it neither kills a parked thread nor escapes the run.
+            let run = |d: usize, exec: &mut E, out: &mut (f64, u64)| {
+                *out = catch_unwind(AssertUnwindSafe(|| {
+                    device_loop(d, &names[d], exec, tasks, shared)
+                }))
+                .unwrap_or((0.0, 0));
+            };
             for (d, (exec, out)) in devices {
-                let name = &names[d];
-                scope.execute(move || {
-                    *out = catch_unwind(AssertUnwindSafe(|| {
-                        device_loop(d, name, exec, tasks, shared)
-                    }))
-                    .unwrap_or((0.0, 0));
-                });
+                scope.execute(move || run(d, exec, out));
             }
             // The calling thread is device 0: it starts at once.
             if let Some((d, (exec, out))) = first {
-                *out = device_loop(d, &names[d], exec, tasks, shared);
+                run(d, exec, out);
             }
         });
         workers::give_back(pool);
