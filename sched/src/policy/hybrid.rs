@@ -34,8 +34,8 @@ pub struct HybridDispatch<'a> {
     /// Unlaunched cost of each device.
     pending: Vec<Load>,
     speeds: Vec<f64>,
-    /// Seconds one launch costs each device beyond its tasks, where known.
-    overheads: Vec<Option<f64>>,
+    /// Devices whose launches are known to cost nothing: they launch one task at a time.
+    free_launch: Vec<bool>,
     /// Each device's launch in flight: when it started (seconds) and its cost.
     in_flight: Vec<Option<(f64, f64)>>,
     /// Each device's completed launches: their cost and the seconds they took.
@@ -61,13 +61,12 @@ impl<'a> HybridDispatch<'a> {
             .iter()
             .map(|q| Load::sum(q.iter().map(|&t| costs[t as usize])))
             .collect();
-        let known = |o: &Option<f64>| o.filter(|o| o.is_finite() && *o >= 0.0);
         HybridDispatch {
             queues,
             pending,
             speeds: speeds.as_slice().to_vec(),
-            overheads: (0..speeds.len())
-                .map(|d| overheads.get(d).and_then(known))
+            free_launch: (0..speeds.len())
+                .map(|d| overheads.get(d) == Some(&Some(0.0)))
                 .collect(),
             in_flight: vec![None; speeds.len()],
             done: vec![(Load::ZERO, 0.0); speeds.len()],
@@ -102,7 +101,7 @@ impl<'a> HybridDispatch<'a> {
     /// launching is free, else half of what is left.
     fn launch_size(&self, device: usize) -> usize {
         let queue = &self.queues[device];
-        if self.overheads[device] == Some(0.0) {
+        if self.free_launch[device] {
             queue.len().min(1)
         } else {
             queue.len().div_ceil(2)
@@ -142,7 +141,8 @@ impl<'a> HybridDispatch<'a> {
     /// Moves the smallest unlaunched tasks of the device expected to finish last into the
     /// (idle, empty-handed) thief's list; see the type's docs for how many.
     fn steal(&mut self, thief: usize, now: f64) -> bool {
-        let paces_of = |v: usize| self.pace(thief).zip(self.pace(v));
+        let pace: Vec<Option<f64>> = (0..self.queues.len()).map(|d| self.pace(d)).collect();
+        let paces_of = |v: usize| pace[thief].zip(pace[v]);
         let Some(victim) = (0..self.queues.len())
             .filter(|&v| v != thief && !self.queues[v].is_empty())
             .max_by(|&a, &b| {
