@@ -139,27 +139,32 @@ impl Runtime {
             start: Instant::now(),
         };
         let mut per_device = vec![(0.0, 0u64); m];
-        let mut pool = workers::take(m.saturating_sub(1));
-        pool.scoped(|scope| {
+        let pool = workers::take(m.saturating_sub(1));
+        {
             let shared = &shared;
-            let mut devices = executors.iter_mut().zip(per_device.iter_mut()).enumerate();
-            let first = devices.next();
+            let names = &names;
             // Executors' panics are caught inside the loop; this catches a bug of the loop
             // itself, so that it neither kills a parked thread nor escapes the run.
-            let run = |d: usize, exec: &mut E, out: &mut (f64, u64)| {
+            let run = move |d: usize, exec: &mut E, out: &mut (f64, u64)| {
                 *out = catch_unwind(AssertUnwindSafe(|| {
                     device_loop(d, &names[d], exec, tasks, shared)
                 }))
                 .unwrap_or((0.0, 0));
             };
-            for (d, (exec, out)) in devices {
-                scope.execute(move || run(d, exec, out));
-            }
+            let mut devices = executors.iter_mut().zip(per_device.iter_mut()).enumerate();
+            let first = devices.next();
+            let others: Vec<Box<dyn FnOnce() + Send + '_>> = devices
+                .map(|(d, (exec, out))| {
+                    Box::new(move || run(d, exec, out)) as Box<dyn FnOnce() + Send + '_>
+                })
+                .collect();
             // The calling thread is device 0: it starts at once.
-            if let Some((d, (exec, out))) = first {
-                run(d, exec, out);
-            }
-        });
+            pool.run(others, || {
+                if let Some((d, (exec, out))) = first {
+                    run(d, exec, out);
+                }
+            });
+        }
         workers::give_back(pool);
 
         let state = shared.state.into_inner().unwrap_or_else(|p| p.into_inner());
@@ -192,17 +197,26 @@ impl Runtime {
 /// Parked threads for the devices after the first, kept between runs: a thread woken from a
 /// park starts at once, where a new one waited up to 4 ms on two busy cores.
 mod workers {
+    use std::panic::{AssertUnwindSafe, catch_unwind};
     use std::sync::Mutex;
 
-    use scoped_threadpool::Pool;
+    use crossbeam::channel::{Sender, unbounded};
+    use crossbeam::sync::WaitGroup;
+
+    type Job = Box<dyn FnOnce() + Send + 'static>;
+
+    /// Threads that each wait on their own channel, so that a run gives every device a thread
+    /// of its own: two device loops queued on one thread would wait on each other forever.
+    pub(super) struct Pool {
+        threads: Vec<Sender<Job>>,
+    }
 
     static IDLE: Mutex<Vec<Pool>> = Mutex::new(Vec::new());
 
     /// A pool of at least `threads` threads that no other run is using.
     pub(super) fn take(threads: usize) -> Pool {
-        let threads = u32::try_from(threads.max(1)).unwrap_or(u32::MAX);
         let mut idle = IDLE.lock().unwrap_or_else(|p| p.into_inner());
-        match idle.iter().position(|p| p.thread_count() >= threads) {
+        match idle.iter().position(|p| p.threads.len() >= threads) {
             Some(i) => idle.swap_remove(i),
             None => Pool::new(threads),
         }
@@ -210,6 +224,76 @@ mod workers {
 
     pub(super) fn give_back(pool: Pool) {
         IDLE.lock().unwrap_or_else(|p| p.into_inner()).push(pool);
+    }
+
+    /// Waits, when dropped, until every job holding a clone of its group has ended: on
+    /// return and on unwinding alike.
+    struct Join(Option<WaitGroup>);
+
+    impl Drop for Join {
+        fn drop(&mut self) {
+            if let Some(group) = self.0.take() {
+                group.wait();
+            }
+        }
+    }
+
+    impl Pool {
+        fn new(threads: usize) -> Pool {
+            let threads = (0..threads)
+                .map(|k| {
+                    let (jobs, inbox) = unbounded::<Job>();
+                    std::thread::Builder::new()
+                        .name(format!("sched-device-{}", k + 1))
+                        .spawn(move || {
+                            // A job's panic must not end the thread: its channel would
+                            // refuse the next run's job.
+                            for job in inbox {
+                                let _ = catch_unwind(AssertUnwindSafe(job));
+                            }
+                        })
+                        // Like `std::thread::spawn`: the OS refusing a thread is not
+                        // something a scheduler can work around.
+                        .expect("the OS could not start a device thread");
+                    jobs
+                })
+                .collect();
+            Pool { threads }
+        }
+
+        /// Runs `jobs[k]` on thread `k` and `here` on the calling thread, and returns once all
+        /// of them have ended.
+        pub(super) fn run<'s>(
+            &self,
+            jobs: Vec<Box<dyn FnOnce() + Send + 's>>,
+            here: impl FnOnce(),
+        ) {
+            assert!(jobs.len() <= self.threads.len(), "more jobs than threads");
+            let group = WaitGroup::new();
+            let join = Join(Some(group.clone()));
+            for (job, thread) in jobs.into_iter().zip(&self.threads) {
+                let token = group.clone();
+                let job: Box<dyn FnOnce() + Send + 's> = Box::new(move || {
+                    let _token = token;
+                    job();
+                });
+                // SAFETY: only the lifetime changes (same type, same layout). What the job
+                // borrows lives for `'s`, which outlasts this call, and the call does not end,
+                // by return or by unwinding, before the job has: `join` waits in its drop for
+                // the job's `_token`, dropped when the job ends (or unwinds, or is dropped
+                // unrun along with a refused send).
+                let job: Job =
+                    unsafe { std::mem::transmute::<Box<dyn FnOnce() + Send + 's>, Job>(job) };
+                // A pool's threads outlive it (they end when their channel closes) and
+                // survive their jobs' panics, so the receiving end is always there.
+                thread
+                    .send(job)
+                    .unwrap_or_else(|_| unreachable!("a device thread ended"));
+            }
+            drop(group);
+            here();
+            drop(join);
+        }
     }
 }
 
