@@ -13,7 +13,7 @@ use raytrace::distributed::{ClusterTracer, NodeGeneration};
 use raytrace::film::ToneMap;
 use raytrace::scheduled::{FailAfter, ScheduledTracer, Settings, build_devices};
 use raytrace::shade::{RenderOptions, Shader, render as shade};
-use raytrace::{BuildPreset, Bvh, Camera, SceneSource};
+use raytrace::{BuildPreset, Bvh, SceneSource};
 use sched::mpi::Cluster;
 use serde::Serialize;
 
@@ -101,10 +101,7 @@ pub(crate) fn render(job: Job<'_>) -> Result<(), CliError> {
         .and_then(|d| Ok(ScheduledTracer::new(&bvh, d, job.settings)?));
     let local = cluster.agree("opening this rank's devices", devices)?;
 
-    let camera = match job.camera {
-        CameraChoice::Thesis(i) => Camera::thesis(&scene.bounds(), i),
-        CameraChoice::LookAt(eye, at) => Camera::look_at(eye, at),
-    };
+    let (camera, _) = job.camera.resolve(&scene.bounds());
     let options = RenderOptions::new(job.width, job.height, camera, job.shader);
     let mut tracer = ClusterTracer::new(&cluster, &bvh, local);
     let comm_before = cluster.comm_seconds();

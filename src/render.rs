@@ -280,7 +280,7 @@ struct Header {
 }
 
 impl Header {
-    #[allow(clippy::too_many_arguments)] // one call per report kind, every value named there
+    #[allow(clippy::too_many_arguments)] // one call, every value named there
     fn new(
         source: &str,
         scene: &Scene,
@@ -324,6 +324,16 @@ impl Header {
 pub(crate) enum CameraChoice {
     Thesis(usize),
     LookAt(Vec3, Vec3),
+}
+
+impl CameraChoice {
+    /// The camera for a scene with these bounds, and the thesis camera's index if it is one.
+    pub(crate) fn resolve(&self, bounds: &raytrace::Aabb) -> (Camera, Option<usize>) {
+        match *self {
+            CameraChoice::Thesis(i) => (Camera::thesis(bounds, i), Some(i)),
+            CameraChoice::LookAt(eye, at) => (Camera::look_at(eye, at), None),
+        }
+    }
 }
 
 /// Runs the command: every argument is checked before the scene is loaded, and nothing is
@@ -476,11 +486,18 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let scene = SceneSource::parse(&args.scene)?.load(shader.needs())?;
     let load_seconds = loading.elapsed().as_secs_f64();
     let bvh = Bvh::build(&scene, preset)?;
+    let (camera, camera_index) = camera_choice.resolve(&scene.bounds());
+    let header = Header::new(
+        &args.scene,
+        &scene,
+        &bvh,
+        &shader,
+        (width, height),
+        (&camera, camera_index),
+        preset,
+        load_seconds,
+    );
     if args.pipeline == PipelineArg::Gpu {
-        let (camera, camera_index) = match camera_choice {
-            CameraChoice::Thesis(i) => (Camera::thesis(&scene.bounds(), i), Some(i)),
-            CameraChoice::LookAt(eye, at) => (Camera::look_at(eye, at), None),
-        };
         let (film, run) = crate::render_gpu::render(
             &scene,
             &bvh,
@@ -491,16 +508,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         )?;
         let image = film.png(ToneMap::Srgb)?;
         let report = GpuReport {
-            header: Header::new(
-                &args.scene,
-                &scene,
-                &bvh,
-                &shader,
-                (width, height),
-                (&camera, camera_index),
-                preset,
-                load_seconds,
-            ),
+            header,
             pipeline: "gpu",
             run,
         };
@@ -529,10 +537,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
     let devices = build_devices(&bvh, &specs, &faults)?;
     let mut tracer = ScheduledTracer::new(&bvh, devices, settings)?;
-    let (camera, camera_index) = match camera_choice {
-        CameraChoice::Thesis(i) => (Camera::thesis(&scene.bounds(), i), Some(i)),
-        CameraChoice::LookAt(eye, at) => (Camera::look_at(eye, at), None),
-    };
     let mut options = RenderOptions::new(width, height, camera, shader);
     options.count_primary = args.cost_image.is_some();
     let rendering = render(&scene, &mut tracer, &options);
@@ -544,16 +548,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         _ => None,
     };
     let report = Report {
-        header: Header::new(
-            &args.scene,
-            &scene,
-            &bvh,
-            &shader,
-            (width, height),
-            (&camera, camera_index),
-            preset,
-            load_seconds,
-        ),
+        header,
         devices: args.devices.clone(),
         device_names: tracer.device_names(),
         threads,
