@@ -158,3 +158,33 @@ fn hybrid_absorbs_wrong_estimates() {
     );
     assert!(hybrid_sum < lpt_sum);
 }
+
+/// Behind a network-like launch (200 µs on a run of about 45 ms), Hybrid launches a few times
+/// per device, not once per halving of its list, and ends within 3 % of the lower bound:
+/// halving down to single tasks paid the latency about a dozen times per device (1.044–1.066
+/// on `cobalt bench --simulate 8`'s AO tasks).
+#[test]
+fn hybrid_pays_a_costly_launch_a_few_times_per_device() {
+    let mut rng = Rng::from_env(11);
+    let speeds = Speeds::new((0..8).map(|d| [1.0, 4.0, 2.0, 8.0][d % 4]).collect()).unwrap();
+    let (mut ratio, mut launches) = (0.0, 0u64);
+    const RUNS: usize = 20;
+    for _ in 0..RUNS {
+        let n = 500 + rng.below(3500);
+        let raw: Vec<f64> = (0..n).map(|_| rng.range(0.1, 1.0)).collect();
+        // Scaled so the lower bound is 45 ms on these speeds (their sum is 30).
+        let scale = 0.045 * 30.0 / raw.iter().sum::<f64>();
+        let actual: Vec<f64> = raw.iter().map(|c| c * scale).collect();
+        let estimated: Vec<f64> = actual.iter().map(|c| c * rng.range(0.9, 1.1)).collect();
+        let (estimated, actual) = (Costs::new(estimated).unwrap(), Costs::new(actual).unwrap());
+        let sim = Simulation::new(Policy::Hybrid, speeds.clone())
+            .latency(200e-6)
+            .run_actual(&estimated, &actual)
+            .unwrap();
+        ratio += sim.metrics.makespan / lower_bound(&actual, &speeds);
+        launches += sim.launches.iter().sum::<u64>();
+    }
+    let (ratio, per_device) = (ratio / RUNS as f64, launches as f64 / (RUNS * 8) as f64);
+    eprintln!("mean makespan / lower bound {ratio:.4}, launches per device {per_device:.2}");
+    assert!(ratio < 1.03 && per_device < 4.0, "{ratio} {per_device}");
+}

@@ -4,15 +4,25 @@ use super::plan_lpt;
 use crate::dispatch::Orphans;
 use crate::{Costs, Dispatch, Load, Speeds};
 
+/// Share of its list's cost a device keeps back from its first launch when launches cost
+/// time: the tail that thieves can still rebalance.
+const RESERVE: f64 = 1.0 / 8.0;
+
+/// A costly launch carries at least this many times its overhead in work.
+const MIN_LAUNCH: f64 = 8.0;
+
 /// LPT start, then stealing of the tail.
 ///
 /// Each device holds its LPT list, largest first, and launches from its front each time it
 /// goes idle: one task where launching is free (see [`crate::Executor::launch_overhead`]),
-/// so that every task not yet started stays within reach of a thief; else the front *half*
-/// of what is left, which pays O(log n) launches instead of one per task while the small
-/// tasks at the back stay available. (Launches long enough to amortise a known overhead
-/// to 1/64, capped at half, ended further from the lower bound than plain halves in the
-/// simulator: 1.0062–1.0067 against 1.0031–1.0044 on 8 mixed devices at 10 µs.) A device
+/// so that every task not yet started stays within reach of a thief; where its cost is
+/// unknown, the front *half* of what is left, which pays O(log n) launches instead of one
+/// per task while the small tasks at the back stay available. Where a launch is known to
+/// cost `L > 0` seconds, the first launch takes all but a reserve of the smallest tasks
+/// (1/8 of the list's cost), later ones half of what is left, and no launch carries or
+/// leaves behind less than `8 · L` of work (at the device's pace): halving down to single tasks paid `L` a dozen times per
+/// device, which at a network's 200 µs cost more than the imbalance it removed (see
+/// `README.md` in this folder for the figures). A device
 /// with nothing left looks for work in this order: tasks orphaned by a failed device, then
 /// the smallest unlaunched tasks of the device expected to finish last, as many as it can
 /// finish no later than that device would finish the rest. Stolen tasks join the thief's
@@ -34,8 +44,10 @@ pub struct HybridDispatch<'a> {
     /// Unlaunched cost of each device.
     pending: Vec<Load>,
     speeds: Vec<f64>,
-    /// Devices whose launches are known to cost nothing: they launch one task at a time.
-    free_launch: Vec<bool>,
+    /// Each device's launch overhead in seconds, where known.
+    overhead: Vec<Option<f64>>,
+    /// Devices that have not yet launched from their own list.
+    first: Vec<bool>,
     /// Each device's launch in flight: when it started (seconds) and its cost.
     in_flight: Vec<Option<(f64, f64)>>,
     /// Each device's completed launches: their cost and the seconds they took.
@@ -65,9 +77,10 @@ impl<'a> HybridDispatch<'a> {
             queues,
             pending,
             speeds: speeds.as_slice().to_vec(),
-            free_launch: (0..speeds.len())
-                .map(|d| overheads.get(d) == Some(&Some(0.0)))
+            overhead: (0..speeds.len())
+                .map(|d| overheads.get(d).copied().flatten())
                 .collect(),
+            first: vec![true; speeds.len()],
             in_flight: vec![None; speeds.len()],
             done: vec![(Load::ZERO, 0.0); speeds.len()],
             orphans: Orphans::default(),
@@ -97,19 +110,51 @@ impl<'a> HybridDispatch<'a> {
         })
     }
 
-    /// How many tasks from the front of `device`'s list its next launch takes: one where
-    /// launching is free, else half of what is left.
+    /// How many tasks from the front of `device`'s list its next launch takes; see the
+    /// type's docs.
     fn launch_size(&self, device: usize) -> usize {
         let queue = &self.queues[device];
-        if self.free_launch[device] {
-            queue.len().min(1)
-        } else {
-            queue.len().div_ceil(2)
+        match self.overhead[device] {
+            Some(0.0) => queue.len().min(1),
+            Some(l) if l > 0.0 => {
+                let left = self.pending[device].value();
+                let pace = self.pace(device).unwrap_or(1.0 / self.speeds[device]);
+                // Work (in cost units) worth paying `l` for once more.
+                let least = MIN_LAUNCH * l / pace;
+                let keep = if self.first[device] {
+                    left * RESERVE
+                } else {
+                    left / 2.0
+                };
+                let work = if keep < least {
+                    left
+                } else {
+                    (left - keep).max(least)
+                };
+                self.front_covering(device, work)
+            }
+            _ => queue.len().div_ceil(2),
         }
+    }
+
+    /// The fewest tasks from the front of `device`'s list whose cost reaches `work` (at
+    /// least one, at most all).
+    fn front_covering(&self, device: usize, work: f64) -> usize {
+        let queue = &self.queues[device];
+        let mut taken = Load::ZERO;
+        let reach = queue
+            .iter()
+            .position(|&t| {
+                taken = taken.plus(self.cost(t));
+                taken.value() >= work
+            })
+            .map_or(queue.len(), |k| k + 1);
+        reach.max(1).min(queue.len())
     }
 
     fn launch_own(&mut self, device: usize, launch: &mut Vec<u32>) -> bool {
         let take = self.launch_size(device);
+        self.first[device] &= take == 0;
         let first = launch.len();
         launch.extend(self.queues[device].drain(..take));
         // Subtracted, not re-summed: with one task per launch, re-summing the list each
@@ -263,14 +308,27 @@ mod tests {
     }
 
     #[test]
-    fn free_launches_take_one_task_and_others_halves() {
-        let costs = Costs::new(vec![1.0; 10]).unwrap();
+    fn free_launches_take_one_task_unknown_ones_halves_and_costly_ones_all_but_a_reserve() {
+        let costs = Costs::new(vec![1.0; 16]).unwrap();
         let one = Speeds::identical(1).unwrap();
         let mut free = HybridDispatch::with_overheads(&costs, &one, &[Some(0.0)]);
         assert_eq!(drain(&mut free, 0, 0.0), vec![0]);
         assert_eq!(drain(&mut free, 0, 1.0), vec![1]);
-        let mut costly = HybridDispatch::with_overheads(&costs, &one, &[Some(1e-3)]);
-        assert_eq!(drain(&mut costly, 0, 0.0), vec![0, 1, 2, 3, 4]);
-        assert_eq!(drain(&mut costly, 0, 5.0), vec![5, 6, 7]);
+        let mut unknown = HybridDispatch::with_overheads(&costs, &one, &[None]);
+        assert_eq!(drain(&mut unknown, 0, 0.0), (0..8).collect::<Vec<_>>());
+        assert_eq!(drain(&mut unknown, 0, 8.0), (8..12).collect::<Vec<_>>());
+        // 1/8 of the cost (two tasks) held back from the first launch; then halves of what
+        // is left, but never under 8 overheads of work (here 0.25 s, a quarter of a task).
+        let mut costly = HybridDispatch::with_overheads(&costs, &one, &[Some(1.0 / 32.0)]);
+        assert_eq!(drain(&mut costly, 0, 0.0), (0..14).collect::<Vec<_>>());
+        assert_eq!(drain(&mut costly, 0, 14.0), vec![14]);
+        assert_eq!(drain(&mut costly, 0, 15.0), vec![15]);
+        // At 1 s per launch, a reserve of 2 s is not worth another launch (8 s would be); at
+        // 0.25 s it is (2 s), but half of the 2 s then left is not.
+        let mut slow = HybridDispatch::with_overheads(&costs, &one, &[Some(1.0)]);
+        assert_eq!(drain(&mut slow, 0, 0.0), (0..16).collect::<Vec<_>>());
+        let mut slow = HybridDispatch::with_overheads(&costs, &one, &[Some(0.25)]);
+        assert_eq!(drain(&mut slow, 0, 0.0), (0..14).collect::<Vec<_>>());
+        assert_eq!(drain(&mut slow, 0, 14.0), vec![14, 15]);
     }
 }
