@@ -15,7 +15,9 @@ use raytrace::cost::{
     measure_seconds, prediction_error, spearman,
 };
 use raytrace::shade::{CpuTracer, Recorder, RenderOptions, Shader, WhittedSettings, render};
-use raytrace::{BuildPreset, Bvh, Camera, RayBatch, RayKind, SceneNeeds, SceneSource, traverse};
+use raytrace::{
+    BuildPreset, Bvh, Camera, Probe, RayBatch, RayKind, SceneNeeds, SceneSource, traverse,
+};
 use serde::Serialize;
 
 use crate::error::CliError;
@@ -72,6 +74,11 @@ pub struct Args {
     /// the CPU's. Measured task times (the calibration) stay single-thread CPU times.
     #[arg(long, value_enum, default_value = "cpu")]
     device: DeviceArg,
+    /// The reduced traversal of the sample: `thesis` (the whole range of every ray) or
+    /// `first-leaf` (closest-hit rays end at the exit of the first leaf they reach; shadow
+    /// and AO rays keep the thesis's probe). CPU only.
+    #[arg(long, default_value = "thesis")]
+    probe: Probe,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -125,6 +132,8 @@ struct Report {
     task_size: usize,
     tasks: usize,
     sample_rate: f64,
+    /// `thesis` or `first-leaf` (applied to closest-hit generations only).
+    probe: &'static str,
     sampled_rays: usize,
     threads: usize,
     repeats: usize,
@@ -204,6 +213,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if args.repeats == 0 {
         return Err(arg("repeats", &0, "must be at least 1".into()));
     }
+    let probe = args.probe;
+    if probe != Probe::Thesis && args.device == DeviceArg::Gpu {
+        return Err(arg(
+            "probe",
+            &probe.name(),
+            "the GPU estimator runs the thesis's probe only; use --device cpu".into(),
+        ));
+    }
     if !(args.ao_distance.is_finite() && args.ao_distance > 0.0) {
         return Err(arg(
             "ao-distance",
@@ -271,13 +288,18 @@ pub fn run(args: Args) -> Result<(), CliError> {
         };
     let mut rays = RayBatch::default();
     let mut tasks = Vec::new();
-    for (batch, _) in &segments {
+    // Per generation, its tasks (indices into `tasks`) and the probe its rays are estimated
+    // with: the first-leaf probe models a closest hit, not an any-hit query.
+    let mut parts = Vec::new();
+    for (batch, kind) in &segments {
         let base = rays.len();
+        let first = tasks.len();
         tasks.extend(
             sched::split_ranges(batch.len(), args.task_size)
                 .into_iter()
                 .map(|t| base + t.start..base + t.end),
         );
+        parts.push((first..tasks.len(), probe.for_kind(*kind)));
         rays.extend(batch);
     }
     if rays.is_empty() {
@@ -291,7 +313,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let (estimate_seconds, est, trace_seconds, adapter) = match args.device {
         DeviceArg::Cpu => {
             let estimator = ReducedTraversal::new(&bvh, &rays, rate);
-            let (estimate_seconds, est) = min_time(args.repeats, || estimator.try_work(&tasks))?;
+            let (estimate_seconds, est) = min_time(args.repeats, || {
+                let mut work = Vec::with_capacity(tasks.len());
+                for (range, p) in &parts {
+                    work.extend(estimator.with_probe(*p).try_work(&tasks[range.clone()])?);
+                }
+                Ok::<_, raytrace::cost::CostError>(work)
+            })?;
             let (trace_seconds, ()) = min_time(args.repeats, || {
                 for (batch, kind) in &segments {
                     let hits = if kind.is_occlusion() {
@@ -311,7 +339,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
             (e, est, t, Some(name))
         }
     };
-    let full = full_work(&bvh, &rays, &tasks)?;
+    let mut full = Vec::with_capacity(tasks.len());
+    for (range, p) in &parts {
+        full.extend(full_work(&bvh, &rays, &tasks[range.clone()], *p)?);
+    }
     let mut measured = Vec::with_capacity(tasks.len());
     for (batch, kind) in &segments {
         let own = sched::split_ranges(batch.len(), args.task_size);
@@ -356,6 +387,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         task_size: args.task_size,
         tasks: tasks.len(),
         sample_rate: rate.get(),
+        probe: probe.name(),
         sampled_rays: tasks.iter().map(|t| rate.samples(t.len())).sum(),
         threads: rayon::current_num_threads(),
         repeats: args.repeats,
@@ -528,7 +560,12 @@ fn table(r: &Report) -> String {
         ("tasks", format!("{} of {} rays", r.tasks, r.task_size)),
         (
             "sampled",
-            format!("{:.1} % ({} rays)", 100.0 * r.sample_rate, r.sampled_rays),
+            format!(
+                "{:.1} % ({} rays), {} probe",
+                100.0 * r.sample_rate,
+                r.sampled_rays,
+                r.probe
+            ),
         ),
         (
             "prediction error",

@@ -19,7 +19,7 @@ use raytrace::scheduled::{
     EstimateOn, FailAfter, GenerationStats, Mode, ScheduledTracer, Settings, build_devices,
 };
 use raytrace::shade::{AoSettings, RenderOptions, Rendering, Shader, WhittedSettings, render};
-use raytrace::{BuildPreset, Bvh, Camera, Scene, SceneSource};
+use raytrace::{BuildPreset, Bvh, Camera, Probe, Scene, SceneSource};
 use sched::Policy;
 use serde::Serialize;
 
@@ -113,6 +113,11 @@ pub struct Args {
     /// among `--devices`, as the thesis does; the host where there is none).
     #[arg(long, default_value = "cpu")]
     estimate_on: EstimateOn,
+    /// Cost mode's reduced traversal of closest-hit rays: `thesis` (the whole ray) or
+    /// `first-leaf` (each ray ends at the exit of the first leaf it reaches; better on closed
+    /// meshes, see `cobalt estimate --probe`). Shadow and AO rays keep the thesis's.
+    #[arg(long, default_value = "thesis")]
+    probe: Probe,
     /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order, a
     /// GPU included) fails after completing TASKS tasks; its unfinished tasks are re-run
     /// elsewhere.
@@ -225,6 +230,8 @@ struct Report {
     mode: &'static str,
     task_size: usize,
     sample_rate: f64,
+    /// Cost mode's probe of closest-hit generations.
+    probe: &'static str,
     generations: Vec<GenerationReport>,
     total_rays: usize,
     /// Sum of the generations' trace times.
@@ -377,6 +384,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             }
         },
         estimate_on: args.estimate_on,
+        probe: args.probe,
     };
     let camera_choice = match (&args.camera, &args.eye, &args.at) {
         (_, Some(eye), Some(at)) => {
@@ -556,6 +564,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         mode: settings.mode.name(),
         task_size: settings.task_size.get(),
         sample_rate: settings.sample_rate.get(),
+        probe: settings.probe.name(),
         generations: generation_reports(&rendering, tracer.stats()),
         total_rays: rendering.total_rays(),
         trace_seconds: rendering.trace_seconds(),

@@ -136,9 +136,57 @@ fn whitted_rays_are_every_generation_of_a_render() {
     assert_eq!(num(&full, "prediction_error"), 0.0);
 }
 
+/// `--probe first-leaf` ends camera rays at their first leaf: fewer nodes per ray than the
+/// thesis's probe, reported as such, and still the exact "full" at a sampling rate of 1, also
+/// for Whitted's mix of generations (its shadow rays keep the thesis's probe).
+#[test]
+fn the_first_leaf_probe_is_reported_and_enters_fewer_nodes() {
+    let thesis = json(&["--rays", "primary"]);
+    let first = json(&["--rays", "primary", "--probe", "first-leaf"]);
+    assert_eq!(thesis["probe"], "thesis");
+    assert_eq!(first["probe"], "first-leaf");
+    let nodes = |v: &serde_json::Value| num(v, "reduced_nodes_per_ray");
+    assert!(nodes(&first) < nodes(&thesis), "{first} vs {thesis}");
+    let all = json(&[
+        "--rays",
+        "primary",
+        "--probe",
+        "first-leaf",
+        "--sample-rate",
+        "1",
+    ]);
+    assert_eq!(num(&all, "prediction_error"), 0.0);
+    let whitted = |probe| {
+        json(&[
+            "--rays",
+            "whitted",
+            "--probe",
+            probe,
+            "--size",
+            "32x32",
+            "--sample-rate",
+            "1",
+        ])
+    };
+    let (w_thesis, w_first) = (whitted("thesis"), whitted("first-leaf"));
+    assert_eq!(num(&w_first, "prediction_error"), 0.0);
+    assert!(
+        nodes(&w_first) < nodes(&w_thesis),
+        "{w_first} vs {w_thesis}"
+    );
+}
+
 #[test]
 fn bad_arguments_exit_2_naming_flag_and_value() {
-    let cases: [(&[&str], &[&str]); 8] = [
+    let cases: [(&[&str], &[&str]); 10] = [
+        (
+            &["--probe", "deepest"],
+            &["--probe", "deepest", "first-leaf"],
+        ),
+        (
+            &["--probe", "first-leaf", "--device", "gpu"],
+            &["--probe", "first-leaf", "--device cpu"],
+        ),
         (&["--sample-rate", "0"], &["--sample-rate", "0"]),
         (&["--sample-rate", "1.5"], &["--sample-rate", "1.5"]),
         (&["--sample-rate", "lots"], &["--sample-rate", "lots"]),

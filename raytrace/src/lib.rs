@@ -68,7 +68,7 @@ pub use glam;
 pub use ray::{Hit, HitBatch, Ray, RayBatch, RayKind};
 pub use rng::Rng;
 pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};
-pub use traverse::Counts;
+pub use traverse::{Counts, Probe};
 pub use triangle::{RayShear, intersect_watertight};
 
 /// Result alias for this crate's [`Error`].

@@ -17,6 +17,7 @@
 //! latencies (5–14 % slower). An AO packet's lanes share a node 3.1–3.8 times on average, a
 //! coherent packet's 5–7 times.
 
+use crate::traverse::Probe;
 use crate::{Bvh, Counts, RayBatch};
 
 /// True when the traversal traces ray `i` at all: exactly when [`crate::RayShear::new`] accepts
@@ -32,10 +33,14 @@ fn traceable(rays: &RayBatch, i: usize) -> bool {
 /// the widest packets this CPU runs: 8 rays with AVX2, else 4 with SSE2 (the x86_64 baseline).
 /// `lane_of` maps an entry of `out` to a ray of `rays`: a range, or a compacted sample's ray
 /// indices, read in place without copying the sample out.
+///
+/// [`Probe::FirstLeaf`] walks in packets only where AVX2 runs and the packet's directions
+/// share their signs (its child order follows them); other packets run ray by ray.
 #[inline]
 pub(crate) fn reduced_lanes(
     bvh: &Bvh,
     rays: &RayBatch,
+    probe: Probe,
     lane_of: impl Fn(usize) -> usize,
     out: &mut [Counts],
 ) {
@@ -44,8 +49,14 @@ pub(crate) fn reduced_lanes(
         for (k, part) in out.chunks_mut(8).enumerate() {
             let idx: [usize; 8] = std::array::from_fn(|j| lane_of(8 * k + j.min(part.len() - 1)));
             // SAFETY: AVX2 is available, as just checked.
-            let got = unsafe { avx2::reduced8(bvh, rays, &idx, part.len()) };
+            let got = unsafe { avx2::reduced8(bvh, rays, probe, &idx, part.len()) };
             part.copy_from_slice(&got[..part.len()]);
+        }
+        return;
+    }
+    if probe != Probe::Thesis {
+        for (j, c) in out.iter_mut().enumerate() {
+            *c = bvh.probe(&rays.get(lane_of(j)), probe);
         }
         return;
     }
@@ -242,18 +253,22 @@ mod sse {
 mod avx2 {
     use std::arch::x86_64::{
         __m256, __m256i, _CMP_EQ_OQ, _CMP_LE_OQ, _CMP_NEQ_OQ, _mm256_add_epi32, _mm256_and_ps,
-        _mm256_and_si256, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
-        _mm256_cmpeq_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps,
-        _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps,
-        _mm256_setr_epi32, _mm256_setzero_ps, _mm256_setzero_si256, _mm256_srai_epi32,
-        _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps, _mm256_xor_ps,
+        _mm256_and_si256, _mm256_blendv_ps, _mm256_castps_si256, _mm256_castsi256_ps,
+        _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps,
+        _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set1_epi32,
+        _mm256_set1_ps, _mm256_setr_epi32, _mm256_setzero_ps, _mm256_setzero_si256,
+        _mm256_srai_epi32, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps, _mm256_xor_ps,
     };
+
+    use std::mem::MaybeUninit;
 
     use crate::bvh::MAX_DEPTH;
     use crate::slab::far_scale;
+    use crate::traverse::{Probe, near_child_first};
     use crate::{Bvh, Counts, Node, RayBatch};
 
     /// Eight rays in lanes; see the SSE version for the per-lane arithmetic.
+    #[derive(Clone, Copy)]
     struct Rays8 {
         org: [__m256; 3],
         inv: [__m256; 3],
@@ -273,6 +288,16 @@ mod avx2 {
         #[inline]
         #[target_feature(enable = "avx2")]
         fn hit<const UNIFORM: bool>(&self, node: &Node) -> i32 {
+            let (near, far) = self.slab::<UNIFORM>(node);
+            // Ordered, non-signalling `<=`: false on NaN, like the scalar comparison.
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
+        }
+
+        /// Each lane's entry and exit distance of `node`'s box, the exit clipped to `tmax`:
+        /// the scalar `BoxRay::hit`'s `t0`, `t1` (and `BoxRay::exit`), lane by lane.
+        #[inline]
+        #[target_feature(enable = "avx2")]
+        fn slab<const UNIFORM: bool>(&self, node: &Node) -> (__m256, __m256) {
             let b: &[f32; 8] = bytemuck::cast_ref(node);
             let mut near = self.tmin;
             let mut far = _mm256_set1_ps(f32::INFINITY);
@@ -295,9 +320,10 @@ mod avx2 {
                 near = _mm256_max_ps(tn, near);
                 far = _mm256_min_ps(tf, far);
             }
-            let far = _mm256_min_ps(_mm256_mul_ps(far, self.scale), self.tmax);
-            // Ordered, non-signalling `<=`: false on NaN, like the scalar comparison.
-            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
+            (
+                near,
+                _mm256_min_ps(_mm256_mul_ps(far, self.scale), self.tmax),
+            )
         }
     }
 
@@ -318,13 +344,14 @@ mod avx2 {
     pub(super) unsafe fn reduced8(
         bvh: &Bvh,
         rays: &RayBatch,
+        probe: Probe,
         idx: &[usize; 8],
         n: usize,
     ) -> [Counts; 8] {
         if bvh.depth() <= 64 {
-            walk::<64>(bvh, rays, idx, n)
+            walk::<64>(bvh, rays, probe, idx, n)
         } else {
-            walk::<{ MAX_DEPTH }>(bvh, rays, idx, n)
+            walk::<{ MAX_DEPTH }>(bvh, rays, probe, idx, n)
         }
     }
 
@@ -333,10 +360,11 @@ mod avx2 {
     fn walk<const STACK: usize>(
         bvh: &Bvh,
         rays: &RayBatch,
+        probe: Probe,
         idx: &[usize; 8],
         n: usize,
     ) -> [Counts; 8] {
-        let out = [Counts::default(); 8];
+        let mut out = [Counts::default(); 8];
         if n == 0 || bvh.triangles().is_empty() {
             return out;
         }
@@ -391,12 +419,90 @@ mod avx2 {
         // Per axis, the traced lanes whose direction has its sign bit set: none or all of
         // them on every axis makes the packet uniform.
         let neg = d.map(|v| _mm256_movemask_ps(v) & valid);
-        if neg.iter().all(|&m| m == 0 || m == valid) {
+        let uniform = neg.iter().all(|&m| m == 0 || m == valid);
+        if uniform {
             lanes.near = std::array::from_fn(|a| if neg[a] == valid { 4 + a } else { a });
-            traverse::<STACK, true>(bvh, &lanes, valid, n)
-        } else {
-            traverse::<STACK, false>(bvh, &lanes, valid, n)
         }
+        match (probe, uniform) {
+            (Probe::Thesis, true) => traverse::<STACK, true>(bvh, &lanes, valid, n),
+            (Probe::Thesis, false) => traverse::<STACK, false>(bvh, &lanes, valid, n),
+            (Probe::FirstLeaf, true) => {
+                let negative = std::array::from_fn(|a| neg[a] == valid && valid != 0);
+                first_leaf::<STACK>(bvh, lanes, negative, valid, n)
+            }
+            (Probe::FirstLeaf, false) => {
+                // Lanes that disagree on a sign may disagree on the child order.
+                for (k, c) in out.iter_mut().enumerate().take(n) {
+                    *c = bvh.first_leaf_traversal(&rays.get(lane(k)));
+                }
+                out
+            }
+        }
+    }
+
+    /// [`traverse`] for [`Probe::FirstLeaf`], on a uniform packet (`lanes.near` set, and
+    /// `negative` its direction's signs). Each lane's `tmax` shrinks to the exit of the first
+    /// leaf it enters; a popped node keeps the lanes whose entry is still within their range,
+    /// which is the scalar walk's `t_near <= best_t` on the same entry distances.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn first_leaf<const STACK: usize>(
+        bvh: &Bvh,
+        mut lanes: Rays8,
+        negative: [bool; 3],
+        valid: i32,
+        n: usize,
+    ) -> [Counts; 8] {
+        let nodes = bvh.nodes();
+        let (near0, far0) = lanes.slab::<true>(&nodes[0]);
+        let root = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near0, far0)) & valid;
+        if root == 0 {
+            return [Counts::default(); 8];
+        }
+        // Entry distances beside the stack, uninitialised: zeroing 32 bytes per level for
+        // every packet cost more than the walk saved on Conference.
+        let mut stack = [(0u32, 0i32); STACK];
+        let mut entries = [MaybeUninit::<__m256>::uninit(); STACK];
+        stack[0] = (0, root);
+        entries[0].write(near0);
+        let mut sp = 1usize;
+        let (mut b, mut t): (__m256i, __m256i) = (_mm256_setzero_si256(), _mm256_setzero_si256());
+        while sp > 0 {
+            sp -= 1;
+            let (i, pushed) = stack[sp];
+            // SAFETY: every push below writes `entries[sp]` with `stack[sp]`, and so did the
+            // root's, so the entry popped with a stack slot was written with it.
+            let entry = unsafe { entries[sp].assume_init() };
+            let bits = pushed & _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(entry, lanes.tmax));
+            if bits == 0 {
+                continue;
+            }
+            let node = &nodes[i as usize];
+            let m = lanes_of(bits);
+            b = _mm256_sub_epi32(b, m);
+            if node.is_leaf() {
+                t = _mm256_add_epi32(t, _mm256_and_si256(m, _mm256_set1_epi32(node.count as i32)));
+                let (_, exit) = lanes.slab::<true>(node);
+                lanes.tmax = _mm256_blendv_ps(lanes.tmax, exit, _mm256_castsi256_ps(m));
+                continue;
+            }
+            let l = node.index as usize;
+            let (first, second) = if near_child_first(&[nodes[l], nodes[l + 1]], negative) {
+                (l, l + 1)
+            } else {
+                (l + 1, l)
+            };
+            for child in [second, first] {
+                let (near, far) = lanes.slab::<true>(&nodes[child]);
+                let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) & bits;
+                if hit != 0 {
+                    stack[sp] = (child as u32, hit);
+                    entries[sp].write(near);
+                    sp += 1;
+                }
+            }
+        }
+        counts_of(b, t, n)
     }
 
     #[inline]
@@ -407,7 +513,7 @@ mod avx2 {
         valid: i32,
         n: usize,
     ) -> [Counts; 8] {
-        let mut out = [Counts::default(); 8];
+        let out = [Counts::default(); 8];
         let nodes = bvh.nodes();
         let root = lanes.hit::<UNIFORM>(&nodes[0]) & valid;
         if root == 0 {
@@ -438,19 +544,29 @@ mod avx2 {
                 }
             }
         }
+        counts_of(b, t, n)
+    }
+
+    /// The first `n` lanes' counts.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn counts_of(b: __m256i, t: __m256i, n: usize) -> [Counts; 8] {
         let (mut bs, mut ts) = ([0u32; 8], [0u32; 8]);
         // SAFETY: each store writes 32 bytes into a local `[u32; 8]`.
         unsafe {
             _mm256_storeu_si256(bs.as_mut_ptr().cast(), b);
             _mm256_storeu_si256(ts.as_mut_ptr().cast(), t);
         }
-        for k in 0..n {
-            out[k] = Counts {
-                nodes: bs[k],
-                tris: ts[k],
-            };
-        }
-        out
+        std::array::from_fn(|k| {
+            if k < n {
+                Counts {
+                    nodes: bs[k],
+                    tris: ts[k],
+                }
+            } else {
+                Counts::default()
+            }
+        })
     }
 }
 
@@ -512,7 +628,7 @@ mod tests {
         // The widest packets this CPU runs (8 lanes with AVX2) agree too, from any offset.
         for first in [0, 3] {
             let mut wide = vec![Counts::default(); rays.len() - first];
-            reduced_lanes(&bvh, &rays, |j| first + j, &mut wide);
+            reduced_lanes(&bvh, &rays, Probe::Thesis, |j| first + j, &mut wide);
             for (k, w) in wide.iter().enumerate() {
                 assert_eq!(
                     *w,
@@ -522,12 +638,23 @@ mod tests {
                 );
             }
         }
-        // And so does a scattered index list, read in place.
+        // And so does a scattered index list, read in place, for either probe (the first-leaf
+        // walk orders children by direction signs, so camera packets stay packets).
         let index: Vec<usize> = (0..rays.len()).rev().step_by(3).collect();
-        let mut scattered = vec![Counts::default(); index.len()];
-        reduced_lanes(&bvh, &rays, |j| index[j], &mut scattered);
-        for (w, &i) in scattered.iter().zip(&index) {
-            assert_eq!(*w, bvh.reduced_traversal(&rays.get(i)), "ray {i}");
+        for probe in [Probe::Thesis, Probe::FirstLeaf] {
+            let mut scattered = vec![Counts::default(); index.len()];
+            reduced_lanes(&bvh, &rays, probe, |j| index[j], &mut scattered);
+            for (w, &i) in scattered.iter().zip(&index) {
+                assert_eq!(*w, bvh.probe(&rays.get(i), probe), "ray {i}, {probe:?}");
+            }
+            for first in [0, 5] {
+                let mut wide = vec![Counts::default(); rays.len() - first];
+                reduced_lanes(&bvh, &rays, probe, |j| first + j, &mut wide);
+                for (k, w) in wide.iter().enumerate() {
+                    let want = bvh.probe(&rays.get(first + k), probe);
+                    assert_eq!(*w, want, "ray {}, {probe:?}", first + k);
+                }
+            }
         }
     }
 }

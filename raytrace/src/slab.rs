@@ -77,6 +77,25 @@ impl BoxRay {
         (t0 <= t1).then_some(t0)
     }
 
+    /// Where the ray leaves the node's box, clipped to `tmax`: [`BoxRay::hit`]'s far end, by
+    /// the same operations (the first-leaf probe ends a ray there).
+    #[inline(always)]
+    pub(crate) fn exit(&self, node: &Node, tmax: f32) -> f32 {
+        let b: &[f32; 8] = bytemuck::cast_ref(node);
+        let (o, inv, n) = (&self.org, &self.inv, &self.near);
+        let tx1 = (b[(n[0] ^ 4) & 7] - o[0]) * inv[0];
+        let ty1 = (b[(n[1] ^ 4) & 7] - o[1]) * inv[1];
+        let tz1 = (b[(n[2] ^ 4) & 7] - o[2]) * inv[2];
+        let t1 = min_keep(min_keep(min_keep(f32::INFINITY, tx1), ty1), tz1) * self.scale;
+        if t1 < tmax { t1 } else { tmax }
+    }
+
+    /// Sign bits of the ray's direction, per axis.
+    #[inline(always)]
+    pub(crate) fn negative(&self) -> [bool; 3] {
+        self.near.map(|n| n >= 4)
+    }
+
     /// [`BoxRay::hit`] of two sibling nodes.
     #[inline(always)]
     pub(crate) fn hit_pair(&self, pair: &[Node; 2], tmin: f32, tmax: f32) -> [Option<f32>; 2] {

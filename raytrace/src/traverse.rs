@@ -9,6 +9,8 @@
 //! - [`Bvh::reduced_traversal`]: the thesis's *reduced traversal* (section 3.3): boxes only,
 //!   never fetching a triangle, so the ray is never shortened; `B` counts the nodes it enters
 //!   and `T` the triangles of the leaves it reaches. This is the cost estimator's probe.
+//! - [`Bvh::first_leaf_traversal`]: the same, but each ray ends where it leaves the first leaf
+//!   it reaches ([`Probe::FirstLeaf`]), children taken in a fixed order ([`near_child_first`]).
 //!
 //! `B` counts nodes *entered* (the root, if its box is hit, and every child whose box is hit);
 //! entering an inner node costs two child box tests, entering a leaf `count` triangle tests.
@@ -49,6 +51,75 @@ const CLOSEST: u8 = 0;
 const ANY: u8 = 1;
 const COUNTED: u8 = 2;
 const REDUCED: u8 = 3;
+const FIRST_LEAF: u8 = 4;
+
+/// Which reduced traversal the cost estimator runs on its sampled rays.
+///
+/// The thesis's probe never shortens a ray, so on a closed mesh a camera ray is counted
+/// through every box behind the surface it stops at: on the Stanford Dragon it enters 78
+/// nodes where the trace enters 25. Ending each ray at the exit of the first leaf it reaches
+/// stands for "the ray hits something there", which is what a closed surface does. It is the
+/// better model for closest-hit rays on closed meshes and dense geometry, and the worse one
+/// where rays pass leaves without hitting (foliage) and for any-hit rays; `cobalt estimate
+/// --probe` measures both (README, "Known limit").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Probe {
+    /// The thesis's reduced traversal: the whole `[tmin, tmax]` of every ray.
+    #[default]
+    Thesis,
+    /// Each ray ends at the exit of the first leaf it reaches, in [`near_child_first`] order.
+    FirstLeaf,
+}
+
+impl Probe {
+    /// The name used on the command line: `thesis` or `first-leaf`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Thesis => "thesis",
+            Self::FirstLeaf => "first-leaf",
+        }
+    }
+
+    /// The probe a generation of `kind` is estimated with: this one for closest-hit rays, the
+    /// thesis's for any-hit rays (shadow, AO), where ending at the first leaf modelled the
+    /// measured times worse on every scene tried (README, "Known limit").
+    pub fn for_kind(self, kind: crate::RayKind) -> Self {
+        if kind.is_occlusion() {
+            Self::Thesis
+        } else {
+            self
+        }
+    }
+}
+
+impl std::str::FromStr for Probe {
+    type Err = String;
+    /// Parses [`Probe::name`]'s names.
+    fn from_str(s: &str) -> Result<Self, String> {
+        [Self::Thesis, Self::FirstLeaf]
+            .into_iter()
+            .find(|p| p.name() == s.trim())
+            .ok_or_else(|| format!("unknown probe `{s}` (expected thesis or first-leaf)"))
+    }
+}
+
+/// The first-leaf probe's child order: along the axis on which the two children's centres lie
+/// furthest apart, the child nearer the side the ray comes from. It depends on the direction's
+/// signs alone, not on the ray's distances to the boxes, so rays that share their signs (a
+/// packet of camera rays) share the order, and a packet walks exactly like each of its rays.
+#[inline(always)]
+pub fn near_child_first(pair: &[crate::Node; 2], negative: [bool; 3]) -> bool {
+    let gap = |a: usize| (pair[1].min[a] + pair[1].max[a]) - (pair[0].min[a] + pair[0].max[a]);
+    let g = [gap(0), gap(1), gap(2)];
+    let a = if g[0].abs() >= g[1].abs() {
+        if g[0].abs() >= g[2].abs() { 0 } else { 2 }
+    } else if g[1].abs() >= g[2].abs() {
+        1
+    } else {
+        2
+    };
+    (g[a] >= 0.0) != negative[a]
+}
 
 /// Rays per rayon work item: enough to amortise scheduling, small enough to balance.
 const CHUNK: usize = 256;
@@ -84,6 +155,21 @@ impl Bvh {
         self.run::<REDUCED>(ray).1
     }
 
+    /// The reduced traversal that ends the ray at the exit of the first leaf it reaches.
+    #[inline]
+    pub fn first_leaf_traversal(&self, ray: &Ray) -> Counts {
+        self.run::<FIRST_LEAF>(ray).1
+    }
+
+    /// The counts of `probe` for one ray.
+    #[inline]
+    pub fn probe(&self, ray: &Ray, probe: Probe) -> Counts {
+        match probe {
+            Probe::Thesis => self.reduced_traversal(ray),
+            Probe::FirstLeaf => self.first_leaf_traversal(ray),
+        }
+    }
+
     #[inline(always)]
     fn run<const MODE: u8>(&self, ray: &Ray) -> (Option<Hit>, Counts) {
         if self.depth <= 64 {
@@ -107,6 +193,7 @@ impl Bvh {
         let mut best_t = ray.tmax;
         let mut best: Option<Hit> = None;
         let boxes = BoxRay::new(ray);
+        let negative = boxes.negative();
         let nodes = &self.nodes[..];
         let tris = &self.tris[..];
         if tris.is_empty() {
@@ -124,12 +211,15 @@ impl Bvh {
             // (established by `Bvh::build`, and the fields are private) put every child pair
             // `index, index + 1` inside `nodes`.
             let node = unsafe { nodes.get_unchecked(i) };
-            if MODE == COUNTED || MODE == REDUCED {
+            if MODE == COUNTED || MODE == REDUCED || MODE == FIRST_LEAF {
                 counts.nodes += 1;
             }
             if node.is_leaf() {
-                if MODE == REDUCED {
+                if MODE == REDUCED || MODE == FIRST_LEAF {
                     counts.tris += node.count;
+                    if MODE == FIRST_LEAF {
+                        best_t = boxes.exit(node, best_t);
+                    }
                 } else {
                     let first = node.index as usize;
                     // SAFETY: leaves own `index .. index + count` of `tris` (validated invariant).
@@ -164,7 +254,12 @@ impl Bvh {
                 let pair = unsafe { &*nodes.as_ptr().add(l).cast::<[crate::Node; 2]>() };
                 match boxes.hit_pair(pair, tmin, best_t).into() {
                     (Some(a), Some(b)) => {
-                        let (near, far, t_far) = if a <= b { (l, l + 1, b) } else { (l + 1, l, a) };
+                        let left = if MODE == FIRST_LEAF {
+                            near_child_first(pair, negative)
+                        } else {
+                            a <= b
+                        };
+                        let (near, far, t_far) = if left { (l, l + 1, b) } else { (l + 1, l, a) };
                         // The stack never holds more than depth - 1 entries (validated).
                         stack[sp] = (far as u32, t_far);
                         sp += 1;
@@ -271,12 +366,17 @@ pub fn closest_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts
     (out, counts)
 }
 
-/// Reduced-traversal counts of the rays in `range` (a task), in parallel, in packets of 4 or 8 rays
-/// (each lane's counts are exactly its ray's [`Bvh::reduced_traversal`]; see `packet.rs`).
+/// `probe`'s counts of the rays in `range` (a task), in parallel, in packets of 4 or 8 rays
+/// (each lane's counts are exactly its ray's [`Bvh::probe`]; see `packet.rs`).
 ///
 /// # Panics
 /// Panics if `range` is out of bounds or the batch's columns have different lengths.
-pub fn reduced_counts(bvh: &Bvh, rays: &RayBatch, range: std::ops::Range<usize>) -> Vec<Counts> {
+pub fn reduced_counts(
+    bvh: &Bvh,
+    rays: &RayBatch,
+    probe: Probe,
+    range: std::ops::Range<usize>,
+) -> Vec<Counts> {
     check(rays);
     assert!(range.end <= rays.len(), "range beyond the batch");
     let mut counts = vec![Counts::default(); range.len()];
@@ -285,17 +385,17 @@ pub fn reduced_counts(bvh: &Bvh, rays: &RayBatch, range: std::ops::Range<usize>)
         .enumerate()
         .for_each(|(c, cs)| {
             let first = range.start + c * CHUNK;
-            crate::packet::reduced_lanes(bvh, rays, |j| first + j, cs);
+            crate::packet::reduced_lanes(bvh, rays, probe, |j| first + j, cs);
         });
     counts
 }
 
-/// Reduced-traversal counts of rays `index[0], index[1], …` of `rays`, in parallel, read in
-/// place (a compacted sample without copying its rays out).
+/// `probe`'s counts of rays `index[0], index[1], …` of `rays`, in parallel, read in place (a
+/// compacted sample without copying its rays out).
 ///
 /// # Panics
 /// Panics if an index is out of bounds or the batch's columns have different lengths.
-pub fn reduced_counts_at(bvh: &Bvh, rays: &RayBatch, index: &[usize]) -> Vec<Counts> {
+pub fn reduced_counts_at(bvh: &Bvh, rays: &RayBatch, probe: Probe, index: &[usize]) -> Vec<Counts> {
     check(rays);
     assert!(
         index.iter().all(|&i| i < rays.len()),
@@ -307,7 +407,7 @@ pub fn reduced_counts_at(bvh: &Bvh, rays: &RayBatch, index: &[usize]) -> Vec<Cou
         .enumerate()
         .for_each(|(c, cs)| {
             let part = &index[c * CHUNK..];
-            crate::packet::reduced_lanes(bvh, rays, |j| part[j], cs);
+            crate::packet::reduced_lanes(bvh, rays, probe, |j| part[j], cs);
         });
     counts
 }

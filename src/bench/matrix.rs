@@ -58,6 +58,8 @@ pub struct Record {
     pub ray_kind: &'static str,
     pub policy: &'static str,
     pub mode: &'static str,
+    /// Cost mode's probe of closest-hit rays (`thesis` or `first-leaf`).
+    pub probe: &'static str,
     pub task_size: usize,
     pub devices: usize,
     pub device_list: String,
@@ -117,6 +119,8 @@ pub struct Plan<'a> {
     pub sample_rate: SampleRate,
     /// Where cost mode's estimate runs.
     pub estimate_on: raytrace::scheduled::EstimateOn,
+    /// Cost mode's probe of closest-hit rays.
+    pub probe: raytrace::Probe,
 }
 
 impl Plan<'_> {
@@ -149,13 +153,7 @@ impl Plan<'_> {
         for cam in 0..self.cameras {
             let devices = build_devices(self.bvh, self.devices, &[])?;
             let tracer = ScheduledTracer::new(self.bvh, devices, settings)?;
-            let mut p = Probe::new(
-                tracer,
-                self.bvh,
-                settings.task_size.get(),
-                settings.sample_rate,
-                probe,
-            );
+            let mut p = Probe::new(tracer, self.bvh, &settings, probe);
             let options = RenderOptions::new(
                 self.width,
                 self.height,
@@ -194,6 +192,7 @@ impl Plan<'_> {
                             task_size: size,
                             sample_rate: self.sample_rate,
                             estimate_on: self.estimate_on,
+                            probe: self.probe,
                         };
                         let probe = mode == Mode::Cost && error.is_none();
                         let (stats, sums) = self.render_all(w, settings, probe)?;
@@ -261,6 +260,7 @@ impl Plan<'_> {
             ray_kind: w.ray_kind(),
             policy: settings.policy.name(),
             mode: settings.mode.name(),
+            probe: settings.probe.name(),
             task_size: settings.task_size.get(),
             devices: gens.first().map_or(0, |g| g.devices.len()),
             device_list: self.device_list.to_string(),

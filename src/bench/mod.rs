@@ -64,6 +64,10 @@ pub struct Args {
     /// among `--devices`, as the thesis does).
     #[arg(long, default_value = "cpu")]
     estimate_on: raytrace::scheduled::EstimateOn,
+    /// Cost mode's reduced traversal of closest-hit rays: `thesis` or `first-leaf` (see
+    /// `cobalt render --probe`); shadow and AO rays keep the thesis's.
+    #[arg(long, default_value = "thesis")]
+    probe: raytrace::Probe,
     /// AO probes per primary hit.
     #[arg(long, default_value_t = 32)]
     ao_samples: u32,
@@ -192,6 +196,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             task_sizes: &task_sizes,
             policies: &policies,
             rate,
+            probe: args.probe,
             preset,
         };
         return run_mpi(&args, &scenes, needs, settings, started);
@@ -225,6 +230,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             ao_samples: args.ao_samples,
             sample_rate: rate,
             estimate_on: args.estimate_on,
+            probe: args.probe,
         };
         let bar = ProgressBar::new(plan.runs() as u64);
         bar.set_style(
@@ -239,15 +245,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         })?;
         bar.finish_and_clear();
         sims.extend(simulate::simulate(name, &replays, &simulate)?);
-        points.extend(trade::sampling_trade(
-            name,
-            scene,
-            &bvh,
-            width,
-            height,
-            args.ao_samples,
-            &task_sizes,
-        )?);
+        points.extend(trade::sampling_trade(&plan)?);
         if args.plots.is_some() && cost_png.is_none() {
             cost_png = Some(cost_image(scene, &bvh, width, height)?);
         }
@@ -318,6 +316,7 @@ struct MpiSettings<'a> {
     task_sizes: &'a [usize],
     policies: &'a [Policy],
     rate: SampleRate,
+    probe: raytrace::Probe,
     preset: BuildPreset,
 }
 
@@ -357,6 +356,7 @@ fn run_mpi(
             height: s.height,
             ao_samples: args.ao_samples,
             sample_rate: s.rate,
+            probe: s.probe,
         })
         .collect();
     let Some((mut text, json)) = mpi::bench(&cluster, &plans)? else {

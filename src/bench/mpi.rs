@@ -41,6 +41,8 @@ pub struct Plan<'a> {
     pub height: u32,
     pub ao_samples: u32,
     pub sample_rate: SampleRate,
+    /// Cost mode's probe of closest-hit rays.
+    pub probe: raytrace::Probe,
 }
 
 /// One render over the ranks.
@@ -110,6 +112,7 @@ impl Plan<'_> {
             sample_rate: self.sample_rate,
             // Each rank estimates its slice of the tasks on its own host.
             estimate_on: raytrace::scheduled::EstimateOn::Cpu,
+            probe: self.probe,
         }
     }
 

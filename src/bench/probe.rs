@@ -7,6 +7,7 @@
 use std::ops::Range;
 
 use raytrace::cost::{CostModel, ReducedTraversal, SampleRate, full_work};
+use raytrace::scheduled::Settings;
 use raytrace::shade::Tracer;
 use raytrace::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
@@ -25,28 +26,34 @@ pub struct Probe<'a, T> {
     bvh: &'a Bvh,
     task_size: usize,
     rate: SampleRate,
+    probe: raytrace::Probe,
     enabled: bool,
     /// One entry per generation traced, in order (empty when disabled).
     pub sums: Vec<(RayKind, ErrorSums)>,
 }
 
 impl<'a, T: Tracer> Probe<'a, T> {
-    pub fn new(inner: T, bvh: &'a Bvh, task_size: usize, rate: SampleRate, enabled: bool) -> Self {
+    /// `settings` gives the task size, sampling rate and probe the scheduled tracer uses.
+    pub fn new(inner: T, bvh: &'a Bvh, settings: &Settings, enabled: bool) -> Self {
         Self {
             inner,
             bvh,
-            task_size,
-            rate,
+            task_size: settings.task_size.get(),
+            rate: settings.sample_rate,
+            probe: settings.probe,
             enabled,
             sums: Vec::new(),
         }
     }
 
-    fn error_sums(&self, rays: &RayBatch) -> ErrorSums {
+    fn error_sums(&self, kind: RayKind, rays: &RayBatch) -> ErrorSums {
         let tasks: Vec<Range<usize>> = sched::split_ranges(rays.len(), self.task_size);
         let model = CostModel::default();
-        let est = ReducedTraversal::new(self.bvh, rays, self.rate).try_work(&tasks);
-        let full = full_work(self.bvh, rays, &tasks);
+        let probe = self.probe.for_kind(kind);
+        let est = ReducedTraversal::new(self.bvh, rays, self.rate)
+            .with_probe(probe)
+            .try_work(&tasks);
+        let full = full_work(self.bvh, rays, &tasks, probe);
         match (est, full) {
             (Ok(est), Ok(full)) => {
                 let (est, full) = (model.costs(&est), model.costs(&full));
@@ -64,7 +71,7 @@ impl<'a, T: Tracer> Probe<'a, T> {
 impl<T: Tracer> Tracer for Probe<'_, T> {
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
         if self.enabled {
-            let sums = self.error_sums(rays);
+            let sums = self.error_sums(kind, rays);
             self.sums.push((kind, sums));
         }
         self.inner.trace(kind, rays)

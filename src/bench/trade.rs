@@ -8,9 +8,10 @@
 use std::time::Instant;
 
 use raytrace::cost::{CostModel, ReducedTraversal, SampleRate, full_work, prediction_error};
-use raytrace::{Bvh, RayBatch, Scene, traverse, workload};
+use raytrace::{Bvh, Probe, RayBatch, RayKind, traverse, workload};
 use serde::Serialize;
 
+use super::matrix::Plan;
 use crate::error::CliError;
 
 /// The sampling rates measured: the thesis's four, and two below them.
@@ -70,6 +71,8 @@ pub struct TradePoint {
     pub task_size: usize,
     pub rays: usize,
     pub sample_rate: f64,
+    /// The reduced traversal traced: `thesis` or `first-leaf`.
+    pub probe: &'static str,
     pub prediction_error: f64,
     /// Estimation time over the full trace's time, both on all cores, best of three.
     pub overhead: f64,
@@ -96,6 +99,7 @@ fn points(
     rays: &RayBatch,
     kind: &'static str,
     occlusion: bool,
+    probe: Probe,
     task_sizes: &[usize],
 ) -> Result<Vec<TradePoint>, CliError> {
     let cost_err = |e: raytrace::cost::CostError| CliError::Write(format!("estimate: {e}"));
@@ -112,10 +116,10 @@ fn points(
     let mut out = Vec::new();
     for &task_size in task_sizes {
         let tasks = sched::split_ranges(rays.len(), task_size);
-        let full = model.costs(&full_work(bvh, rays, &tasks).map_err(cost_err)?);
+        let full = model.costs(&full_work(bvh, rays, &tasks, probe).map_err(cost_err)?);
         for rate in RATES {
             let rate = SampleRate::new(rate).map_err(|e| cost_err(e.into()))?;
-            let estimator = ReducedTraversal::new(bvh, rays, rate);
+            let estimator = ReducedTraversal::new(bvh, rays, rate).with_probe(probe);
             let mut est = Vec::new();
             let seconds = best_of_3(|| est = estimator.try_estimate(&tasks).unwrap_or_default());
             let prediction_error = prediction_error(&est, &full).map_err(cost_err)?;
@@ -128,6 +132,7 @@ fn points(
                 task_size,
                 rays: rays.len(),
                 sample_rate: rate.get(),
+                probe: probe.name(),
                 prediction_error,
                 overhead,
                 thesis_prediction_error: thesis_at.map(|p| p.error),
@@ -139,21 +144,21 @@ fn points(
     Ok(out)
 }
 
-/// The trade on thesis camera 0 at `width x height`, for tasks of each of `task_sizes` rays.
-pub fn sampling_trade(
-    name: &str,
-    scene: &Scene,
-    bvh: &Bvh,
-    width: u32,
-    height: u32,
-    ao_samples: u32,
-    task_sizes: &[usize],
-) -> Result<Vec<TradePoint>, CliError> {
+/// The trade on thesis camera 0 at the plan's size, for tasks of each of its task sizes, with its
+/// probe for the coherent rays.
+pub fn sampling_trade(plan: &Plan) -> Result<Vec<TradePoint>, CliError> {
+    let (name, scene, bvh) = (plan.scene_name, plan.scene, plan.bvh);
+    let (width, height, ao_samples) = (plan.width, plan.height, plan.ao_samples);
+    let (task_sizes, probe) = (plan.task_sizes, plan.probe);
     let primary = workload::thesis_primary(scene, width, height, 0..1);
     let ao = workload::thesis_ao(scene, bvh, width, height, 0, ao_samples).rays;
-    let mut out = points(name, bvh, &primary, "coherent", false, task_sizes)?;
+    let coherent = probe.for_kind(RayKind::Primary);
+    let mut out = points(name, bvh, &primary, "coherent", false, coherent, task_sizes)?;
     if !ao.is_empty() {
-        out.extend(points(name, bvh, &ao, "diffuse", true, task_sizes)?);
+        let diffuse = probe.for_kind(RayKind::Ao);
+        out.extend(points(
+            name, bvh, &ao, "diffuse", true, diffuse, task_sizes,
+        )?);
     }
     Ok(out)
 }

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use super::sample::{Compacted, check_tasks};
 use super::{CostError, CostModel, SampleRate, Work};
-use crate::{Bvh, RayBatch, traverse};
+use crate::{Bvh, Probe, RayBatch, traverse};
 
 /// Estimates ray tasks (ranges of one [`RayBatch`]) by the reduced traversal of a sample.
 ///
@@ -21,6 +21,7 @@ pub struct ReducedTraversal<'a> {
     rays: &'a RayBatch,
     rate: SampleRate,
     model: CostModel,
+    probe: Probe,
 }
 
 impl<'a> ReducedTraversal<'a> {
@@ -31,7 +32,18 @@ impl<'a> ReducedTraversal<'a> {
             rays,
             rate,
             model: CostModel::default(),
+            probe: Probe::Thesis,
         }
+    }
+
+    /// The same estimator tracing its sample with another reduced traversal.
+    pub fn with_probe(self, probe: Probe) -> Self {
+        Self { probe, ..self }
+    }
+
+    /// The reduced traversal the sample is traced with.
+    pub fn probe(&self) -> Probe {
+        self.probe
     }
 
     /// The same estimator weighing `B` and `T` by a calibrated model.
@@ -54,7 +66,7 @@ impl<'a> ReducedTraversal<'a> {
         let sample = Compacted::gather(self.rays, tasks, self.rate)?;
         // One parallel loop over the whole compacted batch (rayon chunks of it), not one per
         // task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
-        let counts = traverse::reduced_counts_at(self.bvh, self.rays, &sample.index);
+        let counts = traverse::reduced_counts_at(self.bvh, self.rays, self.probe, &sample.index);
         Ok(sample
             .offsets
             .windows(2)
@@ -96,20 +108,21 @@ impl sched::CostEstimator<Range<usize>> for ReducedTraversal<'_> {
     }
 }
 
-/// The reduced traversal of *every* ray of every task: the "full" of the thesis's prediction
-/// error, which a sample rate of 1 reproduces exactly. Tasks run in parallel, each summed on
-/// one thread (it is a reference, not timed).
+/// `probe`'s reduced traversal of *every* ray of every task: the "full" of the thesis's
+/// prediction error, which a sample rate of 1 reproduces exactly. Tasks run in parallel, each
+/// summed on one thread (it is a reference, not timed).
 pub fn full_work(
     bvh: &Bvh,
     rays: &RayBatch,
     tasks: &[Range<usize>],
+    probe: Probe,
 ) -> Result<Vec<Work>, CostError> {
     check_tasks(rays, tasks)?;
     Ok(tasks
         .par_iter()
         .map(|r| {
             let (b, t) = r.clone().fold((0u64, 0u64), |(b, t), i| {
-                let c = bvh.reduced_traversal(&rays.get(i));
+                let c = bvh.probe(&rays.get(i), probe);
                 (b + u64::from(c.nodes), t + u64::from(c.tris))
             });
             Work {
@@ -143,7 +156,7 @@ mod tests {
         let (bvh, rays) = forest();
         let tasks = sched::split_ranges(rays.len(), 100);
         let est = ReducedTraversal::new(&bvh, &rays, SampleRate::FULL);
-        let full = full_work(&bvh, &rays, &tasks).unwrap();
+        let full = full_work(&bvh, &rays, &tasks, Probe::Thesis).unwrap();
         assert_eq!(est.try_work(&tasks).unwrap(), full);
         let m = CostModel::default();
         assert_eq!(
@@ -161,7 +174,7 @@ mod tests {
         let (bvh, rays) = forest();
         let tasks = sched::split_ranges(rays.len(), 256);
         let m = CostModel::default();
-        let full = m.costs(&full_work(&bvh, &rays, &tasks).unwrap());
+        let full = m.costs(&full_work(&bvh, &rays, &tasks, Probe::Thesis).unwrap());
         let err = |r| {
             let e = ReducedTraversal::new(&bvh, &rays, SampleRate::new(r).unwrap());
             prediction_error(&e.try_estimate(&tasks).unwrap(), &full).unwrap()
@@ -207,7 +220,7 @@ mod tests {
         );
         #[allow(clippy::reversed_empty_ranges)] // the point of the test
         let backwards = vec![0..1, 5..3];
-        assert!(full_work(&bvh, &rays, &backwards).is_err());
+        assert!(full_work(&bvh, &rays, &backwards, Probe::Thesis).is_err());
         assert_eq!(e.try_work(&[]), Ok(vec![]));
     }
 }

@@ -66,17 +66,23 @@ impl<'a, 'c> ClusterTracer<'a, 'c> {
     /// Each task's work, estimated on every rank for a slice of the tasks and all-gathered;
     /// `None` in regular mode or if any rank's estimate failed (then every rank plans equal
     /// costs, since every rank sees the same gathered values).
-    fn estimate(&self, rays: &RayBatch, tasks: &[Range<usize>]) -> Option<Vec<Work>> {
+    fn estimate(
+        &self,
+        kind: RayKind,
+        rays: &RayBatch,
+        tasks: &[Range<usize>],
+    ) -> Option<Vec<Work>> {
         if self.settings.mode == Mode::Regular {
             return None;
         }
         let (rank, size) = (self.cluster.rank(), self.cluster.size());
         let mine = &tasks[tasks.len() * rank / size..tasks.len() * (rank + 1) / size];
-        let flat: Vec<f64> =
-            match ReducedTraversal::new(self.bvh, rays, self.settings.sample_rate).try_work(mine) {
-                Ok(work) => work.iter().flat_map(|w| [w.nodes, w.tris]).collect(),
-                Err(_) => vec![f64::NAN; 2 * mine.len()],
-            };
+        let estimator = ReducedTraversal::new(self.bvh, rays, self.settings.sample_rate)
+            .with_probe(self.settings.probe.for_kind(kind));
+        let flat: Vec<f64> = match estimator.try_work(mine) {
+            Ok(work) => work.iter().flat_map(|w| [w.nodes, w.tris]).collect(),
+            Err(_) => vec![f64::NAN; 2 * mine.len()],
+        };
         let all = self.cluster.all_gather_f64(&flat);
         let work: Vec<Work> = all
             .chunks_exact(2)
@@ -256,7 +262,7 @@ impl Tracer for ClusterTracer<'_, '_> {
             host_fallback: false,
         };
         let start = Instant::now();
-        let work = self.estimate(rays, &tasks);
+        let work = self.estimate(kind, rays, &tasks);
         stats.estimate_seconds = start.elapsed().as_secs_f64();
 
         let start = Instant::now();

@@ -147,7 +147,7 @@ fn check_scene(name: &str, seed: u64) {
         &any,
     );
     let counts = dev.reduced_counts(&rays, &all).expect("GPU counts");
-    let want = traverse::reduced_counts(&bvh, &rays, all.clone());
+    let want = traverse::reduced_counts(&bvh, &rays, crate::Probe::Thesis, all.clone());
     let bad: Vec<usize> = (0..n).filter(|&i| counts[i] != want[i]).collect();
     assert!(
         bad.is_empty(),
@@ -291,7 +291,8 @@ fn check_estimates(name: &str) {
                     .sampled_counts(rays, &tasks, rate)
                     .expect("GPU estimate");
                 let sample = Compacted::gather(rays, &tasks, rate).expect("CPU sample");
-                let counts = traverse::reduced_counts_at(&bvh, rays, &sample.index);
+                let counts =
+                    traverse::reduced_counts_at(&bvh, rays, crate::Probe::Thesis, &sample.index);
                 assert_eq!(gpu.len(), tasks.len(), "{at}");
                 for (t, g) in gpu.iter().enumerate() {
                     let (a, b) = (sample.offsets[t], sample.offsets[t + 1]);
@@ -314,7 +315,7 @@ fn check_estimates(name: &str) {
                 if rate == SampleRate::FULL {
                     assert_eq!(
                         gpu_work,
-                        full_work(&bvh, rays, &tasks).expect("full"),
+                        full_work(&bvh, rays, &tasks, crate::Probe::Thesis).expect("full"),
                         "{at}"
                     );
                 }

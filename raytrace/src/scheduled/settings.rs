@@ -6,6 +6,7 @@ use std::str::FromStr;
 
 use sched::Policy;
 
+use crate::Probe;
 use crate::cost::SampleRate;
 
 /// Where a generation's task costs come from.
@@ -97,6 +98,9 @@ pub struct Settings {
     pub sample_rate: SampleRate,
     /// Where the estimate runs (cost mode).
     pub estimate_on: EstimateOn,
+    /// The reduced traversal of closest-hit generations (cost mode); any-hit generations
+    /// (shadow, AO) keep the thesis's ([`Probe::for_kind`]).
+    pub probe: Probe,
 }
 
 impl Settings {
@@ -144,6 +148,7 @@ impl Default for Settings {
             task_size: Self::DEFAULT_TASK_SIZE,
             sample_rate: SampleRate::THESIS,
             estimate_on: EstimateOn::Cpu,
+            probe: Probe::Thesis,
         }
     }
 }

@@ -13,7 +13,7 @@ use super::{
 use crate::cost::{Calibrations, CostModel, ReducedTraversal, Work};
 use crate::shade::Tracer;
 use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
-use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
+use crate::{Bvh, Counts, HitBatch, Probe, RayBatch, RayKind};
 
 /// A [`Tracer`] that schedules every generation over devices. See the module documentation
 /// of [`crate::scheduled`].
@@ -115,7 +115,7 @@ impl<'a> ScheduledTracer<'a> {
         let model = self.planning_model(kind);
         // Tasks come from `split_ranges` over a non-empty batch, so neither step can fail;
         // if one did, the generation is planned in regular mode and the report says why.
-        match self.estimate_work(rays, tasks) {
+        match self.estimate_work(kind, rays, tasks) {
             Ok((work, on)) => match Costs::new(model.costs(&work)) {
                 Ok(costs) => Costed {
                     costs,
@@ -140,12 +140,16 @@ impl<'a> ScheduledTracer<'a> {
     /// device did, when one was asked for).
     fn estimate_work(
         &mut self,
+        kind: RayKind,
         rays: &RayBatch,
         tasks: &[Range<usize>],
     ) -> Result<(Vec<Work>, String), String> {
         let rate = self.settings.sample_rate;
+        let probe = self.settings.probe.for_kind(kind);
         let mut on = String::from("host");
-        if self.settings.estimate_on == EstimateOn::Gpu {
+        if self.settings.estimate_on == EstimateOn::Gpu && probe != Probe::Thesis {
+            on.push_str(" (devices run the thesis's probe only)");
+        } else if self.settings.estimate_on == EstimateOn::Gpu {
             on.push_str(" (no GPU among the devices)");
             for (device, retired) in self.devices.iter_mut().zip(&self.retired) {
                 if *retired {
@@ -159,6 +163,7 @@ impl<'a> ScheduledTracer<'a> {
             }
         }
         let work = ReducedTraversal::new(self.bvh, rays, rate)
+            .with_probe(probe)
             .try_work(tasks)
             .map_err(|e| e.to_string())?;
         Ok((work, on))

@@ -10,7 +10,7 @@ use crate::builtin::mesh::icosphere as unit_icosphere;
 use crate::bvh::validate;
 use crate::testkit::{self, reference_closest};
 use crate::traverse::{any_hits, closest_hits, closest_hits_counted, reduced_counts};
-use crate::{BuildPreset, Bvh, Ray, RayBatch, Rng, Scene};
+use crate::{BuildPreset, Bvh, Probe, Ray, RayBatch, Rng, Scene};
 
 fn build(scene: &Scene) -> Bvh {
     let bvh = Bvh::build(scene, BuildPreset::Medium).unwrap();
@@ -341,8 +341,8 @@ fn counts_and_reduced_traversal() {
     let bvh = build(&scene);
     let batch: RayBatch = rays.into_iter().collect();
     let (hits, counts) = closest_hits_counted(&bvh, &batch);
-    let reduced = reduced_counts(&bvh, &batch, 0..batch.len());
-    let part = reduced_counts(&bvh, &batch, 100..300);
+    let reduced = reduced_counts(&bvh, &batch, Probe::Thesis, 0..batch.len());
+    let part = reduced_counts(&bvh, &batch, Probe::Thesis, 100..300);
     assert_eq!(&reduced[100..300], &part[..]);
     for i in 0..batch.len() {
         let (c, r) = (counts[i], reduced[i]);
@@ -355,7 +355,13 @@ fn counts_and_reduced_traversal() {
             "ray {i}: {c:?} vs {r:?}"
         );
         assert_eq!(r, bvh.reduced_traversal(&batch.get(i)));
+        // Ending at the first leaf's exit enters a subset of those nodes, and at least the
+        // first leaf on the way.
+        let f = bvh.first_leaf_traversal(&batch.get(i));
+        assert!(f.nodes >= 2 && f.tris >= 1 && f.nodes <= r.nodes && f.tris <= r.tris);
     }
+    let first = reduced_counts(&bvh, &batch, Probe::FirstLeaf, 0..batch.len());
+    assert!(first.iter().zip(&reduced).any(|(f, r)| f.nodes < r.nodes));
     // A ray that misses everything enters nothing.
     let away = Ray::new(Vec3::splat(500.0), Vec3::ONE);
     assert_eq!(bvh.reduced_traversal(&away), Default::default());

@@ -14,7 +14,7 @@ use crate::scheduled::{
 use crate::shade::{
     AoSettings, CpuTracer, RenderOptions, Rendering, Shader, WhittedSettings, render,
 };
-use crate::{BuildPreset, Bvh, Camera, Scene, SceneSource};
+use crate::{BuildPreset, Bvh, Camera, Probe, RayKind, Scene, SceneSource};
 
 const N: u32 = 32;
 
@@ -110,6 +110,35 @@ fn images_are_identical_whatever_the_policy_mode_and_devices() {
             }
         }
     }
+}
+
+/// The first-leaf probe changes the plan of closest-hit generations only, never the image.
+#[test]
+fn the_first_leaf_probe_costs_closest_hit_rays_and_leaves_the_image_alone() {
+    let shader = whitted();
+    let (scene, bvh) = load("builtin:cornell", shader);
+    let want = reference(&scene, &bvh, shader);
+    let run = |probe| {
+        let settings = Settings {
+            probe,
+            ..settings(Policy::StaticLpt, Mode::Cost, 96)
+        };
+        scheduled(&scene, &bvh, shader, "cpu:2", &[], settings)
+    };
+    let (thesis, thesis_stats) = run(Probe::Thesis);
+    let (first, first_stats) = run(Probe::FirstLeaf);
+    assert_eq!(thesis.film, want.film);
+    assert_eq!(first.film, want.film);
+    // The first generation (camera rays) is planned with the default model in both runs:
+    // the closed box ends every ray at its first leaf, so it costs less.
+    let total = |s: &GenerationStats| s.task_stats.iter().map(|t| t.cost).sum::<f64>();
+    assert_eq!(first_stats[0].kind, RayKind::Primary);
+    assert!(
+        total(&first_stats[0]) < 0.9 * total(&thesis_stats[0]),
+        "{} vs {}",
+        total(&first_stats[0]),
+        total(&thesis_stats[0])
+    );
 }
 
 #[test]
@@ -461,4 +490,21 @@ fn estimates_on_the_gpu_equal_the_hosts() {
         cpu_only[0].estimated_on.as_deref(),
         Some("host (no GPU among the devices)")
     );
+    // The GPU's kernels run the thesis's probe: the first-leaf one is estimated on the host,
+    // for closest-hit generations only.
+    let first_leaf = Settings {
+        estimate_on: EstimateOn::Gpu,
+        probe: Probe::FirstLeaf,
+        ..settings(Policy::StaticLpt, Mode::Cost, 96)
+    };
+    let (image, stats) = scheduled(&scene, &bvh, shader, "cpu:1,gpu:0", &[], first_leaf);
+    assert_eq!(image.film, want.film);
+    for s in &stats {
+        let on = s.estimated_on.as_deref();
+        if s.kind.is_occlusion() {
+            assert_eq!(on, Some("gpu0"), "{:?}", s.kind);
+        } else {
+            assert_eq!(on, Some("host (devices run the thesis's probe only)"));
+        }
+    }
 }
