@@ -74,14 +74,51 @@ pub struct Args {
     /// the CPU's. Measured task times (the calibration) stay single-thread CPU times.
     #[arg(long, value_enum, default_value = "cpu")]
     device: DeviceArg,
-    /// The reduced traversal of the sample: `thesis` (the whole range of every ray) or
+    /// The reduced traversal of the sample: `thesis` (the whole range of every ray),
     /// `first-leaf` (closest-hit rays end at the exit of the first leaf they reach; shadow
-    /// and AO rays keep the thesis's probe). CPU only.
+    /// and AO rays keep the thesis's probe; CPU only), or `auto`: the one whose full reduced
+    /// traversal, calibrated, errs least against the measured task times.
     #[arg(long, default_value = "thesis")]
-    probe: Probe,
+    probe: ProbeArg,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
+}
+
+/// `--probe`: one reduced traversal, or the better fit of both.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ProbeArg {
+    Fixed(Probe),
+    Auto,
+}
+
+impl std::str::FromStr for ProbeArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s.trim() == "auto" {
+            return Ok(Self::Auto);
+        }
+        s.parse()
+            .map(Self::Fixed)
+            .map_err(|_| format!("unknown probe `{s}` (expected thesis, first-leaf or auto)"))
+    }
+}
+
+impl std::fmt::Display for ProbeArg {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Fixed(p) => p.name(),
+            Self::Auto => "auto",
+        })
+    }
+}
+
+/// How well one probe's full reduced traversal, calibrated, explains the measured times.
+#[derive(Debug, Serialize)]
+struct ProbeFit {
+    probe: &'static str,
+    error_vs_time: Option<f64>,
+    spearman_vs_time: Option<f64>,
 }
 
 /// Where the estimate runs.
@@ -132,8 +169,11 @@ struct Report {
     task_size: usize,
     tasks: usize,
     sample_rate: f64,
-    /// `thesis` or `first-leaf` (applied to closest-hit generations only).
+    /// `thesis` or `first-leaf` (applied to closest-hit generations only): the one asked for,
+    /// or the better fit with `--probe auto`.
     probe: &'static str,
+    /// With `--probe auto`: how each probe fitted the measured times.
+    probe_fits: Option<Vec<ProbeFit>>,
     sampled_rays: usize,
     threads: usize,
     repeats: usize,
@@ -213,11 +253,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if args.repeats == 0 {
         return Err(arg("repeats", &0, "must be at least 1".into()));
     }
-    let probe = args.probe;
-    if probe != Probe::Thesis && args.device == DeviceArg::Gpu {
+    if args.probe != ProbeArg::Fixed(Probe::Thesis) && args.device == DeviceArg::Gpu {
         return Err(arg(
             "probe",
-            &probe.name(),
+            &args.probe,
             "the GPU estimator runs the thesis's probe only; use --device cpu".into(),
         ));
     }
@@ -288,8 +327,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
         };
     let mut rays = RayBatch::default();
     let mut tasks = Vec::new();
-    // Per generation, its tasks (indices into `tasks`) and the probe its rays are estimated
-    // with: the first-leaf probe models a closest hit, not an any-hit query.
+    // Per generation, its tasks (indices into `tasks`) and kind: the first-leaf probe models
+    // a closest hit, not an any-hit query (`Probe::for_kind`).
     let mut parts = Vec::new();
     for (batch, kind) in &segments {
         let base = rays.len();
@@ -299,7 +338,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 .into_iter()
                 .map(|t| base + t.start..base + t.end),
         );
-        parts.push((first..tasks.len(), probe.for_kind(*kind)));
+        parts.push((first..tasks.len(), *kind));
         rays.extend(batch);
     }
     if rays.is_empty() {
@@ -310,13 +349,54 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ));
     }
 
+    let mut measured = Vec::with_capacity(tasks.len());
+    for (batch, kind) in &segments {
+        let own = sched::split_ranges(batch.len(), args.task_size);
+        measured.extend(measure_seconds(&bvh, batch, &own, *kind, args.repeats)?);
+    }
+    let full_of = |probe: Probe| -> Result<Vec<Work>, CliError> {
+        let mut full = Vec::with_capacity(tasks.len());
+        for (range, kind) in &parts {
+            let own = &tasks[range.clone()];
+            full.extend(full_work(&bvh, &rays, own, probe.for_kind(*kind))?);
+        }
+        Ok(full)
+    };
+    let (probe, full, probe_fits) = match args.probe {
+        ProbeArg::Fixed(p) => (p, full_of(p)?, None),
+        ProbeArg::Auto => {
+            let mut fits = Vec::new();
+            let mut best = (f64::INFINITY, Probe::Thesis, Vec::new());
+            for p in [Probe::Thesis, Probe::FirstLeaf] {
+                let full = full_of(p)?;
+                let predicted = calibrate(&full, &measured)
+                    .ok()
+                    .map(|f| f.model.costs(&full));
+                let error = predicted
+                    .as_ref()
+                    .and_then(|x| error_vs_time(x, &measured).ok());
+                fits.push(ProbeFit {
+                    probe: p.name(),
+                    error_vs_time: error,
+                    spearman_vs_time: predicted.as_ref().and_then(|x| spearman(x, &measured).ok()),
+                });
+                // Ties and failed fits keep the thesis's probe, tried first.
+                if best.2.is_empty() || error.is_some_and(|e| e < best.0) {
+                    best = (error.unwrap_or(f64::INFINITY), p, full);
+                }
+            }
+            (best.1, best.2, Some(fits))
+        }
+    };
+
     let (estimate_seconds, est, trace_seconds, adapter) = match args.device {
         DeviceArg::Cpu => {
             let estimator = ReducedTraversal::new(&bvh, &rays, rate);
             let (estimate_seconds, est) = min_time(args.repeats, || {
                 let mut work = Vec::with_capacity(tasks.len());
-                for (range, p) in &parts {
-                    work.extend(estimator.with_probe(*p).try_work(&tasks[range.clone()])?);
+                for (range, kind) in &parts {
+                    let own = estimator.with_probe(probe.for_kind(*kind));
+                    work.extend(own.try_work(&tasks[range.clone()])?);
                 }
                 Ok::<_, raytrace::cost::CostError>(work)
             })?;
@@ -339,15 +419,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
             (e, est, t, Some(name))
         }
     };
-    let mut full = Vec::with_capacity(tasks.len());
-    for (range, p) in &parts {
-        full.extend(full_work(&bvh, &rays, &tasks[range.clone()], *p)?);
-    }
-    let mut measured = Vec::with_capacity(tasks.len());
-    for (batch, kind) in &segments {
-        let own = sched::split_ranges(batch.len(), args.task_size);
-        measured.extend(measure_seconds(&bvh, batch, &own, *kind, args.repeats)?);
-    }
 
     let per_ray = |total: f64| total / rays.len() as f64;
     // The real trace's counts, where every generation is closest-hit (any-hit counts stop
@@ -388,6 +459,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         tasks: tasks.len(),
         sample_rate: rate.get(),
         probe: probe.name(),
+        probe_fits,
         sampled_rays: tasks.iter().map(|t| rate.samples(t.len())).sum(),
         threads: rayon::current_num_threads(),
         repeats: args.repeats,
@@ -615,5 +687,14 @@ fn table(r: &Report) -> String {
         ),
         ("calibration", cal),
     ];
-    rows.iter().map(|(k, v)| format!("{k:<17} {v}\n")).collect()
+    let mut text: String = rows.iter().map(|(k, v)| format!("{k:<17} {v}\n")).collect();
+    for f in r.probe_fits.iter().flatten() {
+        text += &format!(
+            "{:<17} error vs time {}, spearman {} (full counts)\n",
+            format!("probe {}", f.probe),
+            pct(f.error_vs_time),
+            num(f.spearman_vs_time)
+        );
+    }
+    text
 }
