@@ -10,6 +10,12 @@
 //! to four rays. This is what makes estimation cheap on a CPU, where, unlike the thesis's GPU,
 //! fetching triangles is not what dominates a trace.
 //!
+//! The first-leaf probe ([`Probe::FirstLeaf`]) does shorten rays, so there the order of the
+//! walk matters. It takes children in an order set by the direction's signs
+//! ([`crate::traverse::near_child_first`]), the same for every lane of a packet whose lanes
+//! share their signs; each lane keeps its own `tmax`, and a popped node keeps only the lanes
+//! whose entry distance is still within it, which is the scalar walk's pop rule.
+//!
 //! Measured and dropped (forest and Conference, 12.5 % samples of 4096-ray tasks): a
 //! branch-free walk that counts children as they are tested and pushes only inner ones
 //! (slower: without speculation each step waits on the last), a software prefetch of the
@@ -459,8 +465,8 @@ mod avx2 {
         if root == 0 {
             return [Counts::default(); 8];
         }
-        // Entry distances beside the stack, uninitialised: zeroing 32 bytes per level for
-        // every packet cost more than the walk saved on Conference.
+        // Entry distances beside the stack, uninitialised: a zeroed stack of (node, bits,
+        // entry) would be 4 KiB to clear for every packet of eight rays.
         let mut stack = [(0u32, 0i32); STACK];
         let mut entries = [MaybeUninit::<__m256>::uninit(); STACK];
         stack[0] = (0, root);

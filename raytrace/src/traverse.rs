@@ -61,7 +61,7 @@ const FIRST_LEAF: u8 = 4;
 /// stands for "the ray hits something there", which is what a closed surface does. It is the
 /// better model for closest-hit rays on closed meshes and dense geometry, and the worse one
 /// where rays pass leaves without hitting (foliage) and for any-hit rays; `cobalt estimate
-/// --probe` measures both (README, "Known limit").
+/// --probe auto` measures both and picks (README: "Closed meshes, and the first-leaf probe").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Probe {
     /// The thesis's reduced traversal: the whole `[tmin, tmax]` of every ray.
@@ -82,7 +82,7 @@ impl Probe {
 
     /// The probe a generation of `kind` is estimated with: this one for closest-hit rays, the
     /// thesis's for any-hit rays (shadow, AO), where ending at the first leaf modelled the
-    /// measured times worse on every scene tried (README, "Known limit").
+    /// measured times worse on every scene tried (see the README).
     pub fn for_kind(self, kind: crate::RayKind) -> Self {
         if kind.is_occlusion() {
             Self::Thesis
