@@ -86,6 +86,7 @@ fn bad_arguments_exit_2_naming_the_value_and_write_nothing() {
         ("--eye", "1,2"),
         ("--policy", "round-robin"),
         ("--mode", "guess"),
+        ("--probe", "deepest"),
         ("--task-size", "0"),
         ("--task-size", "many"),
         ("--sample-rate", "0"),
@@ -220,6 +221,24 @@ fn every_policy_mode_and_device_list_renders_the_same_image() {
                 }
             }
         }
+    }
+}
+
+/// `--probe first-leaf` plans closest-hit generations with the first-leaf probe and says so;
+/// the image is the thesis probe's, whatever the shader.
+#[test]
+fn the_first_leaf_probe_renders_the_same_image() {
+    for shader in ["whitted", "ao"] {
+        let base = ["--devices", "cpu:2", "--policy", "hybrid"];
+        let (want, thesis) = render_with(&format!("{shader}-thesis"), shader, &base);
+        let mut args = base.to_vec();
+        args.extend(["--probe", "first-leaf"]);
+        let (png, first) = render_with(&format!("{shader}-first-leaf"), shader, &args);
+        assert!(png == want, "{shader}: the image differs");
+        assert_eq!(
+            (&thesis["probe"], &first["probe"]),
+            (&"thesis".into(), &"first-leaf".into())
+        );
     }
 }
 
