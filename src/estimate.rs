@@ -76,8 +76,8 @@ pub struct Args {
     device: DeviceArg,
     /// The reduced traversal of the sample: `thesis` (the whole range of every ray),
     /// `first-leaf` (closest-hit rays end at the exit of the first leaf they reach; shadow
-    /// and AO rays keep the thesis's probe; CPU only), or `auto`: the one whose full reduced
-    /// traversal, calibrated, errs least against the measured task times.
+    /// and AO rays keep the thesis's probe), or `auto`: the one whose full reduced traversal,
+    /// calibrated, errs least against the measured task times.
     #[arg(long, default_value = "thesis")]
     probe: ProbeArg,
     /// Print one JSON object instead of a table.
@@ -253,13 +253,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if args.repeats == 0 {
         return Err(arg("repeats", &0, "must be at least 1".into()));
     }
-    if args.probe != ProbeArg::Fixed(Probe::Thesis) && args.device == DeviceArg::Gpu {
-        return Err(arg(
-            "probe",
-            &args.probe,
-            "the GPU estimator runs the thesis's probe only; use --device cpu".into(),
-        ));
-    }
     if !(args.ao_distance.is_finite() && args.ao_distance > 0.0) {
         return Err(arg(
             "ao-distance",
@@ -389,14 +382,18 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
     };
 
+    // Each generation's tasks and the probe that estimates them.
+    let jobs: Vec<(&[std::ops::Range<usize>], Probe)> = parts
+        .iter()
+        .map(|(range, kind)| (&tasks[range.clone()], probe.for_kind(*kind)))
+        .collect();
     let (estimate_seconds, est, trace_seconds, adapter) = match args.device {
         DeviceArg::Cpu => {
             let estimator = ReducedTraversal::new(&bvh, &rays, rate);
             let (estimate_seconds, est) = min_time(args.repeats, || {
                 let mut work = Vec::with_capacity(tasks.len());
-                for (range, kind) in &parts {
-                    let own = estimator.with_probe(probe.for_kind(*kind));
-                    work.extend(own.try_work(&tasks[range.clone()])?);
+                for &(own, p) in &jobs {
+                    work.extend(estimator.with_probe(p).try_work(own)?);
                 }
                 Ok::<_, raytrace::cost::CostError>(work)
             })?;
@@ -415,7 +412,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
         DeviceArg::Gpu => {
             let (e, est, t, name) =
-                gpu_estimate(&bvh, &rays, &segments, &tasks, rate, args.repeats)?;
+                gpu_estimate(&bvh, &rays, &segments, &jobs, rate, args.repeats)?;
             (e, est, t, Some(name))
         }
     };
@@ -504,7 +501,7 @@ fn gpu_estimate(
     bvh: &Bvh,
     rays: &RayBatch,
     segments: &[(RayBatch, RayKind)],
-    tasks: &[std::ops::Range<usize>],
+    jobs: &[(&[std::ops::Range<usize>], Probe)],
     rate: SampleRate,
     repeats: usize,
 ) -> Result<(f64, Vec<Work>, f64, String), CliError> {
@@ -514,7 +511,13 @@ fn gpu_estimate(
     let name = ctx.info.name.clone();
     let dev = GpuDevice::new(ctx, bvh).map_err(gpu_err)?;
     let estimator = GpuReducedTraversal::new(&dev, rays, rate);
-    let (estimate_seconds, est) = min_time(repeats, || estimator.try_work(tasks).map_err(gpu_err))?;
+    let (estimate_seconds, est) = min_time(repeats, || {
+        let mut work = Vec::new();
+        for &(own, p) in jobs {
+            work.extend(estimator.with_probe(p).try_work(own).map_err(gpu_err)?);
+        }
+        Ok::<_, CliError>(work)
+    })?;
     let (trace_seconds, ()) = min_time(repeats, || {
         for (batch, kind) in segments {
             let all = 0..batch.len();
@@ -534,7 +537,7 @@ fn gpu_estimate(
     _: &Bvh,
     _: &RayBatch,
     _: &[(RayBatch, RayKind)],
-    _: &[std::ops::Range<usize>],
+    _: &[(&[std::ops::Range<usize>], Probe)],
     _: SampleRate,
     _: usize,
 ) -> Result<(f64, Vec<Work>, f64, String), CliError> {

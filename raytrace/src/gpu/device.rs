@@ -9,7 +9,7 @@ use crate::scheduled::{BadRange, RayDevice};
 use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
 use super::buffers::{SceneBuffers, pack_rays};
-use super::estimate::{EstimateKernels, SampledCounts, sampled_counts};
+use super::estimate::{EstimateKernels, SampledCounts, Sampling, sampled_counts};
 use super::pipeline::{GpuMode, Kernels, Threads, launch, launch_timed};
 use super::{GpuContext, GpuError};
 
@@ -122,8 +122,7 @@ impl GpuDevice {
         })
     }
 
-    /// Reduced-traversal counts of the rays of `range` (equal to
-    /// [`crate::traverse::reduced_counts`]'s).
+    /// `probe`'s counts of the rays of `range` (equal to [`crate::traverse::reduced_counts`]'s).
     ///
     /// # Errors
     /// See [`launch`].
@@ -133,6 +132,7 @@ impl GpuDevice {
     pub fn reduced_counts(
         &self,
         rays: &RayBatch,
+        probe: crate::Probe,
         range: &Range<usize>,
     ) -> Result<Vec<Counts>, GpuError> {
         let packed = pack_rays(rays, &[range]);
@@ -141,7 +141,7 @@ impl GpuDevice {
             &self.kernels,
             &self.scene,
             &packed,
-            GpuMode::Reduced,
+            GpuMode::counts(probe),
         )?;
         Ok(out
             .into_iter()
@@ -165,6 +165,7 @@ impl GpuDevice {
         rays: &RayBatch,
         tasks: &[Range<usize>],
         rate: crate::cost::SampleRate,
+        probe: crate::Probe,
     ) -> Result<Vec<SampledCounts>, GpuError> {
         sampled_counts(
             &self.ctx,
@@ -173,7 +174,7 @@ impl GpuDevice {
             &self.scene,
             rays,
             tasks,
-            rate,
+            Sampling { rate, probe },
         )
     }
 }
@@ -230,8 +231,9 @@ impl RayDevice for GpuDevice {
         rays: &RayBatch,
         tasks: &[Range<usize>],
         rate: crate::cost::SampleRate,
+        probe: crate::Probe,
     ) -> Option<Result<Vec<crate::cost::Work>, DeviceError>> {
-        let estimator = super::GpuReducedTraversal::new(self, rays, rate);
+        let estimator = super::GpuReducedTraversal::new(self, rays, rate).with_probe(probe);
         Some(estimator.try_work(tasks).map_err(DeviceError::from))
     }
 

@@ -19,8 +19,8 @@ use super::buffers::{
 use super::pipeline::{GpuMode, Kernels, Threads, grid, trace_resident};
 use super::program::{Program, READ, UNIFORM, WRITE, dispatch};
 use super::{GpuContext, GpuDevice, GpuError};
-use crate::RayBatch;
 use crate::cost::{CostError, CostModel, SampleRate, Work, check_tasks};
+use crate::{Probe, RayBatch};
 
 /// The longest task the GPU estimator samples: `len² < 2^32`, so the sample indices' products
 /// fit u32.
@@ -80,7 +80,14 @@ impl EstimateKernels {
     }
 }
 
-/// Sampled sums of every task of `rays` at `rate` (see the module docs).
+/// What the estimator traces: each task's sample at `rate`, by `probe`'s reduced traversal.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Sampling {
+    pub rate: SampleRate,
+    pub probe: Probe,
+}
+
+/// Sampled sums of every task of `rays` (see the module docs).
 ///
 /// # Errors
 /// [`GpuError::BadTasks`] for an empty task, one beyond the batch or an inconsistent batch
@@ -93,7 +100,7 @@ pub(crate) fn sampled_counts(
     scene: &SceneBuffers,
     rays: &RayBatch,
     tasks: &[Range<usize>],
-    rate: SampleRate,
+    sampling: Sampling,
 ) -> Result<Vec<SampledCounts>, GpuError> {
     check_tasks(rays, tasks).map_err(|e: CostError| GpuError::BadTasks { why: e.to_string() })?;
     if let Some((task, r)) = tasks
@@ -126,7 +133,7 @@ pub(crate) fn sampled_counts(
             scene,
             rays,
             &tasks[first..end],
-            rate,
+            sampling,
         )?);
         first = end;
     }
@@ -141,14 +148,14 @@ fn group(
     scene: &SceneBuffers,
     rays: &RayBatch,
     tasks: &[Range<usize>],
-    rate: SampleRate,
+    sampling: Sampling,
 ) -> Result<Vec<SampledCounts>, GpuError> {
     // The task table: where each task's rays sit in the packed upload, how many samples it
     // keeps (the CPU's own rounding), and where they go (the prefix sum of the samples).
     let mut table: Vec<[u32; 4]> = Vec::with_capacity(tasks.len());
     let (mut start, mut offset) = (0usize, 0usize);
     for r in tasks {
-        let k = rate.samples(r.len());
+        let k = sampling.rate.samples(r.len());
         // Every value is below the binding limit's ray count, far below 2^32.
         let word = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
         table.push([word(start), word(r.len()), word(k), word(offset)]);
@@ -240,7 +247,7 @@ fn group(
         &sampled,
         &counts,
         n_samples,
-        GpuMode::Reduced,
+        GpuMode::counts(sampling.probe),
         Threads::Persistent,
     )?;
     ctx.queue
@@ -263,6 +270,7 @@ pub struct GpuReducedTraversal<'a> {
     rays: &'a RayBatch,
     rate: SampleRate,
     model: CostModel,
+    probe: Probe,
 }
 
 impl<'a> GpuReducedTraversal<'a> {
@@ -274,12 +282,18 @@ impl<'a> GpuReducedTraversal<'a> {
             rays,
             rate,
             model: CostModel::default(),
+            probe: Probe::Thesis,
         }
     }
 
     /// The same estimator weighing `B` and `T` by a calibrated model.
     pub fn with_model(self, model: CostModel) -> Self {
         Self { model, ..self }
+    }
+
+    /// The same estimator tracing its sample with another reduced traversal.
+    pub fn with_probe(self, probe: Probe) -> Self {
+        Self { probe, ..self }
     }
 
     /// Estimated `B` and `T` of every task (equal to the CPU's).
@@ -289,7 +303,7 @@ impl<'a> GpuReducedTraversal<'a> {
     pub fn try_work(&self, tasks: &[Range<usize>]) -> Result<Vec<Work>, GpuError> {
         Ok(self
             .device
-            .sampled_counts(self.rays, tasks, self.rate)?
+            .sampled_counts(self.rays, tasks, self.rate, self.probe)?
             .iter()
             .map(SampledCounts::work)
             .collect())

@@ -1,5 +1,6 @@
 // The GPU estimator's sampling, compaction and per-task sums (thesis, section 3.3), around the
-// reduced traversal of `traverse.wgsl` (MODE 2), mirroring `raytrace/src/cost/sample.rs`:
+// reduced traversal of `traverse.wgsl` (MODE 2, or 3 for the first-leaf probe), mirroring
+// `raytrace/src/cost/sample.rs`:
 // - `gather`: one workgroup per task copies the task's sample (`sample_index`: pairs of
 //   neighbouring rays at a stride) to `sampled[offset + j]`: the samples of all tasks
 //   end up contiguous (compacted), task after task, in the CPU's order;

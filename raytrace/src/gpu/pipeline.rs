@@ -1,6 +1,7 @@
 //! The kernels of `traverse.wgsl` and the host loop that runs them.
 //!
-//! One shader, three pipelines (the `MODE` override): closest hit, any hit, reduced traversal.
+//! One shader, four pipelines (the `MODE` override): closest hit, any hit, and the two reduced
+//! traversals (the thesis's and the first-leaf one, see [`crate::Probe`]).
 //! A launch uploads its rays, resets the queue head, and records enough dispatches of
 //! persistent workgroups to drain the queue: each workgroup takes [`BATCHES`] batches of 64
 //! rays per dispatch, so `ceil(rays / (64 · BATCHES · workgroups))` dispatches suffice when
@@ -34,6 +35,8 @@ pub enum GpuMode {
     Any,
     /// Reduced-traversal counts `B`, `T` (`Bvh::reduced_traversal`).
     Reduced,
+    /// First-leaf reduced-traversal counts (`Bvh::first_leaf_traversal`).
+    FirstLeaf,
 }
 
 impl GpuMode {
@@ -42,6 +45,15 @@ impl GpuMode {
             Self::Closest => 0,
             Self::Any => 1,
             Self::Reduced => 2,
+            Self::FirstLeaf => 3,
+        }
+    }
+
+    /// The counting mode of a probe.
+    pub fn counts(probe: crate::Probe) -> Self {
+        match probe {
+            crate::Probe::Thesis => Self::Reduced,
+            crate::Probe::FirstLeaf => Self::FirstLeaf,
         }
     }
 }
@@ -80,7 +92,7 @@ impl Threads {
 pub struct Kernels {
     program: Program,
     /// By [`Threads::index`], then [`GpuMode::index`].
-    pipelines: [[wgpu::ComputePipeline; 3]; 2],
+    pipelines: [[wgpu::ComputePipeline; 4]; 2],
     stack: usize,
 }
 
@@ -130,6 +142,7 @@ impl Kernels {
                     make(0, "main", "cobalt closest-hit pipeline"),
                     make(1, "main", "cobalt any-hit pipeline"),
                     make(2, "main", "cobalt reduced-traversal pipeline"),
+                    make(3, "main", "cobalt first-leaf reduced-traversal pipeline"),
                 ],
                 [
                     make(
@@ -142,6 +155,11 @@ impl Kernels {
                         2,
                         "per_ray",
                         "cobalt reduced-traversal pipeline, one thread per ray",
+                    ),
+                    make(
+                        3,
+                        "per_ray",
+                        "cobalt first-leaf reduced-traversal pipeline, one thread per ray",
                     ),
                 ],
             ],
@@ -188,7 +206,7 @@ pub fn launch_timed(
 ) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     if scene.empty {
         let none = match mode {
-            GpuMode::Reduced => [0, 0],
+            GpuMode::Reduced | GpuMode::FirstLeaf => [0, 0],
             _ => [f32::INFINITY.to_bits(), u32::MAX],
         };
         return Ok((vec![none; rays.len()], None));

@@ -146,17 +146,22 @@ fn check_scene(name: &str, seed: u64) {
         &traverse::any_hits(&bvh, &rays),
         &any,
     );
-    let counts = dev.reduced_counts(&rays, &all).expect("GPU counts");
-    let want = traverse::reduced_counts(&bvh, &rays, crate::Probe::Thesis, all.clone());
-    let bad: Vec<usize> = (0..n).filter(|&i| counts[i] != want[i]).collect();
-    assert!(
-        bad.is_empty(),
-        "{name}: {} of {n} reduced counts differ, first ray {}: CPU {:?} GPU {:?}",
-        bad.len(),
-        bad[0],
-        want[bad[0]],
-        counts[bad[0]]
-    );
+    for probe in [crate::Probe::Thesis, crate::Probe::FirstLeaf] {
+        let counts = dev.reduced_counts(&rays, probe, &all).expect("GPU counts");
+        let want = traverse::reduced_counts(&bvh, &rays, probe, all.clone());
+        let bad: Vec<usize> = (0..n).filter(|&i| counts[i] != want[i]).collect();
+        assert!(
+            bad.is_empty(),
+            "{name} {probe:?}: {} of {n} counts differ, first ray {}: CPU {:?} GPU {:?}",
+            bad.len(),
+            bad[0],
+            want[bad[0]],
+            counts[bad[0]]
+        );
+    }
+    let counts = dev
+        .reduced_counts(&rays, crate::Probe::Thesis, &all)
+        .expect("GPU counts");
     // Some rays hit, some miss, and the counts are not trivial.
     let hits = closest
         .prim
@@ -288,7 +293,7 @@ fn check_estimates(name: &str) {
                 let rate = SampleRate::new(rate).expect("rate");
                 let at = format!("{name} {what}, tasks of {size}, rate {}", rate.get());
                 let gpu = dev
-                    .sampled_counts(rays, &tasks, rate)
+                    .sampled_counts(rays, &tasks, rate, crate::Probe::Thesis)
                     .expect("GPU estimate");
                 let sample = Compacted::gather(rays, &tasks, rate).expect("CPU sample");
                 let counts =
@@ -312,6 +317,13 @@ fn check_estimates(name: &str) {
                     .try_work(&tasks)
                     .expect("GPU estimate");
                 assert_eq!(gpu_work, cpu_work, "{at}");
+                // The first-leaf probe too (camera rays only: AO rays never use it).
+                if what == "primary" {
+                    let probe = crate::Probe::FirstLeaf;
+                    let cpu = ReducedTraversal::new(&bvh, rays, rate).with_probe(probe);
+                    let gpu = GpuReducedTraversal::new(&dev, rays, rate).with_probe(probe);
+                    assert_eq!(gpu.try_work(&tasks).ok(), cpu.try_work(&tasks).ok(), "{at}");
+                }
                 if rate == SampleRate::FULL {
                     assert_eq!(
                         gpu_work,
@@ -324,7 +336,12 @@ fn check_estimates(name: &str) {
         // The estimate is not trivial: the rays see the scene.
         let one = 0..rays.len().min(MAX_TASK_RAYS);
         let all = dev
-            .sampled_counts(rays, std::slice::from_ref(&one), SampleRate::FULL)
+            .sampled_counts(
+                rays,
+                std::slice::from_ref(&one),
+                SampleRate::FULL,
+                crate::Probe::Thesis,
+            )
             .expect("one task");
         assert!(all[0].nodes > all[0].len as u64, "{name} {what}: {all:?}");
     }
@@ -354,25 +371,25 @@ fn estimator_refuses_bad_tasks_and_serves_sched() {
     let n = rays.len();
     let rate = SampleRate::THESIS;
     let e = dev
-        .sampled_counts(&rays, &[0..10, 10..10], rate)
+        .sampled_counts(&rays, &[0..10, 10..10], rate, crate::Probe::Thesis)
         .expect_err("empty task");
     assert!(e.to_string().contains("task 1 is empty"), "{e}");
     let e = dev
-        .sampled_counts(&rays, &[0..10, 5..n + 1], rate)
+        .sampled_counts(&rays, &[0..10, 5..n + 1], rate, crate::Probe::Thesis)
         .expect_err("beyond the batch");
     assert!(e.to_string().contains("task 1"), "{e}");
     let long: RayBatch = (0..MAX_TASK_RAYS + 2)
         .map(|_| Ray::new(Vec3::ZERO, Vec3::X))
         .collect();
     let e = dev
-        .sampled_counts(&long, &[0..1, 1..long.len()], rate)
+        .sampled_counts(&long, &[0..1, 1..long.len()], rate, crate::Probe::Thesis)
         .expect_err("too long");
     assert!(
         matches!(e, GpuError::TaskTooLong { task: 1, len, .. } if len == MAX_TASK_RAYS + 1),
         "{e}"
     );
     assert!(
-        dev.sampled_counts(&rays, &[], rate)
+        dev.sampled_counts(&rays, &[], rate, crate::Probe::Thesis)
             .expect("none")
             .is_empty()
     );
@@ -403,7 +420,12 @@ fn per_ray_threads_equal_persistent() {
     let all = 0..rays.len();
     let packed = pack_rays(&rays, &[&all]);
     assert_ne!(packed.len() % 64, 0);
-    for mode in [GpuMode::Closest, GpuMode::Any, GpuMode::Reduced] {
+    for mode in [
+        GpuMode::Closest,
+        GpuMode::Any,
+        GpuMode::Reduced,
+        GpuMode::FirstLeaf,
+    ] {
         let run = |threads| {
             launch_timed(&ctx, &kernels, &scene, &packed, mode, threads)
                 .expect("launch")

@@ -16,7 +16,9 @@
 // invocation, so no invocation may loop for long). `per_ray` is the plain alternative: one
 // invocation per ray in a single dispatch.
 
-// 0: closest hit, 1: any hit, 2: reduced traversal (counts B and T).
+// 0: closest hit, 1: any hit, 2: reduced traversal (counts B and T), 3: the first-leaf
+// reduced traversal (`Probe::FirstLeaf`: counts B and T, each ray ending at the exit of the
+// first leaf it reaches, children in `near_child_first` order).
 override MODE: u32 = 0u;
 // Batches of 64 rays a workgroup takes per dispatch.
 override BATCHES: u32 = 8u;
@@ -96,13 +98,33 @@ struct BoxRay {
 // Entry distance in `.x`, and `.y > 0` when the ray meets the box within [tmin, tmax].
 fn box_hit(b: BoxRay, n: Node, tmin: f32, tmax: f32) -> vec2<f32> {
     let near = select(n.min, n.max, b.neg);
-    let far = select(n.max, n.min, b.neg);
     let t_near = (near - b.org) * b.inv;
-    let t_far = (far - b.org) * b.inv;
     let t0 = max_keep(max_keep(max_keep(tmin, t_near.x), t_near.y), t_near.z);
-    var t1 = min_keep(min_keep(min_keep(inf(), t_far.x), t_far.y), t_far.z) * FAR_SCALE;
-    t1 = select(tmax, t1, t1 < tmax);
+    let t1 = box_exit(b, n, tmax);
     return vec2<f32>(t0, select(0.0, 1.0, t0 <= t1));
+}
+
+// Where the ray leaves the box, clipped to `tmax` (slab.rs `BoxRay::exit`).
+fn box_exit(b: BoxRay, n: Node, tmax: f32) -> f32 {
+    let far = select(n.max, n.min, b.neg);
+    let t_far = (far - b.org) * b.inv;
+    let t1 = min_keep(min_keep(min_keep(inf(), t_far.x), t_far.y), t_far.z) * FAR_SCALE;
+    return select(tmax, t1, t1 < tmax);
+}
+
+// traverse.rs `near_child_first`: true when the first-leaf walk enters the left child first.
+fn near_child_first(l: Node, r: Node, neg: vec3<bool>) -> bool {
+    let g = (r.min + r.max) - (l.min + l.max);
+    let a = abs(g);
+    var axis = 2u;
+    if a.x >= a.y {
+        if a.x >= a.z {
+            axis = 0u;
+        }
+    } else if a.y >= a.z {
+        axis = 1u;
+    }
+    return (g[axis] >= 0.0) != neg[axis];
 }
 
 // The per-ray part of the watertight test (triangle.rs `RayShear`).
@@ -152,7 +174,7 @@ fn tri_hit(sh: Shear, o: vec3<f32>, t: Tri, tmin: f32, tmax: f32) -> vec2<f32> {
     return vec2<f32>(t_scaled / det_abs + 0.0, 1.0);
 }
 
-// Traces ray `r` and writes its result: (t bits, prim) for hits, (B, T) for MODE 2.
+// Traces ray `r` and writes its result: (t bits, prim) for hits, (B, T) for MODEs 2 and 3.
 fn trace(r: u32) {
     let ray = rays[r];
     let o = ray.org.xyz;
@@ -197,8 +219,11 @@ fn trace(r: u32) {
             count_b += 1u;
             var descend = false;
             if node.count > 0u {
-                if MODE == 2u {
+                if MODE >= 2u {
                     count_t += node.count;
+                    if MODE == 3u {
+                        best_t = box_exit(bray, node, best_t);
+                    }
                 } else {
                     var found = false;
                     for (var k = node.index; k < node.index + node.count; k++) {
@@ -223,7 +248,11 @@ fn trace(r: u32) {
                 let a = box_hit(bray, nodes[l], tmin, best_t);
                 let b = box_hit(bray, nodes[l + 1u], tmin, best_t);
                 if a.y > 0.0 && b.y > 0.0 {
-                    if a.x <= b.x {
+                    var left = a.x <= b.x;
+                    if MODE == 3u {
+                        left = near_child_first(nodes[l], nodes[l + 1u], bray.neg);
+                    }
+                    if left {
                         stack_node[sp] = l + 1u;
                         stack_t[sp] = b.x;
                         i = l;
@@ -267,7 +296,7 @@ fn trace(r: u32) {
         // Only reachable when the implementation cut the loop short (see the header).
         atomicOr(&queue[1], 1u);
     }
-    if MODE == 2u {
+    if MODE >= 2u {
         out[r] = vec2<u32>(count_b, count_t);
     } else if best_prim == MISS {
         out[r] = vec2<u32>(bitcast<u32>(inf()), MISS);

@@ -89,7 +89,7 @@ pub trait RayDevice: Send {
     }
 
     /// The estimate of `tasks` computed on this device (the thesis estimates on the GPU):
-    /// each task's sampled reduced-traversal work at `rate`, equal to
+    /// each task's sampled work at `rate` by `probe`'s reduced traversal, equal to
     /// [`crate::cost::ReducedTraversal::try_work`]'s. `None` for a device that does not
     /// estimate (the default: the CPU estimates in parallel on the host instead).
     fn estimate_work(
@@ -97,8 +97,9 @@ pub trait RayDevice: Send {
         rays: &RayBatch,
         tasks: &[Range<usize>],
         rate: SampleRate,
+        probe: crate::Probe,
     ) -> Option<Result<Vec<Work>, DeviceError>> {
-        let _ = (rays, tasks, rate);
+        let _ = (rays, tasks, rate, probe);
         None
     }
 

@@ -111,7 +111,8 @@ impl RayDevice for FailingAfter<'_> {
         rays: &RayBatch,
         tasks: &[Range<usize>],
         rate: SampleRate,
+        probe: crate::Probe,
     ) -> Option<Result<Vec<Work>, DeviceError>> {
-        self.inner.estimate_work(rays, tasks, rate)
+        self.inner.estimate_work(rays, tasks, rate, probe)
     }
 }

@@ -13,7 +13,7 @@ use super::{
 use crate::cost::{Calibrations, CostModel, ReducedTraversal, Work};
 use crate::shade::Tracer;
 use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
-use crate::{Bvh, Counts, HitBatch, Probe, RayBatch, RayKind};
+use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
 /// A [`Tracer`] that schedules every generation over devices. See the module documentation
 /// of [`crate::scheduled`].
@@ -147,15 +147,13 @@ impl<'a> ScheduledTracer<'a> {
         let rate = self.settings.sample_rate;
         let probe = self.settings.probe.for_kind(kind);
         let mut on = String::from("host");
-        if self.settings.estimate_on == EstimateOn::Gpu && probe != Probe::Thesis {
-            on.push_str(" (devices run the thesis's probe only)");
-        } else if self.settings.estimate_on == EstimateOn::Gpu {
+        if self.settings.estimate_on == EstimateOn::Gpu {
             on.push_str(" (no GPU among the devices)");
             for (device, retired) in self.devices.iter_mut().zip(&self.retired) {
                 if *retired {
                     continue;
                 }
-                match device.estimate_work(rays, tasks, rate) {
+                match device.estimate_work(rays, tasks, rate, probe) {
                     Some(Ok(work)) => return Ok((work, device.name())),
                     Some(Err(e)) => on = format!("host ({} could not: {e})", device.name()),
                     None => {}

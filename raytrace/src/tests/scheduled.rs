@@ -490,21 +490,23 @@ fn estimates_on_the_gpu_equal_the_hosts() {
         cpu_only[0].estimated_on.as_deref(),
         Some("host (no GPU among the devices)")
     );
-    // The GPU's kernels run the thesis's probe: the first-leaf one is estimated on the host,
-    // for closest-hit generations only.
-    let first_leaf = Settings {
-        estimate_on: EstimateOn::Gpu,
-        probe: Probe::FirstLeaf,
-        ..settings(Policy::StaticLpt, Mode::Cost, 96)
+    // The first-leaf probe runs on the GPU too, with the host's costs.
+    let first_leaf = |estimate_on| {
+        let settings = Settings {
+            estimate_on,
+            probe: Probe::FirstLeaf,
+            ..settings(Policy::StaticLpt, Mode::Cost, 96)
+        };
+        scheduled(&scene, &bvh, shader, "cpu:1,gpu:0", &[], settings)
     };
-    let (image, stats) = scheduled(&scene, &bvh, shader, "cpu:1,gpu:0", &[], first_leaf);
-    assert_eq!(image.film, want.film);
-    for s in &stats {
-        let on = s.estimated_on.as_deref();
-        if s.kind.is_occlusion() {
-            assert_eq!(on, Some("gpu0"), "{:?}", s.kind);
-        } else {
-            assert_eq!(on, Some("host (devices run the thesis's probe only)"));
-        }
-    }
+    let (host, host_stats) = first_leaf(EstimateOn::Cpu);
+    let (gpu, gpu_stats) = first_leaf(EstimateOn::Gpu);
+    assert_eq!(host.film, want.film);
+    assert_eq!(gpu.film, want.film);
+    assert_eq!(costs(&gpu_stats[0]), costs(&host_stats[0]));
+    assert!(
+        gpu_stats
+            .iter()
+            .all(|s| s.estimated_on.as_deref() == Some("gpu0"))
+    );
 }
