@@ -462,15 +462,16 @@ fn estimates_on_the_gpu_equal_the_hosts() {
     let shader = whitted();
     let (scene, bvh) = load("builtin:cornell", shader);
     let want = reference(&scene, &bvh, shader);
-    let on = |estimate_on, devices| {
+    let on = |estimate_on, devices, probe| {
         let settings = Settings {
             estimate_on,
+            probe,
             ..settings(Policy::StaticLpt, Mode::Cost, 96)
         };
         scheduled(&scene, &bvh, shader, devices, &[], settings)
     };
-    let (host, host_stats) = on(EstimateOn::Cpu, "cpu:1,gpu:0");
-    let (gpu, gpu_stats) = on(EstimateOn::Gpu, "cpu:1,gpu:0");
+    let (host, host_stats) = on(EstimateOn::Cpu, "cpu:1,gpu:0", Probe::Thesis);
+    let (gpu, gpu_stats) = on(EstimateOn::Gpu, "cpu:1,gpu:0", Probe::Thesis);
     assert_eq!(host.film, want.film);
     assert_eq!(gpu.film, want.film);
     // The first generation is planned with the default model on both: equal work, equal
@@ -485,22 +486,14 @@ fn estimates_on_the_gpu_equal_the_hosts() {
             .iter()
             .all(|s| s.estimated_on.as_deref() == Some("host"))
     );
-    let (_, cpu_only) = on(EstimateOn::Gpu, "cpu:2");
+    let (_, cpu_only) = on(EstimateOn::Gpu, "cpu:2", Probe::Thesis);
     assert_eq!(
         cpu_only[0].estimated_on.as_deref(),
         Some("host (no GPU among the devices)")
     );
     // The first-leaf probe runs on the GPU too, with the host's costs.
-    let first_leaf = |estimate_on| {
-        let settings = Settings {
-            estimate_on,
-            probe: Probe::FirstLeaf,
-            ..settings(Policy::StaticLpt, Mode::Cost, 96)
-        };
-        scheduled(&scene, &bvh, shader, "cpu:1,gpu:0", &[], settings)
-    };
-    let (host, host_stats) = first_leaf(EstimateOn::Cpu);
-    let (gpu, gpu_stats) = first_leaf(EstimateOn::Gpu);
+    let (host, host_stats) = on(EstimateOn::Cpu, "cpu:1,gpu:0", Probe::FirstLeaf);
+    let (gpu, gpu_stats) = on(EstimateOn::Gpu, "cpu:1,gpu:0", Probe::FirstLeaf);
     assert_eq!(host.film, want.film);
     assert_eq!(gpu.film, want.film);
     assert_eq!(costs(&gpu_stats[0]), costs(&host_stats[0]));
