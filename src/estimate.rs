@@ -347,6 +347,16 @@ pub fn run(args: Args) -> Result<(), CliError> {
         let own = sched::split_ranges(batch.len(), args.task_size);
         measured.extend(measure_seconds(&bvh, batch, &own, *kind, args.repeats)?);
     }
+    // `work` weighed by `fit` against the measured times: error and Spearman correlation.
+    let vs_time = |fit: Option<Fit>, work: &[Work]| {
+        let predicted = fit.map(|f| f.model.costs(work));
+        (
+            predicted
+                .as_ref()
+                .and_then(|p| error_vs_time(p, &measured).ok()),
+            predicted.as_ref().and_then(|p| spearman(p, &measured).ok()),
+        )
+    };
     let full_of = |probe: Probe| -> Result<Vec<Work>, CliError> {
         let mut full = Vec::with_capacity(tasks.len());
         for (range, kind) in &parts {
@@ -360,18 +370,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ProbeArg::Auto => {
             let mut fits = Vec::new();
             let mut best = (f64::INFINITY, Probe::Thesis, Vec::new());
-            for p in [Probe::Thesis, Probe::FirstLeaf] {
+            for p in Probe::ALL {
                 let full = full_of(p)?;
-                let predicted = calibrate(&full, &measured)
-                    .ok()
-                    .map(|f| f.model.costs(&full));
-                let error = predicted
-                    .as_ref()
-                    .and_then(|x| error_vs_time(x, &measured).ok());
+                let (error, spearman_vs_time) = vs_time(calibrate(&full, &measured).ok(), &full);
                 fits.push(ProbeFit {
                     probe: p.name(),
                     error_vs_time: error,
-                    spearman_vs_time: predicted.as_ref().and_then(|x| spearman(x, &measured).ok()),
+                    spearman_vs_time,
                 });
                 // Ties and failed fits keep the thesis's probe, tried first.
                 if best.2.is_empty() || error.is_some_and(|e| e < best.0) {
@@ -433,15 +438,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let (est_t, full_t) = part(|w| w.tris);
     let fit = calibrate(&est, &measured).ok();
     let fit_full = calibrate(&full, &measured).ok();
-    let vs_time = |fit: Option<Fit>, work: &[Work]| {
-        let predicted = fit.map(|f| f.model.costs(work));
-        (
-            predicted
-                .as_ref()
-                .and_then(|p| error_vs_time(p, &measured).ok()),
-            predicted.as_ref().and_then(|p| spearman(p, &measured).ok()),
-        )
-    };
     let (error_vs_time, spearman_vs_time) = vs_time(fit, &est);
     let (error_vs_time_full, spearman_full_vs_time) = vs_time(fit_full, &full);
 

@@ -294,9 +294,19 @@ mod avx2 {
         #[inline]
         #[target_feature(enable = "avx2")]
         fn hit<const UNIFORM: bool>(&self, node: &Node) -> i32 {
+            self.entry::<UNIFORM>(node).0
+        }
+
+        /// [`Rays8::hit`]'s bits, and each lane's entry distance.
+        #[inline]
+        #[target_feature(enable = "avx2")]
+        fn entry<const UNIFORM: bool>(&self, node: &Node) -> (i32, __m256) {
             let (near, far) = self.slab::<UNIFORM>(node);
             // Ordered, non-signalling `<=`: false on NaN, like the scalar comparison.
-            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
+            (
+                _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)),
+                near,
+            )
         }
 
         /// Each lane's entry and exit distance of `node`'s box, the exit clipped to `tmax`:
@@ -460,8 +470,8 @@ mod avx2 {
         n: usize,
     ) -> [Counts; 8] {
         let nodes = bvh.nodes();
-        let (near0, far0) = lanes.slab::<true>(&nodes[0]);
-        let root = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near0, far0)) & valid;
+        let (root, near0) = lanes.entry::<true>(&nodes[0]);
+        let root = root & valid;
         if root == 0 {
             return [Counts::default(); 8];
         }
@@ -499,8 +509,8 @@ mod avx2 {
                 (l + 1, l)
             };
             for child in [second, first] {
-                let (near, far) = lanes.slab::<true>(&nodes[child]);
-                let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) & bits;
+                let (hit, near) = lanes.entry::<true>(&nodes[child]);
+                let hit = hit & bits;
                 if hit != 0 {
                     stack[sp] = (child as u32, hit);
                     entries[sp].write(near);

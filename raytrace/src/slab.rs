@@ -63,26 +63,21 @@ impl BoxRay {
     pub(crate) fn hit(&self, node: &Node, tmin: f32, tmax: f32) -> Option<f32> {
         let b: &[f32; 8] = bytemuck::cast_ref(node);
         let (o, inv, n) = (&self.org, &self.inv, &self.near);
-        // `n[k] ^ 4` flips between the min and max plane of axis k.
         // `& 7` proves the index in bounds (it already is), so no check is emitted.
         let tx0 = (b[n[0] & 7] - o[0]) * inv[0];
-        let tx1 = (b[(n[0] ^ 4) & 7] - o[0]) * inv[0];
         let ty0 = (b[n[1] & 7] - o[1]) * inv[1];
-        let ty1 = (b[(n[1] ^ 4) & 7] - o[1]) * inv[1];
         let tz0 = (b[n[2] & 7] - o[2]) * inv[2];
-        let tz1 = (b[(n[2] ^ 4) & 7] - o[2]) * inv[2];
         let t0 = max_keep(max_keep(max_keep(tmin, tx0), ty0), tz0);
-        let t1 = min_keep(min_keep(min_keep(f32::INFINITY, tx1), ty1), tz1) * self.scale;
-        let t1 = if t1 < tmax { t1 } else { tmax };
-        (t0 <= t1).then_some(t0)
+        (t0 <= self.exit(node, tmax)).then_some(t0)
     }
 
-    /// Where the ray leaves the node's box, clipped to `tmax`: [`BoxRay::hit`]'s far end, by
-    /// the same operations (the first-leaf probe ends a ray there).
+    /// Where the ray leaves the node's box, clipped to `tmax`: [`BoxRay::hit`]'s far end (the
+    /// first-leaf probe ends a ray there).
     #[inline(always)]
     pub(crate) fn exit(&self, node: &Node, tmax: f32) -> f32 {
         let b: &[f32; 8] = bytemuck::cast_ref(node);
         let (o, inv, n) = (&self.org, &self.inv, &self.near);
+        // `n[k] ^ 4` flips from the near to the far plane of axis k.
         let tx1 = (b[(n[0] ^ 4) & 7] - o[0]) * inv[0];
         let ty1 = (b[(n[1] ^ 4) & 7] - o[1]) * inv[1];
         let tz1 = (b[(n[2] ^ 4) & 7] - o[2]) * inv[2];

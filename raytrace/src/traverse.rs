@@ -72,6 +72,9 @@ pub enum Probe {
 }
 
 impl Probe {
+    /// Both, in order.
+    pub const ALL: [Self; 2] = [Self::Thesis, Self::FirstLeaf];
+
     /// The name used on the command line: `thesis` or `first-leaf`.
     pub fn name(self) -> &'static str {
         match self {
@@ -96,7 +99,7 @@ impl std::str::FromStr for Probe {
     type Err = String;
     /// Parses [`Probe::name`]'s names.
     fn from_str(s: &str) -> Result<Self, String> {
-        [Self::Thesis, Self::FirstLeaf]
+        Self::ALL
             .into_iter()
             .find(|p| p.name() == s.trim())
             .ok_or_else(|| format!("unknown probe `{s}` (expected thesis or first-leaf)"))

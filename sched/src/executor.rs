@@ -40,7 +40,8 @@ pub trait Executor<T: Task>: Send {
     /// Seconds a launch costs on top of its tasks (a kernel dispatch, a network round trip,
     /// a thread pool to enter), where known (`None`, the default, where not). `Hybrid`
     /// launches one task at a time where it is `Some(0.0)`, so every task not yet started can
-    /// still be stolen, and halves of what is left otherwise.
+    /// still be stolen, halves of what is left where it is unknown, and few launches of at
+    /// least eight overheads of work where it is positive (see `HybridDispatch`).
     fn launch_overhead(&self) -> Option<f64> {
         None
     }

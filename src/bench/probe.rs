@@ -6,7 +6,7 @@
 
 use std::ops::Range;
 
-use raytrace::cost::{CostModel, ReducedTraversal, SampleRate, full_work};
+use raytrace::cost::{CostModel, ReducedTraversal, full_work};
 use raytrace::scheduled::Settings;
 use raytrace::shade::Tracer;
 use raytrace::{Bvh, Counts, HitBatch, RayBatch, RayKind};
@@ -24,9 +24,8 @@ pub struct ErrorSums {
 pub struct Probe<'a, T> {
     pub inner: T,
     bvh: &'a Bvh,
-    task_size: usize,
-    rate: SampleRate,
-    probe: raytrace::Probe,
+    /// The scheduled tracer's: its task size, sampling rate and probe.
+    settings: Settings,
     enabled: bool,
     /// One entry per generation traced, in order (empty when disabled).
     pub sums: Vec<(RayKind, ErrorSums)>,
@@ -38,19 +37,18 @@ impl<'a, T: Tracer> Probe<'a, T> {
         Self {
             inner,
             bvh,
-            task_size: settings.task_size.get(),
-            rate: settings.sample_rate,
-            probe: settings.probe,
+            settings: *settings,
             enabled,
             sums: Vec::new(),
         }
     }
 
     fn error_sums(&self, kind: RayKind, rays: &RayBatch) -> ErrorSums {
-        let tasks: Vec<Range<usize>> = sched::split_ranges(rays.len(), self.task_size);
+        let s = &self.settings;
+        let tasks: Vec<Range<usize>> = sched::split_ranges(rays.len(), s.task_size.get());
         let model = CostModel::default();
-        let probe = self.probe.for_kind(kind);
-        let est = ReducedTraversal::new(self.bvh, rays, self.rate)
+        let probe = s.probe.for_kind(kind);
+        let est = ReducedTraversal::new(self.bvh, rays, s.sample_rate)
             .with_probe(probe)
             .try_work(&tasks);
         let full = full_work(self.bvh, rays, &tasks, probe);

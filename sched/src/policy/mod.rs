@@ -35,7 +35,8 @@ pub enum Policy {
     /// A central queue in decreasing cost. One launch per task.
     QueueSorted,
     /// An LPT plan whose devices launch their lists one task at a time where launching is
-    /// free, else in halves; an idle device steals the smallest unlaunched tasks of the one expected to
+    /// free, in halves where its cost is unknown, and all but a reserve first where it is
+    /// known; an idle device steals the smallest unlaunched tasks of the one expected to
     /// finish last, but only as many as it can finish before that device would. Never worse
     /// than `StaticLpt` with exact costs and no latency, and robust to wrong estimates.
     Hybrid,
@@ -84,7 +85,7 @@ impl Policy {
     }
 
     /// [`Policy::dispatcher`] for devices whose launch overheads in seconds are known
-    /// (`None`, or a missing entry, where not): `Hybrid` launches single tasks where they are zero.
+    /// (`None`, or a missing entry, where not): `Hybrid` sizes its launches by them.
     pub fn dispatcher_with_overheads<'a>(
         self,
         costs: &'a Costs,
