@@ -96,6 +96,10 @@ pub struct Args {
     /// `per-ray`.
     #[arg(long, value_enum, default_value = "persistent")]
     gpu_threads: crate::render_gpu::GpuThreadsArg,
+    /// With `--pipeline gpu`: render this many times in one process and report the fastest
+    /// (the first render also pays the driver's warm-up; the image is the same each time).
+    #[arg(long, default_value = "1", value_parser = clap::value_parser!(u32).range(1..=1000))]
+    gpu_repeats: u32,
     /// How tasks go to devices: static-equal, static-lpt (lpt), queue-fifo (fifo),
     /// queue-sorted (sorted) or hybrid.
     #[arg(long, default_value = "static-lpt")]
@@ -477,6 +481,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
         });
     }
 
+    if args.pipeline != PipelineArg::Gpu && args.gpu_repeats != 1 {
+        let value = Some(args.gpu_repeats.to_string());
+        return Err(arg("gpu-repeats", &value, "only with --pipeline gpu"));
+    }
     if args.pipeline == PipelineArg::Gpu {
         let refuse = |flag: &'static str, value: &Option<String>, why: &str| {
             Err(arg(flag, value, &format!("{why} with --pipeline gpu")))
@@ -513,6 +521,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             &camera,
             &shader,
             args.gpu_threads,
+            args.gpu_repeats,
         )?;
         let image = film.png(ToneMap::Srgb)?;
         let report = GpuReport {
@@ -529,9 +538,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
         return if args.json {
             crate::print_json(&report)
         } else {
+            let kernels = report.run.trace_mrays_per_s.map_or(String::new(), |r| {
+                format!(" (traversal kernels alone {r:.1} MRays/s)")
+            });
             crate::print_text(&format!(
                 "{} ({} triangles), {}, {width}x{height} on the GPU ({}, {} threads): {} rays \
-                 in {:.3} s, {:.2} MRays/s\n",
+                 in {:.3} s, {:.2} MRays/s{kernels}; best of {}, the first took {:.3} s\n",
                 report.header.scene,
                 report.header.triangles,
                 report.header.shader,
@@ -540,6 +552,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 report.run.total_rays,
                 report.run.render_seconds,
                 report.run.mrays_per_s,
+                report.run.repeats,
+                report.run.first_render_seconds,
             ))
         };
     }

@@ -347,7 +347,8 @@ fn cpu_and_gpu_render_the_cpu_image() {
 /// `--pipeline gpu` renders on one GPU, ray generation to image, and writes the CPU's image for
 /// both shaders: at most 1 % of pixels may differ (see `raytrace::gpu::GpuRenderer` for where
 /// the two can differ; on lavapipe they are equal). Without any adapter: a note, or a failure
-/// when `CI` is set. A cost image and fault injection are refused, naming the flag.
+/// when `CI` is set. A cost image and fault injection are refused, naming the flag, and so is
+/// `--gpu-repeats` without the GPU pipeline.
 #[test]
 fn gpu_pipeline_renders_the_cpu_image() {
     let dir = crate::testkit::temp_dir("render-gpu-pipeline");
@@ -378,9 +379,18 @@ fn gpu_pipeline_renders_the_cpu_image() {
             "{}",
             String::from_utf8_lossy(&cpu.stderr)
         );
+        // Two renders in one process for per-ray threads: the report keeps the faster.
+        let repeats = if threads == "per-ray" { "2" } else { "1" };
         let (gpu, gpu_png) = run(
             shader,
-            &["--pipeline", "gpu", "--gpu-threads", threads],
+            &[
+                "--pipeline",
+                "gpu",
+                "--gpu-threads",
+                threads,
+                "--gpu-repeats",
+                repeats,
+            ],
             &format!("gpu-{shader}-{threads}.png"),
         );
         let err = String::from_utf8_lossy(&gpu.stderr);
@@ -398,6 +408,9 @@ fn gpu_pipeline_renders_the_cpu_image() {
         assert_eq!(v["shader"], shader);
         assert_eq!(v["gpu_threads"], threads);
         assert_eq!(v["primary_rays"], 40 * 24);
+        assert_eq!(v["repeats"].to_string(), repeats);
+        let seconds = |k: &str| v[k].as_f64().expect(k);
+        assert!(seconds("render_seconds") <= seconds("first_render_seconds"));
         if shader == "ao" {
             assert_eq!(v["secondary_rays"], 40 * 24 * 4);
         } else {
@@ -413,15 +426,13 @@ fn gpu_pipeline_renders_the_cpu_image() {
         );
     }
     for (extra, flag) in [
-        (
-            &["--shader", "ao", "--cost-image", "c.png"][..],
-            "--cost-image",
-        ),
-        (&["--shader", "ao", "--fail", "0@1"][..], "--fail"),
+        (&["gpu", "--cost-image", "c.png"][..], "--cost-image"),
+        (&["gpu", "--fail", "0@1"][..], "--fail"),
+        (&["scheduled", "--gpu-repeats", "2"][..], "--gpu-repeats"),
     ] {
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
             .args(["render", "--scene", "builtin:cornell", "--size", "8x8"])
-            .args(["--pipeline", "gpu"])
+            .args(["--shader", "ao", "--pipeline"])
             .args(extra)
             .output()
             .expect("the cobalt binary runs");

@@ -229,9 +229,9 @@ fn trace_rejects_bad_rays_and_writes_nothing() {
 }
 
 /// `cobalt trace --device gpu` writes the CPU's hits (closest and any): ids equal on all but
-/// exact-edge ties (at most 1 in 1000), distances within 1e-5 relative. Software adapters are
-/// allowed (`COBALT_GPU_SOFTWARE=1`); without any adapter the test prints a note and passes,
-/// except under CI, where it fails.
+/// exact-edge ties (at most 1 in 1000), distances within 1e-5 relative (absolute below 1).
+/// Software adapters are allowed (`COBALT_GPU_SOFTWARE=1`); without any adapter the test
+/// prints a note and passes, except under CI, where it fails.
 #[test]
 fn trace_on_the_gpu_writes_the_cpu_hits() {
     let mut rng = Rng::from_env(23);
@@ -319,8 +319,11 @@ fn trace_on_the_gpu_writes_the_cpu_hits() {
             if p(c) != u32::MAX {
                 hits += 1;
                 let (tc, tg) = (t(c), t(g));
+                // An absolute floor of 1e-5 (the scene's coordinates are about 1): a hit close
+                // to its origin keeps the rounding of the vertices' coordinates, which a
+                // hardware driver's fused multiply-adds change (an H100: 1.1e-7 at t = 0.0093).
                 assert!(
-                    (tc - tg).abs() <= 1e-5 * tc.abs(),
+                    (tc - tg).abs() <= 1e-5 * tc.abs().max(1.0),
                     "ray {i}: t {tc} vs {tg}"
                 );
                 ties += usize::from(p(c) != p(g));

@@ -21,7 +21,7 @@ pub const BATCHES: u32 = 8;
 
 /// The most workgroups one dispatch starts: enough to fill a large GPU with persistent
 /// workgroups (an H100 holds about 132 × 16 of 64 invocations).
-const MAX_WORKGROUPS: u32 = 2048;
+pub(crate) const MAX_WORKGROUPS: u32 = 2048;
 
 /// Stack entries the kernels are compiled with at most (`Bvh::depth` is at most 256).
 const MAX_STACK: usize = 256;
@@ -254,6 +254,22 @@ fn launch_one(
     Ok((bytemuck::pod_collect_to_vec(&bytes), seconds))
 }
 
+/// The timestamp writes of pass `k` of `passes`: the start of the first and the end of the
+/// last. A pass in between gets none at all, since wgpu refuses writes that name neither index
+/// (seen on an H100, whose AO launches took 32 passes; lavapipe's never took more than two).
+fn pass_timestamps(
+    set: &wgpu::QuerySet,
+    k: u64,
+    passes: u64,
+) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+    let (first, last) = (k == 0, k + 1 == passes);
+    (first || last).then_some(wgpu::ComputePassTimestampWrites {
+        query_set: set,
+        beginning_of_pass_write_index: first.then_some(0),
+        end_of_pass_write_index: last.then_some(1),
+    })
+}
+
 /// A two-dimensional grid of `workgroups` workgroups: one dimension holds at most
 /// `max_compute_workgroups_per_dimension`.
 pub(crate) fn grid(limits: &wgpu::Limits, workgroups: u32) -> (u32, u32) {
@@ -348,14 +364,9 @@ pub(crate) fn trace_resident(
             label: Some("cobalt traverse commands"),
         });
         for k in 0..dispatches {
-            let timestamp_writes =
-                timing
-                    .as_ref()
-                    .map(|(set, _)| wgpu::ComputePassTimestampWrites {
-                        query_set: set,
-                        beginning_of_pass_write_index: (k == 0).then_some(0),
-                        end_of_pass_write_index: (k + 1 == dispatches).then_some(1),
-                    });
+            let timestamp_writes = timing
+                .as_ref()
+                .and_then(|(set, _)| pass_timestamps(set, k, dispatches));
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("cobalt traverse pass"),
                 timestamp_writes,

@@ -11,7 +11,7 @@ use glam::Vec3;
 use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers, pack_rays};
-use super::pipeline::{GpuMode, Kernels, Threads, launch, launch_timed};
+use super::pipeline::{BATCHES, GpuMode, Kernels, MAX_WORKGROUPS, Threads, launch, launch_timed};
 use super::{
     GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, GpuRenderer, MAX_TASK_RAYS,
 };
@@ -435,11 +435,59 @@ fn per_ray_threads_equal_persistent() {
     }
 }
 
-/// The GPU's primary rays are the CPU's, bit for bit and in the same Morton order, for square,
-/// wide and odd-sized images.
+/// A persistent launch of more rays than one pass covers runs in several passes, of which only
+/// the first and the last write a timestamp (wgpu refuses a pass whose writes name neither):
+/// three passes here, where an H100's AO launches took 32. Every ray is still traced once.
+#[test]
+fn a_launch_of_three_passes_is_timed_and_traced_whole() {
+    let Some(ctx) = gpu() else { return };
+    let bvh = scene_bvh("builtin:cornell:0.2");
+    let rays = rays_for("builtin:cornell:0.2", 15);
+    let kernels = Kernels::new(&ctx.device, bvh.depth()).expect("kernels");
+    let scene = SceneBuffers::upload(&ctx, &bvh).expect("upload");
+    let all = 0..rays.len();
+    let packed = pack_rays(&rays, &[&all]);
+    let pass = (MAX_WORKGROUPS * BATCHES * 64) as usize;
+    let many: Vec<GpuRay> = packed.iter().copied().cycle().take(2 * pass + 65).collect();
+    let (one, _) = launch_timed(
+        &ctx,
+        &kernels,
+        &scene,
+        &packed,
+        GpuMode::Reduced,
+        Threads::Persistent,
+    )
+    .expect("one pass");
+    let (out, seconds) = launch_timed(
+        &ctx,
+        &kernels,
+        &scene,
+        &many,
+        GpuMode::Reduced,
+        Threads::Persistent,
+    )
+    .expect("three passes");
+    assert_eq!(seconds.is_some(), ctx.timestamps);
+    assert_eq!(out.len(), many.len());
+    for (i, r) in out.iter().enumerate() {
+        assert_eq!(*r, one[i % one.len()], "ray {i}");
+    }
+}
+
+/// Whether `ctx` must reproduce the CPU's arithmetic bit for bit. Software adapters (lavapipe)
+/// do; a hardware driver may fuse `a * b + c` into one rounding (naga marks no operation
+/// `NoContraction`), so there results agree within rounding: an H100 moved 45–62 % of a
+/// Whitted image's pixels by about 1e-7.
+fn bit_exact(ctx: &GpuContext) -> bool {
+    ctx.info.device_type == wgpu::DeviceType::Cpu
+}
+
+/// The GPU's primary rays are the CPU's in the same Morton order, for square, wide and
+/// odd-sized images: bit for bit on a software adapter, within a few ulps on hardware.
 #[test]
 fn raygen_equals_cpu_primary_rays() {
     let Some(ctx) = gpu() else { return };
+    let exact = bit_exact(&ctx);
     let scene = SceneSource::parse("builtin:cornell:0.2")
         .and_then(|s| s.load(SceneNeeds::AO))
         .expect("built-in scene");
@@ -451,7 +499,27 @@ fn raygen_equals_cpu_primary_rays() {
         let (rays, pixels) = renderer.primary_rays(w, h, &camera).expect("raygen");
         assert_eq!(pixels, cpu.pixels, "{w}x{h}: Morton order");
         let all = 0..cpu.rays.len();
-        assert_eq!(rays, pack_rays(&cpu.rays, &[&all]), "{w}x{h}: rays");
+        let want = pack_rays(&cpu.rays, &[&all]);
+        if exact {
+            assert_eq!(rays, want, "{w}x{h}: rays");
+            continue;
+        }
+        assert_eq!(rays.len(), want.len());
+        // Worst difference of a component, relative to the larger of it and 1.
+        let worst = rays
+            .iter()
+            .zip(&want)
+            .flat_map(|(g, c)| g.org.iter().chain(&g.dir).zip(c.org.iter().chain(&c.dir)))
+            .map(|(&g, &c)| {
+                if g == c {
+                    0.0
+                } else {
+                    (g - c).abs() / c.abs().max(1.0)
+                }
+            })
+            .fold(0.0_f32, f32::max);
+        eprintln!("{w}x{h}: worst ray component differs by {worst}");
+        assert!(worst <= 1e-5, "{w}x{h}: a ray differs by {worst}");
     }
 }
 
@@ -534,8 +602,9 @@ fn forest_ao_image_matches_cpu() {
 /// The GPU's Whitted image against `shade::render` with the same settings (two bounces):
 /// both compute in f32 with the same operations and the same order of additions per pixel, so
 /// they differ only at an exact-edge tie (a different triangle, or a shadow or mirror ray
-/// spawned from it). Tolerance: at most 1 % of pixels differ at all, and the mean absolute
-/// difference per channel is at most 1e-3. With `bent`, the scene gets vertex normals and a
+/// spawned from it), and on hardware by rounding (see `bit_exact`). Tolerance: at most 1 % of
+/// pixels differ by more than rounding, and the mean absolute difference per channel is at
+/// most 1e-3. With `bent`, the scene gets vertex normals and a
 /// second light.
 fn check_whitted_image(name: &str, bent: bool) {
     let Some(ctx) = gpu() else { return };
@@ -573,10 +642,15 @@ fn check_whitted_image(name: &str, bent: bool) {
         .zip(gpu.film.pixels())
         .map(|(c, g)| (*c - *g).abs().max_element())
         .collect();
-    let differ = diffs.iter().filter(|&&d| d > 0.0).count();
+    // Rounding (see `bit_exact`) moves a pixel by far less than this; a tie that picks
+    // another triangle or flips a shadow moves it by far more.
+    let rounding = if bit_exact(&renderer.ctx) { 0.0 } else { 1e-4 };
+    let differ = diffs.iter().filter(|&&d| d > rounding).count();
     let mean = diffs.iter().sum::<f32>() / diffs.len() as f32;
+    let worst = diffs.iter().copied().fold(0.0, f32::max);
     eprintln!(
-        "{name} Whitted: {differ} of {} pixels differ, mean {mean}; {} lights, CPU {} rays",
+        "{name} Whitted: {differ} of {} pixels differ by more than {rounding} (worst {worst}), \
+         mean {mean}; {} lights, CPU {} rays",
         diffs.len(),
         scene.lights.len(),
         cpu.total_rays()
