@@ -85,7 +85,10 @@ impl<'a> CpuDevice<'a> {
         range: &Range<usize>,
     ) -> Result<HitBatch, DeviceError> {
         self.check(rays, range)?;
-        let hits = trace_range(self.bvh, kind, rays, range, self.pool.is_some());
+        // Not `self.pool.is_some()`: `trace_ranges_with` takes the pool out of the device while
+        // it runs the launch inside it, so that test read "no pool" and traced every launch on
+        // one thread (a `cpu:1/16` device ran at one thread's speed on 16 cores).
+        let hits = trace_range(self.bvh, kind, rays, range, self.threads > 1);
         self.done += 1;
         Ok(hits)
     }
@@ -166,6 +169,8 @@ fn trace_range(
         }
     };
     let fill = |first: usize, ts: &mut [f32], ps: &mut [u32]| {
+        #[cfg(test)]
+        tests::note_thread();
         for (k, (t, p)) in ts.iter_mut().zip(ps.iter_mut()).enumerate() {
             if let Some(h) = trace(first + k) {
                 *t = h.t;
@@ -184,4 +189,54 @@ fn trace_range(
         fill(range.start, &mut out.t, &mut out.prim);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeSet;
+    use std::sync::Mutex;
+
+    use super::*;
+    use crate::scheduled::RayDevice;
+    use crate::{BuildPreset, Camera, SceneNeeds, SceneSource};
+
+    /// Names of the pool threads that traced, from every test in this process.
+    static TRACED_ON: Mutex<BTreeSet<String>> = Mutex::new(BTreeSet::new());
+
+    pub(super) fn note_thread() {
+        if let Some(name) = std::thread::current().name()
+            && name.starts_with("cobalt-cpu")
+            && let Ok(mut seen) = TRACED_ON.lock()
+        {
+            seen.insert(name.to_string());
+        }
+    }
+
+    /// A device of two threads traces one task on both of them, with the hits of a device of
+    /// one thread.
+    #[test]
+    fn a_device_of_two_threads_traces_on_both() {
+        let scene = SceneSource::parse("builtin:forest:0.05")
+            .and_then(|s| s.load(SceneNeeds::AO))
+            .expect("built-in scene");
+        let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+        let rays = Camera::thesis(&scene.bounds(), 0)
+            .primary_rays(256, 256)
+            .rays;
+        let all = 0..rays.len();
+        // An index no other test uses, so the thread names are this device's alone.
+        let mut two = CpuDevice::new(&bvh, 9001, 2).expect("pool");
+        let mut one = CpuDevice::new(&bvh, 9002, 1).expect("device");
+        let hits = two
+            .trace_range(RayKind::Primary, &rays, &all)
+            .expect("trace");
+        let want = one
+            .trace_range(RayKind::Primary, &rays, &all)
+            .expect("trace");
+        assert_eq!(hits, want);
+        let seen = TRACED_ON.lock().expect("lock").clone();
+        for thread in ["cobalt-cpu9001-0", "cobalt-cpu9001-1"] {
+            assert!(seen.contains(thread), "{thread} never traced: {seen:?}");
+        }
+    }
 }
