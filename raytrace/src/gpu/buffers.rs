@@ -193,26 +193,46 @@ pub fn read_back(
     adapter: &str,
     buffer: &wgpu::Buffer,
 ) -> Result<Vec<u8>, GpuError> {
-    let err = |what: &'static str, why: String| GpuError::Readback {
-        adapter: adapter.to_string(),
-        what,
-        why,
-    };
+    map(device, adapter, buffer, wgpu::MapMode::Read)?;
+    let bytes = buffer
+        .get_mapped_range(..)
+        .map_err(|e| readback_err(adapter, "reading results", e.to_string()))?
+        .to_vec();
+    buffer.unmap();
+    Ok(bytes)
+}
+
+/// Maps all of `buffer` for `mode`, waiting for the work submitted before to finish.
+///
+/// # Errors
+/// [`GpuError::Readback`] when polling or mapping fails.
+pub(crate) fn map(
+    device: &wgpu::Device,
+    adapter: &str,
+    buffer: &wgpu::Buffer,
+    mode: wgpu::MapMode,
+) -> Result<(), GpuError> {
     let (tx, rx) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+    buffer.map_async(mode, .., move |r| {
         // The receiver waits below; a failed send means it is gone, and then nobody cares.
         let _ = tx.send(r);
     });
     device
         .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| err("waiting for the GPU", e.to_string()))?;
+        .map_err(|e| readback_err(adapter, "waiting for the GPU", e.to_string()))?;
+    let what = match mode {
+        wgpu::MapMode::Read => "mapping results",
+        wgpu::MapMode::Write => "mapping rays for upload",
+    };
     rx.recv()
-        .map_err(|e| err("mapping results", e.to_string()))?
-        .map_err(|e| err("mapping results", e.to_string()))?;
-    let bytes = buffer
-        .get_mapped_range(..)
-        .map_err(|e| err("reading results", e.to_string()))?
-        .to_vec();
-    buffer.unmap();
-    Ok(bytes)
+        .map_err(|e| readback_err(adapter, what, e.to_string()))?
+        .map_err(|e| readback_err(adapter, what, e.to_string()))
+}
+
+pub(crate) fn readback_err(adapter: &str, what: &'static str, why: String) -> GpuError {
+    GpuError::Readback {
+        adapter: adapter.to_string(),
+        what,
+        why,
+    }
 }

@@ -1,6 +1,7 @@
 //! One GPU adapter as a device of the scheduler.
 
 use std::ops::Range;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use sched::{DeviceError, Sink};
@@ -10,7 +11,8 @@ use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
 use super::buffers::{SceneBuffers, pack_rays};
 use super::estimate::{EstimateKernels, SampledCounts, Sampling, sampled_counts};
-use super::pipeline::{GpuMode, Kernels, Threads, launch, launch_timed};
+use super::pipeline::{GpuMode, Kernels, Threads, launch};
+use super::staging::{Staging, staged_hits};
 use super::{GpuContext, GpuError};
 
 /// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a generation's rays,
@@ -28,6 +30,8 @@ pub struct GpuDevice {
     /// GPU seconds of the hit launches since [`RayDevice::take_device_seconds`] last took
     /// them, as `f64` bits (launches take `&self`).
     kernel_seconds: AtomicU64,
+    /// The hit launches' buffers, kept from one launch to the next.
+    staging: Mutex<Option<Staging>>,
 }
 
 impl GpuDevice {
@@ -48,6 +52,7 @@ impl GpuDevice {
             threads: Threads::default(),
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
             kernel_seconds: AtomicU64::new(0f64.to_bits()),
+            staging: Mutex::new(None),
         })
     }
 
@@ -96,12 +101,19 @@ impl GpuDevice {
         } else {
             GpuMode::Closest
         };
-        let packed = pack_rays(rays, ranges);
-        let (out, seconds) = launch_timed(
+        // A launch that panicked left nothing worth keeping: its buffers are dropped.
+        let mut staging = self.staging.lock().unwrap_or_else(|poisoned| {
+            let mut s = poisoned.into_inner();
+            *s = None;
+            s
+        });
+        let (hits, seconds) = staged_hits(
+            &mut staging,
             &self.ctx,
             &self.kernels,
             &self.scene,
-            &packed,
+            rays,
+            ranges,
             mode,
             self.threads,
         )?;
@@ -116,10 +128,7 @@ impl GpuDevice {
                     Some((f64::from_bits(b) + s).to_bits())
                 });
         }
-        Ok(HitBatch {
-            t: out.iter().map(|r| f32::from_bits(r[0])).collect(),
-            prim: out.iter().map(|r| r[1]).collect(),
-        })
+        Ok(hits)
     }
 
     /// `probe`'s counts of the rays of `range` (equal to [`crate::traverse::reduced_counts`]'s).

@@ -27,6 +27,7 @@ mod estimate;
 pub mod pipeline;
 mod program;
 mod render;
+mod staging;
 #[cfg(test)]
 pub(crate) mod tests;
 mod whitted;

@@ -123,6 +123,43 @@ fn assert_same_hits(what: &str, cpu: &HitBatch, gpu: &HitBatch) {
     );
 }
 
+/// One device's launches reuse its buffers, growing them when a launch needs more: a small
+/// launch, every ray, scattered ranges, and scattered ranges again under a binding limit low
+/// enough to cut them into several launches, each equal to the CPU's hits of the same rays.
+#[test]
+fn launches_of_every_size_reuse_the_buffers() {
+    let Some(ctx) = gpu() else { return };
+    let name = "builtin:cornell:0.2";
+    let bvh = scene_bvh(name);
+    let rays = rays_for(name, 16);
+    let n = rays.len();
+    let cpu = traverse::closest_hits(&bvh, &rays);
+    let pick = |ranges: &[&std::ops::Range<usize>]| {
+        let mut want = HitBatch::misses(0);
+        for r in ranges {
+            want.t.extend_from_slice(&cpu.t[(*r).clone()]);
+            want.prim.extend_from_slice(&cpu.prim[(*r).clone()]);
+        }
+        want
+    };
+    let (small, all, a, b) = (0..100, 0..n, 5..n / 3, n / 2..n - 7);
+    let dev = GpuDevice::new(ctx, &bvh).expect("upload");
+    for ranges in [&[&small][..], &[&all], &[&a, &b], &[&small]] {
+        let got = dev.hits(false, &rays, ranges).expect("GPU hits");
+        assert_same_hits(&format!("{ranges:?}"), &pick(ranges), &got);
+    }
+    // A binding of exactly the rays (the scene's own buffers must still fit it), and ranges
+    // holding more than that between them.
+    let Some(mut ctx) = gpu() else { return };
+    ctx.limits.max_storage_buffer_binding_size = (n * size_of::<GpuRay>()) as u64;
+    let dev = GpuDevice::new(ctx, &bvh).expect("the scene fits the rays' binding");
+    let (a, b) = (5..n - 3, 0..n / 2);
+    let got = dev
+        .hits(false, &rays, &[&a, &b])
+        .expect("GPU hits in several launches");
+    assert_same_hits("several launches", &pick(&[&a, &b]), &got);
+}
+
 fn check_scene(name: &str, seed: u64) {
     let Some(ctx) = gpu() else { return };
     let bvh = scene_bvh(name);
