@@ -193,7 +193,7 @@ pub fn read_back(
     adapter: &str,
     buffer: &wgpu::Buffer,
 ) -> Result<Vec<u8>, GpuError> {
-    map(device, adapter, buffer, wgpu::MapMode::Read)?;
+    map(device, adapter, buffer.slice(..), wgpu::MapMode::Read)?;
     let bytes = buffer
         .get_mapped_range(..)
         .map_err(|e| readback_err(adapter, "reading results", e.to_string()))?
@@ -202,18 +202,18 @@ pub fn read_back(
     Ok(bytes)
 }
 
-/// Maps all of `buffer` for `mode`, waiting for the work submitted before to finish.
+/// Maps `slice` of a buffer for `mode`, waiting for the work submitted before to finish.
 ///
 /// # Errors
 /// [`GpuError::Readback`] when polling or mapping fails.
 pub(crate) fn map(
     device: &wgpu::Device,
     adapter: &str,
-    buffer: &wgpu::Buffer,
+    slice: wgpu::BufferSlice,
     mode: wgpu::MapMode,
 ) -> Result<(), GpuError> {
     let (tx, rx) = std::sync::mpsc::channel();
-    buffer.map_async(mode, .., move |r| {
+    slice.map_async(mode, move |r| {
         // The receiver waits below; a failed send means it is gone, and then nobody cares.
         let _ = tx.send(r);
     });

@@ -319,10 +319,25 @@ pub(crate) fn trace_resident(
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let bind = kernels.program.bind(
+    // Only the launch's rays and results are bound: a device's reused buffers are larger,
+    // and wgpu checks (and zeroes where unwritten) every byte a bind group covers.
+    let first = |buffer, bytes| wgpu::BufferBinding {
+        buffer,
+        offset: 0,
+        size: std::num::NonZeroU64::new(bytes),
+    };
+    let whole = wgpu::Buffer::as_entire_buffer_binding;
+    let bind = kernels.program.bind_ranges(
         device,
         "cobalt traverse bind group",
-        &[&scene.nodes, &scene.tris, rays, out, &queue_buf, &params],
+        &[
+            whole(&scene.nodes),
+            whole(&scene.tris),
+            first(rays, u64::from(n) * size_of::<GpuRay>() as u64),
+            first(out, u64::from(n) * RESULT_BYTES),
+            whole(&queue_buf),
+            whole(&params),
+        ],
     );
     let batches = n.div_ceil(64);
     let (grid_x, grid_y, per_dispatch) = match threads {

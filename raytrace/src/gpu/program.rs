@@ -129,11 +129,25 @@ impl Program {
         label: &str,
         buffers: &[&wgpu::Buffer],
     ) -> wgpu::BindGroup {
+        let whole: Vec<_> = buffers
+            .iter()
+            .map(|b| b.as_entire_buffer_binding())
+            .collect();
+        self.bind_ranges(device, label, &whole)
+    }
+
+    /// A bind group of `ranges` of buffers, binding `k` the `k`-th.
+    pub(crate) fn bind_ranges(
+        &self,
+        device: &wgpu::Device,
+        label: &str,
+        ranges: &[wgpu::BufferBinding],
+    ) -> wgpu::BindGroup {
         let entries: Vec<wgpu::BindGroupEntry> = (0u32..)
-            .zip(buffers)
+            .zip(ranges)
             .map(|(binding, b)| wgpu::BindGroupEntry {
                 binding,
-                resource: b.as_entire_binding(),
+                resource: wgpu::BindingResource::Buffer(b.clone()),
             })
             .collect();
         device.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -7,7 +7,8 @@
 //! copy that into a new upload buffer, 4 ms to copy the results out of a new read-back buffer
 //! into two more vectors. Here the rays are packed straight into a mapped upload buffer and
 //! the hits read straight out of a mapped read-back buffer, all four buffers reused; they grow
-//! (to a power of two of rays) when a launch needs more, never past one binding.
+//! (to a power of two of rays) when a launch needs more, never past one binding or
+//! [`MOST_RAYS`]: a larger launch goes in several.
 
 use std::ops::Range;
 
@@ -18,6 +19,12 @@ use super::pipeline::{GpuMode, Kernels, Threads, trace_resident};
 use super::{GpuContext, GpuError};
 
 const RAY_BYTES: u64 = size_of::<GpuRay>() as u64;
+
+/// Rays per launch at most, however many a binding could hold. On an H100 a launch through
+/// buffers of 16 million rays paid about 31 ms whatever its size (its kernels took 0.1–7 ms),
+/// one through buffers of half a million rays 0.2 ms; a million rays keep that fixed cost
+/// small against the 6–10 ms such a launch takes (packing about 4, reading back about 4).
+const MOST_RAYS: usize = 1 << 20;
 
 /// See the module documentation.
 #[derive(Debug)]
@@ -76,7 +83,7 @@ impl Staging {
         match staging {
             Some(s) if s.capacity >= n => s,
             _ => {
-                let most = rays_per_launch(&ctx.limits) as u64;
+                let most = rays_per_launch(&ctx.limits).min(MOST_RAYS) as u64;
                 Self::new(ctx, n.next_power_of_two().clamp(64, most.max(n)))
             }
         }
@@ -109,7 +116,8 @@ pub(crate) fn staged_hits(
         prim: Vec::with_capacity(total),
     };
     let mut seconds = ctx.timestamps.then_some(0.0);
-    for launch in launches(ranges, rays_per_launch(&ctx.limits)) {
+    let most = rays_per_launch(&ctx.limits).min(MOST_RAYS);
+    for launch in launches(ranges, most) {
         let n: usize = launch.iter().map(Range::len).sum();
         let s = Staging::fit(staging.take(), ctx, n as u64);
         let launched = run(
@@ -158,7 +166,14 @@ fn run(
 ) -> Result<Option<f64>, GpuError> {
     let name = ctx.info.name.as_str();
     let n: u64 = chunk.iter().map(|r| r.len() as u64).sum();
-    map(&ctx.device, name, &s.upload, wgpu::MapMode::Write)?;
+    // Only what the launch writes and reads is mapped: wgpu zeroes a mapped range it has not
+    // seen written, and the buffers may be far larger than this launch.
+    map(
+        &ctx.device,
+        name,
+        s.upload.slice(..n * RAY_BYTES),
+        wgpu::MapMode::Write,
+    )?;
     {
         let mut view = s
             .upload
@@ -191,7 +206,12 @@ fn run(
         });
     encoder.copy_buffer_to_buffer(&s.out, 0, &s.download, 0, n * RESULT_BYTES);
     ctx.queue.submit([encoder.finish()]);
-    map(&ctx.device, name, &s.download, wgpu::MapMode::Read)?;
+    map(
+        &ctx.device,
+        name,
+        s.download.slice(..n * RESULT_BYTES),
+        wgpu::MapMode::Read,
+    )?;
     {
         let view = s
             .download
