@@ -37,6 +37,7 @@ mod device;
 mod fault;
 mod learn;
 mod settings;
+mod speeds;
 mod stats;
 mod tracer;
 

@@ -7,6 +7,7 @@ use std::time::Instant;
 use sched::{Costs, DeviceFailure, RunReport, Runtime, SchedError, split_ranges};
 
 use super::learn::{fit_devices, measured_speeds};
+use super::speeds::SpeedBook;
 use super::{
     Bound, DeviceStats, EstimateOn, GenerationStats, Mode, RayDevice, Settings, TaskStats,
 };
@@ -24,10 +25,7 @@ pub struct ScheduledTracer<'a> {
     bvh: &'a Bvh,
     devices: Vec<Box<dyn RayDevice + 'a>>,
     settings: Settings,
-    speeds: Vec<f64>,
-    /// Busy seconds behind `speeds`: each generation's measurement is blended in by its own
-    /// busy time, so a small, noisy generation cannot swing the plan of a large one.
-    speed_evidence: f64,
+    speeds: SpeedBook,
     retired: Vec<bool>,
     calibrations: Calibrations,
     log: Vec<GenerationStats>,
@@ -50,8 +48,7 @@ impl<'a> ScheduledTracer<'a> {
             bvh,
             devices,
             settings,
-            speeds: vec![1.0; m],
-            speed_evidence: 0.0,
+            speeds: SpeedBook::new(m),
             retired: vec![false; m],
             calibrations: Calibrations::default(),
             log: Vec::new(),
@@ -68,9 +65,17 @@ impl<'a> ScheduledTracer<'a> {
         &self.log
     }
 
-    /// The relative speeds the next plan will use, one per device.
+    /// The relative speeds measured so far, one per device, blended over every ray kind: what
+    /// a generation of a kind not measured yet is planned with.
     pub fn speeds(&self) -> &[f64] {
-        &self.speeds
+        self.speeds.all()
+    }
+
+    /// The relative speeds the next generation of `kind` is planned with: that kind's own once
+    /// a generation of it was measured (a GPU's speed against a CPU's depends on the rays),
+    /// else [`ScheduledTracer::speeds`].
+    pub fn speeds_for(&self, kind: RayKind) -> &[f64] {
+        self.speeds.for_kind(kind)
     }
 
     /// The device names, in order.
@@ -223,7 +228,7 @@ impl<'a> ScheduledTracer<'a> {
         let active: Vec<usize> = (0..self.devices.len())
             .filter(|&d| !self.retired[d])
             .collect();
-        let speeds = &self.speeds;
+        let speeds = self.speeds.for_kind(kind);
         let retired = &self.retired;
         let mut bound: Vec<Bound<'_, 'a>> = self
             .devices
@@ -350,7 +355,8 @@ impl ScheduledTracer<'_> {
         report: RunReport<HitBatch>,
     ) -> Vec<HitBatch> {
         let names: Vec<String> = active.iter().map(|&d| self.devices[d].name()).collect();
-        let old: Vec<f64> = active.iter().map(|&d| self.speeds[d]).collect();
+        let planned = self.speeds.for_kind(stats.kind);
+        let old: Vec<f64> = active.iter().map(|&d| planned[d]).collect();
         let class = class_indices(active.iter().map(|&d| self.devices[d].class()));
         let (new, measured) =
             measured_speeds(&old, &class, costs, &report.timeline, &report.metrics.busy);
@@ -404,17 +410,7 @@ impl ScheduledTracer<'_> {
             }
         }
         let weight: f64 = report.metrics.busy.iter().sum();
-        let prior = self.speed_evidence;
-        if weight > 0.0 && weight.is_finite() {
-            for (i, &d) in active.iter().enumerate() {
-                self.speeds[d] = if prior == 0.0 {
-                    new[i]
-                } else {
-                    (prior * old[i] + weight * new[i]) / (prior + weight)
-                };
-            }
-            self.speed_evidence = prior + weight;
-        }
+        self.speeds.learn(stats.kind, active, &new, weight);
         // Devices that failed are not planned for again; their speed is left as it was.
         for f in &report.failures {
             self.retired[active[f.device]] = true;
