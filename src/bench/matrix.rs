@@ -161,6 +161,17 @@ impl Plan<'_> {
                 self.shader(w),
             );
             render(self.scene, &mut p, &options);
+            // A device that failed is retired for the rest of the render, which changes what
+            // the run measures: say so, rather than leave a row of fewer devices unexplained.
+            for f in p.inner.stats().iter().flat_map(|g| &g.failures) {
+                eprintln!(
+                    "cobalt bench: {} {} {} {}, camera {cam}: {f}",
+                    self.scene_name,
+                    w.name(),
+                    settings.policy.name(),
+                    settings.mode.name(),
+                );
+            }
             stats.extend(p.inner.stats().iter().cloned());
             sums.append(&mut p.sums);
         }

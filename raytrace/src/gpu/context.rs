@@ -7,6 +7,8 @@
 //! `COBALT_GPU_SOFTWARE=1`); `gpu:K` uses adapter `K` whatever it is, since it was named.
 //! Each device is opened with its adapter's own limits, not wgpu's defaults.
 
+use std::sync::{Mutex, PoisonError};
+
 use crate::devices::GpuSelect;
 
 use super::GpuError;
@@ -54,6 +56,8 @@ pub fn adapters_available(options: GpuOptions) -> bool {
 }
 
 /// One opened adapter: its device and queue, and what the kernels need to know about it.
+/// Clones share the device and queue.
+#[derive(Clone)]
 pub struct GpuContext {
     /// Index of the adapter in wgpu's enumeration (the `K` of `gpu:K`).
     pub index: usize,
@@ -87,7 +91,27 @@ impl GpuContext {
     /// [`GpuError::NoAdapter`] when `gpu:all` finds none that may be used,
     /// [`GpuError::NoSuchAdapter`] for a `gpu:K` beyond the list, and
     /// [`GpuError::RequestDevice`] when an adapter refuses to open.
+    ///
+    /// The adapters are opened once per process and selection: a later call returns clones
+    /// sharing their devices. Opening them anew each time was not only slow: on an H100
+    /// host, NVIDIA's Vulkan driver found no adapter any more after about 30 opens in one
+    /// `cobalt bench`, whose later runs then went on without the GPU.
     pub fn open(select: GpuSelect, options: GpuOptions) -> Result<Vec<Self>, GpuError> {
+        type Opened = Vec<((GpuSelect, GpuOptions), Vec<GpuContext>)>;
+        static OPENED: Mutex<Opened> = Mutex::new(Vec::new());
+        // A panic while the lock was held left at worst a missing entry, never a bad one.
+        let mut opened = OPENED.lock().unwrap_or_else(PoisonError::into_inner);
+        let key = (select, options);
+        if let Some((_, contexts)) = opened.iter().find(|(k, _)| *k == key) {
+            return Ok(contexts.clone());
+        }
+        let contexts = Self::open_anew(select, options)?;
+        opened.push((key, contexts.clone()));
+        Ok(contexts)
+    }
+
+    /// [`GpuContext::open`] without the process's cache.
+    fn open_anew(select: GpuSelect, options: GpuOptions) -> Result<Vec<Self>, GpuError> {
         let b = backends();
         let adapters = pollster::block_on(instance(b).enumerate_adapters(b));
         let chosen: Vec<(usize, &wgpu::Adapter)> = match select {
