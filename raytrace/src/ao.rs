@@ -3,6 +3,7 @@
 //! length-limited, spawned without self-intersection.
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use crate::triangle::{RayShear, intersect_watertight};
 use crate::{Hit, HitBatch, RayBatch, Rng, Scene};
@@ -38,9 +39,18 @@ pub struct AoRays {
     pub source: Vec<u32>,
 }
 
+/// Hits whose probes one parallel job generates: enough to amortise the job and the copy of
+/// its part, few enough that a 512×512 image still spreads over every thread.
+const CHUNK: usize = 1024;
+
 /// Generates `samples` AO rays of length `max_distance` for each hit in `hits` (rays that
 /// missed spawn none). The hemisphere faces the side the primary ray came from. `seed`
 /// chooses the per-ray scrambling.
+///
+/// Runs in the caller's rayon pool, in chunks of hits whose parts are joined in order, so the
+/// rays are the same however many threads made them. On one thread, the host's work between
+/// an AO render's two generations took 1.3 s of 1.7 s on a 16-core H100 host (1024², 32
+/// probes); here, at 512², this took 0.44–0.74 s on one thread and 0.29–0.46 s on two.
 pub fn ao_rays(
     scene: &Scene,
     primary: &RayBatch,
@@ -49,40 +59,111 @@ pub fn ao_rays(
     max_distance: f32,
     seed: u64,
 ) -> AoRays {
-    let mut out = AoRays::default();
     let halton: Vec<(f32, f32)> = (0..samples)
         .map(|i| (radical_inverse(i + 1, 2), radical_inverse(i + 1, 3)))
         .collect();
-    for i in 0..hits.len() {
-        let Some((t, prim)) = hits.get(i) else {
-            continue;
+    let probes = Probes {
+        scene,
+        primary,
+        hits,
+        halton: &halton,
+        max_distance,
+        seed,
+    };
+    let parts: Vec<AoRays> = (0..hits.len().div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let most = CHUNK * halton.len();
+            let mut part = AoRays {
+                rays: RayBatch::with_capacity(most),
+                source: Vec::with_capacity(most),
+            };
+            for i in c * CHUNK..((c + 1) * CHUNK).min(hits.len()) {
+                probes.of(i, &mut part);
+            }
+            part
+        })
+        .collect();
+    let total = parts.iter().map(|p| p.source.len()).sum();
+    let mut out = AoRays {
+        rays: RayBatch::with_capacity(total),
+        source: Vec::with_capacity(total),
+    };
+    for part in parts {
+        out.rays.extend(&part.rays);
+        out.source.extend_from_slice(&part.source);
+    }
+    out
+}
+
+/// What every hit's probes are made from.
+struct Probes<'a> {
+    scene: &'a Scene,
+    primary: &'a RayBatch,
+    hits: &'a HitBatch,
+    halton: &'a [(f32, f32)],
+    max_distance: f32,
+    seed: u64,
+}
+
+impl Probes<'_> {
+    /// Appends hit `i`'s probes (none if its ray missed) to `out`.
+    fn of(&self, i: usize, out: &mut AoRays) {
+        let Some((t, prim)) = self.hits.get(i) else {
+            return;
         };
-        let r = primary.get(i);
+        let r = self.primary.get(i);
         // A HitBatch keeps no barycentrics: one more watertight test of the hit triangle gives
         // exactly the traversal's (t, u, v).
-        let [p0, p1, p2] = scene.vertices(prim as usize).map(|v| v.to_array());
+        let [p0, p1, p2] = self.scene.vertices(prim as usize).map(|v| v.to_array());
         let Some((t, u, v)) = RayShear::new(r.origin, r.dir)
             .and_then(|s| intersect_watertight(&s, &p0, &p1, &p2, r.tmin, r.tmax.max(t)))
         else {
-            continue;
+            return;
         };
-        let sp = scene.surface_point(&Hit { t, prim, u, v });
+        let sp = self.scene.surface_point(&Hit { t, prim, u, v });
         let n = sp.normal;
         let facing = if n.dot(r.dir) < 0.0 { n } else { -n };
-        let mut rng = Rng::new(seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let mut rng = Rng::new(self.seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let (s1, s2) = (rng.f32(), rng.f32());
-        for &(h1, h2) in &halton {
+        for &(h1, h2) in self.halton {
             let d = cosine_hemisphere(facing, (h1 + s1).fract(), (h2 + s2).fract());
-            out.rays.push(&sp.spawn_ray(d, max_distance));
+            out.rays.push(&sp.spawn_ray(d, self.max_distance));
             out.source.push(i as u32);
         }
     }
-    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The parallel chunks join into exactly the rays of one hit after another, on one
+    /// thread or several, across chunk boundaries.
+    #[test]
+    fn probes_are_the_same_on_any_number_of_threads() {
+        use crate::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource, traverse};
+        let scene = SceneSource::parse("builtin:forest:0.05")
+            .and_then(|s| s.load(SceneNeeds::AO))
+            .expect("built-in scene");
+        let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+        let primary = Camera::thesis(&scene.bounds(), 0).primary_rays(64, 50).rays;
+        assert!(primary.len() > 2 * CHUNK);
+        let hits = traverse::closest_hits(&bvh, &primary);
+        let make = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool");
+            pool.install(|| ao_rays(&scene, &primary, &hits, 4, 2.0, 9))
+        };
+        let (one, three) = (make(1), make(3));
+        assert_eq!(one.source, three.source);
+        assert_eq!(one.rays, three.rays);
+        // One hit after another, each hit's probes together.
+        assert!(one.source.windows(2).all(|w| w[0] <= w[1]));
+        assert!(one.source.len() > 4 * CHUNK);
+    }
 
     #[test]
     fn halton_and_cosine_weighting() {
