@@ -142,11 +142,8 @@ mod tests {
     /// thread or several, across chunk boundaries.
     #[test]
     fn probes_are_the_same_on_any_number_of_threads() {
-        use crate::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource, traverse};
-        let scene = SceneSource::parse("builtin:forest:0.05")
-            .and_then(|s| s.load(SceneNeeds::AO))
-            .expect("built-in scene");
-        let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+        use crate::{Camera, testkit, traverse};
+        let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
         let primary = Camera::thesis(&scene.bounds(), 0).primary_rays(64, 50).rays;
         assert!(primary.len() > 2 * CHUNK);
         let hits = traverse::closest_hits(&bvh, &primary);

@@ -197,7 +197,7 @@ mod tests {
 
     use super::*;
     use crate::scheduled::RayDevice;
-    use crate::{BuildPreset, Camera, SceneNeeds, SceneSource};
+    use crate::{Camera, testkit};
 
     /// Every fill of hits on a pool thread, from every test in this process: the thread's
     /// name and the rays it filled.
@@ -217,10 +217,7 @@ mod tests {
     /// a device of one thread.
     #[test]
     fn a_device_of_two_threads_traces_in_parallel_chunks() {
-        let scene = SceneSource::parse("builtin:forest:0.05")
-            .and_then(|s| s.load(SceneNeeds::AO))
-            .expect("built-in scene");
-        let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+        let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
         let rays = Camera::thesis(&scene.bounds(), 0).primary_rays(64, 64).rays;
         let all = 0..rays.len();
         // An index no other test uses, so the thread names are this device's alone.

@@ -20,6 +20,16 @@ pub fn scene_of(name: &str, m: MeshBuilder) -> Result<Scene> {
     Scene::from_parts(name.into(), m.positions, m.triangles, LoadReport::default())
 }
 
+/// A built-in scene (`builtin:NAME[:detail]`, loaded for AO) and its BVH (medium preset).
+///
+/// # Errors
+/// An unknown name, or a scene that cannot be built.
+pub fn builtin_with_bvh(name: &str) -> Result<(Scene, crate::Bvh)> {
+    let scene = crate::SceneSource::parse(name)?.load(crate::SceneNeeds::AO)?;
+    let bvh = crate::Bvh::build(&scene, crate::BuildPreset::Medium)?;
+    Ok((scene, bvh))
+}
+
 /// A closed, watertight icosphere (`20 * 4^level` triangles).
 pub fn icosphere(level: u32, center: Vec3, radius: f32) -> Scene {
     let mut m = MeshBuilder::default();

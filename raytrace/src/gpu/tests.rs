@@ -46,10 +46,7 @@ pub(crate) fn gpu() -> Option<GpuContext> {
 }
 
 fn scene_bvh(name: &str) -> Bvh {
-    let scene = SceneSource::parse(name)
-        .and_then(|s| s.load(SceneNeeds::AO))
-        .expect("built-in scene");
-    Bvh::build(&scene, BuildPreset::Medium).expect("BVH")
+    testkit::builtin_with_bvh(name).expect("built-in scene").1
 }
 
 /// Camera rays of the four thesis cameras, AO rays from camera 0's hits, and random rays
