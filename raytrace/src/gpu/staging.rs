@@ -78,7 +78,7 @@ impl Staging {
     }
 
     /// `staging` if it holds `n` rays, else new buffers for the next power of two of them (at
-    /// most a binding's worth).
+    /// most a binding's worth, and at most [`MOST_RAYS`]).
     fn fit(staging: Option<Self>, ctx: &GpuContext, n: u64) -> Self {
         match staging {
             Some(s) if s.capacity >= n => s,
@@ -123,7 +123,10 @@ pub(crate) fn staged_hits(
         let launched = run(
             &s, ctx, kernels, scene, rays, &launch, mode, threads, &mut hits,
         );
-        *staging = Some(s);
+        // A launch that failed may have left a buffer mapped: the next one starts afresh.
+        if launched.is_ok() {
+            *staging = Some(s);
+        }
         seconds = seconds.zip(launched?).map(|(a, b)| a + b);
     }
     Ok((hits, seconds))
