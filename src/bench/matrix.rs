@@ -139,21 +139,21 @@ impl Plan<'_> {
         }
     }
 
-    /// Renders every camera once with `settings`; the generations traced and, when `probe`,
-    /// the prediction error sums of each.
+    /// Renders every camera once with `settings`, one after another through one tracer (as a
+    /// renderer draws frames: each camera's plans use the device speeds measured so far, per
+    /// ray kind); the generations traced and, when `probe`, the prediction error sums of each.
     fn render_all(
         &self,
         w: Workload,
         settings: Settings,
         probe: bool,
     ) -> Result<Rendered, CliError> {
-        let mut stats = Vec::new();
-        let mut sums = Vec::new();
         let bounds = self.scene.bounds();
+        let devices = build_devices(self.bvh, self.devices, &[])?;
+        let tracer = ScheduledTracer::new(self.bvh, devices, settings)?;
+        let mut p = Probe::new(tracer, self.bvh, &settings, probe);
+        let mut seen = 0;
         for cam in 0..self.cameras {
-            let devices = build_devices(self.bvh, self.devices, &[])?;
-            let tracer = ScheduledTracer::new(self.bvh, devices, settings)?;
-            let mut p = Probe::new(tracer, self.bvh, &settings, probe);
             let options = RenderOptions::new(
                 self.width,
                 self.height,
@@ -161,9 +161,10 @@ impl Plan<'_> {
                 self.shader(w),
             );
             render(self.scene, &mut p, &options);
-            // A device that failed is retired for the rest of the render, which changes what
-            // the run measures: say so, rather than leave a row of fewer devices unexplained.
-            for f in p.inner.stats().iter().flat_map(|g| &g.failures) {
+            // A device that failed is retired for the rest of the run, which changes what the
+            // run measures: say so, rather than leave a row of fewer devices unexplained.
+            let gens = p.inner.stats();
+            for f in gens[seen..].iter().flat_map(|g| &g.failures) {
                 eprintln!(
                     "cobalt bench: {} {} {} {}, camera {cam}: {f}",
                     self.scene_name,
@@ -172,10 +173,9 @@ impl Plan<'_> {
                     settings.mode.name(),
                 );
             }
-            stats.extend(p.inner.stats().iter().cloned());
-            sums.append(&mut p.sums);
+            seen = gens.len();
         }
-        Ok((stats, sums))
+        Ok((p.inner.stats().to_vec(), p.sums))
     }
 
     /// Runs the whole matrix, calling `tick` after each run; returns the records and, per
