@@ -170,7 +170,8 @@ fn run(
     let name = ctx.info.name.as_str();
     let n: u64 = chunk.iter().map(|r| r.len() as u64).sum();
     // Only what the launch writes and reads is mapped: wgpu zeroes a mapped range it has not
-    // seen written, and the buffers may be far larger than this launch.
+    // seen written, and the buffers may be far larger than this launch (the first map of a
+    // 16-million-ray upload buffer took 116 ms on an H100 host, 53 ms mapping a half).
     map(
         &ctx.device,
         name,
