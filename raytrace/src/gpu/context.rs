@@ -7,6 +7,7 @@
 //! `COBALT_GPU_SOFTWARE=1`); `gpu:K` uses adapter `K` whatever it is, since it was named.
 //! Each device is opened with its adapter's own limits, not wgpu's defaults.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, PoisonError};
 
 use crate::devices::GpuSelect;
@@ -71,6 +72,8 @@ pub struct GpuContext {
     pub limits: wgpu::Limits,
     /// True when timestamp queries are enabled (per-launch GPU time).
     pub timestamps: bool,
+    /// Which opening of a device in this process this is: clones share it.
+    opening: u64,
 }
 
 impl std::fmt::Debug for GpuContext {
@@ -178,6 +181,7 @@ impl GpuContext {
             adapter: info.name.clone(),
             why: e.to_string(),
         })?;
+        static OPENINGS: AtomicU64 = AtomicU64::new(0);
         Ok(Self {
             index,
             info,
@@ -185,7 +189,13 @@ impl GpuContext {
             queue,
             limits,
             timestamps,
+            opening: OPENINGS.fetch_add(1, Ordering::Relaxed),
         })
+    }
+
+    /// Whether `self` and `other` share one opened device (one is a clone of the other).
+    pub fn same_device(&self, other: &Self) -> bool {
+        self.opening == other.opening
     }
 
     /// The device's name in cobalt: `gpu{index}`.
