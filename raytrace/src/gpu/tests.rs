@@ -59,6 +59,15 @@ fn scene_bvh(name: &str) -> Bvh {
     testkit::builtin_with_bvh(name).expect("built-in scene").1
 }
 
+/// What a raw launch needs on `ctx`: the kernels and buffers of `name`'s tree, and the rays
+/// of `rays_for(name, seed)`.
+fn launch_kit(ctx: &GpuContext, name: &str, seed: u64) -> (Kernels, SceneBuffers, RayBatch) {
+    let bvh = scene_bvh(name);
+    let kernels = Kernels::new(&ctx.device, bvh.depth()).expect("kernels");
+    let scene = SceneBuffers::upload(ctx, &bvh).expect("upload");
+    (kernels, scene, rays_for(name, seed))
+}
+
 /// Camera rays of the four thesis cameras, AO rays from camera 0's hits, and random rays
 /// (origins in and around the scene, random directions, some with a finite range), plus a few
 /// degenerate ones (NaN, zero direction, empty range).
@@ -457,10 +466,7 @@ fn estimator_refuses_bad_tasks_and_serves_sched() {
 #[test]
 fn per_ray_threads_equal_persistent() {
     let Some(ctx) = gpu() else { return };
-    let bvh = scene_bvh("builtin:forest:0.05");
-    let rays = rays_for("builtin:forest:0.05", 14);
-    let kernels = Kernels::new(&ctx.device, bvh.depth()).expect("kernels");
-    let scene = SceneBuffers::upload(&ctx, &bvh).expect("upload");
+    let (kernels, scene, rays) = launch_kit(&ctx, "builtin:forest:0.05", 14);
     let all = 0..rays.len();
     let packed = pack_rays(&rays, &[&all]);
     assert_ne!(packed.len() % 64, 0);
@@ -485,10 +491,7 @@ fn per_ray_threads_equal_persistent() {
 #[test]
 fn a_launch_of_three_passes_is_timed_and_traced_whole() {
     let Some(ctx) = gpu() else { return };
-    let bvh = scene_bvh("builtin:cornell:0.2");
-    let rays = rays_for("builtin:cornell:0.2", 15);
-    let kernels = Kernels::new(&ctx.device, bvh.depth()).expect("kernels");
-    let scene = SceneBuffers::upload(&ctx, &bvh).expect("upload");
+    let (kernels, scene, rays) = launch_kit(&ctx, "builtin:cornell:0.2", 15);
     let all = 0..rays.len();
     let packed = pack_rays(&rays, &[&all]);
     let pass = (MAX_WORKGROUPS * BATCHES * 64) as usize;

@@ -75,12 +75,12 @@ impl SpeedBook {
         if !(weight > 0.0 && weight.is_finite()) {
             return;
         }
-        let blend = self.all.clone();
+        let all = &self.all;
         self.by_kind
             .entry(kind)
-            .or_insert(Blend {
+            .or_insert_with(|| Blend {
+                speeds: all.speeds.clone(),
                 evidence: 0.0,
-                ..blend
             })
             .add(active, new, weight);
         self.all.add(active, new, weight);
