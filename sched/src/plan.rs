@@ -1,6 +1,7 @@
 use crate::{Costs, Load, Speeds};
 
-/// A static assignment: for each device, the tasks it runs, in launch order.
+/// A static assignment: for each device, the tasks it runs, in the order the planner assigned
+/// them (LPT: largest first). `StaticDispatch` launches each list in task order.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Plan {
     devices: Vec<Vec<u32>>,
@@ -12,7 +13,7 @@ impl Plan {
         Plan { devices }
     }
 
-    /// The tasks of `device`, in the order it runs them.
+    /// The tasks of `device`, in the order the planner assigned them.
     pub fn tasks(&self, device: usize) -> &[u32] {
         &self.devices[device]
     }
