@@ -1,7 +1,7 @@
 use crate::testkit::{cobalt, temp_dir};
 
-/// A tiny matrix end to end: every promised JSON field, fractions in range, static plans
-/// launching once per device per generation, the simulator's records, and the charts.
+/// A tiny matrix end to end, every cell run twice: every promised JSON field, fractions in
+/// range, each cell's runs listed, the simulator's records, and the charts.
 #[test]
 fn bench_writes_one_record_per_run_and_the_charts() {
     let dir = temp_dir("bench");
@@ -19,6 +19,8 @@ fn bench_writes_one_record_per_run_and_the_charts() {
         "static-lpt,queue-fifo",
         "--ao-samples",
         "4",
+        "--repeats",
+        "2",
         "--simulate",
         "2,8",
         "--json",
@@ -57,6 +59,17 @@ fn bench_writes_one_record_per_run_and_the_charts() {
         let balance = r["balance_efficiency"].as_f64().expect("balance");
         assert!(balance > 0.0 && balance <= 1.0 + 1e-9, "{r}");
         assert!(r["rays"].as_u64().is_some_and(|n| n > 0), "{r}");
+        // Two runs of the cell, the median of two being their mean.
+        assert_eq!(r["repeats"], 2, "{r}");
+        let runs: Vec<f64> = r["run_balance_efficiency"]
+            .as_array()
+            .expect("every run's balance")
+            .iter()
+            .filter_map(|b| b.as_f64())
+            .collect();
+        assert_eq!(runs.len(), 2, "{r}");
+        assert!((balance - 0.5 * (runs[0] + runs[1])).abs() < 1e-12, "{r}");
+        assert_eq!(r["run_mrays_per_s"].as_array().map(Vec::len), Some(2));
         if r["mode"] == "cost" {
             let e = r["prediction_error"]
                 .as_f64()
@@ -101,6 +114,7 @@ fn bench_rejects_bad_values_naming_them() {
         ("--sample-rate", "2"),
         ("--devices", "cpu:0"),
         ("--simulate", "x"),
+        ("--repeats", "0"),
         ("--scene", "/no/such/scene.obj"),
     ] {
         let o = cobalt(&["bench", flag, value]);

@@ -13,6 +13,7 @@ use sched::Policy;
 use serde::Serialize;
 
 use super::probe::{ErrorSums, Probe};
+use super::repeats;
 use crate::error::CliError;
 
 /// The two workloads of the thesis.
@@ -77,8 +78,16 @@ pub struct Record {
     pub plan_seconds: f64,
     /// Σ|estimated − full| / Σ full (cost mode; the estimates do not depend on the policy).
     pub prediction_error: Option<f64>,
+    /// Launches of the median run.
     pub launches: u64,
+    /// Tasks re-run after a device failed, over all runs.
     pub reruns: u64,
+    /// Runs of this cell (`--repeats`); the figures above are their medians.
+    pub repeats: usize,
+    /// Every run's MRays/s, in the order they ran.
+    pub run_mrays_per_s: Vec<f64>,
+    /// Every run's balance efficiency, in the order they ran.
+    pub run_balance_efficiency: Vec<f64>,
 }
 
 /// Measured tasks of one generation, for the simulator: estimated cost and seconds of each.
@@ -121,12 +130,18 @@ pub struct Plan<'a> {
     pub estimate_on: raytrace::scheduled::EstimateOn,
     /// Cost mode's probe of closest-hit rays.
     pub probe: raytrace::Probe,
+    /// Runs of every cell, in rounds that each run every policy and mode once.
+    pub repeats: usize,
 }
 
 impl Plan<'_> {
-    /// Runs in the matrix.
+    /// Runs in the matrix, repeats included.
     pub fn runs(&self) -> usize {
-        self.workloads.len() * self.task_sizes.len() * self.policies.len() * Mode::ALL.len()
+        self.workloads.len()
+            * self.task_sizes.len()
+            * self.policies.len()
+            * Mode::ALL.len()
+            * self.repeats
     }
 
     fn shader(&self, w: Workload) -> Shader {
@@ -178,8 +193,9 @@ impl Plan<'_> {
         Ok((p.inner.stats().to_vec(), p.sums))
     }
 
-    /// Runs the whole matrix, calling `tick` after each run; returns the records and, per
-    /// (workload, task size), the replay of the cost-based StaticLpt run.
+    /// Runs the whole matrix, calling `tick` after each run; returns one record per cell (the
+    /// medians of its repeats) and, per (workload, task size), the replay of the cost-based
+    /// StaticLpt run of median time.
     pub fn run(&self, mut tick: impl FnMut(&str)) -> Result<(Vec<Record>, Vec<Replays>), CliError> {
         // Untimed warm-up: page in the scene, the BVH and the thread pools.
         if let Some(&w) = self.workloads.first() {
@@ -194,18 +210,28 @@ impl Plan<'_> {
                     value: task_size.to_string(),
                     message: "task sizes must be positive".into(),
                 })?;
-                let mut error: Option<f64> = None;
-                for &policy in self.policies {
-                    for mode in Mode::ALL {
-                        let settings = Settings {
+                let cells: Vec<Settings> = self
+                    .policies
+                    .iter()
+                    .flat_map(|&policy| {
+                        Mode::ALL.map(|mode| Settings {
                             policy,
                             mode,
                             task_size: size,
                             sample_rate: self.sample_rate,
                             estimate_on: self.estimate_on,
                             probe: self.probe,
-                        };
-                        let probe = mode == Mode::Cost && error.is_none();
+                        })
+                    })
+                    .collect();
+                let mut error: Option<f64> = None;
+                let mut runs: Vec<Vec<Record>> = vec![Vec::new(); cells.len()];
+                let mut lpt_gens: Vec<Vec<Replay>> = Vec::new();
+                // Round after round, so that a spell of load on the machine falls on every
+                // cell alike instead of on all the runs of one.
+                for _ in 0..self.repeats {
+                    for (cell, &settings) in cells.iter().enumerate() {
+                        let probe = settings.mode == Mode::Cost && error.is_none();
                         let (stats, sums) = self.render_all(w, settings, probe)?;
                         if probe {
                             let (d, f) = sums
@@ -216,42 +242,42 @@ impl Plan<'_> {
                         }
                         let measured: Vec<&GenerationStats> =
                             stats.iter().filter(|g| w.counts(g.kind)).collect();
-                        if mode == Mode::Cost && policy == Policy::StaticLpt {
-                            let gens = measured.iter().map(|g| replay(g)).collect();
-                            replays.push(Replays {
-                                workload: w,
-                                task_size,
-                                prediction_error: error,
-                                gens,
-                            });
+                        if settings.mode == Mode::Cost && settings.policy == Policy::StaticLpt {
+                            lpt_gens.push(measured.iter().map(|g| replay(g)).collect());
                         }
-                        records.push(self.record(
-                            w,
-                            settings,
-                            &measured,
-                            error.filter(|_| mode == Mode::Cost),
-                        ));
+                        runs[cell].push(self.record(w, settings, &measured));
                         tick(&format!(
                             "{} {} {} {}",
                             w.name(),
                             task_size,
-                            policy.name(),
-                            mode.name()
+                            settings.policy.name(),
+                            settings.mode.name()
                         ));
                     }
+                }
+                for (cell, settings) in cells.iter().enumerate() {
+                    let Some(mut r) = repeats::combine(&runs[cell]) else {
+                        continue;
+                    };
+                    // The estimates, and so their error, do not depend on the policy or run.
+                    r.prediction_error = error.filter(|_| settings.mode == Mode::Cost);
+                    if settings.mode == Mode::Cost && settings.policy == Policy::StaticLpt {
+                        let mid = repeats::median_run(&runs[cell]).unwrap_or(0);
+                        replays.push(Replays {
+                            workload: w,
+                            task_size,
+                            prediction_error: error,
+                            gens: std::mem::take(&mut lpt_gens[mid]),
+                        });
+                    }
+                    records.push(r);
                 }
             }
         }
         Ok((records, replays))
     }
 
-    fn record(
-        &self,
-        w: Workload,
-        settings: Settings,
-        gens: &[&GenerationStats],
-        prediction_error: Option<f64>,
-    ) -> Record {
+    fn record(&self, w: Workload, settings: Settings, gens: &[&GenerationStats]) -> Record {
         let (mut rays, mut seconds, mut est, mut plan) = (0usize, 0.0, 0.0, 0.0);
         let (mut busy, mut capacity, mut launches, mut reruns) = (0.0, 0.0, 0u64, 0u64);
         for g in gens {
@@ -264,6 +290,7 @@ impl Plan<'_> {
             launches += g.launches();
             reruns += g.reruns;
         }
+        let balance = if capacity > 0.0 { busy / capacity } else { 1.0 };
         Record {
             source: "measured",
             scene: self.scene_name.to_string(),
@@ -281,12 +308,15 @@ impl Plan<'_> {
             rays,
             seconds,
             mrays_per_s: rays as f64 / seconds.max(1e-12) / 1e6,
-            balance_efficiency: if capacity > 0.0 { busy / capacity } else { 1.0 },
+            balance_efficiency: balance,
             estimate_seconds: est,
             plan_seconds: plan,
-            prediction_error,
+            prediction_error: None,
             launches,
             reruns,
+            repeats: 1,
+            run_mrays_per_s: vec![rays as f64 / seconds.max(1e-12) / 1e6],
+            run_balance_efficiency: vec![balance],
         }
     }
 }

@@ -12,6 +12,7 @@ mod matrix;
 mod mpi;
 mod plots;
 mod probe;
+mod repeats;
 mod simulate;
 mod table;
 mod trade;
@@ -71,6 +72,10 @@ pub struct Args {
     /// AO probes per primary hit.
     #[arg(long, default_value_t = 32)]
     ao_samples: u32,
+    /// Runs of every cell, in rounds (each round runs every policy and mode once); the
+    /// tables and `--json` give the medians and every run's MRays/s and balance.
+    #[arg(long, default_value_t = 1)]
+    repeats: usize,
     /// BVH build preset.
     #[arg(long, default_value = "medium")]
     preset: String,
@@ -155,6 +160,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
             "expected 1..=4096",
         ));
     }
+    if !(1..=100).contains(&args.repeats) {
+        return Err(bad(
+            "repeats",
+            &args.repeats.to_string(),
+            "expected 1..=100 runs of every cell",
+        ));
+    }
     let preset: BuildPreset = args
         .preset
         .parse()
@@ -231,6 +243,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             sample_rate: rate,
             estimate_on: args.estimate_on,
             probe: args.probe,
+            repeats: args.repeats,
         };
         let bar = ProgressBar::new(plan.runs() as u64);
         bar.set_style(
@@ -253,13 +266,21 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
 
     let mut out = format!(
-        "cobalt bench: {} at {}x{}, {} camera(s), devices {}, sample rate {}\n\n",
+        "cobalt bench: {} at {}x{}, {} camera(s), devices {}, sample rate {}{}\n\n",
         scenes.join(", "),
         width,
         height,
         cameras,
         args.devices,
-        rate.get()
+        rate.get(),
+        if args.repeats > 1 {
+            format!(
+                ", {} runs of every cell (medians; MRays/s and balance show the runs' range)",
+                args.repeats
+            )
+        } else {
+            String::new()
+        }
     );
     out += &table::runs(&records);
     out += "\nTargets on these devices (issue 4):\n\n";

@@ -9,6 +9,29 @@ fn pct(x: f64) -> String {
     format!("{:.2} %", 100.0 * x)
 }
 
+/// A cell's median, and with several runs their range: `7.41 (7.02–7.80)`.
+fn spread(median: f64, runs: &[f64], show: impl Fn(f64) -> String) -> String {
+    let (lo, hi) = runs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        });
+    if runs.len() > 1 {
+        format!("{} ({}–{})", show(median), show(lo), show(hi))
+    } else {
+        show(median)
+    }
+}
+
+/// `; k of n runs` when a cell ran more than once: in how many runs `ok` held.
+fn of_runs(n: usize, ok: impl Fn(usize) -> bool) -> String {
+    if n > 1 {
+        format!("; {} of {n} runs", (0..n).filter(|&i| ok(i)).count())
+    } else {
+        String::new()
+    }
+}
+
 /// Every measured run.
 pub fn runs(records: &[Record]) -> String {
     let mut s = String::from(
@@ -17,15 +40,15 @@ pub fn runs(records: &[Record]) -> String {
     );
     for r in records {
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {:.2} | {} | {:.4} | {:.5} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.4} | {:.5} | {} | {} |\n",
             r.scene,
             r.shader,
             r.task_size,
             r.policy,
             r.mode,
             r.rays,
-            r.mrays_per_s,
-            pct(r.balance_efficiency),
+            spread(r.mrays_per_s, &r.run_mrays_per_s, |x| format!("{x:.2}")),
+            spread(r.balance_efficiency, &r.run_balance_efficiency, pct),
             r.estimate_seconds,
             r.plan_seconds,
             r.prediction_error.map_or_else(|| "–".into(), pct),
@@ -37,6 +60,8 @@ pub fn runs(records: &[Record]) -> String {
 
 /// The two-device targets, per scene, shader and task size: cost-based StaticLpt
 /// balance ≥ 97 %, Hybrid ≥ 99 %, and LPT (cost) at least as fast as Equal and FIFO (regular).
+/// Each is judged on the cells' medians; with several runs, also in how many runs it held
+/// (for the speeds, run `i` of each cell against run `i` of the others: the same round).
 pub fn targets(records: &[Record]) -> String {
     let find = |r0: &Record, policy: &str, mode: &str| {
         records.iter().find(|r| {
@@ -67,21 +92,28 @@ pub fn targets(records: &[Record]) -> String {
         );
         let cell_b = |x: Option<&Record>, min: f64| {
             x.map_or("–".into(), |x| {
+                let runs = &x.run_balance_efficiency;
                 format!(
-                    "{} ({})",
+                    "{} ({}{})",
                     mark(x.balance_efficiency >= min),
-                    pct(x.balance_efficiency)
+                    pct(x.balance_efficiency),
+                    of_runs(runs.len(), |i| runs[i] >= min)
                 )
             })
         };
         let speed = match (lpt, eq, fifo) {
-            (Some(l), Some(e), Some(f)) => format!(
-                "{} ({:.2} vs {:.2}, {:.2})",
-                mark(l.mrays_per_s >= e.mrays_per_s && l.mrays_per_s >= f.mrays_per_s),
-                l.mrays_per_s,
-                e.mrays_per_s,
-                f.mrays_per_s
-            ),
+            (Some(l), Some(e), Some(f)) => {
+                let (lr, er, fr) = (&l.run_mrays_per_s, &e.run_mrays_per_s, &f.run_mrays_per_s);
+                let rounds = lr.len().min(er.len()).min(fr.len());
+                format!(
+                    "{} ({:.2} vs {:.2}, {:.2}{})",
+                    mark(l.mrays_per_s >= e.mrays_per_s && l.mrays_per_s >= f.mrays_per_s),
+                    l.mrays_per_s,
+                    e.mrays_per_s,
+                    f.mrays_per_s,
+                    of_runs(rounds, |i| lr[i] >= er[i] && lr[i] >= fr[i])
+                )
+            }
             _ => "–".into(),
         };
         s += &format!(

@@ -1,0 +1,120 @@
+//! One cell of the matrix from several runs of it: `--repeats N` runs every cell `N` times,
+//! round after round, and keeps the median of each figure with every run's MRays/s and
+//! balance beside it.
+//!
+//! On a shared machine one run is a sample of the neighbours' load as much as of the policy:
+//! on the 2-vCPU VM we develop on, one of two identical static-LPT AO renders gave its two
+//! equal halves 0.571 and 0.663 s of busy time (93.1 %), the next three 98.8–99.7 %. A
+//! median of rounds, each of which runs every policy once, stops such a run from deciding a
+//! cell, and the runs kept beside it show how much the cell moved.
+
+use super::matrix::Record;
+
+/// The median of `values` (the mean of the middle two for an even count); `None` when empty.
+pub fn median(values: &[f64]) -> Option<f64> {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    match n {
+        0 => None,
+        _ if n % 2 == 1 => Some(v[n / 2]),
+        _ => Some(0.5 * (v[n / 2 - 1] + v[n / 2])),
+    }
+}
+
+/// The index of the run whose time is the median's (the faster of the middle two for an even
+/// count): the run whose tasks the simulator replays.
+pub fn median_run(runs: &[Record]) -> Option<usize> {
+    let mut order: Vec<usize> = (0..runs.len()).collect();
+    order.sort_by(|&a, &b| runs[a].seconds.total_cmp(&runs[b].seconds));
+    order.get(runs.len().saturating_sub(1) / 2).copied()
+}
+
+/// One record of a cell's runs (all of one scene, shader, task size, policy and mode): the
+/// median seconds (and MRays/s over them), balance, estimation and planning time; the
+/// launches of the median run; reruns summed; every run's MRays/s and balance in run order.
+/// `None` when there are no runs.
+pub fn combine(runs: &[Record]) -> Option<Record> {
+    let mid = median_run(runs)?;
+    let of =
+        |f: fn(&Record) -> f64| -> Option<f64> { median(&runs.iter().map(f).collect::<Vec<_>>()) };
+    let mut out = runs[mid].clone();
+    out.seconds = of(|r| r.seconds)?;
+    out.mrays_per_s = out.rays as f64 / out.seconds.max(1e-12) / 1e6;
+    out.balance_efficiency = of(|r| r.balance_efficiency)?;
+    out.estimate_seconds = of(|r| r.estimate_seconds)?;
+    out.plan_seconds = of(|r| r.plan_seconds)?;
+    out.reruns = runs.iter().map(|r| r.reruns).sum();
+    out.repeats = runs.len();
+    out.run_mrays_per_s = runs.iter().map(|r| r.mrays_per_s).collect();
+    out.run_balance_efficiency = runs.iter().map(|r| r.balance_efficiency).collect();
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(seconds: f64, balance: f64, launches: u64, reruns: u64) -> Record {
+        Record {
+            source: "measured",
+            scene: "s".into(),
+            shader: "ao",
+            ray_kind: "diffuse",
+            policy: "static-lpt",
+            mode: "cost",
+            probe: "thesis",
+            task_size: 512,
+            devices: 2,
+            device_list: "cpu:2".into(),
+            cameras: 1,
+            width: 8,
+            height: 8,
+            rays: 2_000_000,
+            seconds,
+            mrays_per_s: 2.0 / seconds,
+            balance_efficiency: balance,
+            estimate_seconds: 0.1 * seconds,
+            plan_seconds: 0.001,
+            prediction_error: Some(0.02),
+            launches,
+            reruns,
+            repeats: 1,
+            run_mrays_per_s: vec![2.0 / seconds],
+            run_balance_efficiency: vec![balance],
+        }
+    }
+
+    #[test]
+    fn medians_of_odd_and_even_counts() {
+        assert_eq!(median(&[]), None);
+        assert_eq!(median(&[3.0]), Some(3.0));
+        assert_eq!(median(&[5.0, 1.0, 3.0]), Some(3.0));
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), Some(2.5));
+    }
+
+    /// A slow outlier moves neither the time nor the balance; the median run's launches are
+    /// kept, reruns add up, and every run stays visible in run order.
+    #[test]
+    fn a_cell_keeps_its_median_run_and_lists_every_run() {
+        let runs = [
+            run(0.5, 0.99, 2, 0),
+            run(0.9, 0.90, 3, 1),
+            run(0.6, 0.98, 4, 0),
+        ];
+        let c = combine(&runs).expect("three runs");
+        assert_eq!(c.seconds, 0.6);
+        assert!((c.mrays_per_s - 2.0 / 0.6).abs() < 1e-12);
+        assert_eq!(c.balance_efficiency, 0.98);
+        assert!((c.estimate_seconds - 0.06).abs() < 1e-15);
+        assert_eq!((c.launches, c.reruns, c.repeats), (4, 1, 3));
+        assert_eq!(c.run_balance_efficiency, vec![0.99, 0.90, 0.98]);
+        assert_eq!(c.run_mrays_per_s.len(), 3);
+        assert_eq!(median_run(&runs), Some(2));
+        // Two runs: the mean of both times, the faster run's launches.
+        let two = combine(&runs[..2]).expect("two runs");
+        assert!((two.seconds - 0.7).abs() < 1e-15);
+        assert_eq!((two.launches, two.repeats), (2, 2));
+        assert!(combine(&[]).is_none());
+    }
+}
