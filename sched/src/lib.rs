@@ -55,6 +55,7 @@ mod executor;
 mod load;
 #[cfg(feature = "mpi")]
 pub mod mpi;
+mod placement;
 mod plan;
 mod policy;
 mod runtime;

@@ -203,12 +203,15 @@ mod workers {
     use crossbeam::channel::{Sender, unbounded};
     use crossbeam::sync::WaitGroup;
 
+    use crate::placement::{ThreadId, allow_this_thread, keep_off_caller, this_thread};
+
     type Job = Box<dyn FnOnce() + Send + 'static>;
 
     /// Threads that each wait on their own channel, so that a run gives every device a thread
     /// of its own: two device loops queued on one thread would wait on each other forever.
     pub(super) struct Pool {
         threads: Vec<Sender<Job>>,
+        ids: Vec<ThreadId>,
     }
 
     static IDLE: Mutex<Vec<Pool>> = Mutex::new(Vec::new());
@@ -240,12 +243,16 @@ mod workers {
 
     impl Pool {
         fn new(threads: usize) -> Pool {
-            let threads = (0..threads)
+            let (ids, started) = unbounded::<(usize, ThreadId)>();
+            let threads: Vec<Sender<Job>> = (0..threads)
                 .map(|k| {
                     let (jobs, inbox) = unbounded::<Job>();
+                    let ids = ids.clone();
                     std::thread::Builder::new()
                         .name(format!("sched-device-{}", k + 1))
                         .spawn(move || {
+                            let _ = ids.send((k, this_thread()));
+                            drop(ids);
                             // A job's panic must not end the thread: its channel would
                             // refuse the next run's job.
                             for job in inbox {
@@ -258,7 +265,12 @@ mod workers {
                     jobs
                 })
                 .collect();
-            Pool { threads }
+            drop(ids);
+            let mut id = vec![None; threads.len()];
+            for (k, t) in started {
+                id[k] = t;
+            }
+            Pool { threads, ids: id }
         }
 
         /// Runs `jobs[k]` on thread `k` and `here` on the calling thread, and returns once all
@@ -269,12 +281,17 @@ mod workers {
             here: impl FnOnce(),
         ) {
             assert!(jobs.len() <= self.threads.len(), "more jobs than threads");
+            // Before they are woken: see `placement.rs`.
+            let restore = keep_off_caller(&self.ids[..jobs.len()], jobs.len() + 1);
             let group = WaitGroup::new();
             let join = Join(Some(group.clone()));
             for (job, thread) in jobs.into_iter().zip(&self.threads) {
                 let token = group.clone();
                 let job: Box<dyn FnOnce() + Send + 's> = Box::new(move || {
                     let _token = token;
+                    if let Some(all) = restore {
+                        allow_this_thread(&all);
+                    }
                     job();
                 });
                 // SAFETY: only the lifetime changes (same type, same layout). What the job
