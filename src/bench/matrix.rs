@@ -130,7 +130,7 @@ pub struct Plan<'a> {
     pub estimate_on: raytrace::scheduled::EstimateOn,
     /// Cost mode's probe of closest-hit rays.
     pub probe: raytrace::Probe,
-    /// Runs of every cell, in rounds that each run every policy and mode once.
+    /// Runs of every cell, in rounds that each run every cell of the matrix once.
     pub repeats: usize,
 }
 
@@ -201,8 +201,8 @@ impl Plan<'_> {
         if let Some(&w) = self.workloads.first() {
             self.render_all(w, Settings::default(), false)?;
         }
-        let mut records = Vec::new();
-        let mut replays = Vec::new();
+        // Every cell of the matrix: (workload, task size) blocks of policies and modes.
+        let mut cells: Vec<(Workload, Settings)> = Vec::new();
         for &w in self.workloads {
             for &task_size in self.task_sizes {
                 let size = NonZeroUsize::new(task_size).ok_or_else(|| CliError::Arg {
@@ -210,69 +210,79 @@ impl Plan<'_> {
                     value: task_size.to_string(),
                     message: "task sizes must be positive".into(),
                 })?;
-                let cells: Vec<Settings> = self
-                    .policies
-                    .iter()
-                    .flat_map(|&policy| {
-                        Mode::ALL.map(|mode| Settings {
+                for &policy in self.policies {
+                    for mode in Mode::ALL {
+                        let settings = Settings {
                             policy,
                             mode,
                             task_size: size,
                             sample_rate: self.sample_rate,
                             estimate_on: self.estimate_on,
                             probe: self.probe,
-                        })
-                    })
-                    .collect();
-                let mut error: Option<f64> = None;
-                let mut runs: Vec<Vec<Record>> = vec![Vec::new(); cells.len()];
-                let mut lpt_gens: Vec<Vec<Replay>> = Vec::new();
-                // Round after round, so that a spell of load on the machine falls on every
-                // cell alike instead of on all the runs of one.
-                for _ in 0..self.repeats {
-                    for (cell, &settings) in cells.iter().enumerate() {
-                        let probe = settings.mode == Mode::Cost && error.is_none();
-                        let (stats, sums) = self.render_all(w, settings, probe)?;
-                        if probe {
-                            let (d, f) = sums
-                                .iter()
-                                .filter(|(k, _)| w.counts(*k))
-                                .fold((0.0, 0.0), |(d, f), (_, s)| (d + s.diff, f + s.full));
-                            error = Some(if f > 0.0 { d / f } else { 0.0 });
-                        }
-                        let measured: Vec<&GenerationStats> =
-                            stats.iter().filter(|g| w.counts(g.kind)).collect();
-                        if settings.mode == Mode::Cost && settings.policy == Policy::StaticLpt {
-                            lpt_gens.push(measured.iter().map(|g| replay(g)).collect());
-                        }
-                        runs[cell].push(self.record(w, settings, &measured));
-                        tick(&format!(
-                            "{} {} {} {}",
-                            w.name(),
-                            task_size,
-                            settings.policy.name(),
-                            settings.mode.name()
-                        ));
+                        };
+                        cells.push((w, settings));
                     }
-                }
-                for (cell, settings) in cells.iter().enumerate() {
-                    let Some(mut r) = repeats::combine(&runs[cell]) else {
-                        continue;
-                    };
-                    // The estimates, and so their error, do not depend on the policy or run.
-                    r.prediction_error = error.filter(|_| settings.mode == Mode::Cost);
-                    if settings.mode == Mode::Cost && settings.policy == Policy::StaticLpt {
-                        let mid = repeats::median_run(&runs[cell]).unwrap_or(0);
-                        replays.push(Replays {
-                            workload: w,
-                            task_size,
-                            prediction_error: error,
-                            gens: std::mem::take(&mut lpt_gens[mid]),
-                        });
-                    }
-                    records.push(r);
                 }
             }
+        }
+        let block = |(w, s): &(Workload, Settings)| (*w, s.task_size.get());
+        let mut errors: Vec<((Workload, usize), f64)> = Vec::new();
+        let mut runs: Vec<Vec<Record>> = vec![Vec::new(); cells.len()];
+        let mut lpt_gens: Vec<Vec<Vec<Replay>>> = vec![Vec::new(); cells.len()];
+        // Round after round of the whole matrix, so that a spell of load on the machine falls
+        // on every cell alike instead of on all the runs of one cell or one task size.
+        for _ in 0..self.repeats {
+            for (cell, (w, settings)) in cells.iter().enumerate() {
+                let (w, settings) = (*w, *settings);
+                let key = block(&cells[cell]);
+                let known = errors.iter().any(|(k, _)| *k == key);
+                let probe = settings.mode == Mode::Cost && !known;
+                let (stats, sums) = self.render_all(w, settings, probe)?;
+                if probe {
+                    let (d, f) = sums
+                        .iter()
+                        .filter(|(k, _)| w.counts(*k))
+                        .fold((0.0, 0.0), |(d, f), (_, s)| (d + s.diff, f + s.full));
+                    errors.push((key, if f > 0.0 { d / f } else { 0.0 }));
+                }
+                let measured: Vec<&GenerationStats> =
+                    stats.iter().filter(|g| w.counts(g.kind)).collect();
+                if settings.mode == Mode::Cost && settings.policy == Policy::StaticLpt {
+                    lpt_gens[cell].push(measured.iter().map(|g| replay(g)).collect());
+                }
+                runs[cell].push(self.record(w, settings, &measured));
+                tick(&format!(
+                    "{} {} {} {}",
+                    w.name(),
+                    settings.task_size,
+                    settings.policy.name(),
+                    settings.mode.name()
+                ));
+            }
+        }
+        let mut records = Vec::new();
+        let mut replays = Vec::new();
+        for (cell, (w, settings)) in cells.iter().enumerate() {
+            let Some(mut r) = repeats::combine(&runs[cell]) else {
+                continue;
+            };
+            // The estimates, and so their error, depend on neither the policy nor the run.
+            let error = errors
+                .iter()
+                .find(|(k, _)| *k == block(&cells[cell]))
+                .map(|&(_, e)| e);
+            r.prediction_error = error.filter(|_| settings.mode == Mode::Cost);
+            if let Some(mid) =
+                repeats::median_run(&runs[cell]).filter(|_| !lpt_gens[cell].is_empty())
+            {
+                replays.push(Replays {
+                    workload: *w,
+                    task_size: settings.task_size.get(),
+                    prediction_error: error,
+                    gens: std::mem::take(&mut lpt_gens[cell][mid]),
+                });
+            }
+            records.push(r);
         }
         Ok((records, replays))
     }

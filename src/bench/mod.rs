@@ -72,7 +72,7 @@ pub struct Args {
     /// AO probes per primary hit.
     #[arg(long, default_value_t = 32)]
     ao_samples: u32,
-    /// Runs of every cell, in rounds (each round runs every policy and mode once); the
+    /// Runs of every cell, in rounds (each round runs the whole matrix once); the
     /// tables and `--json` give the medians and every run's MRays/s and balance.
     #[arg(long, default_value_t = 1)]
     repeats: usize,

@@ -1,11 +1,11 @@
-//! One cell of the matrix from several runs of it: `--repeats N` runs every cell `N` times,
-//! round after round, and keeps the median of each figure with every run's MRays/s and
+//! One cell of the matrix from several runs of it: `--repeats N` runs the whole matrix `N`
+//! times, round after round, and keeps the median of each figure with every run's MRays/s and
 //! balance beside it.
 //!
 //! On a shared machine one run is a sample of the neighbours' load as much as of the policy:
 //! on the 2-vCPU VM we develop on, one of two identical static-LPT AO renders gave its two
 //! equal halves 0.571 and 0.663 s of busy time (93.1 %), the next three 98.8–99.7 %. A
-//! median of rounds, each of which runs every policy once, stops such a run from deciding a
+//! median of rounds, each of which runs every cell once, stops such a run from deciding a
 //! cell, and the runs kept beside it show how much the cell moved.
 
 use super::matrix::Record;
