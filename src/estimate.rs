@@ -239,17 +239,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if args.camera > 3 {
         return Err(arg("camera", &args.camera, "must be 0, 1, 2 or 3".into()));
     }
-    #[cfg(feature = "gpu")]
-    if args.device == DeviceArg::Gpu && args.task_size > raytrace::gpu::MAX_TASK_RAYS {
-        return Err(arg(
-            "task-size",
-            &args.task_size,
-            format!(
-                "the GPU estimator samples tasks of at most {} rays",
-                raytrace::gpu::MAX_TASK_RAYS
-            ),
-        ));
-    }
     if args.repeats == 0 {
         return Err(arg("repeats", &0, "must be at least 1".into()));
     }

@@ -48,6 +48,4 @@ pub use estimator::{ReducedTraversal, full_work};
 pub use measure::measure_seconds;
 pub use metrics::{error_vs_time, prediction_error, spearman};
 pub use model::{Calibrations, CostModel, Work};
-#[cfg(feature = "gpu")]
-pub(crate) use sample::check_tasks;
 pub use sample::{Compacted, SAMPLE_RUN, SampleRate};

@@ -31,7 +31,7 @@ pub const SAMPLE_RUN: usize = 2;
 /// Indices (within a task of `len` rays) of its `k` samples, `0 < k <= len`, in order: all of
 /// them when `k == len`, else runs of [`SAMPLE_RUN`] adjacent rays centred in
 /// `ceil(k / SAMPLE_RUN)` equal strata. A stratum holds at least `SAMPLE_RUN` rays when
-/// `k < len`, so runs never overlap. `estimate.wgsl`'s `sample_index` is the same on the GPU.
+/// `k < len`, so runs never overlap. The GPU estimator uploads exactly these samples.
 fn sample_indices(k: usize, len: usize) -> impl Iterator<Item = usize> {
     let runs = if k == len {
         len

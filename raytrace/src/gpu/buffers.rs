@@ -38,12 +38,27 @@ pub fn pack_rays(rays: &RayBatch, ranges: &[&Range<usize>]) -> Vec<GpuRay> {
     let n = ranges.iter().map(|r| r.len()).sum();
     let mut out = Vec::with_capacity(n);
     for r in ranges {
-        out.extend((*r).clone().map(|i| GpuRay {
-            org: [rays.ox[i], rays.oy[i], rays.oz[i], rays.tmin[i]],
-            dir: [rays.dx[i], rays.dy[i], rays.dz[i], rays.tmax[i]],
-        }));
+        out.extend((*r).clone().map(|i| GpuRay::of(rays, i)));
     }
     out
+}
+
+/// Rays `index[0], index[1], …` of `rays` in the kernels' layout (a compacted sample).
+///
+/// # Panics
+/// Panics if an index is beyond the batch.
+pub fn pack_at(rays: &RayBatch, index: &[usize]) -> Vec<GpuRay> {
+    index.iter().map(|&i| GpuRay::of(rays, i)).collect()
+}
+
+impl GpuRay {
+    /// Ray `i` of `rays`.
+    fn of(rays: &RayBatch, i: usize) -> Self {
+        GpuRay {
+            org: [rays.ox[i], rays.oy[i], rays.oz[i], rays.tmin[i]],
+            dir: [rays.dx[i], rays.dy[i], rays.dz[i], rays.tmax[i]],
+        }
+    }
 }
 
 /// The largest single buffer the kernels may bind on this device.

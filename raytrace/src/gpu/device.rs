@@ -160,15 +160,14 @@ impl GpuDevice {
 }
 
 impl GpuDevice {
-    /// The estimator's sums on the device: every task of `rays` sampled at `rate` exactly as
-    /// [`crate::cost::Compacted::gather`] samples it, the samples compacted and traced by the
-    /// reduced traversal, and their `B` and `T` summed per task (see
+    /// The estimator's sums on the device: every task of `rays` sampled at `rate` by
+    /// [`crate::cost::Compacted::gather`] on the host, only the samples uploaded and traced by
+    /// the reduced traversal, and their `B` and `T` summed per task (see
     /// [`super::GpuReducedTraversal`] for the estimator built on it).
     ///
     /// # Errors
-    /// [`GpuError::BadTasks`] for an empty task or one beyond the batch,
-    /// [`GpuError::TaskTooLong`] for a task beyond [`super::MAX_TASK_RAYS`] rays, and the
-    /// errors of [`launch`].
+    /// [`GpuError::BadTasks`] for an empty task or one beyond the batch, and the errors of
+    /// [`launch`].
     pub fn sampled_counts(
         &self,
         rays: &RayBatch,

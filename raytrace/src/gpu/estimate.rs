@@ -1,30 +1,25 @@
-//! The thesis's estimator on the GPU (issue 5): sample every task at a stride (pairs of
-//! neighbouring rays, as [`crate::cost::SAMPLE_RUN`] says), compact the
-//! samples into one contiguous ray buffer, trace them by the reduced traversal and sum `B` and
-//! `T` per task, all on the device; only one pair of sums per task comes back.
+//! The thesis's estimator on the GPU (issue 5): every task sampled and its samples compacted
+//! on the host ([`Compacted::gather`], the CPU estimator's own sample), only the samples
+//! uploaded, traced there by the reduced traversal and their `B` and `T` summed per task;
+//! one pair of sums per task comes back.
 //!
-//! It picks exactly the rays [`crate::cost::Compacted::gather`] picks (same `k` per task, same
-//! sample indices in integers) and sums their counts exactly (64-bit integers), so its
+//! The thesis samples and compacts on the GPU, where its rays already are. Ours are made on the
+//! host, and an H100 spent most of the estimate uploading every ray of every task to keep an
+//! eighth of them: the estimate cost 60–89 % of the GPU's trace (session 8). Sampling first
+//! uploads an eighth of the bytes, and tasks of any length can be sampled (the device's u32
+//! sample arithmetic limited them to 46 340 rays).
+//!
+//! The samples are the CPU's and their counts are summed exactly (64-bit integers), so its
 //! [`Work`] is bit for bit the CPU's [`crate::cost::ReducedTraversal::try_work`].
-//!
-//! The sample indices (products up to `len²`) are computed in u32 (WGSL has no 64-bit integers), so
-//! a task may hold at most [`MAX_TASK_RAYS`] rays; longer ones are refused with
-//! [`GpuError::TaskTooLong`] rather than sampled wrongly.
 
 use std::ops::Range;
 
-use super::buffers::{
-    GpuRay, SceneBuffers, check_size, fetch, init, pack_rays, rays_per_launch, storage,
-};
+use super::buffers::{SceneBuffers, check_size, fetch, init, pack_at, rays_per_launch, storage};
 use super::pipeline::{GpuMode, Kernels, Threads, grid, trace_resident};
 use super::program::{Program, READ, UNIFORM, WRITE, dispatch};
 use super::{GpuContext, GpuDevice, GpuError};
-use crate::cost::{CostError, CostModel, SampleRate, Work, check_tasks};
+use crate::cost::{Compacted, CostError, CostModel, SampleRate, Work};
 use crate::{Probe, RayBatch};
-
-/// The longest task the GPU estimator samples: `len² < 2^32`, so the sample indices' products
-/// fit u32.
-pub const MAX_TASK_RAYS: usize = 46_340;
 
 /// A task's sampled sums as the GPU computed them: exact integer sums of the reduced-traversal
 /// counts of its `sampled` rays, standing for its `len` rays.
@@ -51,29 +46,22 @@ impl SampledCounts {
     }
 }
 
-/// The compiled `gather` and `sum` kernels of `estimate.wgsl`.
+/// The compiled `sum` kernel of `estimate.wgsl`.
 #[derive(Debug)]
 pub(crate) struct EstimateKernels {
     program: Program,
-    gather: wgpu::ComputePipeline,
     sum: wgpu::ComputePipeline,
 }
 
 impl EstimateKernels {
     pub(crate) fn new(device: &wgpu::Device) -> Self {
-        // The run length is the CPU sampler's, so the two cannot drift apart.
-        let source = include_str!("estimate.wgsl").replace(
-            "const RUN: u32 = 2u;",
-            &format!("const RUN: u32 = {}u;", crate::cost::SAMPLE_RUN),
-        );
         let program = Program::new(
             device,
             "estimate",
-            source,
-            &[READ, READ, WRITE, READ, WRITE, UNIFORM],
+            include_str!("estimate.wgsl").to_string(),
+            &[READ, READ, WRITE, UNIFORM],
         );
         Self {
-            gather: program.pipeline(device, "gather", "cobalt sample gather pipeline"),
             sum: program.pipeline(device, "sum", "cobalt sample sums pipeline"),
             program,
         }
@@ -91,8 +79,7 @@ pub(crate) struct Sampling {
 ///
 /// # Errors
 /// [`GpuError::BadTasks`] for an empty task, one beyond the batch or an inconsistent batch
-/// (checked before anything is uploaded), [`GpuError::TaskTooLong`] beyond
-/// [`MAX_TASK_RAYS`], and the errors of a launch.
+/// (checked before anything is uploaded), and the errors of a launch.
 pub(crate) fn sampled_counts(
     ctx: &GpuContext,
     kernels: &Kernels,
@@ -102,28 +89,16 @@ pub(crate) fn sampled_counts(
     tasks: &[Range<usize>],
     sampling: Sampling,
 ) -> Result<Vec<SampledCounts>, GpuError> {
-    check_tasks(rays, tasks).map_err(|e: CostError| GpuError::BadTasks { why: e.to_string() })?;
-    if let Some((task, r)) = tasks
-        .iter()
-        .enumerate()
-        .find(|(_, r)| r.len() > MAX_TASK_RAYS)
-    {
-        return Err(GpuError::TaskTooLong {
-            task,
-            len: r.len(),
-            max: MAX_TASK_RAYS,
-        });
-    }
+    let sample = Compacted::gather(rays, tasks, sampling.rate)
+        .map_err(|e: CostError| GpuError::BadTasks { why: e.to_string() })?;
     let mut out = Vec::with_capacity(tasks.len());
-    // Consecutive tasks whose rays fit one binding go together; one task always fits, since
-    // a binding holds far more than `MAX_TASK_RAYS` rays.
-    let limit = rays_per_launch(&ctx.limits).max(MAX_TASK_RAYS);
+    // Consecutive tasks whose samples fit one binding go together (a task's sample alone
+    // may not: then `check_size` names the limit).
+    let limit = rays_per_launch(&ctx.limits);
     let mut first = 0;
     while first < tasks.len() {
-        let mut end = first;
-        let mut held = 0;
-        while end < tasks.len() && (end == first || held + tasks[end].len() <= limit) {
-            held += tasks[end].len();
+        let mut end = first + 1;
+        while end < tasks.len() && sample.offsets[end + 1] - sample.offsets[first] <= limit {
             end += 1;
         }
         out.extend(group(
@@ -132,74 +107,73 @@ pub(crate) fn sampled_counts(
             estimate,
             scene,
             rays,
-            &tasks[first..end],
-            sampling,
+            &sample,
+            first..end,
+            sampling.probe,
         )?);
         first = end;
     }
     Ok(out)
 }
 
-/// [`sampled_counts`] for tasks whose rays fit one ray buffer.
+/// [`sampled_counts`] for tasks `group` of `sample`, whose samples fit one ray buffer.
+#[allow(clippy::too_many_arguments)] // the device's parts, passed in as the other kernels are
 fn group(
     ctx: &GpuContext,
     kernels: &Kernels,
     estimate: &EstimateKernels,
     scene: &SceneBuffers,
     rays: &RayBatch,
-    tasks: &[Range<usize>],
-    sampling: Sampling,
+    sample: &Compacted,
+    group: Range<usize>,
+    probe: Probe,
 ) -> Result<Vec<SampledCounts>, GpuError> {
-    // The task table: where each task's rays sit in the packed upload, how many samples it
-    // keeps (the CPU's own rounding), and where they go (the prefix sum of the samples).
-    let mut table: Vec<[u32; 4]> = Vec::with_capacity(tasks.len());
-    let (mut start, mut offset) = (0usize, 0usize);
-    for r in tasks {
-        let k = sampling.rate.samples(r.len());
-        // Every value is below the binding limit's ray count, far below 2^32.
-        let word = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
-        table.push([word(start), word(r.len()), word(k), word(offset)]);
-        start += r.len();
-        offset += k;
-    }
-    let samples = offset;
+    let base = sample.offsets[group.start];
+    let index = &sample.index[base..sample.offsets[group.end]];
+    // The task table: each task's sample count and where its counts start.
+    let word = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
+    let table: Vec<[u32; 2]> = group
+        .clone()
+        .map(|t| {
+            let (a, b) = (sample.offsets[t], sample.offsets[t + 1]);
+            [word(b - a), word(a - base)]
+        })
+        .collect();
     let result = |sums: &[[u32; 4]]| -> Vec<SampledCounts> {
-        tasks
-            .iter()
+        group
+            .clone()
             .zip(&table)
             .zip(sums)
-            .map(|((r, row), s)| SampledCounts {
+            .map(|((t, row), s)| SampledCounts {
                 nodes: u64::from(s[0]) | (u64::from(s[1]) << 32),
                 tris: u64::from(s[2]) | (u64::from(s[3]) << 32),
-                sampled: row[2] as usize,
-                len: r.len(),
+                sampled: row[0] as usize,
+                len: sample.lens[t],
             })
             .collect()
     };
     if scene.empty {
         // No triangle: every ray misses the root, and every count is 0.
-        return Ok(result(&vec![[0; 4]; tasks.len()]));
+        return Ok(result(&vec![[0; 4]; group.len()]));
     }
     let device = &ctx.device;
-    let ranges: Vec<&Range<usize>> = tasks.iter().collect();
-    let packed = pack_rays(rays, &ranges);
+    let packed = pack_at(rays, index);
     check_size(
         ctx,
-        "rays of the estimated tasks",
-        (packed.len() * size_of::<GpuRay>()) as u64,
+        "sampled rays",
+        std::mem::size_of_val(packed.as_slice()) as u64,
     )?;
-    check_size(ctx, "sampled rays", (samples * size_of::<GpuRay>()) as u64)?;
-    let n_tasks = u32::try_from(tasks.len()).unwrap_or(u32::MAX);
-    let n_samples = u32::try_from(samples).unwrap_or(u32::MAX);
+    let n_tasks = word(group.len());
+    let n_samples = word(index.len());
     let table_buf = init(
         device,
         "cobalt estimate tasks",
         bytemuck::cast_slice(&table),
         wgpu::BufferUsages::STORAGE,
     );
-    let ray_buf = init(
+    let sampled = init(
         device,
-        "cobalt estimate rays",
+        "cobalt sampled rays",
         bytemuck::cast_slice(&packed),
         wgpu::BufferUsages::STORAGE,
     );
@@ -208,13 +182,6 @@ fn group(
         "cobalt estimate parameters",
         bytemuck::cast_slice(&[n_tasks, 0, 0, 0]),
         wgpu::BufferUsages::UNIFORM,
-    );
-    let ray_bytes = size_of::<GpuRay>() as u64;
-    let sampled = storage(
-        device,
-        "cobalt sampled rays",
-        u64::from(n_samples) * ray_bytes,
-        wgpu::BufferUsages::empty(),
     );
     let counts = storage(
         device,
@@ -229,17 +196,6 @@ fn group(
         sums_bytes,
         wgpu::BufferUsages::COPY_SRC,
     );
-    let bind = estimate.program.bind(
-        device,
-        "cobalt estimate bind group",
-        &[&table_buf, &ray_buf, &sampled, &counts, &sums, &params],
-    );
-    let grid = grid(&ctx.limits, n_tasks);
-    let pass = |pipeline: &wgpu::ComputePipeline, label: &str| {
-        dispatch(device, label, pipeline, &bind, grid).finish()
-    };
-    ctx.queue
-        .submit([pass(&estimate.gather, "cobalt sample gather")]);
     trace_resident(
         ctx,
         kernels,
@@ -247,11 +203,22 @@ fn group(
         &sampled,
         &counts,
         n_samples,
-        GpuMode::counts(sampling.probe),
+        GpuMode::counts(probe),
         Threads::Persistent,
     )?;
-    ctx.queue
-        .submit([pass(&estimate.sum, "cobalt sample sums")]);
+    let bind = estimate.program.bind(
+        device,
+        "cobalt estimate bind group",
+        &[&table_buf, &counts, &sums, &params],
+    );
+    let sum = dispatch(
+        device,
+        "cobalt sample sums",
+        &estimate.sum,
+        &bind,
+        grid(&ctx.limits, n_tasks),
+    );
+    ctx.queue.submit([sum.finish()]);
     let bytes = fetch(ctx, &sums, sums_bytes)?;
     Ok(result(&bytemuck::pod_collect_to_vec::<u8, [u32; 4]>(
         &bytes,

@@ -34,7 +34,7 @@ mod whitted;
 
 pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
-pub use estimate::{GpuReducedTraversal, MAX_TASK_RAYS, SampledCounts};
+pub use estimate::{GpuReducedTraversal, SampledCounts};
 pub use pipeline::{GpuMode, Kernels, Threads};
 pub use render::{GpuRenderer, GpuRendering};
 
@@ -110,16 +110,6 @@ pub enum GpuError {
     BadTasks {
         /// The cost module's reason, naming the task.
         why: String,
-    },
-    /// A task is longer than the GPU estimator's integer stride arithmetic allows.
-    #[error("task {task} has {len} rays; the GPU estimator samples tasks of at most {max} rays")]
-    TaskTooLong {
-        /// Index of the task.
-        task: usize,
-        /// Its rays.
-        len: usize,
-        /// The longest allowed.
-        max: usize,
     },
     /// The implementation cut a traversal loop short (lavapipe's loop limit), so some results
     /// would be wrong.

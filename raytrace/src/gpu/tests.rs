@@ -12,9 +12,7 @@ use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers, pack_rays};
 use super::pipeline::{BATCHES, GpuMode, Kernels, MAX_WORKGROUPS, Threads, launch, launch_timed};
-use super::{
-    GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, GpuRenderer, MAX_TASK_RAYS,
-};
+use super::{GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, GpuRenderer};
 use crate::cost::{Compacted, ReducedTraversal, SampleRate, full_work};
 use crate::devices::GpuSelect;
 use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, WhittedSettings, render};
@@ -387,7 +385,7 @@ fn check_estimates(name: &str) {
             }
         }
         // The estimate is not trivial: the rays see the scene.
-        let one = 0..rays.len().min(MAX_TASK_RAYS);
+        let one = 0..rays.len();
         let all = dev
             .sampled_counts(
                 rays,
@@ -431,16 +429,19 @@ fn estimator_refuses_bad_tasks_and_serves_sched() {
         .sampled_counts(&rays, &[0..10, 5..n + 1], rate, crate::Probe::Thesis)
         .expect_err("beyond the batch");
     assert!(e.to_string().contains("task 1"), "{e}");
-    let long: RayBatch = (0..MAX_TASK_RAYS + 2)
-        .map(|_| Ray::new(Vec3::ZERO, Vec3::X))
+    // A task beyond the 46 340 rays the device's u32 sample arithmetic once allowed is
+    // sampled like any other, exactly as the CPU samples it.
+    let long: RayBatch = (0..50_000)
+        .map(|i| Ray::new(Vec3::new(0.0, 0.0, i as f32 * 1e-4), Vec3::X))
         .collect();
-    let e = dev
-        .sampled_counts(&long, &[0..1, 1..long.len()], rate, crate::Probe::Thesis)
-        .expect_err("too long");
-    assert!(
-        matches!(e, GpuError::TaskTooLong { task: 1, len, .. } if len == MAX_TASK_RAYS + 1),
-        "{e}"
-    );
+    let tasks = [0..1, 1..long.len()];
+    let gpu = GpuReducedTraversal::new(&dev, &long, rate)
+        .try_work(&tasks)
+        .expect("a long task");
+    let cpu = ReducedTraversal::new(&bvh, &long, rate)
+        .try_work(&tasks)
+        .expect("a long task");
+    assert_eq!(gpu, cpu);
     assert!(
         dev.sampled_counts(&rays, &[], rate, crate::Probe::Thesis)
             .expect("none")
