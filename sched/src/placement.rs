@@ -5,13 +5,14 @@
 //! VM we develop on, two devices given 1.4 ms of work each (a scratch program, 8 blocks of 20
 //! runs): in 5 blocks the median run started the second device only once the first had
 //! finished (1.44 ms late, balance 0.50); kept off the caller's CPU, it started 14–25 µs late
-//! (block medians; balance 0.97–0.99). Whitted renders' short generations had run at 49–50 %. So before a
-//! run wakes them, the device threads are allowed every CPU the caller may use but the one it
-//! is on, when there are CPUs enough for that (with more devices than CPUs the OS shares them
-//! out as it likes); once running elsewhere, each allows itself them all again. Elsewhere than
-//! on Linux this does nothing.
+//! (block medians; balance 0.97–0.99). Whitted renders' short generations had run at 49–50 %.
+//!
+//! So before a run wakes them, the device threads are allowed every CPU the caller may use but
+//! the one it is on, when there are CPUs enough for that (with more devices than CPUs the OS
+//! shares them out as it likes); once running elsewhere, each allows itself them all again.
+//! Elsewhere than on Linux this does nothing.
 
-/// A thread's id for [`Placement::keep_off_caller`]; `None` where placement is not supported.
+/// A thread's id for [`keep_off_caller`]; `None` where placement is not supported.
 pub(crate) type ThreadId = Option<i32>;
 
 /// The id of the calling thread.
@@ -25,6 +26,9 @@ pub(crate) fn this_thread() -> ThreadId {
 /// thread pool, then inherits them all. Returns `None` when it restricted nothing. Failures
 /// are ignored: placement is a hint, and the run is correct without it.
 pub(crate) fn keep_off_caller(threads: &[ThreadId], devices: usize) -> Option<Mask> {
+    if threads.is_empty() {
+        return None;
+    }
     let all = imp::allowed()?;
     let cpu = imp::current_cpu().filter(|&c| devices <= all.count() && all.has(c))?;
     let mut others = all;
