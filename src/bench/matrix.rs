@@ -232,9 +232,8 @@ impl Plan<'_> {
         // Round after round of the whole matrix, so that a spell of load on the machine falls
         // on every cell alike instead of on all the runs of one cell or one task size.
         for _ in 0..self.repeats {
-            for (cell, (w, settings)) in cells.iter().enumerate() {
-                let (w, settings) = (*w, *settings);
-                let key = block(&cells[cell]);
+            for (cell, c) in cells.iter().enumerate() {
+                let ((w, settings), key) = (*c, block(c));
                 let known = errors.iter().any(|(k, _)| *k == key);
                 let probe = settings.mode == Mode::Cost && !known;
                 let (stats, sums) = self.render_all(w, settings, probe)?;
@@ -262,15 +261,13 @@ impl Plan<'_> {
         }
         let mut records = Vec::new();
         let mut replays = Vec::new();
-        for (cell, (w, settings)) in cells.iter().enumerate() {
+        for (cell, c) in cells.iter().enumerate() {
+            let (w, settings) = c;
             let Some(mut r) = repeats::combine(&runs[cell]) else {
                 continue;
             };
             // The estimates, and so their error, depend on neither the policy nor the run.
-            let error = errors
-                .iter()
-                .find(|(k, _)| *k == block(&cells[cell]))
-                .map(|&(_, e)| e);
+            let error = errors.iter().find(|(k, _)| *k == block(c)).map(|&(_, e)| e);
             r.prediction_error = error.filter(|_| settings.mode == Mode::Cost);
             if let Some(mid) =
                 repeats::median_run(&runs[cell]).filter(|_| !lpt_gens[cell].is_empty())
