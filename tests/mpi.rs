@@ -247,3 +247,15 @@ fn bench_over_mpi_reports_balance_communication_and_simulated_clusters() {
         assert!(r["latency"].as_f64().expect("latency") > 0.0, "{r}");
     }
 }
+
+/// The single-process bench's options that `--mpi` does not offer are refused, naming them,
+/// rather than ignored.
+#[test]
+fn bench_over_mpi_refuses_the_options_it_does_not_offer() {
+    for extra in [["--repeats", "2"], ["--simulate", "8"]] {
+        let o = cobalt(&[&["bench", "--mpi"][..], &extra[..]].concat());
+        assert_eq!(o.status.code(), Some(2), "{extra:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(extra[0]), "{extra:?}: {err}");
+    }
+}

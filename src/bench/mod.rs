@@ -94,7 +94,7 @@ pub struct Args {
     /// with balance over nodes and the time spent in MPI, then simulates 16 and 64 nodes
     /// behind the measured latency (feature `mpi`).
     #[cfg(feature = "mpi")]
-    #[arg(long, conflicts_with_all = ["plots", "simulate", "full"])]
+    #[arg(long, conflicts_with_all = ["plots", "simulate", "full", "repeats"])]
     mpi: bool,
 }
 
