@@ -53,7 +53,7 @@ pub fn pack_at(rays: &RayBatch, index: &[usize]) -> Vec<GpuRay> {
 
 impl GpuRay {
     /// Ray `i` of `rays`.
-    fn of(rays: &RayBatch, i: usize) -> Self {
+    pub(crate) fn of(rays: &RayBatch, i: usize) -> Self {
         GpuRay {
             org: [rays.ox[i], rays.oy[i], rays.oz[i], rays.tmin[i]],
             dir: [rays.dx[i], rays.dy[i], rays.dz[i], rays.tmax[i]],
@@ -189,14 +189,25 @@ pub(crate) fn fetch(
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-        label: Some("cobalt read-back copy"),
-    });
-    encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, bytes);
-    ctx.queue.submit([encoder.finish()]);
+    copy(ctx, "cobalt read-back copy", buffer, &readback, bytes);
     let mut all = read_back(device, &ctx.info.name, &readback)?;
     all.truncate(bytes as usize);
     Ok(all)
+}
+
+/// Submits a copy of the first `bytes` of `from` to the start of `to`.
+pub(crate) fn copy(
+    ctx: &GpuContext,
+    label: &str,
+    from: &wgpu::Buffer,
+    to: &wgpu::Buffer,
+    bytes: u64,
+) {
+    let mut encoder = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+    encoder.copy_buffer_to_buffer(from, 0, to, 0, bytes);
+    ctx.queue.submit([encoder.finish()]);
 }
 
 /// Waits for `buffer` (usage `MAP_READ`) to map and returns a copy of its bytes.

@@ -14,7 +14,9 @@
 
 use std::ops::Range;
 
-use super::buffers::{SceneBuffers, check_size, fetch, init, pack_at, rays_per_launch, storage};
+use super::buffers::{
+    GpuRay, SceneBuffers, check_size, fetch, init, pack_at, rays_per_launch, storage,
+};
 use super::pipeline::{GpuMode, Kernels, Threads, grid, trace_resident};
 use super::program::{Program, READ, UNIFORM, WRITE, dispatch};
 use super::{GpuContext, GpuDevice, GpuError};
@@ -157,12 +159,13 @@ fn group(
         return Ok(result(&vec![[0; 4]; group.len()]));
     }
     let device = &ctx.device;
-    let packed = pack_at(rays, index);
+    // Refused before the host packs them.
     check_size(
         ctx,
         "sampled rays",
-        std::mem::size_of_val(packed.as_slice()) as u64,
+        (index.len() * size_of::<GpuRay>()) as u64,
     )?;
+    let packed = pack_at(rays, index);
     let n_tasks = word(group.len());
     let n_samples = word(index.len());
     let table_buf = init(

@@ -14,7 +14,9 @@ use std::ops::Range;
 
 use crate::{HitBatch, RayBatch};
 
-use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, map, rays_per_launch, readback_err};
+use super::buffers::{
+    GpuRay, RESULT_BYTES, SceneBuffers, copy, map, rays_per_launch, readback_err,
+};
 use super::pipeline::{GpuMode, Kernels, Threads, trace_resident};
 use super::{GpuContext, GpuError};
 
@@ -43,10 +45,11 @@ pub(crate) struct Staging {
 
 impl Staging {
     fn new(ctx: &GpuContext, capacity: u64) -> Self {
-        let buffer = |label, size, usage| {
+        // Each buffer holds `capacity` rays or results of `per_ray` bytes.
+        let buffer = |label, per_ray, usage| {
             ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
-                size,
+                size: capacity * per_ray,
                 usage,
                 mapped_at_creation: false,
             })
@@ -54,24 +57,12 @@ impl Staging {
         use wgpu::BufferUsages as U;
         Self {
             capacity,
-            upload: buffer(
-                "cobalt ray upload",
-                capacity * RAY_BYTES,
-                U::MAP_WRITE | U::COPY_SRC,
-            ),
-            rays: buffer(
-                "cobalt rays",
-                capacity * RAY_BYTES,
-                U::STORAGE | U::COPY_DST,
-            ),
-            out: buffer(
-                "cobalt results",
-                capacity * RESULT_BYTES,
-                U::STORAGE | U::COPY_SRC,
-            ),
+            upload: buffer("cobalt ray upload", RAY_BYTES, U::MAP_WRITE | U::COPY_SRC),
+            rays: buffer("cobalt rays", RAY_BYTES, U::STORAGE | U::COPY_DST),
+            out: buffer("cobalt results", RESULT_BYTES, U::STORAGE | U::COPY_SRC),
             download: buffer(
                 "cobalt results read-back",
-                capacity * RESULT_BYTES,
+                RESULT_BYTES,
                 U::MAP_READ | U::COPY_DST,
             ),
         }
@@ -185,31 +176,25 @@ fn run(
             .map_err(|e| readback_err(name, "writing rays for upload", e.to_string()))?;
         // Mapped memory may be write-combined, so wgpu lets it be written, never read.
         let (slots, _) = view.slice(..).into_chunks::<{ size_of::<GpuRay>() }>();
-        slots.write_iter(chunk.iter().flat_map(Range::clone).map(|i| {
-            bytemuck::cast(GpuRay {
-                org: [rays.ox[i], rays.oy[i], rays.oz[i], rays.tmin[i]],
-                dir: [rays.dx[i], rays.dy[i], rays.dz[i], rays.tmax[i]],
-            })
-        }));
+        slots.write_iter(
+            chunk
+                .iter()
+                .flat_map(Range::clone)
+                .map(|i| bytemuck::cast(GpuRay::of(rays, i))),
+        );
     }
     s.upload.unmap();
-    let mut encoder = ctx
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("cobalt ray upload"),
-        });
-    encoder.copy_buffer_to_buffer(&s.upload, 0, &s.rays, 0, n * RAY_BYTES);
-    ctx.queue.submit([encoder.finish()]);
+    copy(ctx, "cobalt ray upload", &s.upload, &s.rays, n * RAY_BYTES);
     // `n` is at most one binding of rays, far below 2^32.
     let count = u32::try_from(n).unwrap_or(u32::MAX);
     let seconds = trace_resident(ctx, kernels, scene, &s.rays, &s.out, count, mode, threads)?;
-    let mut encoder = ctx
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("cobalt results read-back"),
-        });
-    encoder.copy_buffer_to_buffer(&s.out, 0, &s.download, 0, n * RESULT_BYTES);
-    ctx.queue.submit([encoder.finish()]);
+    copy(
+        ctx,
+        "cobalt results read-back",
+        &s.out,
+        &s.download,
+        n * RESULT_BYTES,
+    );
     map(
         &ctx.device,
         name,
