@@ -200,15 +200,20 @@ struct Report {
     /// The same with full counts: the best any sample rate could do.
     error_vs_time_full: Option<f64>,
     spearman_full_vs_time: Option<f64>,
+    /// The same with each task's exact counts of the real trace (closest or any hit, as
+    /// traced): what no estimate of `B` and `T` can beat, whatever its probe and rate. What
+    /// is left is time the counts do not see (caches, branches, the machine).
+    error_vs_time_trace: Option<f64>,
+    spearman_trace_vs_time: Option<f64>,
     /// Σ measured task times (one thread).
     measured_seconds: f64,
-    /// Mean `B`, `T` per ray of the reduced traversal and, for closest-hit kinds, of the
-    /// real trace: the reduced traversal never shortens a ray, so it enters more nodes than
-    /// the trace does, which bounds how cheap a sample can be.
+    /// Mean `B`, `T` per ray of the reduced traversal and of the real trace (an any-hit
+    /// trace counts up to its first hit): the reduced traversal never shortens a ray, so it
+    /// enters more nodes than the trace does, which bounds how cheap a sample can be.
     reduced_nodes_per_ray: f64,
     reduced_tris_per_ray: f64,
-    trace_nodes_per_ray: Option<f64>,
-    trace_tris_per_ray: Option<f64>,
+    trace_nodes_per_ray: f64,
+    trace_tris_per_ray: f64,
     default_model: Model,
     calibration: Option<Calibration>,
     build_seconds: f64,
@@ -412,12 +417,20 @@ pub fn run(args: Args) -> Result<(), CliError> {
     };
 
     let per_ray = |total: f64| total / rays.len() as f64;
-    // The real trace's counts, where every generation is closest-hit (any-hit counts stop
-    // at the first hit and are not comparable).
-    let trace_counts = segments
+    // Each task's counts of the real trace, traced as the generation is (closest or any hit).
+    let mut trace_work = Vec::with_capacity(tasks.len());
+    for (batch, kind) in &segments {
+        let counts = if kind.is_occlusion() {
+            traverse::any_hits_counted(&bvh, batch).1
+        } else {
+            traverse::closest_hits_counted(&bvh, batch).1
+        };
+        let own = sched::split_ranges(batch.len(), args.task_size);
+        trace_work.extend(own.into_iter().map(|r| Work::sum(&counts[r])));
+    }
+    let (trace_nodes, trace_tris) = trace_work
         .iter()
-        .all(|(_, k)| !k.is_occlusion())
-        .then(|| Work::sum(&traverse::closest_hits_counted(&bvh, &rays).1));
+        .fold((0.0, 0.0), |(b, t), w| (b + w.nodes, t + w.tris));
 
     let model = CostModel::default();
     let part = |f: fn(&Work) -> f64| -> (Vec<f64>, Vec<f64>) {
@@ -429,6 +442,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let fit_full = calibrate(&full, &measured).ok();
     let (error_vs_time, spearman_vs_time) = vs_time(fit, &est);
     let (error_vs_time_full, spearman_full_vs_time) = vs_time(fit_full, &full);
+    let (error_vs_time_trace, spearman_trace_vs_time) =
+        vs_time(calibrate(&trace_work, &measured).ok(), &trace_work);
 
     let report = Report {
         scene: args.scene.clone(),
@@ -460,11 +475,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
         spearman_vs_time,
         error_vs_time_full,
         spearman_full_vs_time,
+        error_vs_time_trace,
+        spearman_trace_vs_time,
         measured_seconds: measured.iter().sum(),
         reduced_nodes_per_ray: per_ray(full_b.iter().sum()),
         reduced_tris_per_ray: per_ray(full_t.iter().sum()),
-        trace_nodes_per_ray: trace_counts.map(|w| per_ray(w.nodes)),
-        trace_tris_per_ray: trace_counts.map(|w| per_ray(w.tris)),
+        trace_nodes_per_ray: per_ray(trace_nodes),
+        trace_tris_per_ray: per_ray(trace_tris),
         default_model: Model {
             kb: model.kb,
             kt: model.kt,
@@ -648,29 +665,29 @@ fn table(r: &Report) -> String {
         (
             "nodes per ray",
             format!(
-                "reduced {:.1}, trace {} (triangles: reduced {:.1}, trace {})",
+                "reduced {:.1}, trace {:.1} (triangles: reduced {:.1}, trace {:.1})",
                 r.reduced_nodes_per_ray,
-                r.trace_nodes_per_ray
-                    .map_or("n/a".into(), |v| format!("{v:.1}")),
+                r.trace_nodes_per_ray,
                 r.reduced_tris_per_ray,
-                r.trace_tris_per_ray
-                    .map_or("n/a".into(), |v| format!("{v:.1}")),
+                r.trace_tris_per_ray,
             ),
         ),
         (
             "error vs time",
             format!(
-                "{} (full counts: {})",
+                "{} (full counts: {}; the trace's own counts: {})",
                 pct(r.error_vs_time),
-                pct(r.error_vs_time_full)
+                pct(r.error_vs_time_full),
+                pct(r.error_vs_time_trace)
             ),
         ),
         (
             "spearman vs time",
             format!(
-                "{} (full counts: {})",
+                "{} (full counts: {}; the trace's own counts: {})",
                 num(r.spearman_vs_time),
-                num(r.spearman_full_vs_time)
+                num(r.spearman_full_vs_time),
+                num(r.spearman_trace_vs_time)
             ),
         ),
         ("calibration", cal),

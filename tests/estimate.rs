@@ -67,6 +67,29 @@ fn json_has_the_contract_fields_as_fractions() {
     assert!(num(cal, "kb") >= 0.0 && num(cal, "kt") >= 0.0 && num(cal, "r2") <= 1.0);
 }
 
+/// The trace's own counts: a calibrated fit of them against the measured times is reported
+/// beside the estimate's, for closest- and any-hit rays, and the trace never enters more nodes
+/// than the reduced traversal, which never shortens a ray.
+#[test]
+fn the_real_traces_counts_are_fitted_too() {
+    for rays in ["primary", "ao"] {
+        let v = json(&["--rays", rays]);
+        let e = num(&v, "error_vs_time_trace");
+        assert!((0.0..1.0).contains(&e), "{rays}: {e}");
+        let rho = num(&v, "spearman_trace_vs_time");
+        assert!((-1.0..=1.0).contains(&rho), "{rays}: {rho}");
+        let (trace, reduced) = (
+            num(&v, "trace_nodes_per_ray"),
+            num(&v, "reduced_nodes_per_ray"),
+        );
+        assert!(
+            trace > 0.0 && trace <= reduced,
+            "{rays}: {trace} vs {reduced}"
+        );
+        assert!(num(&v, "trace_tris_per_ray") <= num(&v, "reduced_tris_per_ray"));
+    }
+}
+
 #[test]
 fn full_sampling_has_zero_prediction_error() {
     for rays in ["primary", "ao"] {

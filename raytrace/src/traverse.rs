@@ -1,11 +1,11 @@
 //! Stack-based traversal of the flat [`Bvh`], near child first (pbrt-v4's
 //! `BVHAggregate::Intersect`, with sibling pairs tested together).
 //!
-//! Four queries share one loop, specialised at compile time:
+//! The queries share one loop, specialised at compile time:
 //! - [`Bvh::closest_hit`]: the nearest hit;
 //! - [`Bvh::any_hit`]: the first hit found, for shadow and AO rays (early exit);
-//! - [`Bvh::closest_hit_counted`]: the nearest hit plus the cost the thesis models, nodes
-//!   visited `B` and triangle tests `T`;
+//! - [`Bvh::closest_hit_counted`] and [`Bvh::any_hit_counted`]: the same hits plus the cost
+//!   the thesis models, nodes visited `B` and triangle tests `T`;
 //! - [`Bvh::reduced_traversal`]: the thesis's *reduced traversal* (section 3.3): boxes only,
 //!   never fetching a triangle, so the ray is never shortened; `B` counts the nodes it enters
 //!   and `T` the triangles of the leaves it reaches. This is the cost estimator's probe.
@@ -52,6 +52,7 @@ const ANY: u8 = 1;
 const COUNTED: u8 = 2;
 const REDUCED: u8 = 3;
 const FIRST_LEAF: u8 = 4;
+const ANY_COUNTED: u8 = 5;
 
 /// Which reduced traversal the cost estimator runs on its sampled rays.
 ///
@@ -152,6 +153,13 @@ impl Bvh {
         self.run::<COUNTED>(ray)
     }
 
+    /// Some hit and the work it took to find it (`B`, `T` up to the first hit); the hit
+    /// equals [`Bvh::any_hit`]'s.
+    #[inline]
+    pub fn any_hit_counted(&self, ray: &Ray) -> (Option<Hit>, Counts) {
+        self.run::<ANY_COUNTED>(ray)
+    }
+
     /// The thesis's reduced traversal: boxes only, no triangle fetched; see the module docs.
     #[inline]
     pub fn reduced_traversal(&self, ray: &Ray) -> Counts {
@@ -214,7 +222,7 @@ impl Bvh {
             // (established by `Bvh::build`, and the fields are private) put every child pair
             // `index, index + 1` inside `nodes`.
             let node = unsafe { nodes.get_unchecked(i) };
-            if MODE == COUNTED || MODE == REDUCED || MODE == FIRST_LEAF {
+            if MODE == COUNTED || MODE == ANY_COUNTED || MODE == REDUCED || MODE == FIRST_LEAF {
                 counts.nodes += 1;
             }
             if node.is_leaf() {
@@ -228,7 +236,7 @@ impl Bvh {
                     // SAFETY: leaves own `index .. index + count` of `tris` (validated invariant).
                     let leaf = unsafe { tris.get_unchecked(first..first + node.count as usize) };
                     for t in leaf {
-                        if MODE == COUNTED {
+                        if MODE == COUNTED || MODE == ANY_COUNTED {
                             counts.tris += 1;
                         }
                         if let Some((t_hit, u, v)) =
@@ -243,7 +251,7 @@ impl Bvh {
                                     u,
                                     v,
                                 });
-                                if MODE == ANY {
+                                if MODE == ANY || MODE == ANY_COUNTED {
                                     return (best, counts);
                                 }
                             }
@@ -347,6 +355,21 @@ pub fn any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
 /// # Panics
 /// Panics if the batch's columns have different lengths.
 pub fn closest_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts>) {
+    hits_counted(rays, |r| bvh.closest_hit_counted(r))
+}
+
+/// Any hits and per-ray counts (up to the first hit found), in parallel.
+///
+/// # Panics
+/// Panics if the batch's columns have different lengths.
+pub fn any_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts>) {
+    hits_counted(rays, |r| bvh.any_hit_counted(r))
+}
+
+fn hits_counted<F>(rays: &RayBatch, f: F) -> (HitBatch, Vec<Counts>)
+where
+    F: Fn(&Ray) -> (Option<Hit>, Counts) + Sync,
+{
     check(rays);
     let n = rays.len();
     let mut counts = vec![Counts::default(); n];
@@ -358,7 +381,7 @@ pub fn closest_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts
         .enumerate()
         .for_each(|(c, ((ts, ps), cs))| {
             for k in 0..ts.len() {
-                let (h, cnt) = bvh.closest_hit_counted(&rays.get(c * CHUNK + k));
+                let (h, cnt) = f(&rays.get(c * CHUNK + k));
                 cs[k] = cnt;
                 if let Some(h) = h {
                     ts[k] = h.t;

@@ -9,7 +9,9 @@ use crate::builtin::MeshBuilder;
 use crate::builtin::mesh::icosphere as unit_icosphere;
 use crate::bvh::validate;
 use crate::testkit::{self, reference_closest};
-use crate::traverse::{any_hits, closest_hits, closest_hits_counted, reduced_counts};
+use crate::traverse::{
+    any_hits, any_hits_counted, closest_hits, closest_hits_counted, reduced_counts,
+};
 use crate::{BuildPreset, Bvh, Probe, Ray, RayBatch, Rng, Scene};
 
 fn build(scene: &Scene) -> Bvh {
@@ -362,6 +364,23 @@ fn counts_and_reduced_traversal() {
     }
     let first = reduced_counts(&bvh, &batch, Probe::FirstLeaf, 0..batch.len());
     assert!(first.iter().zip(&reduced).any(|(f, r)| f.nodes < r.nodes));
+    // An any-hit query walks as the closest-hit one does until its first hit, then stops:
+    // its hit is `any_hit`'s and its counts never exceed the closest hit's.
+    let (any, any_counts) = any_hits_counted(&bvh, &batch);
+    let mut fewer = 0;
+    for i in 0..batch.len() {
+        let (a, c) = (any_counts[i], counts[i]);
+        assert_eq!(
+            any.get(i),
+            bvh.any_hit(&batch.get(i)).map(|h| (h.t, h.prim))
+        );
+        assert!(
+            a.nodes >= 1 && a.nodes <= c.nodes && a.tris <= c.tris,
+            "{a:?} {c:?}"
+        );
+        fewer += usize::from(a.nodes < c.nodes);
+    }
+    assert!(fewer > 0, "some closest hit walks on past its first hit");
     // A ray that misses everything enters nothing.
     let away = Ray::new(Vec3::splat(500.0), Vec3::ONE);
     assert_eq!(bvh.reduced_traversal(&away), Default::default());
