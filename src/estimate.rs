@@ -11,8 +11,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use raytrace::cost::{
-    CostModel, Fit, ReducedTraversal, SampleRate, Work, calibrate, error_vs_time, full_work,
-    measure_seconds, prediction_error, spearman,
+    Compacted, CostModel, Fit, ReducedTraversal, SampleRate, Work, calibrate, error_vs_time,
+    full_work, measure_seconds, prediction_error, spearman,
 };
 use raytrace::shade::{CpuTracer, Recorder, RenderOptions, Shader, WhittedSettings, render};
 use raytrace::{
@@ -74,10 +74,11 @@ pub struct Args {
     /// the CPU's. Measured task times (the calibration) stay single-thread CPU times.
     #[arg(long, value_enum, default_value = "cpu")]
     device: DeviceArg,
-    /// The reduced traversal of the sample: `thesis` (the whole range of every ray),
-    /// `first-leaf` (closest-hit rays end at the exit of the first leaf they reach; shadow
-    /// and AO rays keep the thesis's probe), or `auto`: the one whose full reduced traversal,
-    /// calibrated, errs least against the measured task times.
+    /// How the sample is traced: `thesis` (the reduced traversal of the whole range of every
+    /// ray), `first-leaf` (closest-hit rays end at the exit of the first leaf they reach;
+    /// shadow and AO rays keep the thesis's probe), `trace` (the real trace, closest or any
+    /// hit, counted as traced: dearer, better in rooms; CPU only), or `auto`: the reduced
+    /// traversal whose full counts, calibrated, err least against the measured task times.
     #[arg(long, default_value = "thesis")]
     probe: ProbeArg,
     /// Print one JSON object instead of a table.
@@ -98,9 +99,9 @@ impl std::str::FromStr for ProbeArg {
         if s.trim() == "auto" {
             return Ok(Self::Auto);
         }
-        s.parse()
-            .map(Self::Fixed)
-            .map_err(|_| format!("unknown probe `{s}` (expected thesis, first-leaf or auto)"))
+        s.parse().map(Self::Fixed).map_err(|_| {
+            format!("unknown probe `{s}` (expected thesis, first-leaf, trace or auto)")
+        })
     }
 }
 
@@ -194,6 +195,14 @@ struct Report {
     /// the GPU, upload and read-back included).
     trace_seconds: f64,
     overhead: f64,
+    /// With `--probe trace` on the CPU: the full trace less the sampled rays, which a render
+    /// takes from the estimate instead of tracing them again.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rest_seconds: Option<f64>,
+    /// `(estimate + rest − full trace) / full trace`: what estimating costs a render once the
+    /// sample's hits are used (`overhead` counts the sample's trace as if it were wasted).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    net_overhead: Option<f64>,
     /// Calibrated estimates against measured single-thread task times.
     error_vs_time: Option<f64>,
     spearman_vs_time: Option<f64>,
@@ -386,17 +395,32 @@ pub fn run(args: Args) -> Result<(), CliError> {
         .iter()
         .map(|(range, kind)| (&tasks[range.clone()], probe.for_kind(*kind)))
         .collect();
-    let (estimate_seconds, est, trace_seconds, adapter) = match args.device {
+    // With the trace probe a render does not trace the sampled rays again (their hits are the
+    // estimate's), so what is left of the trace is timed too: per generation, its sample.
+    let known: Option<Vec<Vec<usize>>> = match (probe, args.device) {
+        (Probe::Trace { .. }, DeviceArg::Cpu) => Some(
+            segments
+                .iter()
+                .map(|(batch, _)| {
+                    let own = sched::split_ranges(batch.len(), args.task_size);
+                    Compacted::gather(batch, &own, rate).map(|c| c.index)
+                })
+                .collect::<Result<_, _>>()?,
+        ),
+        _ => None,
+    };
+    let (estimate_seconds, est, trace_seconds, rest_seconds, adapter) = match args.device {
         DeviceArg::Cpu => {
             let estimator = ReducedTraversal::new(&bvh, &rays, rate);
-            let (estimate_seconds, est) = min_time(args.repeats, || {
-                let mut work = Vec::with_capacity(tasks.len());
+            let mut est = Vec::new();
+            let mut estimate = || -> Result<(), CliError> {
+                est.clear();
                 for &(own, p) in &jobs {
-                    work.extend(estimator.with_probe(p).try_work(own)?);
+                    est.extend(estimator.with_probe(p).try_work(own)?);
                 }
-                Ok::<_, raytrace::cost::CostError>(work)
-            })?;
-            let (trace_seconds, ()) = min_time(args.repeats, || {
+                Ok(())
+            };
+            let mut trace = || -> Result<(), CliError> {
                 for (batch, kind) in &segments {
                     let hits = if kind.is_occlusion() {
                         traverse::any_hits(&bvh, batch)
@@ -405,14 +429,31 @@ pub fn run(args: Args) -> Result<(), CliError> {
                     };
                     std::hint::black_box(hits);
                 }
-                Ok::<_, CliError>(())
-            })?;
-            (estimate_seconds, est, trace_seconds, None)
+                Ok(())
+            };
+            let mut rest = || -> Result<(), CliError> {
+                for ((batch, kind), known) in segments.iter().zip(known.iter().flatten()) {
+                    let any = kind.is_occlusion();
+                    std::hint::black_box(traverse::hits_skipping(&bvh, batch, any, known));
+                }
+                Ok(())
+            };
+            // Taken in turns, so that a noisy moment of this shared machine falls on all of
+            // them alike rather than on one.
+            let mut steps: Vec<&mut dyn FnMut() -> Result<(), CliError>> =
+                vec![&mut estimate, &mut trace];
+            if known.is_some() {
+                steps.push(&mut rest);
+            }
+            let best = min_times(args.repeats, &mut steps)?;
+            drop(steps);
+            let rest_seconds = known.is_some().then(|| best[2]);
+            (best[0], est, best[1], rest_seconds, None)
         }
         DeviceArg::Gpu => {
             let (e, est, t, name) =
                 gpu_estimate(&bvh, &rays, &segments, &jobs, rate, args.repeats)?;
-            (e, est, t, Some(name))
+            (e, est, t, None, Some(name))
         }
     };
 
@@ -471,6 +512,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         estimate_seconds,
         trace_seconds,
         overhead: estimate_seconds / trace_seconds.max(1e-12),
+        rest_seconds,
+        net_overhead: rest_seconds
+            .map(|rest| (estimate_seconds + rest - trace_seconds) / trace_seconds.max(1e-12)),
         error_vs_time,
         spearman_vs_time,
         error_vs_time_full,
@@ -587,6 +631,22 @@ fn parse_size(s: &str) -> Option<(u32, u32)> {
 
 /// Runs `f` `repeats` times; the least wall time and the last result. The first run warms
 /// caches and the thread pool, the minimum drops interruptions by other processes.
+/// The least time of each step over `repeats` rounds, the steps taken in turn each round.
+fn min_times(
+    repeats: usize,
+    steps: &mut [&mut dyn FnMut() -> Result<(), CliError>],
+) -> Result<Vec<f64>, CliError> {
+    let mut best = vec![f64::INFINITY; steps.len()];
+    for _ in 0..repeats.max(1) {
+        for (step, best) in steps.iter_mut().zip(&mut best) {
+            let start = Instant::now();
+            step()?;
+            *best = best.min(start.elapsed().as_secs_f64());
+        }
+    }
+    Ok(best)
+}
+
 fn min_time<T, E>(repeats: usize, mut f: impl FnMut() -> Result<T, E>) -> Result<(f64, T), CliError>
 where
     CliError: From<E>,
@@ -661,7 +721,17 @@ fn table(r: &Report) -> String {
             "full trace",
             format!("{:.4} s on {}", r.trace_seconds, ran_on(r)),
         ),
-        ("overhead", pct(Some(r.overhead))),
+        (
+            "overhead",
+            match r.net_overhead {
+                Some(net) => format!(
+                    "{} (net of the sampled rays' trace, which a render reuses: {})",
+                    pct(Some(r.overhead)),
+                    pct(Some(net))
+                ),
+                None => pct(Some(r.overhead)),
+            },
+        ),
         (
             "nodes per ray",
             format!(

@@ -117,9 +117,10 @@ pub struct Args {
     /// among `--devices`, as the thesis does; the host where there is none).
     #[arg(long, default_value = "cpu")]
     estimate_on: EstimateOn,
-    /// Cost mode's reduced traversal of closest-hit rays: `thesis` (the whole ray) or
-    /// `first-leaf` (each ray ends at the exit of the first leaf it reaches; better on closed
-    /// meshes, see `cobalt estimate --probe`). Shadow and AO rays keep the thesis's.
+    /// How cost mode traces each task's sample: `thesis` (the reduced traversal of the whole
+    /// ray), `first-leaf` (closest-hit rays end at the exit of the first leaf they reach;
+    /// better on closed meshes; shadow and AO rays keep the thesis's), or `trace` (the real
+    /// trace, counted; on the CPU). See `cobalt estimate --probe`.
     #[arg(long, default_value = "thesis")]
     probe: Probe,
     /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order, a

@@ -326,4 +326,35 @@ fn gpu_estimates_equal_cpu_estimates() {
     for key in ["prediction_error", "sampled_rays", "tasks"] {
         assert_eq!(c[key], g[key], "tasks of 50000 rays: {key}");
     }
+    // The trace probe runs on the CPU only, and the GPU says so.
+    let refused = run(&["--rays", "primary", "--probe", "trace", "--device", "gpu"]);
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && err.contains("`trace`"),
+        "{err}"
+    );
+}
+
+/// `--probe trace` traces the sample for real: its estimate of a full sample is the trace's
+/// own counts, and the overhead net of the sampled rays (which a render does not trace
+/// again) is reported beside the gross one.
+#[test]
+fn the_trace_probe_reports_its_net_overhead() {
+    for rays in ["primary", "ao"] {
+        let v = json(&["--rays", rays, "--probe", "trace"]);
+        assert_eq!(v["probe"], "trace");
+        let (gross, net) = (num(&v, "overhead"), num(&v, "net_overhead"));
+        let (full, rest) = (num(&v, "trace_seconds"), num(&v, "rest_seconds"));
+        let est = num(&v, "estimate_seconds");
+        assert!(gross > 0.0 && rest > 0.0, "{v}");
+        assert!(((est + rest - full) / full - net).abs() < 1e-9, "{v}");
+        let full_sample = json(&["--rays", rays, "--probe", "trace", "--sample-rate", "1"]);
+        assert_eq!(num(&full_sample, "prediction_error"), 0.0);
+        assert_eq!(
+            full_sample["error_vs_time_full"], full_sample["error_vs_time_trace"],
+            "the full trace probe is the trace's own counts"
+        );
+    }
+    let thesis = json(&["--rays", "primary"]);
+    assert!(thesis.get("net_overhead").is_none(), "{thesis}");
 }

@@ -224,21 +224,22 @@ fn every_policy_mode_and_device_list_renders_the_same_image() {
     }
 }
 
-/// `--probe first-leaf` plans closest-hit generations with the first-leaf probe and says so;
-/// the image is the thesis probe's, whatever the shader.
+/// `--probe first-leaf` and `--probe trace` plan with their probe and say so; the image is
+/// the thesis probe's, whatever the shader (the trace probe's sampled hits stand in for the
+/// devices' trace of those rays).
 #[test]
-fn the_first_leaf_probe_renders_the_same_image() {
+fn every_probe_renders_the_same_image() {
     for shader in ["whitted", "ao"] {
         let base = ["--devices", "cpu:2", "--policy", "hybrid"];
         let (want, thesis) = render_with(&format!("{shader}-thesis"), shader, &base);
-        let mut args = base.to_vec();
-        args.extend(["--probe", "first-leaf"]);
-        let (png, first) = render_with(&format!("{shader}-first-leaf"), shader, &args);
-        assert!(png == want, "{shader}: the image differs");
-        assert_eq!(
-            (&thesis["probe"], &first["probe"]),
-            (&"thesis".into(), &"first-leaf".into())
-        );
+        assert_eq!(thesis["probe"], "thesis");
+        for probe in ["first-leaf", "trace"] {
+            let mut args = base.to_vec();
+            args.extend(["--probe", probe]);
+            let (png, got) = render_with(&format!("{shader}-{probe}"), shader, &args);
+            assert!(png == want, "{shader}, {probe}: the image differs");
+            assert_eq!(got["probe"], probe);
+        }
     }
 }
 

@@ -14,7 +14,7 @@ pub use crate::scheduled::{BadRange, InjectedFault};
 use sched::{DeviceError, Sink};
 
 use crate::scheduled::RayDevice;
-use crate::{Bvh, Error, Hit, HitBatch, RayBatch, RayKind, Result};
+use crate::{Bvh, Error, HitBatch, RayBatch, RayKind, Result, traverse};
 
 /// Rays per rayon job inside a pool: enough to amortise a steal, few enough that a 512-ray
 /// task still spreads over several threads.
@@ -77,18 +77,20 @@ impl<'a> CpuDevice<'a> {
         Ok(())
     }
 
-    /// Checks and traces one range, in whatever thread or pool the caller is in.
+    /// Checks and traces one range but for the rays at `known`, in whatever thread or pool
+    /// the caller is in.
     fn one(
         &mut self,
         kind: RayKind,
         rays: &RayBatch,
         range: &Range<usize>,
+        known: &[usize],
     ) -> Result<HitBatch, DeviceError> {
         self.check(rays, range)?;
         // Not `self.pool.is_some()`: `trace_ranges_with` takes the pool out of the device while
         // it runs the launch inside it, so that test read "no pool" and traced every launch on
         // one thread (a `cpu:1/16` device ran at one thread's speed on 16 cores).
-        let hits = trace_range(self.bvh, kind, rays, range, self.threads > 1);
+        let hits = trace_range(self.bvh, kind, rays, range, known, self.threads > 1);
         self.done += 1;
         Ok(hits)
     }
@@ -101,10 +103,9 @@ impl RayDevice for CpuDevice<'_> {
         rays: &RayBatch,
         range: &Range<usize>,
     ) -> Result<HitBatch, DeviceError> {
-        self.trace_ranges_with(|this| this.one(kind, rays, range))
+        self.trace_ranges_with(|this| this.one(kind, rays, range, &[]))
     }
 
-    /// Enters the pool once for the whole launch: a static plan's launch is one `install`.
     fn trace_ranges(
         &mut self,
         kind: RayKind,
@@ -112,12 +113,28 @@ impl RayDevice for CpuDevice<'_> {
         ranges: &[&Range<usize>],
         sink: &mut Sink<HitBatch>,
     ) -> Result<(), DeviceError> {
+        self.trace_ranges_known(kind, rays, ranges, &[], sink)
+    }
+
+    /// Enters the pool once for the whole launch: a static plan's launch is one `install`.
+    fn trace_ranges_known(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        ranges: &[&Range<usize>],
+        known: &[usize],
+        sink: &mut Sink<HitBatch>,
+    ) -> Result<(), DeviceError> {
         self.trace_ranges_with(|this| {
             for range in ranges {
-                sink.push(this.one(kind, rays, range)?);
+                sink.push(this.one(kind, rays, range, known)?);
             }
             Ok(())
         })
+    }
+
+    fn skips_known(&self) -> bool {
+        true
     }
 
     fn name(&self) -> String {
@@ -151,32 +168,22 @@ impl CpuDevice<'_> {
     }
 }
 
-/// Traces `rays[range]`, each ray by itself (so the result cannot depend on how rays were
-/// grouped), in parallel chunks when `parallel` (inside a pool) or sequentially.
+/// Traces `rays[range]` but for the rays at `known` (left as misses), each ray by itself (so
+/// the result cannot depend on how rays were grouped), in parallel chunks when `parallel`
+/// (inside a pool) or sequentially.
 fn trace_range(
     bvh: &Bvh,
     kind: RayKind,
     rays: &RayBatch,
     range: &Range<usize>,
+    known: &[usize],
     parallel: bool,
 ) -> HitBatch {
-    let trace = |i: usize| -> Option<Hit> {
-        let ray = rays.get(i);
-        if kind.is_occlusion() {
-            bvh.any_hit(&ray)
-        } else {
-            bvh.closest_hit(&ray)
-        }
-    };
+    let any = kind.is_occlusion();
     let fill = |first: usize, ts: &mut [f32], ps: &mut [u32]| {
         #[cfg(test)]
         tests::note_fill(ts.len());
-        for (k, (t, p)) in ts.iter_mut().zip(ps.iter_mut()).enumerate() {
-            if let Some(h) = trace(first + k) {
-                *t = h.t;
-                *p = h.prim;
-            }
-        }
+        traverse::fill_skipping(bvh, rays, any, first, known, ts, ps);
     };
     let mut out = HitBatch::misses(range.len());
     if parallel {
@@ -209,6 +216,31 @@ mod tests {
             && let Ok(mut fills) = FILLS.lock()
         {
             fills.push((name.to_string(), rays));
+        }
+    }
+
+    /// Rays at known indices stay misses, inside the range or not, on one thread or many;
+    /// every other ray is traced as without them.
+    #[test]
+    fn known_rays_are_left_as_misses_and_the_rest_traced_as_ever() {
+        let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
+        let rays = Camera::thesis(&scene.bounds(), 0).primary_rays(64, 64).rays;
+        let range = 100..3000;
+        let known = [5, 100, 101, 517, 2999, 4000];
+        for kind in [RayKind::Primary, RayKind::Shadow] {
+            for parallel in [false, true] {
+                let got = trace_range(&bvh, kind, &rays, &range, &known, parallel);
+                let want = trace_range(&bvh, kind, &rays, &range, &[], parallel);
+                for i in range.clone() {
+                    let k = i - range.start;
+                    if known.contains(&i) {
+                        assert_eq!(got.get(k), None, "ray {i}");
+                    } else {
+                        assert_eq!(got.get(k), want.get(k), "ray {i}");
+                    }
+                }
+                assert!((0..want.len()).filter(|&k| want.get(k).is_some()).count() > 100);
+            }
         }
     }
 

@@ -50,6 +50,13 @@ pub(crate) fn reduced_lanes(
     lane_of: impl Fn(usize) -> usize,
     out: &mut [Counts],
 ) {
+    // A real trace shortens each ray at its own hits: its lanes would part at once.
+    if let Probe::Trace { .. } = probe {
+        for (j, c) in out.iter_mut().enumerate() {
+            *c = bvh.probe(&rays.get(lane_of(j)), probe);
+        }
+        return;
+    }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         for (k, part) in out.chunks_mut(8).enumerate() {
@@ -446,10 +453,11 @@ mod avx2 {
                 let negative = std::array::from_fn(|a| neg[a] == valid && valid != 0);
                 first_leaf::<STACK>(bvh, lanes, negative, valid, n)
             }
-            (Probe::FirstLeaf, false) => {
-                // Lanes that disagree on a sign may disagree on the child order.
+            (Probe::FirstLeaf, false) | (Probe::Trace { .. }, _) => {
+                // Lanes that disagree on a sign may disagree on the child order (and a real
+                // trace, which `reduced_lanes` never sends here, shortens each lane its way).
                 for (k, c) in out.iter_mut().enumerate().take(n) {
-                    *c = bvh.first_leaf_traversal(&rays.get(lane(k)));
+                    *c = bvh.probe(&rays.get(lane(k)), probe);
                 }
                 out
             }

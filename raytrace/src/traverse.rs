@@ -54,7 +54,7 @@ const REDUCED: u8 = 3;
 const FIRST_LEAF: u8 = 4;
 const ANY_COUNTED: u8 = 5;
 
-/// Which reduced traversal the cost estimator runs on its sampled rays.
+/// How the cost estimator traces its sampled rays.
 ///
 /// The thesis's probe never shortens a ray, so on a closed mesh a camera ray is counted
 /// through every box behind the surface it stops at: on the Stanford Dragon it enters 78
@@ -63,6 +63,10 @@ const ANY_COUNTED: u8 = 5;
 /// better model for closest-hit rays on closed meshes and dense geometry, and the worse one
 /// where rays pass leaves without hitting (foliage) and for any-hit rays; `cobalt estimate
 /// --probe auto` measures both and picks (README: "Closed meshes, and the first-leaf probe").
+///
+/// [`Probe::Trace`] is not a reduced traversal: the sample is traced for real, triangles and
+/// all, and counted as traced. It costs more per sampled ray but models rooms, where rays stop
+/// at walls, far better (README: "What limits the estimate").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Probe {
     /// The thesis's reduced traversal: the whole `[tmin, tmax]` of every ray.
@@ -70,40 +74,52 @@ pub enum Probe {
     Thesis,
     /// Each ray ends at the exit of the first leaf it reaches, in [`near_child_first`] order.
     FirstLeaf,
+    /// The real trace's own counts: a closest hit, or with `any` the first hit found (what
+    /// shadow and AO rays are traced with; [`Probe::for_kind`] sets it).
+    Trace {
+        /// Stop at the first hit found.
+        any: bool,
+    },
 }
 
 impl Probe {
-    /// Both, in order.
+    /// The reduced traversals, in order: what `--probe auto` chooses between.
     pub const ALL: [Self; 2] = [Self::Thesis, Self::FirstLeaf];
 
-    /// The name used on the command line: `thesis` or `first-leaf`.
+    /// The name used on the command line: `thesis`, `first-leaf` or `trace`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Thesis => "thesis",
             Self::FirstLeaf => "first-leaf",
+            Self::Trace { .. } => "trace",
         }
     }
 
-    /// The probe a generation of `kind` is estimated with: this one for closest-hit rays, the
-    /// thesis's for any-hit rays (shadow, AO), where ending at the first leaf modelled the
-    /// measured times worse on every scene tried (see the README).
+    /// The probe a generation of `kind` is estimated with. For closest-hit rays, this one.
+    /// For any-hit rays (shadow, AO), the thesis's instead of the first-leaf probe, which
+    /// modelled the measured times worse on every scene tried (see the README), and an
+    /// any-hit trace for the trace probe.
     pub fn for_kind(self, kind: crate::RayKind) -> Self {
-        if kind.is_occlusion() {
-            Self::Thesis
-        } else {
-            self
+        match self {
+            Self::Trace { .. } => Self::Trace {
+                any: kind.is_occlusion(),
+            },
+            _ if kind.is_occlusion() => Self::Thesis,
+            p => p,
         }
     }
 }
 
 impl std::str::FromStr for Probe {
     type Err = String;
-    /// Parses [`Probe::name`]'s names.
+    /// Parses [`Probe::name`]'s names (`trace` as the closest-hit trace; see
+    /// [`Probe::for_kind`]).
     fn from_str(s: &str) -> Result<Self, String> {
         Self::ALL
             .into_iter()
+            .chain([Self::Trace { any: false }])
             .find(|p| p.name() == s.trim())
-            .ok_or_else(|| format!("unknown probe `{s}` (expected thesis or first-leaf)"))
+            .ok_or_else(|| format!("unknown probe `{s}` (expected thesis, first-leaf or trace)"))
     }
 }
 
@@ -178,6 +194,8 @@ impl Bvh {
         match probe {
             Probe::Thesis => self.reduced_traversal(ray),
             Probe::FirstLeaf => self.first_leaf_traversal(ray),
+            Probe::Trace { any: false } => self.closest_hit_counted(ray).1,
+            Probe::Trace { any: true } => self.any_hit_counted(ray).1,
         }
     }
 
@@ -390,6 +408,105 @@ where
             }
         });
     (out, counts)
+}
+
+/// The real trace of rays `index[0], index[1], …` of `rays` (any hit with `any`, else the
+/// closest), their hits and counts, in parallel: [`crate::Probe::Trace`]'s sample.
+///
+/// # Panics
+/// Panics if an index is out of bounds or the batch's columns have different lengths.
+pub fn traced_at(
+    bvh: &Bvh,
+    rays: &RayBatch,
+    any: bool,
+    index: &[usize],
+) -> (HitBatch, Vec<Counts>) {
+    check(rays);
+    let n = index.len();
+    let mut counts = vec![Counts::default(); n];
+    let mut out = HitBatch::misses(n);
+    out.t
+        .par_chunks_mut(CHUNK)
+        .zip(out.prim.par_chunks_mut(CHUNK))
+        .zip(counts.par_chunks_mut(CHUNK))
+        .zip(index.par_chunks(CHUNK))
+        .for_each(|(((ts, ps), cs), idx)| {
+            for (k, &i) in idx.iter().enumerate() {
+                let ray = rays.get(i);
+                let (h, c) = if any {
+                    bvh.any_hit_counted(&ray)
+                } else {
+                    bvh.closest_hit_counted(&ray)
+                };
+                cs[k] = c;
+                if let Some(h) = h {
+                    ts[k] = h.t;
+                    ps[k] = h.prim;
+                }
+            }
+        });
+    (out, counts)
+}
+
+/// Traces rays `first, first + 1, …` of `rays` into `ts`, `ps` (one entry each, given as
+/// misses), except those whose index is in `known` (sorted): they stay misses, for the caller
+/// to fill with hits it has already. Any hit with `any`, else the closest.
+pub fn fill_skipping(
+    bvh: &Bvh,
+    rays: &RayBatch,
+    any: bool,
+    first: usize,
+    known: &[usize],
+    ts: &mut [f32],
+    ps: &mut [u32],
+) {
+    // One loop per query, each with its traversal inlined: one loop choosing between the two
+    // per ray traced 5 % slower than the whole batch did.
+    if any {
+        fill_with(rays, first, known, ts, ps, |r| bvh.any_hit(r));
+    } else {
+        fill_with(rays, first, known, ts, ps, |r| bvh.closest_hit(r));
+    }
+}
+
+#[inline(always)]
+fn fill_with(
+    rays: &RayBatch,
+    first: usize,
+    known: &[usize],
+    ts: &mut [f32],
+    ps: &mut [u32],
+    trace: impl Fn(&Ray) -> Option<Hit>,
+) {
+    let mut skip = known[known.partition_point(|&k| k < first)..]
+        .iter()
+        .peekable();
+    for (k, (t, p)) in ts.iter_mut().zip(ps.iter_mut()).enumerate() {
+        let i = first + k;
+        if skip.next_if_eq(&&i).is_some() {
+            continue;
+        }
+        if let Some(h) = trace(&rays.get(i)) {
+            *t = h.t;
+            *p = h.prim;
+        }
+    }
+}
+
+/// [`fill_skipping`] over the whole batch, in parallel: the trace that is left once the rays
+/// at `known` have been traced by the estimator ([`crate::Probe::Trace`]).
+///
+/// # Panics
+/// Panics if the batch's columns have different lengths.
+pub fn hits_skipping(bvh: &Bvh, rays: &RayBatch, any: bool, known: &[usize]) -> HitBatch {
+    check(rays);
+    let mut out = HitBatch::misses(rays.len());
+    out.t
+        .par_chunks_mut(CHUNK)
+        .zip(out.prim.par_chunks_mut(CHUNK))
+        .enumerate()
+        .for_each(|(c, (ts, ps))| fill_skipping(bvh, rays, any, c * CHUNK, known, ts, ps));
+    out
 }
 
 /// `probe`'s counts of the rays in `range` (a task), in parallel, in packets of 4 or 8 rays

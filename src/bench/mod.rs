@@ -65,8 +65,8 @@ pub struct Args {
     /// among `--devices`, as the thesis does).
     #[arg(long, default_value = "cpu")]
     estimate_on: raytrace::scheduled::EstimateOn,
-    /// Cost mode's reduced traversal of closest-hit rays: `thesis` or `first-leaf` (see
-    /// `cobalt render --probe`); shadow and AO rays keep the thesis's.
+    /// How cost mode traces each task's sample: `thesis`, `first-leaf` or `trace` (see
+    /// `cobalt render --probe`).
     #[arg(long, default_value = "thesis")]
     probe: raytrace::Probe,
     /// AO probes per primary hit.

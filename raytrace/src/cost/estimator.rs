@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use super::sample::{Compacted, check_tasks};
 use super::{CostError, CostModel, SampleRate, Work};
-use crate::{Bvh, Probe, RayBatch, traverse};
+use crate::{Bvh, HitBatch, Probe, RayBatch, traverse};
 
 /// Estimates ray tasks (ranges of one [`RayBatch`]) by the reduced traversal of a sample.
 ///
@@ -63,16 +63,41 @@ impl<'a> ReducedTraversal<'a> {
 
     /// Estimated `B` and `T` of every task: the sample's sums scaled by `len / sampled`.
     pub fn try_work(&self, tasks: &[Range<usize>]) -> Result<Vec<Work>, CostError> {
+        Ok(self.try_work_traced(tasks)?.0)
+    }
+
+    /// [`ReducedTraversal::try_work`], and with [`Probe::Trace`] the hits of the sampled rays,
+    /// which a tracer then need not trace again.
+    pub fn try_work_traced(
+        &self,
+        tasks: &[Range<usize>],
+    ) -> Result<(Vec<Work>, Option<Traced>), CostError> {
         let sample = Compacted::gather(self.rays, tasks, self.rate)?;
         // One parallel loop over the whole compacted batch (rayon chunks of it), not one per
         // task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
-        let counts = traverse::reduced_counts_at(self.bvh, self.rays, self.probe, &sample.index);
-        Ok(sample
+        let (counts, traced) = match self.probe {
+            Probe::Trace { any } => {
+                let (hits, counts) = traverse::traced_at(self.bvh, self.rays, any, &sample.index);
+                (counts, Some(hits))
+            }
+            probe => (
+                traverse::reduced_counts_at(self.bvh, self.rays, probe, &sample.index),
+                None,
+            ),
+        };
+        let work = sample
             .offsets
             .windows(2)
             .zip(&sample.lens)
             .map(|(w, &len)| Work::sum(&counts[w[0]..w[1]]).scaled(len, w[1] - w[0]))
-            .collect())
+            .collect();
+        Ok((
+            work,
+            traced.map(|hits| Traced {
+                index: sample.index,
+                hits,
+            }),
+        ))
     }
 
     /// Estimated cost of every task, or why there is none.
@@ -104,6 +129,29 @@ impl sched::CostEstimator<Range<usize>> for ReducedTraversal<'_> {
                     })
                     .collect()
             }
+        }
+    }
+}
+
+/// The hits of a sample traced for real ([`Probe::Trace`]): ray `index[k]` of the batch hit
+/// `hits.get(k)`. Sorted by index when the tasks were.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Traced {
+    /// Indices in the batch of the traced rays.
+    pub index: Vec<usize>,
+    /// Their hits, in the same order.
+    pub hits: HitBatch,
+}
+
+impl Traced {
+    /// Writes the traced hits into `hits`, the batch's (every ray's) hits.
+    ///
+    /// # Panics
+    /// Panics if an index is beyond `hits`.
+    pub fn write_into(&self, hits: &mut HitBatch) {
+        for (k, &i) in self.index.iter().enumerate() {
+            hits.t[i] = self.hits.t[k];
+            hits.prim[i] = self.hits.prim[k];
         }
     }
 }
@@ -204,6 +252,48 @@ mod tests {
                 assert_eq!(*w, one.scaled(r.len(), 1), "rate {rate}");
             }
         }
+    }
+
+    /// The trace probe counts what the real trace does and keeps the sample's hits, which
+    /// are the trace's own; the reduced probes keep none.
+    #[test]
+    fn the_trace_probe_counts_the_real_trace_and_keeps_its_hits() {
+        let (bvh, rays) = forest();
+        let tasks = sched::split_ranges(rays.len(), 200);
+        for any in [false, true] {
+            let probe = Probe::Trace { any };
+            let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS).with_probe(probe);
+            let (work, traced) = e.try_work_traced(&tasks).unwrap();
+            let traced = traced.expect("the sample's hits");
+            let sample = Compacted::gather(&rays, &tasks, SampleRate::THESIS).unwrap();
+            assert_eq!(traced.index, sample.index);
+            assert!(traced.index.windows(2).all(|w| w[0] < w[1]), "sorted");
+            for (k, &i) in traced.index.iter().enumerate() {
+                let ray = rays.get(i);
+                let (hit, _) = if any {
+                    bvh.any_hit_counted(&ray)
+                } else {
+                    bvh.closest_hit_counted(&ray)
+                };
+                assert_eq!(traced.hits.get(k), hit.map(|h| (h.t, h.prim)), "ray {i}");
+            }
+            assert_eq!(work, e.try_work(&tasks).unwrap());
+            // At a rate of 1 the estimate is the real trace's own counts.
+            let full = ReducedTraversal::new(&bvh, &rays, SampleRate::FULL).with_probe(probe);
+            let counted = if any {
+                crate::traverse::any_hits_counted(&bvh, &rays).1
+            } else {
+                crate::traverse::closest_hits_counted(&bvh, &rays).1
+            };
+            let want: Vec<Work> = tasks
+                .iter()
+                .map(|r| Work::sum(&counted[r.clone()]))
+                .collect();
+            assert_eq!(full.try_work(&tasks).unwrap(), want);
+            assert_eq!(full_work(&bvh, &rays, &tasks, e.probe()).unwrap(), want);
+        }
+        let reduced = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS);
+        assert_eq!(reduced.try_work_traced(&tasks).unwrap().1, None);
     }
 
     #[test]

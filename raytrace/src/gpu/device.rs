@@ -150,7 +150,7 @@ impl GpuDevice {
             &self.kernels,
             &self.scene,
             &packed,
-            GpuMode::counts(probe),
+            GpuMode::counts(probe)?,
         )?;
         Ok(out
             .into_iter()

@@ -91,6 +91,8 @@ pub(crate) fn sampled_counts(
     tasks: &[Range<usize>],
     sampling: Sampling,
 ) -> Result<Vec<SampledCounts>, GpuError> {
+    // Before the sample is gathered: a probe the GPU cannot run is refused at once.
+    GpuMode::counts(sampling.probe)?;
     let sample = Compacted::gather(rays, tasks, sampling.rate)
         .map_err(|e: CostError| GpuError::BadTasks { why: e.to_string() })?;
     let mut out = Vec::with_capacity(tasks.len());
@@ -206,7 +208,7 @@ fn group(
         &sampled,
         &counts,
         n_samples,
-        GpuMode::counts(probe),
+        GpuMode::counts(probe)?,
         Threads::Persistent,
     )?;
     let bind = estimate.program.bind(

@@ -111,6 +111,12 @@ pub enum GpuError {
         /// The cost module's reason, naming the task.
         why: String,
     },
+    /// The GPU runs the reduced traversals only; the trace probe counts on the CPU.
+    #[error("the GPU estimator runs the thesis and first-leaf probes, not `{probe}`")]
+    ProbeUnsupported {
+        /// The probe's name.
+        probe: &'static str,
+    },
     /// The implementation cut a traversal loop short (lavapipe's loop limit), so some results
     /// would be wrong.
     #[error(

@@ -49,11 +49,17 @@ impl GpuMode {
         }
     }
 
-    /// The counting mode of a probe.
-    pub fn counts(probe: crate::Probe) -> Self {
+    /// The counting mode of a probe: the reduced traversals have one, the trace probe none.
+    ///
+    /// # Errors
+    /// [`GpuError::ProbeUnsupported`] for [`crate::Probe::Trace`].
+    pub fn counts(probe: crate::Probe) -> Result<Self, GpuError> {
         match probe {
-            crate::Probe::Thesis => Self::Reduced,
-            crate::Probe::FirstLeaf => Self::FirstLeaf,
+            crate::Probe::Thesis => Ok(Self::Reduced),
+            crate::Probe::FirstLeaf => Ok(Self::FirstLeaf),
+            crate::Probe::Trace { .. } => Err(GpuError::ProbeUnsupported {
+                probe: probe.name(),
+            }),
         }
     }
 }

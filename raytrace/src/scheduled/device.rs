@@ -79,6 +79,29 @@ pub trait RayDevice: Send {
         Ok(())
     }
 
+    /// [`RayDevice::trace_ranges`], told that the rays at `known` (sorted indices into
+    /// `rays`) were traced already, by the estimator's sample ([`crate::Probe::Trace`]): a
+    /// device may leave them as misses, for the caller writes their hits in afterwards. By
+    /// default they are traced like the others; see [`RayDevice::skips_known`].
+    fn trace_ranges_known(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        ranges: &[&Range<usize>],
+        known: &[usize],
+        sink: &mut Sink<HitBatch>,
+    ) -> Result<(), DeviceError> {
+        let _ = known;
+        self.trace_ranges(kind, rays, ranges, sink)
+    }
+
+    /// True when [`RayDevice::trace_ranges_known`] skips the known rays (false by default).
+    /// A tracer hands them down only where every device skips them, so that the speeds it
+    /// measures compare devices doing the same work.
+    fn skips_known(&self) -> bool {
+        false
+    }
+
     /// A name unique among the devices of a tracer: calibrations are keyed by it.
     fn name(&self) -> String;
 
@@ -124,6 +147,7 @@ pub struct Bound<'r, 'a> {
     device: &'r mut (dyn RayDevice + 'a),
     kind: RayKind,
     rays: &'r RayBatch,
+    known: &'r [usize],
     speed: f64,
 }
 
@@ -139,8 +163,15 @@ impl<'r, 'a> Bound<'r, 'a> {
             device,
             kind,
             rays,
+            known: &[],
             speed,
         }
+    }
+
+    /// The same, told that the rays at `known` (sorted) need no tracing: see
+    /// [`RayDevice::trace_ranges_known`].
+    pub fn knowing(self, known: &'r [usize]) -> Self {
+        Self { known, ..self }
     }
 }
 
@@ -156,7 +187,8 @@ impl Executor<Range<usize>> for Bound<'_, '_> {
         tasks: &[&Range<usize>],
         sink: &mut Sink<HitBatch>,
     ) -> Result<(), DeviceError> {
-        self.device.trace_ranges(self.kind, self.rays, tasks, sink)
+        self.device
+            .trace_ranges_known(self.kind, self.rays, tasks, self.known, sink)
     }
 
     /// The speed measured on earlier generations (1 before the first).

@@ -77,10 +77,22 @@ impl RayDevice for FailingAfter<'_> {
         ranges: &[&Range<usize>],
         sink: &mut Sink<HitBatch>,
     ) -> Result<(), DeviceError> {
+        self.trace_ranges_known(kind, rays, ranges, &[], sink)
+    }
+
+    fn trace_ranges_known(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        ranges: &[&Range<usize>],
+        known: &[usize],
+        sink: &mut Sink<HitBatch>,
+    ) -> Result<(), DeviceError> {
         let allowed = usize::try_from(self.left()).unwrap_or(usize::MAX);
         let run = &ranges[..allowed.min(ranges.len())];
         if !run.is_empty() {
-            self.inner.trace_ranges(kind, rays, run, sink)?;
+            self.inner
+                .trace_ranges_known(kind, rays, run, known, sink)?;
             self.done += run.len() as u64;
         }
         if run.len() < ranges.len() {
@@ -95,6 +107,10 @@ impl RayDevice for FailingAfter<'_> {
 
     fn class(&self) -> String {
         self.inner.class()
+    }
+
+    fn skips_known(&self) -> bool {
+        self.inner.skips_known()
     }
 
     fn launch_overhead(&self) -> Option<f64> {

@@ -98,8 +98,8 @@ pub struct Settings {
     pub sample_rate: SampleRate,
     /// Where the estimate runs (cost mode).
     pub estimate_on: EstimateOn,
-    /// The reduced traversal of closest-hit generations (cost mode); any-hit generations
-    /// (shadow, AO) keep the thesis's ([`Probe::for_kind`]).
+    /// How the estimate traces its sample (cost mode), per generation as
+    /// [`Probe::for_kind`] says.
     pub probe: Probe,
 }
 

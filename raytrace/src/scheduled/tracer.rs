@@ -11,7 +11,7 @@ use super::speeds::SpeedBook;
 use super::{
     Bound, DeviceStats, EstimateOn, GenerationStats, Mode, RayDevice, Settings, TaskStats,
 };
-use crate::cost::{Calibrations, CostModel, ReducedTraversal, Work};
+use crate::cost::{Calibrations, CostModel, ReducedTraversal, Traced, Work};
 use crate::shade::Tracer;
 use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
 use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
@@ -111,6 +111,7 @@ impl<'a> ScheduledTracer<'a> {
         let uniform = |error: Option<String>, on: Option<String>| Costed {
             costs: Costs::uniform(tasks.len()),
             work: None,
+            traced: None,
             error,
             on,
         };
@@ -121,10 +122,11 @@ impl<'a> ScheduledTracer<'a> {
         // Tasks come from `split_ranges` over a non-empty batch, so neither step can fail;
         // if one did, the generation is planned in regular mode and the report says why.
         match self.estimate_work(kind, rays, tasks) {
-            Ok((work, on)) => match Costs::new(model.costs(&work)) {
+            Ok((work, traced, on)) => match Costs::new(model.costs(&work)) {
                 Ok(costs) => Costed {
                     costs,
                     work: Some(work),
+                    traced,
                     error: None,
                     on: Some(on),
                 },
@@ -141,14 +143,15 @@ impl<'a> ScheduledTracer<'a> {
     /// the host estimates instead, and tracing will show whether the device still works);
     /// else on the host.
     ///
-    /// Returns the work and where it was estimated: a device's name, or `host` (with why no
-    /// device did, when one was asked for).
+    /// Returns the work, the sample's hits where the probe traced it for real (on the host),
+    /// and where it was estimated: a device's name, or `host` (with why no device did, when
+    /// one was asked for).
     fn estimate_work(
         &mut self,
         kind: RayKind,
         rays: &RayBatch,
         tasks: &[Range<usize>],
-    ) -> Result<(Vec<Work>, String), String> {
+    ) -> Result<(Vec<Work>, Option<Traced>, String), String> {
         let rate = self.settings.sample_rate;
         let probe = self.settings.probe.for_kind(kind);
         let mut on = String::from("host");
@@ -159,17 +162,17 @@ impl<'a> ScheduledTracer<'a> {
                     continue;
                 }
                 match device.estimate_work(rays, tasks, rate, probe) {
-                    Some(Ok(work)) => return Ok((work, device.name())),
+                    Some(Ok(work)) => return Ok((work, None, device.name())),
                     Some(Err(e)) => on = format!("host ({} could not: {e})", device.name()),
                     None => {}
                 }
             }
         }
-        let work = ReducedTraversal::new(self.bvh, rays, rate)
+        let (work, traced) = ReducedTraversal::new(self.bvh, rays, rate)
             .with_probe(probe)
-            .try_work(tasks)
+            .try_work_traced(tasks)
             .map_err(|e| e.to_string())?;
-        Ok((work, on))
+        Ok((work, traced, on))
     }
 
     /// The cost model the next plan of `kind` uses (see `planning_model`): what another
@@ -195,6 +198,7 @@ impl<'a> ScheduledTracer<'a> {
             Some(costs) => Planned {
                 costs,
                 work,
+                known: &[],
                 estimate_seconds: 0.0,
                 estimate_error: None,
                 estimated_on: None,
@@ -202,6 +206,7 @@ impl<'a> ScheduledTracer<'a> {
             None => Planned {
                 costs: Costs::uniform(tasks.len()),
                 work: None,
+                known: &[],
                 estimate_seconds: 0.0,
                 estimate_error: None,
                 estimated_on: None,
@@ -221,6 +226,7 @@ impl<'a> ScheduledTracer<'a> {
         let Planned {
             costs,
             work,
+            known,
             estimate_seconds,
             estimate_error,
             estimated_on,
@@ -235,7 +241,7 @@ impl<'a> ScheduledTracer<'a> {
             .iter_mut()
             .enumerate()
             .filter(|(d, _)| !retired[*d])
-            .map(|(d, device)| Bound::new(device.as_mut(), kind, rays, speeds[d]))
+            .map(|(d, device)| Bound::new(device.as_mut(), kind, rays, speeds[d]).knowing(known))
             .collect();
         let running = Instant::now();
         let result = Runtime::new(self.settings.policy).run(tasks, &costs, &mut bound);
@@ -317,9 +323,18 @@ impl<'a> Tracer for ScheduledTracer<'a> {
             Mode::Regular => 0.0,
             Mode::Cost => estimating.elapsed().as_secs_f64(),
         };
+        // The sample's hits replace its rays' trace only where every device skips them: a
+        // device that traced them anyway would be measured on more work than the others.
+        let skipping = self
+            .devices
+            .iter()
+            .zip(&self.retired)
+            .all(|(d, retired)| *retired || d.skips_known());
+        let traced = costed.traced.filter(|_| skipping);
         let planned = Planned {
             costs: costed.costs,
             work: costed.work.as_deref(),
+            known: traced.as_ref().map_or(&[], |t| &t.index[..]),
             estimate_seconds,
             estimate_error: costed.error,
             estimated_on: costed.on,
@@ -332,6 +347,9 @@ impl<'a> Tracer for ScheduledTracer<'a> {
         for out in outputs {
             hits.t.extend_from_slice(&out.t);
             hits.prim.extend_from_slice(&out.prim);
+        }
+        if let Some(traced) = traced {
+            traced.write_into(&mut hits);
         }
         hits
     }
@@ -433,6 +451,8 @@ impl ScheduledTracer<'_> {
 struct Costed {
     costs: Costs,
     work: Option<Vec<Work>>,
+    /// The sample's hits, where the probe traced it for real.
+    traced: Option<Traced>,
     error: Option<String>,
     on: Option<String>,
 }
@@ -442,6 +462,8 @@ struct Costed {
 struct Planned<'w> {
     costs: Costs,
     work: Option<&'w [Work]>,
+    /// Rays whose hits are known already (sorted): the devices leave them out.
+    known: &'w [usize],
     estimate_seconds: f64,
     estimate_error: Option<String>,
     /// Where the estimate ran (a device's name or `host`), if it ran here.

@@ -141,6 +141,110 @@ fn the_first_leaf_probe_costs_closest_hit_rays_and_leaves_the_image_alone() {
     );
 }
 
+/// A device that notes how many known rays each launch was told of, and may refuse to skip.
+struct Spy<'a> {
+    inner: Box<dyn crate::scheduled::RayDevice + 'a>,
+    skips: bool,
+    told: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+}
+
+impl crate::scheduled::RayDevice for Spy<'_> {
+    fn trace_range(
+        &mut self,
+        kind: RayKind,
+        rays: &crate::RayBatch,
+        range: &std::ops::Range<usize>,
+    ) -> Result<crate::HitBatch, sched::DeviceError> {
+        self.inner.trace_range(kind, rays, range)
+    }
+
+    fn trace_ranges_known(
+        &mut self,
+        kind: RayKind,
+        rays: &crate::RayBatch,
+        ranges: &[&std::ops::Range<usize>],
+        known: &[usize],
+        sink: &mut sched::Sink<crate::HitBatch>,
+    ) -> Result<(), sched::DeviceError> {
+        let inside = |i: &usize| ranges.iter().any(|r| r.contains(i));
+        self.told.fetch_add(
+            known.iter().filter(|i| inside(i)).count(),
+            std::sync::atomic::Ordering::Relaxed,
+        );
+        self.inner
+            .trace_ranges_known(kind, rays, ranges, known, sink)
+    }
+
+    fn skips_known(&self) -> bool {
+        self.skips && self.inner.skips_known()
+    }
+
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+}
+
+/// The trace probe traces each task's sample for real; where every device skips known rays,
+/// the sample's hits stand in for their trace (and the devices are told of every sampled ray
+/// of their tasks), else they trace everything. The image is the same either way, through
+/// failures too.
+#[test]
+fn the_trace_probe_hands_its_samples_hits_down_and_leaves_the_image_alone() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    for (source, shader) in [
+        ("builtin:cornell", whitted()),
+        ("builtin:forest:0.05", ao()),
+    ] {
+        let (scene, bvh) = load(source, shader);
+        let want = reference(&scene, &bvh, shader);
+        for (probe, second_skips, faults) in [
+            (Probe::Trace { any: false }, true, vec![]),
+            (Probe::Trace { any: false }, false, vec![]),
+            (Probe::Thesis, true, vec![]),
+            (
+                Probe::Trace { any: false },
+                true,
+                vec![FailAfter {
+                    device: 1,
+                    tasks: 3,
+                }],
+            ),
+        ] {
+            let told = Arc::new(AtomicUsize::new(0));
+            let devices = build_devices(&bvh, &parse_devices("cpu:2").unwrap(), &faults)
+                .unwrap()
+                .into_iter()
+                .enumerate()
+                .map(|(d, inner)| {
+                    Box::new(Spy {
+                        inner,
+                        skips: d == 0 || second_skips,
+                        told: told.clone(),
+                    }) as Box<dyn crate::scheduled::RayDevice>
+                })
+                .collect();
+            let settings = Settings {
+                probe,
+                ..settings(Policy::Hybrid, Mode::Cost, 64)
+            };
+            let mut tracer = ScheduledTracer::new(&bvh, devices, settings).unwrap();
+            let options = RenderOptions::new(N, N, Camera::thesis(&scene.bounds(), 1), shader);
+            let got = render(&scene, &mut tracer, &options);
+            let case = format!("{source} {probe:?} second skips {second_skips} {faults:?}");
+            assert_eq!(got.film, want.film, "{case}");
+            let told = told.load(Ordering::Relaxed);
+            if probe == Probe::Thesis || !second_skips {
+                assert_eq!(told, 0, "{case}");
+            } else {
+                // Every generation's sample, 1/8 of its rays, at least once (reruns again).
+                let rays: usize = tracer.stats().iter().map(|g| g.rays).sum();
+                assert!(told >= rays / 8, "{case}: told of {told} of {rays} rays");
+            }
+        }
+    }
+}
+
 #[test]
 fn a_device_that_fails_mid_render_leaves_the_image_complete() {
     let shader = whitted();
