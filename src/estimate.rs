@@ -629,8 +629,6 @@ fn parse_size(s: &str) -> Option<(u32, u32)> {
     (ok(w) && ok(h)).then_some((w, h))
 }
 
-/// Runs `f` `repeats` times; the least wall time and the last result. The first run warms
-/// caches and the thread pool, the minimum drops interruptions by other processes.
 /// The least time of each step over `repeats` rounds, the steps taken in turn each round.
 fn min_times(
     repeats: usize,
@@ -647,6 +645,8 @@ fn min_times(
     Ok(best)
 }
 
+/// Runs `f` `repeats` times; the least wall time and the last result. The first run warms
+/// caches and the thread pool, the minimum drops interruptions by other processes.
 fn min_time<T, E>(repeats: usize, mut f: impl FnMut() -> Result<T, E>) -> Result<(f64, T), CliError>
 where
     CliError: From<E>,
