@@ -106,18 +106,8 @@ impl RayDevice for CpuDevice<'_> {
         self.trace_ranges_with(|this| this.one(kind, rays, range, &[]))
     }
 
-    fn trace_ranges(
-        &mut self,
-        kind: RayKind,
-        rays: &RayBatch,
-        ranges: &[&Range<usize>],
-        sink: &mut Sink<HitBatch>,
-    ) -> Result<(), DeviceError> {
-        self.trace_ranges_known(kind, rays, ranges, &[], sink)
-    }
-
     /// Enters the pool once for the whole launch: a static plan's launch is one `install`.
-    fn trace_ranges_known(
+    fn trace_ranges(
         &mut self,
         kind: RayKind,
         rays: &RayBatch,

@@ -199,13 +199,16 @@ impl RayDevice for GpuDevice {
     }
 
     /// One launch for all `ranges`; each range's hits are cut out of its results in order.
+    /// Every ray is traced, `known` ones too (the device does not skip them).
     fn trace_ranges(
         &mut self,
         kind: RayKind,
         rays: &RayBatch,
         ranges: &[&Range<usize>],
+        known: &[usize],
         sink: &mut Sink<HitBatch>,
     ) -> Result<(), DeviceError> {
+        let _ = known;
         for r in ranges {
             self.check(rays, r)?;
         }

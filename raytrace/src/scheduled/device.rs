@@ -66,24 +66,12 @@ pub trait RayDevice: Send {
     /// Traces `ranges` in one launch, pushing each range's hits to `sink` in order as soon as
     /// they are ready. A device with a costly launch (a thread pool to enter, a kernel to
     /// dispatch) overrides this to pay it once per launch rather than once per range.
+    ///
+    /// The rays at `known` (sorted indices into `rays`, usually none) were traced already, by
+    /// the estimator's sample ([`crate::Probe::Trace`]): a device that
+    /// [skips them](RayDevice::skips_known) leaves them as misses, for the caller writes
+    /// their hits in afterwards. By default they are traced like the others.
     fn trace_ranges(
-        &mut self,
-        kind: RayKind,
-        rays: &RayBatch,
-        ranges: &[&Range<usize>],
-        sink: &mut Sink<HitBatch>,
-    ) -> Result<(), DeviceError> {
-        for range in ranges {
-            sink.push(self.trace_range(kind, rays, range)?);
-        }
-        Ok(())
-    }
-
-    /// [`RayDevice::trace_ranges`], told that the rays at `known` (sorted indices into
-    /// `rays`) were traced already, by the estimator's sample ([`crate::Probe::Trace`]): a
-    /// device may leave them as misses, for the caller writes their hits in afterwards. By
-    /// default they are traced like the others; see [`RayDevice::skips_known`].
-    fn trace_ranges_known(
         &mut self,
         kind: RayKind,
         rays: &RayBatch,
@@ -92,10 +80,13 @@ pub trait RayDevice: Send {
         sink: &mut Sink<HitBatch>,
     ) -> Result<(), DeviceError> {
         let _ = known;
-        self.trace_ranges(kind, rays, ranges, sink)
+        for range in ranges {
+            sink.push(self.trace_range(kind, rays, range)?);
+        }
+        Ok(())
     }
 
-    /// True when [`RayDevice::trace_ranges_known`] skips the known rays (false by default).
+    /// True when [`RayDevice::trace_ranges`] skips the known rays (false by default).
     /// A tracer hands them down only where every device skips them, so that the speeds it
     /// measures compare devices doing the same work.
     fn skips_known(&self) -> bool {
@@ -169,7 +160,7 @@ impl<'r, 'a> Bound<'r, 'a> {
     }
 
     /// The same, told that the rays at `known` (sorted) need no tracing: see
-    /// [`RayDevice::trace_ranges_known`].
+    /// [`RayDevice::trace_ranges`].
     pub fn knowing(self, known: &'r [usize]) -> Self {
         Self { known, ..self }
     }
@@ -188,7 +179,7 @@ impl Executor<Range<usize>> for Bound<'_, '_> {
         sink: &mut Sink<HitBatch>,
     ) -> Result<(), DeviceError> {
         self.device
-            .trace_ranges_known(self.kind, self.rays, tasks, self.known, sink)
+            .trace_ranges(self.kind, self.rays, tasks, self.known, sink)
     }
 
     /// The speed measured on earlier generations (1 before the first).

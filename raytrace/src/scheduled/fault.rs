@@ -75,24 +75,13 @@ impl RayDevice for FailingAfter<'_> {
         kind: RayKind,
         rays: &RayBatch,
         ranges: &[&Range<usize>],
-        sink: &mut Sink<HitBatch>,
-    ) -> Result<(), DeviceError> {
-        self.trace_ranges_known(kind, rays, ranges, &[], sink)
-    }
-
-    fn trace_ranges_known(
-        &mut self,
-        kind: RayKind,
-        rays: &RayBatch,
-        ranges: &[&Range<usize>],
         known: &[usize],
         sink: &mut Sink<HitBatch>,
     ) -> Result<(), DeviceError> {
         let allowed = usize::try_from(self.left()).unwrap_or(usize::MAX);
         let run = &ranges[..allowed.min(ranges.len())];
         if !run.is_empty() {
-            self.inner
-                .trace_ranges_known(kind, rays, run, known, sink)?;
+            self.inner.trace_ranges(kind, rays, run, known, sink)?;
             self.done += run.len() as u64;
         }
         if run.len() < ranges.len() {

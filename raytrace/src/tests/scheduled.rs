@@ -158,7 +158,7 @@ impl crate::scheduled::RayDevice for Spy<'_> {
         self.inner.trace_range(kind, rays, range)
     }
 
-    fn trace_ranges_known(
+    fn trace_ranges(
         &mut self,
         kind: RayKind,
         rays: &crate::RayBatch,
@@ -171,8 +171,7 @@ impl crate::scheduled::RayDevice for Spy<'_> {
             known.iter().filter(|i| inside(i)).count(),
             std::sync::atomic::Ordering::Relaxed,
         );
-        self.inner
-            .trace_ranges_known(kind, rays, ranges, known, sink)
+        self.inner.trace_ranges(kind, rays, ranges, known, sink)
     }
 
     fn skips_known(&self) -> bool {
