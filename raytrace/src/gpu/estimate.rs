@@ -92,7 +92,7 @@ pub(crate) fn sampled_counts(
     sampling: Sampling,
 ) -> Result<Vec<SampledCounts>, GpuError> {
     // Before the sample is gathered: a probe the GPU cannot run is refused at once.
-    GpuMode::counts(sampling.probe)?;
+    let mode = GpuMode::counts(sampling.probe)?;
     let sample = Compacted::gather(rays, tasks, sampling.rate)
         .map_err(|e: CostError| GpuError::BadTasks { why: e.to_string() })?;
     let mut out = Vec::with_capacity(tasks.len());
@@ -113,7 +113,7 @@ pub(crate) fn sampled_counts(
             rays,
             &sample,
             first..end,
-            sampling.probe,
+            mode,
         )?);
         first = end;
     }
@@ -130,7 +130,7 @@ fn group(
     rays: &RayBatch,
     sample: &Compacted,
     group: Range<usize>,
-    probe: Probe,
+    mode: GpuMode,
 ) -> Result<Vec<SampledCounts>, GpuError> {
     let base = sample.offsets[group.start];
     let index = &sample.index[base..sample.offsets[group.end]];
@@ -208,7 +208,7 @@ fn group(
         &sampled,
         &counts,
         n_samples,
-        GpuMode::counts(probe)?,
+        mode,
         Threads::Persistent,
     )?;
     let bind = estimate.program.bind(
