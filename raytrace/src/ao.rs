@@ -82,6 +82,27 @@ pub fn ao_rays(
     max_distance: f32,
     seed: u64,
 ) -> AoRays {
+    ao_rays_of_paths(scene, primary, hits, samples, max_distance, seed, None)
+}
+
+/// [`ao_rays`] for primary rays that are paths `ranks` of an image (ray `i` is path
+/// `ranks[i]`): each path's probes are scrambled by its rank, so they are the same whatever
+/// other paths share the batch. `None` numbers the rays `0..`, as [`ao_rays`] does.
+///
+/// # Panics
+/// Panics if `ranks` is given and shorter than `hits`.
+pub fn ao_rays_of_paths(
+    scene: &Scene,
+    primary: &RayBatch,
+    hits: &HitBatch,
+    samples: u32,
+    max_distance: f32,
+    seed: u64,
+    ranks: Option<&[u32]>,
+) -> AoRays {
+    if let Some(r) = ranks {
+        assert!(r.len() >= hits.len(), "a rank for every primary ray");
+    }
     let halton: Vec<(f32, f32)> = (0..samples)
         .map(|i| (radical_inverse(i + 1, 2), radical_inverse(i + 1, 3)))
         .collect();
@@ -92,6 +113,7 @@ pub fn ao_rays(
         halton: &halton,
         max_distance,
         seed,
+        ranks,
     };
     let parts: Vec<AoRays> = (0..hits.len().div_ceil(CHUNK))
         .into_par_iter()
@@ -127,6 +149,7 @@ struct Probes<'a> {
     halton: &'a [(f32, f32)],
     max_distance: f32,
     seed: u64,
+    ranks: Option<&'a [u32]>,
 }
 
 impl Probes<'_> {
@@ -147,7 +170,8 @@ impl Probes<'_> {
         let sp = self.scene.surface_point(&Hit { t, prim, u, v });
         let n = sp.normal;
         let facing = if n.dot(r.dir) < 0.0 { n } else { -n };
-        let mut rng = Rng::new(self.seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let rank = self.ranks.map_or(i as u64, |r| u64::from(r[i]));
+        let mut rng = Rng::new(self.seed ^ rank.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let (s1, s2) = (rng.f32(), rng.f32());
         // What every probe of this hit shares, computed once: the frame, and the two origins
         // `spawn_ray` chooses between by the side of the surface a direction leaves to.

@@ -101,6 +101,29 @@ impl Camera {
             pixels: order,
         }
     }
+
+    /// The primary rays of the paths `ranks` (indices into the image's Morton order, as
+    /// [`Camera::primary_rays`] orders them): the same rays, bit for bit, made without
+    /// ordering the whole image, so a device makes only the rays of its own tasks.
+    ///
+    /// # Panics
+    /// Panics if a side exceeds 65536 pixels or a rank is not below `width · height`.
+    pub fn primary_rays_of(
+        &self,
+        width: u32,
+        height: u32,
+        ranks: impl IntoIterator<Item = usize>,
+    ) -> PrimaryRays {
+        let f = self.frame(width, height);
+        let mut out = PrimaryRays::default();
+        for rank in ranks {
+            let p = morton_pixel(width, height, rank);
+            out.rays
+                .push(&self.ray_in(&f, p % width, p / width, width, height));
+            out.pixels.push(p);
+        }
+        out
+    }
 }
 
 /// What [`Camera::ray`] computes once per image: the view direction, the image plane's axes
@@ -151,6 +174,50 @@ pub fn morton_order(width: u32, height: u32) -> Vec<u32> {
     keyed.into_iter().map(|(_, p)| p).collect()
 }
 
+/// The inverse of `spread`: the even bits of `k`, packed.
+fn compact(k: u32) -> u32 {
+    let mut x = k & 0x5555_5555;
+    x = (x | (x >> 1)) & 0x3333_3333;
+    x = (x | (x >> 2)) & 0x0F0F_0F0F;
+    x = (x | (x >> 4)) & 0x00FF_00FF;
+    (x | (x >> 8)) & 0x0000_FFFF
+}
+
+/// The pixel at `rank` in [`morton_order`]`(width, height)`, found without sorting: from the
+/// top bit down, the aligned block of the Z-curve with that bit clear holds a rectangle of
+/// the image's pixels; a rank past them lies in the block with the bit set. The render
+/// kernels' `morton_pixel` is the same walk.
+///
+/// # Panics
+/// Panics if a side exceeds 65536 pixels or `rank` is not below `width · height`.
+pub fn morton_pixel(width: u32, height: u32, rank: usize) -> u32 {
+    assert!(width <= 1 << 16 && height <= 1 << 16, "image too large");
+    assert!(
+        rank < width as usize * height as usize,
+        "rank {rank} outside a {width}x{height} image"
+    );
+    let mut rank = rank as u64;
+    let mut key = 0u32;
+    for b in (0..32u32).rev() {
+        // The block of keys that share `key`'s bits above `b` and have bit `b` clear.
+        let (fx, fy) = (b.div_ceil(2), b / 2);
+        let (x0, y0) = (compact(key), compact(key >> 1));
+        let side = |origin: u32, free: u32, size: u32| {
+            if origin < size {
+                u64::from((size - origin).min(1 << free))
+            } else {
+                0
+            }
+        };
+        let inside = side(x0, fx, width) * side(y0, fy, height);
+        if rank >= inside {
+            rank -= inside;
+            key |= 1 << b;
+        }
+    }
+    compact(key >> 1) * width + compact(key)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -166,6 +233,40 @@ mod tests {
 
     /// The image's rays, made with its frame computed once, are each pixel's `ray`, bit for
     /// bit.
+    #[test]
+    fn morton_pixel_inverts_the_sorted_order() {
+        for (w, h) in [
+            (1, 1),
+            (2, 2),
+            (13, 7),
+            (7, 13),
+            (64, 1),
+            (1, 33),
+            (100, 37),
+        ] {
+            let order = morton_order(w, h);
+            for (rank, &p) in order.iter().enumerate() {
+                assert_eq!(morton_pixel(w, h, rank), p, "{w}x{h} rank {rank}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_range_of_paths_gets_the_rays_of_the_whole_image() {
+        let b = Aabb {
+            min: Vec3::new(-1.0, 0.0, -2.0),
+            max: Vec3::new(1.0, 3.0, 2.0),
+        };
+        let c = Camera::thesis(&b, 2);
+        let (w, h) = (29, 17);
+        let all = c.primary_rays(w, h);
+        let part = c.primary_rays_of(w, h, 100..250);
+        assert_eq!(part.pixels, all.pixels[100..250]);
+        for (k, i) in (100..250).enumerate() {
+            assert_eq!(part.rays.get(k), all.rays.get(i));
+        }
+    }
+
     #[test]
     fn primary_rays_are_the_rays_of_their_pixels() {
         let b = Aabb {

@@ -44,6 +44,7 @@ pub mod gpu;
 pub mod morton;
 mod obj;
 mod packet;
+pub mod paths;
 mod ray;
 mod rng;
 mod scene;

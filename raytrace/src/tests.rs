@@ -3,6 +3,7 @@
 
 mod bvh;
 mod obj;
+mod paths;
 mod robustness;
 mod scheduled;
 mod shade;

@@ -210,6 +210,7 @@ fn group(
         n_samples,
         mode,
         Threads::Persistent,
+        &mut crate::paths::Traffic::default(),
     )?;
     let bind = estimate.program.bind(
         device,

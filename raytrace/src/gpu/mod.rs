@@ -36,7 +36,7 @@ pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
 pub use estimate::{GpuReducedTraversal, SampledCounts};
 pub use pipeline::{GpuMode, Kernels, Threads};
-pub use render::{GpuRenderer, GpuRendering};
+pub use render::{FrameParams, GpuRenderer, PathValues};
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or
 /// the limit that was hit.

@@ -14,6 +14,7 @@ use super::buffers::{
 };
 use super::program::{Program, READ, UNIFORM, WRITE};
 use super::{GpuContext, GpuError};
+use crate::paths::Traffic;
 
 /// Batches of 64 rays a workgroup takes per dispatch: few enough that one invocation stays far
 /// below lavapipe's ~65 535 loop iterations (a ray rarely needs more than a few hundred).
@@ -255,7 +256,17 @@ fn launch_one(
         out_bytes,
         wgpu::BufferUsages::COPY_SRC,
     );
-    let seconds = trace_resident(ctx, kernels, scene, &ray_buf, &out_buf, n, mode, threads)?;
+    let seconds = trace_resident(
+        ctx,
+        kernels,
+        scene,
+        &ray_buf,
+        &out_buf,
+        n,
+        mode,
+        threads,
+        &mut Traffic::default(),
+    )?;
     let bytes = fetch(ctx, &out_buf, out_bytes)?;
     Ok((bytemuck::pod_collect_to_vec(&bytes), seconds))
 }
@@ -301,6 +312,7 @@ pub(crate) fn trace_resident(
     n: u32,
     mode: GpuMode,
     threads: Threads,
+    traffic: &mut Traffic,
 ) -> Result<Option<f64>, GpuError> {
     if n == 0 {
         return Ok(ctx.timestamps.then_some(0.0));
@@ -319,6 +331,8 @@ pub(crate) fn trace_resident(
         bytemuck::cast_slice(&[n, 0, 0, 0]),
         wgpu::BufferUsages::UNIFORM,
     );
+    // The queue's two words and the parameters.
+    traffic.host_to_device_bytes += 8 + 16;
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("cobalt queue state read-back"),
         size: 8 + 16,
@@ -405,6 +419,8 @@ pub(crate) fn trace_resident(
         }
         ctx.queue.submit([encoder.finish()]);
         let bytes = read_back(device, name, &readback)?;
+        traffic.device_to_host_bytes += bytes.len() as u64;
+        traffic.host_waits += 1;
         let (status, stamps) = bytes.split_at(8);
         let status: [u32; 2] = bytemuck::pod_read_unaligned(status);
         let stamps: [u64; 2] = bytemuck::pod_read_unaligned(stamps);

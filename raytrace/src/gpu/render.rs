@@ -1,16 +1,16 @@
-//! A render that never leaves the GPU between stages (issue 5): primary rays generated in
-//! Morton order, closest hits, ambient-occlusion probes with the CPU's Halton points, any
-//! hits, and the image, each a kernel over device buffers (`render.wgsl`, with the traces of
-//! `traverse.wgsl`). Only the queue's state (8 bytes per trace round) is read back before the
-//! finished image.
+//! A GPU device's launch of whole paths: for a list of tasks (ranges of paths in the image's
+//! Morton order), primary rays made on the device, closest hits, ambient-occlusion probes
+//! with the CPU's Halton points, any hits, and each path's value, every stage a kernel over
+//! device buffers (`render.wgsl`, with the traces of `traverse.wgsl`; Whitted shading is
+//! `whitted.rs`). What crosses the bus is the task list and the launch's parameters, the
+//! queue's state after each trace round, and the paths' values at the end.
 //!
-//! The image equals [`crate::shade::render`]'s with [`crate::shade::Shader::Ao`] up to the
-//! differences `render.wgsl` lists (`cos`/`sin` rounding, exact-edge ties): a pixel is a
-//! fraction of probes, so a probe that changes its verdict moves a pixel by `1/samples`.
-//! Probes are generated in chunks of primaries that fit one binding, so images of any size
-//! whose primary rays fit one binding render.
+//! The values equal [`crate::shade::render`]'s up to the differences `render.wgsl` lists
+//! (`cos`/`sin` rounding, exact-edge ties): a pixel is a fraction of probes, so a probe that
+//! changes its verdict moves a pixel by `1/samples`. Probes are generated in chunks of
+//! primaries that fit one binding, so a launch whose primary rays fit one binding renders.
 
-use std::time::Instant;
+use std::ops::Range;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -21,8 +21,9 @@ use super::buffers::{
 use super::pipeline::{GpuMode, Kernels, Threads, grid, trace_resident};
 use super::program::{Program, READ, UNIFORM, WRITE, dispatch, with_shading};
 use super::{GpuContext, GpuError};
+use crate::paths::Traffic;
 use crate::shade::AoSettings;
-use crate::{Bvh, Camera, Film, Scene};
+use crate::{Bvh, Camera, Scene};
 
 /// The uniform block of `render.wgsl` (`struct Params`).
 #[repr(C)]
@@ -44,9 +45,11 @@ pub(super) struct Params {
     chunk: u32,
     seed_lo: u32,
     seed_hi: u32,
+    tasks: u32,
+    pad: [u32; 3],
 }
 
-const _: () = assert!(size_of::<Params>() == 112);
+const _: () = assert!(size_of::<Params>() == 128);
 
 /// A scene triangle by primitive id (`struct SceneTri`).
 #[repr(C)]
@@ -55,24 +58,35 @@ struct SceneTri {
     v: [[f32; 4]; 3],
 }
 
-/// What a GPU render produced.
-#[derive(Clone, Debug)]
-pub struct GpuRendering {
-    /// The image (linear grey, as the CPU's AO render).
-    pub film: Film,
-    /// Primary rays traced.
-    pub primary_rays: usize,
-    /// Ray slots traced after the primaries: `samples` AO probes per primary ray, or per
-    /// bounce one shadow ray per light and one mirror ray per pixel (slots of paths that ended
+/// What a launch of paths produced on the GPU.
+#[derive(Clone, Debug, Default)]
+pub struct PathValues {
+    /// Each path's radiance (grey for ambient occlusion), task after task as launched.
+    pub values: Vec<Vec3>,
+    /// Rays traced: the primary rays, then `samples` AO probes per primary ray, or per
+    /// bounce one shadow ray per light and one mirror ray per path (slots of paths that ended
     /// hold empty-range rays, which end at once and add nothing).
-    pub secondary_rays: usize,
+    pub rays: usize,
     /// Kernel time of the traces from timestamp queries, where the device has them.
     pub trace_gpu_seconds: Option<f64>,
-    /// Wall time of the whole render, uploads and the image's read-back included.
-    pub seconds: f64,
+    /// What crossed between host and device, the values excepted.
+    pub traffic: Traffic,
+    /// Bytes of the values read back.
+    pub film_bytes: u64,
 }
 
-/// One GPU with a scene and the render kernels: renders ambient occlusion entirely on the
+/// What a frame is: the image, its camera and the shader's settings.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameParams<'a> {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// The camera.
+    pub camera: &'a Camera,
+}
+
+/// One GPU with a scene and the path kernels: renders ranges of paths entirely on the
 /// device.
 #[derive(Debug)]
 pub struct GpuRenderer {
@@ -99,6 +113,7 @@ impl GpuRenderer {
         out: &wgpu::Buffer,
         count: u32,
         mode: GpuMode,
+        traffic: &mut Traffic,
     ) -> Result<Option<f64>, GpuError> {
         trace_resident(
             &self.ctx,
@@ -109,6 +124,7 @@ impl GpuRenderer {
             count,
             mode,
             self.threads,
+            traffic,
         )
     }
 
@@ -143,7 +159,7 @@ impl GpuRenderer {
             device,
             "render",
             with_shading(include_str!("render.wgsl")),
-            &[UNIFORM, WRITE, WRITE, READ, READ, READ, WRITE, READ, WRITE],
+            &[UNIFORM, WRITE, WRITE, READ, READ, WRITE, READ, WRITE, READ],
         );
         let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
         let whitted = super::whitted::WhittedKernels::new(&ctx, scene);
@@ -172,16 +188,18 @@ impl GpuRenderer {
         &self.ctx
     }
 
-    /// Checks the image, creates the buffers of a render and generates the primary rays.
+    /// Checks the image and the launch, creates the buffers of a launch of the paths of
+    /// `tasks` and generates their primary rays.
     pub(super) fn begin(
         &self,
-        width: u32,
-        height: u32,
-        camera: &Camera,
+        frame: &FrameParams<'_>,
+        tasks: &[&Range<usize>],
         settings: &AoSettings,
+        traffic: &mut Traffic,
     ) -> Result<Stage, GpuError> {
         let ctx = &self.ctx;
         let device = &ctx.device;
+        let (width, height) = (frame.width, frame.height);
         let too_large =
             |what: &'static str, bytes: u64, limit: &'static str, max: u64| GpuError::TooLarge {
                 adapter: ctx.info.name.clone(),
@@ -200,17 +218,37 @@ impl GpuRenderer {
             ));
         }
         let pixels = u64::from(width) * u64::from(height);
+        let n: u64 = tasks.iter().map(|t| t.len() as u64).sum();
         let per_launch = rays_per_launch(&ctx.limits) as u64;
-        if pixels > per_launch {
+        if n > per_launch {
             return Err(too_large(
-                "primary rays",
-                pixels * size_of::<GpuRay>() as u64,
+                "primary rays of a launch",
+                n * size_of::<GpuRay>() as u64,
                 "max_storage_buffer_binding_size",
                 per_launch * size_of::<GpuRay>() as u64,
             ));
         }
-        // Below the binding limit's ray count, so far below 2^32.
-        let n = pixels as u32;
+        if let Some(t) = tasks
+            .iter()
+            .find(|t| t.start > t.end || t.end as u64 > pixels)
+        {
+            return Err(too_large(
+                "paths of a task",
+                t.end as u64,
+                "the image's pixels",
+                pixels,
+            ));
+        }
+        // Ranks are below the image's pixels (at most 2^32), slots below the binding limit.
+        let table: Vec<[u32; 2]> = tasks
+            .iter()
+            .scan(0u64, |slot, t| {
+                let first = *slot;
+                *slot += t.len() as u64;
+                Some([t.start as u32, first as u32])
+            })
+            .collect();
+        let n = n as u32;
         let samples = settings.samples;
         // Primaries per probe chunk: their probes must fit one binding.
         let chunk = if samples == 0 {
@@ -221,18 +259,10 @@ impl GpuRenderer {
         };
         let probe_slots = u64::from(chunk) * u64::from(samples.max(1));
         check_size(ctx, "AO probes", probe_slots * size_of::<GpuRay>() as u64)?;
-        let halton: Vec<[f32; 2]> = (0..samples.max(1))
-            .map(|i| {
-                [
-                    crate::ao::radical_inverse(i + 1, 2),
-                    crate::ao::radical_inverse(i + 1, 3),
-                ]
-            })
-            .collect();
-        let f = camera.frame(width, height);
+        let f = frame.camera.frame(width, height);
         let v4 = |v: Vec3| v.extend(0.0).to_array();
         let params = Params {
-            eye: v4(camera.eye),
+            eye: v4(frame.camera.eye),
             fwd: v4(f.forward),
             right: v4(f.right),
             up: v4(f.up),
@@ -251,29 +281,37 @@ impl GpuRenderer {
             // The seed's two words.
             seed_lo: settings.seed as u32,
             seed_hi: (settings.seed >> 32) as u32,
+            tasks: table.len() as u32,
+            pad: [0; 3],
         };
         let storage = |label: &str, size: u64, usage| self.scratch(label, size, usage);
         let none = wgpu::BufferUsages::empty();
         let copy = wgpu::BufferUsages::COPY_SRC;
         let ray_bytes = size_of::<GpuRay>() as u64;
+        let table_bytes: &[u8] = bytemuck::cast_slice(&table);
+        traffic.host_to_device_bytes += table_bytes.len() as u64;
         let stage = Stage {
             n,
             chunk,
             params,
             primary: storage("cobalt primary rays", u64::from(n) * ray_bytes, copy),
-            pixel_of: storage("cobalt primary pixels", u64::from(n) * 4, copy),
+            ranks: storage("cobalt path ranks", u64::from(n) * 4, copy),
             hits: storage("cobalt primary hits", u64::from(n) * RESULT_BYTES, none),
             probes: storage("cobalt AO probes", probe_slots * ray_bytes, none),
             probe_hits: storage("cobalt AO probe hits", probe_slots * RESULT_BYTES, none),
-            film: storage("cobalt film", u64::from(n) * 4, copy),
-            halton: init(
-                device,
-                "cobalt Halton points",
-                bytemuck::cast_slice(&halton),
-                wgpu::BufferUsages::STORAGE,
-            ),
+            film: storage("cobalt path values", u64::from(n) * 4, copy),
+            tasks: if table.is_empty() {
+                storage("cobalt launch tasks", 16, none)
+            } else {
+                init(
+                    device,
+                    "cobalt launch tasks",
+                    table_bytes,
+                    wgpu::BufferUsages::STORAGE,
+                )
+            },
         };
-        let group = self.bind(&stage, &params);
+        let group = self.bind(&stage, &params, traffic);
         ctx.queue
             .submit([self.run(&self.raygen, &group, n).finish()]);
         Ok(stage)
@@ -290,22 +328,23 @@ impl GpuRenderer {
         storage(&self.ctx.device, label, size.max(16), usage)
     }
 
-    /// A bind group of `stage`'s buffers with `params`.
-    fn bind(&self, stage: &Stage, params: &Params) -> wgpu::BindGroup {
+    /// A bind group of `stage`'s buffers with `params` (uploaded).
+    fn bind(&self, stage: &Stage, params: &Params, traffic: &mut Traffic) -> wgpu::BindGroup {
         let device = &self.ctx.device;
+        traffic.host_to_device_bytes += size_of::<Params>() as u64;
         self.program.bind_params(
             device,
             "render",
             bytemuck::bytes_of(params),
             &[
                 &stage.primary,
-                &stage.pixel_of,
+                &stage.ranks,
                 &stage.hits,
                 &self.tris,
-                &stage.halton,
                 &stage.probes,
                 &stage.probe_hits,
                 &stage.film,
+                &stage.tasks,
             ],
         )
     }
@@ -327,42 +366,44 @@ impl GpuRenderer {
         )
     }
 
-    /// Renders ambient occlusion as [`crate::shade::render`] does with
-    /// [`crate::shade::Shader::Ao`]`(settings)`: `settings.samples` probes per primary hit.
+    /// Renders the paths of `tasks` with ambient occlusion as [`crate::shade::render`] does
+    /// with [`crate::shade::Shader::Ao`]`(settings)`: `settings.samples` probes per primary
+    /// hit, each path's probes seeded by its rank, so a path's value does not depend on the
+    /// launch it is in.
     ///
     /// # Errors
-    /// [`GpuError::TooLarge`] when the primary rays exceed a binding (about 4 million pixels
-    /// under lavapipe's 128 MiB) or a side of the image is not in 1..=65536, and the errors of
-    /// a trace.
+    /// [`GpuError::TooLarge`] when the launch's primary rays exceed a binding (about 4
+    /// million under lavapipe's 128 MiB), a side of the image is not in 1..=65536 or a task
+    /// reaches past the image, and the errors of a trace.
     pub fn render_ao(
         &self,
-        width: u32,
-        height: u32,
-        camera: &Camera,
+        frame: &FrameParams<'_>,
+        tasks: &[&Range<usize>],
         settings: &AoSettings,
-    ) -> Result<GpuRendering, GpuError> {
-        let start = Instant::now();
-        let stage = self.begin(width, height, camera, settings)?;
+    ) -> Result<PathValues, GpuError> {
+        let mut traffic = Traffic::default();
+        let stage = self.begin(frame, tasks, settings, &mut traffic)?;
         let n = stage.n;
         let samples = settings.samples;
-        let rendering = |film: Film, secondary_rays: usize, gpu: Option<f64>| GpuRendering {
-            film,
-            primary_rays: n as usize,
-            secondary_rays,
-            trace_gpu_seconds: gpu,
-            seconds: start.elapsed().as_secs_f64(),
-        };
         if self.scene.empty {
             // Every primary misses and sees the sky.
-            let mut film = Film::new(width, height);
-            for p in 0..n as usize {
-                film.set(p, Vec3::ONE);
-            }
-            return Ok(rendering(film, 0, None));
+            return Ok(PathValues {
+                values: vec![Vec3::ONE; n as usize],
+                rays: n as usize,
+                trace_gpu_seconds: None,
+                traffic,
+                film_bytes: 0,
+            });
         }
         let ctx = &self.ctx;
         let mut gpu_seconds = ctx.timestamps.then_some(0.0);
-        let s = self.trace(&stage.primary, &stage.hits, n, GpuMode::Closest)?;
+        let s = self.trace(
+            &stage.primary,
+            &stage.hits,
+            n,
+            GpuMode::Closest,
+            &mut traffic,
+        )?;
         gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
         let mut base = 0;
         while base < n {
@@ -374,6 +415,7 @@ impl GpuRenderer {
                     chunk: len,
                     ..stage.params
                 },
+                &mut traffic,
             );
             if samples > 0 {
                 ctx.queue
@@ -383,6 +425,7 @@ impl GpuRenderer {
                     &stage.probe_hits,
                     len * samples,
                     GpuMode::Any,
+                    &mut traffic,
                 )?;
                 gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
             }
@@ -390,49 +433,53 @@ impl GpuRenderer {
                 .submit([self.run(&self.accumulate, &group, len).finish()]);
             base += len;
         }
-        let bytes = fetch(&self.ctx, &stage.film, u64::from(n) * 4)?;
+        let film_bytes = u64::from(n) * 4;
+        let bytes = fetch(&self.ctx, &stage.film, film_bytes)?;
+        traffic.host_waits += 1;
         let values: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
-        let mut film = Film::new(width, height);
-        for (p, &v) in values.iter().enumerate() {
-            film.set(p, Vec3::splat(v));
-        }
-        Ok(rendering(film, n as usize * samples as usize, gpu_seconds))
+        Ok(PathValues {
+            values: values.into_iter().map(Vec3::splat).collect(),
+            rays: n as usize * (1 + samples as usize),
+            trace_gpu_seconds: gpu_seconds,
+            traffic,
+            film_bytes,
+        })
     }
 
-    /// The primary rays `render_ao` generates on the device, read back (the CPU's
-    /// [`Camera::primary_rays`], in its Morton order), with the pixel of each.
+    /// The primary rays a launch of `tasks` generates on the device, read back (the CPU's
+    /// [`Camera::primary_rays_of`]), with each one's rank.
     ///
     /// # Errors
     /// As [`GpuRenderer::render_ao`].
     pub fn primary_rays(
         &self,
-        width: u32,
-        height: u32,
-        camera: &Camera,
+        frame: &FrameParams<'_>,
+        tasks: &[&Range<usize>],
     ) -> Result<(Vec<GpuRay>, Vec<u32>), GpuError> {
-        let stage = self.begin(width, height, camera, &AoSettings::default())?;
+        let mut traffic = Traffic::default();
+        let stage = self.begin(frame, tasks, &AoSettings::default(), &mut traffic)?;
         let n = u64::from(stage.n);
         let rays = fetch(&self.ctx, &stage.primary, n * size_of::<GpuRay>() as u64)?;
-        let pixels = fetch(&self.ctx, &stage.pixel_of, n * 4)?;
+        let ranks = fetch(&self.ctx, &stage.ranks, n * 4)?;
         Ok((
             bytemuck::pod_collect_to_vec(&rays),
-            bytemuck::pod_collect_to_vec(&pixels),
+            bytemuck::pod_collect_to_vec(&ranks),
         ))
     }
 }
 
-/// The buffers of one render, on the device.
+/// The buffers of one launch, on the device.
 pub(super) struct Stage {
-    /// Primary rays (pixels).
+    /// Paths of the launch (slots).
     pub(super) n: u32,
     /// Primaries whose probes are traced together.
     pub(super) chunk: u32,
     pub(super) params: Params,
     pub(super) primary: wgpu::Buffer,
-    pub(super) pixel_of: wgpu::Buffer,
+    pub(super) ranks: wgpu::Buffer,
     pub(super) hits: wgpu::Buffer,
     pub(super) probes: wgpu::Buffer,
     pub(super) probe_hits: wgpu::Buffer,
     pub(super) film: wgpu::Buffer,
-    pub(super) halton: wgpu::Buffer,
+    pub(super) tasks: wgpu::Buffer,
 }

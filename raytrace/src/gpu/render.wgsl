@@ -1,17 +1,17 @@
-// The GPU-only ambient-occlusion render (issue 5): primary rays in Morton order, AO probes
-// with the CPU's Halton points and per-pixel scrambling, and the image, each stage a kernel
-// over buffers that stay on the device (the traces between them are `traverse.wgsl`'s).
-// The host puts `shading.wgsl` in front. Every function mirrors its CPU counterpart operation
-// for operation, in f32:
-// - `raygen`: `Camera::ray` and `camera::morton_order` (the pixel's rank among the image's
-//   Morton keys is counted directly, so no sort is needed);
+// The kernels of a GPU device's launch of ambient-occlusion paths: primary rays made on the
+// device for the launch's tasks (ranges of paths in the image's Morton order), AO probes
+// with the CPU's Halton points and per-path scrambling, and each path's value, every stage
+// a kernel over buffers that stay on the device (the traces between them are
+// `traverse.wgsl`'s). A launch's paths sit in slots, task after task. The host puts
+// `shading.wgsl` in front. Every function mirrors its CPU counterpart operation for
+// operation, in f32:
+// - `raygen`: `Camera::primary_rays_of` and `camera::morton_pixel`;
 // - `shade_ao`: `ao::ao_rays` (re-intersection, `Scene::surface_point`, `spawn.rs`'s offset,
 //   `Rng`'s SplitMix64 in pairs of u32, `cosine_hemisphere`, glam's `any_orthonormal_pair`);
 // - `accumulate`: `shade::ao::render`'s fraction of open probes.
 // Where results may differ from the CPU: `cos`/`sin` (WGSL does not require correct
 // rounding; Rust calls the C library's), and an edge function that is exactly 0, which the
 // CPU re-evaluates in f64 (as in `traverse.wgsl`).
-
 
 struct Params {
     // Camera: eye, and the frame `Camera::ray` builds (forward, right, up), `.w` unused.
@@ -26,7 +26,7 @@ struct Params {
     gamma8: f32,
     width: u32,
     height: u32,
-    // Primary rays (pixels).
+    // Slots of the launch: one path each.
     count: u32,
     // Probes per primary hit.
     samples: u32,
@@ -36,32 +36,30 @@ struct Params {
     // The AO seed's low and high words.
     seed_lo: u32,
     seed_hi: u32,
+    // Tasks of the launch (entries of `tasks`).
+    tasks: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read_write> primary: array<GpuRay>;
-@group(0) @binding(2) var<storage, read_write> pixels: array<u32>;
+// Per slot: the rank of its path.
+@group(0) @binding(2) var<storage, read_write> ranks: array<u32>;
 @group(0) @binding(3) var<storage, read> hits: array<vec2<u32>>;
 @group(0) @binding(4) var<storage, read> scene_tris: array<SceneTri>;
-// Halton points (radical inverses in bases 2 and 3 of 1..=samples), from the host.
-@group(0) @binding(5) var<storage, read> halton: array<vec2<f32>>;
-@group(0) @binding(6) var<storage, read_write> probes: array<GpuRay>;
-@group(0) @binding(7) var<storage, read> probe_hits: array<vec2<u32>>;
-@group(0) @binding(8) var<storage, read_write> film: array<f32>;
+@group(0) @binding(5) var<storage, read_write> probes: array<GpuRay>;
+@group(0) @binding(6) var<storage, read> probe_hits: array<vec2<u32>>;
+// Per slot: the path's grey value.
+@group(0) @binding(7) var<storage, read_write> film: array<f32>;
+// Per task of the launch: its first path's rank, and its first slot.
+@group(0) @binding(8) var<storage, read> tasks: array<vec2<u32>>;
 
 // ---- raygen ----
 
-// Bits of `v` (16 of them) spread to the even positions (`camera.rs`'s `spread`).
-fn spread(v: u32) -> u32 {
-    var x = v & 0xffffu;
-    x = (x | (x << 8u)) & 0x00ff00ffu;
-    x = (x | (x << 4u)) & 0x0f0f0f0fu;
-    x = (x | (x << 2u)) & 0x33333333u;
-    return (x | (x << 1u)) & 0x55555555u;
-}
-
-// The inverse of `spread`: the even bits of `k`, packed.
+// The even bits of `k`, packed (`camera.rs`'s `compact`).
 fn compact(k: u32) -> u32 {
     var x = k & 0x55555555u;
     x = (x | (x >> 1u)) & 0x33333333u;
@@ -70,47 +68,66 @@ fn compact(k: u32) -> u32 {
     return (x | (x >> 8u)) & 0x0000ffffu;
 }
 
-// Pixels of the image whose Morton key is below `key`: for every set bit `b` of `key`, the
-// keys sharing its bits above `b` with a 0 at `b` form an aligned block of the Z-curve, whose
-// pixels inside the image are counted as a rectangle. This is the pixel's index in the CPU's
-// sorted `morton_order`.
-fn morton_rank(key: u32) -> u32 {
-    var rank = 0u;
-    for (var b = 0u; b < 32u; b++) {
-        if (key & (1u << b)) == 0u {
-            continue;
-        }
-        // The block's lowest key: the bits above `b`, bit `b` cleared, the rest 0.
-        let low = (key >> b >> 1u) << b << 1u;
-        // Free x bits are the even positions below `b`, free y bits the odd ones.
+// The pixel at Morton rank `rank` (`camera.rs`'s `morton_pixel`): from the top bit down, the
+// aligned block of the Z-curve with that bit clear holds a rectangle of the image's pixels;
+// a rank past them lies in the block with the bit set.
+fn morton_pixel(rank_in: u32) -> u32 {
+    var rank = rank_in;
+    var key = 0u;
+    for (var i = 0u; i < 32u; i++) {
+        let b = 31u - i;
         let fx = (b + 1u) / 2u;
         let fy = b / 2u;
-        let x0 = compact(low);
-        let y0 = compact(low >> 1u);
+        let x0 = compact(key);
+        let y0 = compact(key >> 1u);
         let cx = select(0u, min(params.width - x0, 1u << fx), x0 < params.width);
         let cy = select(0u, min(params.height - y0, 1u << fy), y0 < params.height);
-        rank += cx * cy;
+        // At most 2^32 - 1 pixels are inside: the image is checked on the host.
+        let inside = cx * cy;
+        if rank >= inside {
+            rank -= inside;
+            key |= 1u << b;
+        }
     }
-    return rank;
+    return compact(key >> 1u) * params.width + compact(key);
 }
 
+// The launch's slot `s` belongs to the last task whose first slot is at most `s`.
+fn task_of(s: u32) -> u32 {
+    var lo = 0u;
+    var hi = params.tasks;
+    while hi - lo > 1u {
+        let mid = (lo + hi) / 2u;
+        if tasks[mid].y <= s {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    return lo;
+}
+
+// Slot `s` of the launch: the primary ray of its path (`Camera::primary_rays_of`), and the
+// path's rank (its index in the image's Morton order), which seeds its AO probes.
 @compute @workgroup_size(64)
 fn raygen(inv: Invocation) {
-    let p = flat(inv);
-    if p >= params.count {
+    let s = flat(inv);
+    if s >= params.count {
         return;
     }
+    let task = tasks[task_of(s)];
+    let rank = task.x + (s - task.y);
+    let p = morton_pixel(rank);
     let x = p % params.width;
     let y = p / params.width;
-    let rank = morton_rank(spread(x) | (spread(y) << 1u));
     let fw = f32(params.width);
     let fh = f32(params.height);
     let px = (((f32(x) + 0.5) / fw) * 2.0 - 1.0) * params.plane_w;
     let py = (1.0 - ((f32(y) + 0.5) / fh) * 2.0) * params.plane_h;
     let d = (params.fwd.xyz + px * params.right.xyz) + py * params.up.xyz;
     let dir = d * (1.0 / sqrt(dot3(d, d)));
-    primary[rank] = GpuRay(vec4<f32>(params.eye.xyz, 0.0), vec4<f32>(dir, bitcast<f32>(0x7f800000u)));
-    pixels[rank] = p;
+    primary[s] = GpuRay(vec4<f32>(params.eye.xyz, 0.0), vec4<f32>(dir, bitcast<f32>(0x7f800000u)));
+    ranks[s] = rank;
 }
 
 // ---- AO probes ----
@@ -162,6 +179,20 @@ fn next_f32(state: ptr<function, vec2<u32>>) -> f32 {
     return f32(next_u64(state).y >> 8u) * (1.0 / 16777216.0);
 }
 
+// `ao::radical_inverse(i, base)`: the Halton sequence's coordinate, by the same operations.
+fn radical_inverse(index: u32, base: u32) -> f32 {
+    var i = index;
+    let inv = 1.0 / f32(base);
+    var f = inv;
+    var r = 0.0;
+    while i > 0u {
+        r += f * f32(i % base);
+        i /= base;
+        f *= inv;
+    }
+    return min(r, 1.0 - bitcast<f32>(0x34000000u) / 2.0);
+}
+
 // Writes the probes of primary ray `i` to slots `(i - base)·samples ..`; a primary that
 // spawns none (a miss) gets probes with an empty range, which `accumulate` does not count.
 @compute @workgroup_size(64)
@@ -191,8 +222,8 @@ fn shade_ao(inv: Invocation) {
     let sp = surface_point(tri, q.y, q.z, params.gamma8);
     let n = sp.n;
     let facing = select(-n, n, dot3(n, r.dir.xyz) < 0.0);
-    // `Rng::new(seed ^ i·golden)` (the state starts xor-ed with the golden ratio again).
-    var state = mul64(vec2<u32>(i, 0u), GOLDEN) ^ vec2<u32>(params.seed_lo, params.seed_hi) ^ GOLDEN;
+    // `Rng::new(seed ^ rank·golden)` (the state starts xor-ed with the golden ratio again).
+    var state = mul64(vec2<u32>(ranks[i], 0u), GOLDEN) ^ vec2<u32>(params.seed_lo, params.seed_hi) ^ GOLDEN;
     let s1 = next_f32(&state);
     let s2 = next_f32(&state);
     // glam's `any_orthonormal_pair` of `facing`.
@@ -202,7 +233,7 @@ fn shade_ao(inv: Invocation) {
     let tan = vec3<f32>(1.0 + sign * facing.x * facing.x * a, sign * bb, -sign * facing.x);
     let bit = vec3<f32>(bb, sign + facing.y * facing.y * a, -facing.y);
     for (var s = 0u; s < params.samples; s++) {
-        let h = halton[s];
+        let h = vec2<f32>(radical_inverse(s + 1u, 2u), radical_inverse(s + 1u, 3u));
         let u1 = fract(h.x + s1);
         let u2 = fract(h.y + s2);
         // `cosine_hemisphere`.
@@ -218,7 +249,7 @@ fn shade_ao(inv: Invocation) {
     }
 }
 
-// The pixel of primary ray `i`: the fraction of its probes that escaped, 1 without probes.
+// The value of slot `i`'s path: the fraction of its probes that escaped, 1 without probes.
 @compute @workgroup_size(64)
 fn accumulate(inv: Invocation) {
     let k = flat(inv);
@@ -242,5 +273,5 @@ fn accumulate(inv: Invocation) {
     if sent != 0u {
         value = f32(open) / f32(sent);
     }
-    film[pixels[i]] = value;
+    film[i] = value;
 }

@@ -187,7 +187,17 @@ fn run(
     copy(ctx, "cobalt ray upload", &s.upload, &s.rays, n * RAY_BYTES);
     // `n` is at most one binding of rays, far below 2^32.
     let count = u32::try_from(n).unwrap_or(u32::MAX);
-    let seconds = trace_resident(ctx, kernels, scene, &s.rays, &s.out, count, mode, threads)?;
+    let seconds = trace_resident(
+        ctx,
+        kernels,
+        scene,
+        &s.rays,
+        &s.out,
+        count,
+        mode,
+        threads,
+        &mut crate::paths::Traffic::default(),
+    )?;
     copy(
         ctx,
         "cobalt results read-back",

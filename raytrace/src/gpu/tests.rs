@@ -12,7 +12,9 @@ use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers, pack_rays};
 use super::pipeline::{BATCHES, GpuMode, Kernels, MAX_WORKGROUPS, Threads, launch, launch_timed};
-use super::{GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, GpuRenderer};
+use super::{
+    FrameParams, GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, GpuRenderer,
+};
 use crate::cost::{Compacted, ReducedTraversal, SampleRate, full_work};
 use crate::devices::GpuSelect;
 use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, WhittedSettings, render};
@@ -544,10 +546,24 @@ fn raygen_equals_cpu_primary_rays() {
     for (w, h, cam) in [(64, 64, 0), (128, 32, 1), (37, 23, 2), (1, 5, 3)] {
         let camera = Camera::thesis(&scene.bounds(), cam);
         let cpu = camera.primary_rays(w, h);
-        let (rays, pixels) = renderer.primary_rays(w, h, &camera).expect("raygen");
-        assert_eq!(pixels, cpu.pixels, "{w}x{h}: Morton order");
-        let all = 0..cpu.rays.len();
-        let want = pack_rays(&cpu.rays, &[&all]);
+        let n = cpu.rays.len();
+        // Two tasks, the later one first: a launch's slots follow its task list.
+        let (late, early) = (n / 3..n, 0..n / 3);
+        let frame = FrameParams {
+            width: w,
+            height: h,
+            camera: &camera,
+        };
+        let (rays, ranks) = renderer
+            .primary_rays(&frame, &[&late, &early])
+            .expect("raygen");
+        let order: Vec<u32> = late
+            .clone()
+            .chain(early.clone())
+            .map(|r| r as u32)
+            .collect();
+        assert_eq!(ranks, order, "{w}x{h}: ranks");
+        let want = pack_rays(&cpu.rays, &[&late, &early]);
         if exact {
             assert_eq!(rays, want, "{w}x{h}: rays");
             continue;
@@ -569,6 +585,33 @@ fn raygen_equals_cpu_primary_rays() {
         eprintln!("{w}x{h}: worst ray component differs by {worst}");
         assert!(worst <= 1e-5, "{w}x{h}: a ray differs by {worst}");
     }
+}
+
+/// Every path of `options`' image rendered on `renderer` in one launch of three tasks of
+/// uneven sizes, listed out of order, and placed at their pixels.
+fn gpu_film(
+    renderer: &GpuRenderer,
+    options: &RenderOptions,
+) -> Result<(crate::Film, crate::gpu::PathValues), GpuError> {
+    let (w, h) = (options.width, options.height);
+    let n = (w * h) as usize;
+    let tasks = [n / 2..n, 0..n / 7, n / 7..n / 2];
+    let refs: Vec<&std::ops::Range<usize>> = tasks.iter().collect();
+    let frame = FrameParams {
+        width: w,
+        height: h,
+        camera: &options.camera,
+    };
+    let out = match options.shader {
+        Shader::Ao(s) => renderer.render_ao(&frame, &refs, &s),
+        Shader::Whitted(s) => renderer.render_whitted(&frame, &refs, &s),
+    }?;
+    let order = crate::camera::morton_order(w, h);
+    let mut film = crate::Film::new(w, h);
+    for (rank, &v) in tasks.iter().flat_map(|t| t.clone()).zip(&out.values) {
+        film.set(order[rank] as usize, v);
+    }
+    Ok((film, out))
 }
 
 /// The GPU's AO image against `shade::render` with the same settings. Both compute in f32 with
@@ -597,14 +640,11 @@ fn check_ao_image(name: &str, samples: u32, split: bool) {
     };
     let options = RenderOptions::new(w, h, camera, Shader::Ao(settings));
     let cpu = render(&scene, &mut CpuTracer::new(&bvh), &options).film;
-    let gpu = renderer
-        .render_ao(w, h, &camera, &settings)
-        .expect("GPU render");
-    assert_eq!(gpu.primary_rays, (w * h) as usize);
+    let (gpu, _) = gpu_film(&renderer, &options).expect("GPU render");
     let diffs: Vec<f32> = cpu
         .pixels()
         .iter()
-        .zip(gpu.film.pixels())
+        .zip(gpu.pixels())
         .map(|(c, g)| (c.x - g.x).abs())
         .collect();
     let differ = diffs.iter().filter(|&&d| d > 0.0).count();
@@ -624,14 +664,13 @@ fn check_ao_image(name: &str, samples: u32, split: bool) {
     );
     assert!(mean <= 1e-3, "{name}: mean {mean}");
     // The image is not trivial: some pixels are occluded, some open.
-    let grey: Vec<f32> = gpu.film.pixels().iter().map(|p| p.x).collect();
+    let grey: Vec<f32> = gpu.pixels().iter().map(|p| p.x).collect();
     assert!(grey.iter().any(|&v| v < 0.9) && grey.contains(&1.0));
     if split {
         // Under the lowered limit the materials and normals do not fit: AO renders without
         // them, Whitted is refused naming them.
-        let e = renderer
-            .render_whitted(w, h, &camera, &WhittedSettings::default())
-            .expect_err("materials beyond the limit");
+        let whitted = RenderOptions::new(w, h, camera, Shader::Whitted(WhittedSettings::default()));
+        let e = gpu_film(&renderer, &whitted).expect_err("materials beyond the limit");
         assert!(e.to_string().contains("materials and normals"), "{e}");
     }
 }
@@ -680,14 +719,12 @@ fn check_whitted_image(name: &str, bent: bool) {
     let camera = Camera::thesis(&scene.bounds(), 2);
     let options = RenderOptions::new(w, h, camera, shader);
     let cpu = render(&scene, &mut CpuTracer::new(&bvh), &options);
-    let gpu = renderer
-        .render_whitted(w, h, &camera, &WhittedSettings::default())
-        .expect("GPU render");
+    let (gpu, _) = gpu_film(&renderer, &options).expect("GPU render");
     let diffs: Vec<f32> = cpu
         .film
         .pixels()
         .iter()
-        .zip(gpu.film.pixels())
+        .zip(gpu.pixels())
         .map(|(c, g)| (*c - *g).abs().max_element())
         .collect();
     // Rounding (see `bit_exact`) moves a pixel by far less than this; a tie that picks
@@ -711,7 +748,7 @@ fn check_whitted_image(name: &str, bent: bool) {
     // The image is not trivial: shadow rays and mirror rays were traced, and lit.
     assert!(cpu.generations.len() >= 3, "{:?}", cpu.generations);
     let distinct: std::collections::BTreeSet<u32> =
-        gpu.film.pixels().iter().map(|p| p.x.to_bits()).collect();
+        gpu.pixels().iter().map(|p| p.x.to_bits()).collect();
     assert!(
         distinct.len() > 50,
         "{name}: {} distinct values",
@@ -728,4 +765,73 @@ fn cornell_whitted_image_matches_cpu() {
 #[test]
 fn forest_whitted_image_matches_cpu() {
     check_whitted_image("builtin:forest:0.05", false);
+}
+
+/// One GPU through `sched`'s path renderer: the image is the one the device's kernels give
+/// (the CPU's, within the tolerances of `check_ao_image`), and what crosses the bus grows
+/// with the tasks, not with the rays: at most 64 bytes a task for a static plan (one launch),
+/// the same for 8 and 16 AO probes a path, and 4 bytes of film a path.
+#[test]
+fn a_scheduled_gpu_frame_moves_bytes_by_task_not_by_ray() {
+    use crate::paths::{GpuPaths, PathDevice, PathRenderer};
+    use crate::scheduled::{Mode, Settings};
+    let Some(ctx) = gpu() else { return };
+    let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
+    let (w, h) = (96, 80);
+    let camera = Camera::thesis(&scene.bounds(), 0);
+    let mut seen = Vec::new();
+    for samples in [8, 16] {
+        let settings = AoSettings {
+            samples,
+            ..AoSettings::default()
+        };
+        let options = RenderOptions::new(w, h, camera, Shader::Ao(settings));
+        let device: Box<dyn PathDevice> =
+            Box::new(GpuPaths::new(ctx.clone(), &scene, &bvh).expect("device"));
+        let mut r = PathRenderer::new(
+            vec![device],
+            Settings {
+                policy: sched::Policy::StaticLpt,
+                mode: Mode::Cost,
+                task_size: std::num::NonZeroUsize::new(256).expect("positive"),
+                ..Settings::default()
+            },
+        )
+        .expect("renderer");
+        let frame = r.render(&scene, &bvh, &options).expect("frame");
+        let stats = &frame.stats;
+        let traffic = stats.traffic();
+        eprintln!(
+            "{samples} probes: {} tasks, {} launches, {traffic:?}, film {} bytes",
+            stats.tasks,
+            stats.launches(),
+            stats.film_bytes()
+        );
+        assert_eq!(stats.launches(), 1);
+        assert!(traffic.bytes() <= 64 * stats.tasks as u64, "{traffic:?}");
+        assert_eq!(stats.film_bytes(), u64::from(w * h) * 4);
+        let cpu = render(&scene, &mut CpuTracer::new(&bvh), &options).film;
+        let (kernels, _) = gpu_film(
+            &GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer"),
+            &options,
+        )
+        .expect("kernels");
+        assert_eq!(
+            frame.film, kernels,
+            "the launch's tasks do not change a path"
+        );
+        let differ = cpu
+            .pixels()
+            .iter()
+            .zip(frame.film.pixels())
+            .filter(|(c, g)| c != g)
+            .count();
+        eprintln!(
+            "{samples} probes: {differ} of {} pixels differ from the CPU's",
+            w * h
+        );
+        assert!(differ * 100 <= (w * h) as usize, "{differ} pixels differ");
+        seen.push(traffic);
+    }
+    assert_eq!(seen[0], seen[1], "traffic does not grow with the probes");
 }

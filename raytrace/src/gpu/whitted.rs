@@ -1,13 +1,14 @@
-//! Whitted shading on the GPU ([`GpuRenderer::render_whitted`]): primary rays from the render
-//! kernels' `raygen`, then per bounce a closest-hit trace, `whitted.wgsl`'s `shade` (emission,
-//! ambient, one shadow ray per light, the mirror ray), an any-hit trace of the shadow rays and
-//! `shadows` (their light); every buffer stays on the device until the image is read back.
+//! Whitted shading on the GPU ([`GpuRenderer::render_whitted`]): a launch's primary rays
+//! from the path kernels' `raygen`, then per bounce a closest-hit trace, `whitted.wgsl`'s
+//! `shade` (emission, ambient, one shadow ray per light, the mirror ray), an any-hit trace of
+//! the shadow rays and `shadows` (their light); every buffer stays on the device until the
+//! paths' values are read back.
 //!
 //! Every path keeps its slot through the bounces (a finished one traces an empty-range ray),
-//! so nothing is compacted between generations; the image is [`crate::shade::render`]'s with
-//! [`crate::shade::Shader::Whitted`] up to the differences `shading.wgsl` lists.
+//! so nothing is compacted between generations; the values are [`crate::shade::render`]'s
+//! with [`crate::shade::Shader::Whitted`] up to the differences `shading.wgsl` lists.
 
-use std::time::Instant;
+use std::ops::Range;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -15,10 +16,11 @@ use glam::Vec3;
 use super::buffers::{GpuRay, RESULT_BYTES, check_size, fetch, init};
 use super::pipeline::GpuMode;
 use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
-use super::render::{GpuRenderer, GpuRendering};
+use super::render::{FrameParams, GpuRenderer, PathValues};
 use super::{GpuContext, GpuError};
+use crate::paths::Traffic;
 use crate::shade::{AMBIENT, AoSettings, SKY, WhittedSettings};
-use crate::{Camera, Film, Light, Scene};
+use crate::{Light, Scene};
 
 /// `whitted.wgsl`'s `struct Params`.
 #[repr(C)]
@@ -50,6 +52,7 @@ struct PrimShading {
 #[derive(Debug)]
 pub(crate) struct WhittedKernels {
     program: Program,
+    start: wgpu::ComputePipeline,
     shade: wgpu::ComputePipeline,
     shadows: wgpu::ComputePipeline,
     /// Materials and normals by primitive, or why they do not fit one binding (an AO render
@@ -117,6 +120,7 @@ impl WhittedKernels {
         );
         let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
         Self {
+            start: make("start", "cobalt Whitted path start pipeline"),
             shade: make("shade", "cobalt Whitted shading pipeline"),
             shadows: make("shadows", "cobalt Whitted shadows pipeline"),
             program,
@@ -130,29 +134,38 @@ impl WhittedKernels {
 }
 
 impl GpuRenderer {
-    /// Renders Whitted shading as [`crate::shade::render`] does with
-    /// [`crate::shade::Shader::Whitted`]`(settings)`, with the scene's materials, normals and
-    /// lights (those of the scene this renderer was made with).
+    /// Renders the paths of `tasks` with Whitted shading as [`crate::shade::render`] does
+    /// with [`crate::shade::Shader::Whitted`]`(settings)`, with the scene's materials,
+    /// normals and lights (those of the scene this renderer was made with).
     ///
     /// # Errors
-    /// [`GpuError::TooLarge`] when the primary rays, the shadow rays (one per pixel and
-    /// light) or the scene's materials and normals exceed a binding, or a side of the image is not in 1..=65536, and the errors of
-    /// a trace.
+    /// [`GpuError::TooLarge`] when the launch's primary rays, its shadow rays (one per path
+    /// and light) or the scene's materials and normals exceed a binding, a side of the image
+    /// is not in 1..=65536 or a task reaches past the image, and the errors of a trace.
     pub fn render_whitted(
         &self,
-        width: u32,
-        height: u32,
-        camera: &Camera,
+        frame: &FrameParams<'_>,
+        tasks: &[&Range<usize>],
         settings: &WhittedSettings,
-    ) -> Result<GpuRendering, GpuError> {
-        let start = Instant::now();
-        // No probes: the stage's probe buffer (one ray per pixel) holds the mirror rays.
+    ) -> Result<PathValues, GpuError> {
+        // No probes: the stage's probe buffer (one ray per path) holds the mirror rays.
         let no_probes = AoSettings {
             samples: 0,
             ..AoSettings::default()
         };
-        let stage = self.begin(width, height, camera, &no_probes)?;
+        let mut traffic = Traffic::default();
+        let stage = self.begin(frame, tasks, &no_probes, &mut traffic)?;
         let n = stage.n;
+        if self.scene.empty {
+            // Every primary misses and sees the sky.
+            return Ok(PathValues {
+                values: vec![SKY; n as usize],
+                rays: n as usize,
+                trace_gpu_seconds: None,
+                traffic,
+                film_bytes: 0,
+            });
+        }
         let ctx = &self.ctx;
         let device = &ctx.device;
         let w = &self.whitted;
@@ -163,14 +176,10 @@ impl GpuRenderer {
         check_size(ctx, "shadow rays", slots * ray_bytes)?;
         let storage = |label: &str, size: u64, usage| self.scratch(label, size, usage);
         let none = wgpu::BufferUsages::empty();
-        let paths = init(
-            device,
-            "cobalt Whitted paths",
-            bytemuck::cast_slice(&vec![[1.0f32; 4]; n as usize]),
-            wgpu::BufferUsages::STORAGE,
-        );
+        // Every path starts alive with weight 1; a kernel sets them, so nothing is uploaded.
+        let paths = storage("cobalt Whitted paths", u64::from(n) * 16, none);
         let film = storage(
-            "cobalt Whitted film",
+            "cobalt Whitted path values",
             u64::from(n) * 16,
             wgpu::BufferUsages::COPY_SRC,
         );
@@ -188,7 +197,8 @@ impl GpuRenderer {
             shadow_tmax: 1.0 - 1e-4,
             has_normals: u32::from(w.has_normals),
         };
-        let bind = |params: &Params, rays: &wgpu::Buffer, next: &wgpu::Buffer| {
+        let mut bind = |params: &Params, rays: &wgpu::Buffer, next: &wgpu::Buffer| {
+            traffic.host_to_device_bytes += size_of::<Params>() as u64;
             w.program.bind_params(
                 device,
                 "Whitted",
@@ -200,7 +210,7 @@ impl GpuRenderer {
                     prims,
                     &w.lights,
                     &paths,
-                    &stage.pixel_of,
+                    &stage.ranks,
                     &film,
                     &shadow_rays,
                     &shadow_light,
@@ -209,44 +219,46 @@ impl GpuRenderer {
                 ],
             )
         };
+        let start = bind(&base, &stage.primary, &stage.probes);
+        ctx.queue.submit([self.run(&w.start, &start, n).finish()]);
+        let mut groups = Vec::new();
+        let (mut rays, mut next) = (&stage.primary, &stage.probes);
+        for bounce in 0..=settings.bounces {
+            groups.push(bind(&Params { bounce, ..base }, rays, next));
+            std::mem::swap(&mut rays, &mut next);
+        }
         let mut gpu_seconds = ctx.timestamps.then_some(0.0);
         let mut traced = 0usize;
         let (mut rays, mut next) = (&stage.primary, &stage.probes);
-        if !self.scene.empty {
-            for bounce in 0..=settings.bounces {
-                let s = self.trace(rays, &stage.hits, n, GpuMode::Closest)?;
+        for group in &groups {
+            let s = self.trace(rays, &stage.hits, n, GpuMode::Closest, &mut traffic)?;
+            gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
+            ctx.queue.submit([self.run(&w.shade, group, n).finish()]);
+            if lights > 0 {
+                // `slots` fits one binding, so far below 2^32.
+                let s = self.trace(
+                    &shadow_rays,
+                    &shadow_hits,
+                    slots as u32,
+                    GpuMode::Any,
+                    &mut traffic,
+                )?;
                 gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
-                let group = bind(&Params { bounce, ..base }, rays, next);
-                ctx.queue.submit([self.run(&w.shade, &group, n).finish()]);
-                if lights > 0 {
-                    // `slots` fits one binding, so far below 2^32.
-                    let s = self.trace(&shadow_rays, &shadow_hits, slots as u32, GpuMode::Any)?;
-                    gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
-                    ctx.queue.submit([self.run(&w.shadows, &group, n).finish()]);
-                }
-                traced += n as usize + slots as usize;
-                std::mem::swap(&mut rays, &mut next);
+                ctx.queue.submit([self.run(&w.shadows, group, n).finish()]);
             }
+            traced += n as usize + slots as usize;
+            std::mem::swap(&mut rays, &mut next);
         }
-        let bytes = fetch(&self.ctx, &film, u64::from(n) * 16)?;
+        let film_bytes = u64::from(n) * 16;
+        let bytes = fetch(&self.ctx, &film, film_bytes)?;
+        traffic.host_waits += 1;
         let values: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-        let mut out = Film::new(width, height);
-        if self.scene.empty {
-            // Every primary misses and sees the sky.
-            for p in 0..n as usize {
-                out.set(p, SKY);
-            }
-        } else {
-            for (p, v) in values.iter().enumerate() {
-                out.set(p, Vec3::new(v[0], v[1], v[2]));
-            }
-        }
-        Ok(GpuRendering {
-            film: out,
-            primary_rays: n as usize,
-            secondary_rays: traced.saturating_sub(n as usize),
+        Ok(PathValues {
+            values: values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect(),
+            rays: traced,
             trace_gpu_seconds: gpu_seconds,
-            seconds: start.elapsed().as_secs_f64(),
+            traffic,
+            film_bytes,
         })
     }
 }

@@ -1,6 +1,6 @@
 // Whitted shading on the GPU (issue 5), mirroring `shade/whitted.rs` and `shade/surface.rs`
-// operation for operation in f32 (the host puts `shading.wgsl` in front). One path per pixel,
-// in the primary rays' Morton order; a generation keeps every path's slot, and a path that
+// operation for operation in f32 (the host puts `shading.wgsl` in front). One path per slot of
+// the launch; a generation keeps every path's slot, and a path that
 // ended (a miss, or no mirror) traces an empty-range ray that ends at once and adds nothing:
 // - `shade`: a hit's emission, ambient term, one shadow ray per light facing the surface
 //   (with what it adds if nothing blocks it), and the mirror ray with the path's new weight;
@@ -48,8 +48,9 @@ struct Light {
 @group(0) @binding(5) var<storage, read> lights: array<Light>;
 // Per path: its weight, and `.w` 1 while it is alive.
 @group(0) @binding(6) var<storage, read_write> paths: array<vec4<f32>>;
-@group(0) @binding(7) var<storage, read> pixels: array<u32>;
-// Per pixel: linear RGB (`.w` unused).
+// Per slot: its path's rank (unused here: a path's value stays in its slot).
+@group(0) @binding(7) var<storage, read> ranks: array<u32>;
+// Per path: linear RGB (`.w` unused).
 @group(0) @binding(8) var<storage, read_write> film: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read_write> shadow_rays: array<GpuRay>;
 // Per shadow slot: the light it adds if unblocked, `.w` 1 when the ray was spawned.
@@ -107,7 +108,7 @@ fn shade(inv: Invocation) {
         return;
     }
     let weight = path.xyz;
-    let pixel = pixels[k];
+    let pixel = k;
     let hit = hits[k];
     if hit.y == MISS {
         add(pixel, weight * params.sky.xyz);
@@ -160,6 +161,17 @@ fn shade(inv: Invocation) {
     }
 }
 
+// Every path of the launch alive, with weight 1, and nothing added yet.
+@compute @workgroup_size(64)
+fn start(inv: Invocation) {
+    let k = flat(inv);
+    if k >= params.count {
+        return;
+    }
+    paths[k] = vec4<f32>(1.0);
+    film[k] = vec4<f32>(0.0);
+}
+
 @compute @workgroup_size(64)
 fn shadows(inv: Invocation) {
     let k = flat(inv);
@@ -170,7 +182,7 @@ fn shadows(inv: Invocation) {
     for (var l = 0u; l < params.lights; l++) {
         let light = shadow_light[first + l];
         if light.w > 0.0 && shadow_hits[first + l].y == MISS {
-            add(pixels[k], light.xyz);
+            add(k, light.xyz);
         }
     }
 }

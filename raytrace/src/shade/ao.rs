@@ -41,21 +41,24 @@ impl AoSettings {
 }
 
 /// Shades `primary` into `film`: grey `1` is unoccluded (and the sky, where primaries miss).
+/// `ranks` are the primary rays' paths, which seed their probes (`None`: ray `i` is path `i`).
 pub(crate) fn render<T: Tracer + ?Sized>(
     scene: &Scene,
     gens: &mut Generations<'_, T>,
     primary: PrimaryRays,
     film: &mut Film,
     settings: AoSettings,
+    ranks: Option<&[u32]>,
 ) {
     let hits = gens.trace(RayKind::Primary, 0, &primary.rays);
-    let probes = crate::ao::ao_rays(
+    let probes = crate::ao::ao_rays_of_paths(
         scene,
         &primary.rays,
         &hits,
         settings.samples,
         settings.distance(scene),
         settings.seed,
+        ranks,
     );
     let blocked = gens.trace(RayKind::Ao, 1, &probes.rays);
     let n = primary.rays.len();

@@ -157,7 +157,7 @@ pub fn render<T: Tracer + ?Sized>(
     let mut film = Film::new(w, h);
     let mut gens = Generations::new(tracer);
     match options.shader {
-        Shader::Ao(s) => ao::render(scene, &mut gens, primary, &mut film, s),
+        Shader::Ao(s) => ao::render(scene, &mut gens, primary, &mut film, s, None),
         Shader::Whitted(s) => whitted::render(scene, &mut gens, primary, &mut film, s),
     }
     let seconds = camera_seconds + start.elapsed().as_secs_f64();
@@ -167,5 +167,46 @@ pub fn render<T: Tracer + ?Sized>(
         primary_counts,
         count_seconds,
         seconds,
+    }
+}
+
+/// What [`render_paths`] made: one value per path, and the generations it traced.
+#[derive(Clone, Debug, Default)]
+pub struct PathRendering {
+    /// Each path's radiance (grey for ambient occlusion), in the order of the ranks given.
+    pub values: Vec<glam::Vec3>,
+    /// Every traced generation, in order.
+    pub generations: Vec<Generation>,
+}
+
+/// Renders the paths `ranks` (indices into the image's Morton order) of `options`' image,
+/// tracing through `tracer`: each path's value is the one [`render`] gives its pixel, bit for
+/// bit, whatever other paths are rendered with it. Shading runs in the caller's rayon pool.
+///
+/// # Panics
+/// Panics if a side of the image exceeds 65536 pixels or a rank is outside the image.
+pub fn render_paths<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &mut T,
+    options: &RenderOptions,
+    ranks: &[u32],
+) -> PathRendering {
+    let (w, h) = (options.width, options.height);
+    let mut primary = options
+        .camera
+        .primary_rays_of(w, h, ranks.iter().map(|&r| r as usize));
+    // Shading writes each path's value at its place in `ranks`, into a film of one row.
+    primary.pixels = (0..ranks.len() as u32).collect();
+    let mut film = Film::new(ranks.len().max(1) as u32, 1);
+    let mut gens = Generations::new(tracer);
+    match options.shader {
+        Shader::Ao(s) => ao::render(scene, &mut gens, primary, &mut film, s, Some(ranks)),
+        Shader::Whitted(s) => whitted::render(scene, &mut gens, primary, &mut film, s),
+    }
+    let mut values = film.pixels().to_vec();
+    values.truncate(ranks.len());
+    PathRendering {
+        values,
+        generations: gens.log,
     }
 }

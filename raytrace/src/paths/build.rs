@@ -1,0 +1,114 @@
+//! The one place where a `--devices` list becomes path devices: CPU entries become
+//! [`CpuPaths`], numbered in list order; GPU entries become [`super::GpuPaths`], one per
+//! adapter (with the `gpu` feature).
+
+use super::{CpuPaths, FailingPaths, PathDevice};
+use crate::devices::DeviceSpec;
+use crate::scheduled::FailAfter;
+use crate::{Bvh, Error, Result, Scene};
+
+/// The devices of `specs` for `scene` (with its `bvh`), with `faults` injected; the error
+/// names the entry or fault at fault.
+///
+/// GPU entries open adapters (see [`crate::gpu::context`]) and upload the scene to each.
+/// Where `gpu:all` finds no usable adapter but the list has other devices, a note says so
+/// once on stderr and the others render alone; a list left with no device is an error.
+pub fn build_path_devices<'a>(
+    scene: &'a Scene,
+    bvh: &'a Bvh,
+    specs: &[DeviceSpec],
+    faults: &[FailAfter],
+) -> Result<Vec<Box<dyn PathDevice + 'a>>> {
+    let mut devices: Vec<Box<dyn PathDevice + 'a>> = Vec::new();
+    let mut cpu_count = 0;
+    let mut skipped_gpu = None;
+    for spec in specs {
+        match *spec {
+            DeviceSpec::Cpu { count, threads } => {
+                let cpus = CpuPaths::many(cpu_count, count, threads)?;
+                cpu_count += cpus.len();
+                devices.extend(
+                    cpus.into_iter()
+                        .map(|cpu| Box::new(cpu) as Box<dyn PathDevice + 'a>),
+                );
+            }
+            DeviceSpec::Gpu(select) => match gpu_devices(scene, bvh, select, spec)? {
+                Ok(gpus) => devices.extend(gpus),
+                Err(why) => skipped_gpu = Some((spec.to_string(), why)),
+            },
+        }
+    }
+    if let Some((arg, why)) = skipped_gpu {
+        if devices.is_empty() {
+            return Err(Error::DeviceArg { arg, why });
+        }
+        eprintln!("note: {arg}: {why}; rendering without a GPU");
+    }
+    let m = devices.len();
+    if let Some(f) = faults.iter().find(|f| f.device >= m) {
+        return Err(Error::DeviceArg {
+            arg: format!("{}@{}", f.device, f.tasks),
+            why: format!("no device {} to fail (there are {m})", f.device),
+        });
+    }
+    Ok(devices
+        .into_iter()
+        .enumerate()
+        .map(|(i, d)| {
+            // The earliest of several faults on one device is the one that happens.
+            let fault = faults
+                .iter()
+                .filter(|f| f.device == i)
+                .map(|f| f.tasks)
+                .min();
+            match fault {
+                Some(tasks) => Box::new(FailingPaths::new(d, tasks)),
+                None => d,
+            }
+        })
+        .collect())
+}
+
+/// The GPU devices of one entry: `Ok(Err(why))` when `gpu:all` finds no adapter (skippable),
+/// `Err` for anything else that fails.
+#[cfg(feature = "gpu")]
+#[allow(clippy::type_complexity)] // the two levels of failure, as the ray devices have them
+fn gpu_devices<'a>(
+    scene: &'a Scene,
+    bvh: &'a Bvh,
+    select: crate::devices::GpuSelect,
+    spec: &DeviceSpec,
+) -> Result<std::result::Result<Vec<Box<dyn PathDevice + 'a>>, String>> {
+    use crate::gpu::{GpuContext, GpuError, GpuOptions};
+    let bad = |e: GpuError| Error::DeviceArg {
+        arg: spec.to_string(),
+        why: e.to_string(),
+    };
+    let contexts = match GpuContext::open(select, GpuOptions::from_env()) {
+        Ok(c) => c,
+        Err(e @ GpuError::NoAdapter { .. }) => return Ok(Err(e.to_string())),
+        Err(e) => return Err(bad(e)),
+    };
+    let mut out: Vec<Box<dyn PathDevice + 'a>> = Vec::new();
+    for ctx in contexts {
+        out.push(Box::new(
+            super::GpuPaths::new(ctx, scene, bvh).map_err(bad)?,
+        ));
+    }
+    Ok(Ok(out))
+}
+
+/// Without the `gpu` feature, GPU entries are refused.
+#[cfg(not(feature = "gpu"))]
+#[allow(clippy::type_complexity)]
+fn gpu_devices<'a>(
+    _: &'a Scene,
+    _: &'a Bvh,
+    _: crate::devices::GpuSelect,
+    spec: &DeviceSpec,
+) -> Result<std::result::Result<Vec<Box<dyn PathDevice + 'a>>, String>> {
+    Err(Error::DeviceArg {
+        arg: spec.to_string(),
+        why: String::from("this build has no GPU support (the `gpu` feature of raytrace)"),
+    })
+}

@@ -1,0 +1,163 @@
+//! What a path-resident device is, and how one becomes a [`sched::Executor`] for one frame.
+//!
+//! A task is a range of paths: indices into the image's Morton order. The device that runs a
+//! task makes its primary rays itself (from the camera), traces and shades every generation
+//! of those paths where their rays are, and hands back one value per path. Nothing else of a
+//! path leaves the device, so what crosses a link grows with the tasks, not with the rays.
+
+use std::ops::Range;
+
+use glam::Vec3;
+use sched::{DeviceError, Executor, Sink};
+
+use super::Traffic;
+use crate::shade::RenderOptions;
+use crate::{Bvh, Scene};
+
+/// What one frame renders: the scene, its BVH and the image, camera and shader.
+#[derive(Clone, Copy)]
+pub struct Frame<'a> {
+    /// The scene, for shading.
+    pub scene: &'a Scene,
+    /// Its BVH, for tracing.
+    pub bvh: &'a Bvh,
+    /// The image, camera and shader.
+    pub options: &'a RenderOptions,
+}
+
+impl Frame<'_> {
+    /// Paths in the image: one per pixel.
+    pub fn paths(&self) -> usize {
+        self.options.width as usize * self.options.height as usize
+    }
+}
+
+/// What one launch of tasks produced on a device.
+#[derive(Clone, Debug, Default)]
+pub struct Launch {
+    /// Each path's radiance, task after task as launched.
+    pub values: Vec<Vec3>,
+    /// Rays traced over every generation of the launch's paths (live rays: a slot whose path
+    /// ended is not counted where the device can tell).
+    pub rays: usize,
+    /// What crossed between the host and the device, the values excepted.
+    pub traffic: Traffic,
+    /// Bytes of the values that crossed to the host (0 for a device in the host's memory).
+    pub film_bytes: u64,
+    /// Seconds the device measured running its kernels, where it can.
+    pub device_seconds: Option<f64>,
+}
+
+/// A device that renders whole paths. There are two required methods.
+///
+/// ## Contract
+/// A path's value is [`crate::shade::render`]'s for its pixel, whatever launch, task or
+/// device it lands in, so the image does not depend on the schedule.
+pub trait PathDevice: Send {
+    /// Renders the paths of `tasks` of `frame`, in one launch.
+    fn render(&mut self, frame: &Frame<'_>, tasks: &[&Range<usize>])
+    -> Result<Launch, DeviceError>;
+
+    /// A name unique among the devices of a renderer.
+    fn name(&self) -> String;
+
+    /// Devices of one class are the same hardware doing the same work (the `N` devices of a
+    /// `cpu:N/T` entry): their speed is measured together. By default every device is a class
+    /// of its own.
+    fn class(&self) -> String {
+        self.name()
+    }
+
+    /// Seconds a launch costs beyond its tasks, where known: see
+    /// [`sched::Executor::launch_overhead`]. Unknown by default.
+    fn launch_overhead(&self) -> Option<f64> {
+        None
+    }
+}
+
+/// One task's share of a launch: its paths' values, and, on the first task of a launch, the
+/// launch's totals.
+#[derive(Clone, Debug, Default)]
+pub struct TaskValues {
+    /// The task's paths' values, in path order.
+    pub values: Vec<Vec3>,
+    /// The launch's rays, traffic, film bytes and device seconds, on its first task only, so
+    /// that sums over tasks are the launches' sums.
+    pub launch: Option<Launch>,
+}
+
+/// A device bound to one frame: the [`Executor`] that `sched`'s runtime drives.
+pub struct BoundPaths<'r, 'a> {
+    device: &'r mut (dyn PathDevice + 'a),
+    frame: &'r Frame<'r>,
+    speed: f64,
+}
+
+impl<'r, 'a> BoundPaths<'r, 'a> {
+    /// `device` rendering `frame`, planned at relative `speed`.
+    pub fn new(device: &'r mut (dyn PathDevice + 'a), frame: &'r Frame<'r>, speed: f64) -> Self {
+        Self {
+            device,
+            frame,
+            speed,
+        }
+    }
+}
+
+impl BoundPaths<'_, '_> {
+    /// One launch of the device, checked to give a value for every path.
+    fn launch(&mut self, tasks: &[&Range<usize>]) -> Result<Launch, DeviceError> {
+        let launch = self.device.render(self.frame, tasks)?;
+        let paths: usize = tasks.iter().map(|t| t.len()).sum();
+        if launch.values.len() != paths {
+            return Err(DeviceError::msg(format!(
+                "{}: a launch of {paths} paths gave {} values",
+                self.device.name(),
+                launch.values.len()
+            )));
+        }
+        Ok(launch)
+    }
+}
+
+impl Executor<Range<usize>> for BoundPaths<'_, '_> {
+    type Output = TaskValues;
+
+    fn run(&mut self, task: &Range<usize>) -> Result<TaskValues, DeviceError> {
+        let mut launch = self.launch(&[task])?;
+        Ok(TaskValues {
+            values: std::mem::take(&mut launch.values),
+            launch: Some(launch),
+        })
+    }
+
+    fn run_batch(
+        &mut self,
+        tasks: &[&Range<usize>],
+        sink: &mut Sink<TaskValues>,
+    ) -> Result<(), DeviceError> {
+        let mut launch = self.launch(tasks)?;
+        let mut values = std::mem::take(&mut launch.values).into_iter();
+        let mut totals = Some(launch);
+        for task in tasks {
+            sink.push(TaskValues {
+                values: values.by_ref().take(task.len()).collect(),
+                launch: totals.take(),
+            });
+        }
+        Ok(())
+    }
+
+    /// The speed measured on earlier frames (1 before the first).
+    fn speed(&self) -> f64 {
+        self.speed
+    }
+
+    fn launch_overhead(&self) -> Option<f64> {
+        self.device.launch_overhead()
+    }
+
+    fn name(&self) -> String {
+        self.device.name()
+    }
+}

@@ -1,0 +1,61 @@
+//! Fault injection for any [`PathDevice`] (`--fail D@K`): the wrapped device completes `K`
+//! tasks in its lifetime and then fails, so its paths must be rendered elsewhere. A launch
+//! that would cross the limit fails whole, as a device lost mid-launch would: none of its
+//! values reach the host.
+
+use std::ops::Range;
+
+use sched::DeviceError;
+
+use super::{Frame, Launch, PathDevice};
+use crate::scheduled::InjectedFault;
+
+/// `inner`, failing once it has completed `after` tasks.
+pub struct FailingPaths<'a> {
+    inner: Box<dyn PathDevice + 'a>,
+    after: u64,
+    done: u64,
+}
+
+impl<'a> FailingPaths<'a> {
+    /// `inner`, failing after `after` tasks.
+    pub fn new(inner: Box<dyn PathDevice + 'a>, after: u64) -> Self {
+        Self {
+            inner,
+            after,
+            done: 0,
+        }
+    }
+}
+
+impl PathDevice for FailingPaths<'_> {
+    fn render(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[&Range<usize>],
+    ) -> Result<Launch, DeviceError> {
+        if self.done + tasks.len() as u64 > self.after {
+            self.done = self.after;
+            return Err(InjectedFault {
+                device: self.inner.name(),
+                after: self.after,
+            }
+            .into());
+        }
+        let launch = self.inner.render(frame, tasks)?;
+        self.done += tasks.len() as u64;
+        Ok(launch)
+    }
+
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+
+    fn class(&self) -> String {
+        self.inner.class()
+    }
+
+    fn launch_overhead(&self) -> Option<f64> {
+        self.inner.launch_overhead()
+    }
+}

@@ -1,0 +1,72 @@
+//! The GPU path device: one adapter running the path kernels ([`GpuRenderer`]) on its tasks.
+//! Primary rays are made on the device, every generation is traced and shaded there, and the
+//! paths' values are read back once, at the end of the launch.
+
+use std::ops::Range;
+
+use sched::DeviceError;
+
+use super::{Frame, Launch, PathDevice};
+use crate::gpu::{FrameParams, GpuContext, GpuError, GpuRenderer};
+use crate::shade::Shader;
+use crate::{Bvh, Scene};
+
+/// One GPU. See the module documentation.
+pub struct GpuPaths {
+    renderer: GpuRenderer,
+    name: String,
+}
+
+impl GpuPaths {
+    /// The adapter of `ctx` with `scene` and its `bvh` uploaded and the kernels compiled,
+    /// named as the context names itself.
+    ///
+    /// # Errors
+    /// As [`GpuRenderer::new`].
+    pub fn new(ctx: GpuContext, scene: &Scene, bvh: &Bvh) -> Result<Self, GpuError> {
+        let name = ctx.name();
+        Ok(Self {
+            renderer: GpuRenderer::new(ctx, scene, bvh)?,
+            name,
+        })
+    }
+
+    /// The kernels and buffers of the device.
+    pub fn renderer(&self) -> &GpuRenderer {
+        &self.renderer
+    }
+}
+
+impl PathDevice for GpuPaths {
+    fn render(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[&Range<usize>],
+    ) -> Result<Launch, DeviceError> {
+        let o = frame.options;
+        let params = FrameParams {
+            width: o.width,
+            height: o.height,
+            camera: &o.camera,
+        };
+        let out = match o.shader {
+            Shader::Ao(s) => self.renderer.render_ao(&params, tasks, &s),
+            Shader::Whitted(s) => self.renderer.render_whitted(&params, tasks, &s),
+        }?;
+        Ok(Launch {
+            values: out.values,
+            rays: out.rays,
+            traffic: out.traffic,
+            film_bytes: out.film_bytes,
+            device_seconds: out.trace_gpu_seconds,
+        })
+    }
+
+    fn name(&self) -> String {
+        self.name.clone()
+    }
+
+    fn class(&self) -> String {
+        format!("{} ({})", self.name, self.renderer.context().info.name)
+    }
+}

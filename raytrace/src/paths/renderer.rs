@@ -1,0 +1,252 @@
+//! The path renderer: a frame's paths cut into tasks, costed, planned by a [`sched::Policy`]
+//! and run on path-resident devices by `sched`'s runtime; the devices' values make the film.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use sched::{Costs, Runtime, SchedError, split_ranges};
+
+use super::{BoundPaths, Frame, FrameStats, PathDevice, PathDeviceStats, estimate_paths};
+use crate::cost::CostModel;
+use crate::scheduled::{Mode, Settings};
+use crate::shade::RenderOptions;
+use crate::{Bvh, Film, Scene};
+
+/// A rendered frame: the image and how it was made.
+#[derive(Clone, Debug)]
+pub struct FrameRendering {
+    /// The image (linear; encode with [`crate::film::ToneMap::Srgb`]).
+    pub film: Film,
+    /// The plan, the devices' shares and the traffic.
+    pub stats: FrameStats,
+}
+
+/// Renders frames over path devices. Device speeds are measured on each frame, per device
+/// class, and plan the next one, as a renderer drawing frames of one scene would.
+///
+/// Each path is rendered whole by whichever device gets its task, so the image is the same
+/// whatever the policy, mode, task size and devices.
+pub struct PathRenderer<'a> {
+    devices: Vec<Box<dyn PathDevice + 'a>>,
+    settings: Settings,
+    /// Relative speed per device class, from the frames rendered so far.
+    speeds: HashMap<String, f64>,
+    retired: Vec<bool>,
+    log: Vec<FrameStats>,
+}
+
+impl<'a> PathRenderer<'a> {
+    /// A renderer over `devices`, all of speed 1 until the first frame is measured.
+    ///
+    /// # Errors
+    /// [`SchedError::NoDevices`] for an empty list.
+    pub fn new(
+        devices: Vec<Box<dyn PathDevice + 'a>>,
+        settings: Settings,
+    ) -> Result<Self, SchedError> {
+        if devices.is_empty() {
+            return Err(SchedError::NoDevices);
+        }
+        let m = devices.len();
+        // Before the first frame, which would otherwise wait for them.
+        Runtime::start_threads(m);
+        Ok(Self {
+            devices,
+            settings,
+            speeds: HashMap::new(),
+            retired: vec![false; m],
+            log: Vec::new(),
+        })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> Settings {
+        self.settings
+    }
+
+    /// Every frame rendered so far, in order.
+    pub fn stats(&self) -> &[FrameStats] {
+        &self.log
+    }
+
+    /// The device names, in order.
+    pub fn device_names(&self) -> Vec<String> {
+        self.devices.iter().map(|d| d.name()).collect()
+    }
+
+    /// The relative speed the next frame plans device `d` with.
+    pub fn speed(&self, d: usize) -> f64 {
+        self.devices
+            .get(d)
+            .and_then(|dev| self.speeds.get(&dev.class()))
+            .copied()
+            .unwrap_or(1.0)
+    }
+
+    /// Renders one frame of `scene` (with its `bvh`) as `options` say.
+    ///
+    /// A device that fails is retired for this frame and the next, and its tasks are
+    /// rendered by the others.
+    ///
+    /// # Errors
+    /// [`SchedError::AllDevicesFailed`] (naming each failure) when no device is left to
+    /// finish the frame, or [`SchedError::NoDevices`] when every device had failed before.
+    pub fn render(
+        &mut self,
+        scene: &Scene,
+        bvh: &Bvh,
+        options: &RenderOptions,
+    ) -> Result<FrameRendering, SchedError> {
+        let start = Instant::now();
+        let frame = Frame {
+            scene,
+            bvh,
+            options,
+        };
+        let paths = frame.paths();
+        let active: Vec<usize> = (0..self.devices.len())
+            .filter(|&d| !self.retired[d])
+            .collect();
+        if active.is_empty() {
+            return Err(SchedError::NoDevices);
+        }
+        let tasks = split_ranges(paths, self.settings.task_size_for(paths, active.len()));
+
+        let estimating = Instant::now();
+        let costs = match self.settings.mode {
+            Mode::Regular => Costs::uniform(tasks.len()),
+            Mode::Cost => {
+                let work = estimate_paths(&frame, &tasks, self.settings.sample_rate);
+                // Counts are finite and non-negative, so only an empty frame could fail.
+                Costs::new(CostModel::default().costs(&work))
+                    .unwrap_or_else(|_| Costs::uniform(tasks.len()))
+            }
+        };
+        let estimate_seconds = match self.settings.mode {
+            Mode::Regular => 0.0,
+            Mode::Cost => estimating.elapsed().as_secs_f64(),
+        };
+
+        let speeds: Vec<f64> = active.iter().map(|&d| self.speed(d)).collect();
+        let retired = &self.retired;
+        let mut bound: Vec<BoundPaths<'_, 'a>> = self
+            .devices
+            .iter_mut()
+            .enumerate()
+            .filter(|(d, _)| !retired[*d])
+            .zip(&speeds)
+            .map(|((_, device), &speed)| BoundPaths::new(device.as_mut(), &frame, speed))
+            .collect();
+        let running = Instant::now();
+        let result = Runtime::new(self.settings.policy).run(&tasks, &costs, &mut bound);
+        let run_seconds = running.elapsed().as_secs_f64();
+        drop(bound);
+        let report = match result {
+            Ok(report) => report,
+            Err(e) => {
+                for &d in &active {
+                    self.retired[d] = true;
+                }
+                return Err(e);
+            }
+        };
+        for f in &report.failures {
+            self.retired[active[f.device]] = true;
+        }
+
+        let mut devices: Vec<PathDeviceStats> = active
+            .iter()
+            .zip(&speeds)
+            .enumerate()
+            .map(|(k, (&d, &speed))| PathDeviceStats {
+                index: d,
+                name: self.devices[d].name(),
+                speed,
+                tasks: 0,
+                launches: report.launches.get(k).copied().unwrap_or(0),
+                busy: report.metrics.busy.get(k).copied().unwrap_or(0.0),
+                rays: 0,
+                traffic: Default::default(),
+                film_bytes: 0,
+                device_seconds: None,
+            })
+            .collect();
+        let mut cost_done = vec![0.0; active.len()];
+        for span in &report.timeline.spans {
+            let (k, t) = (span.device as usize, span.task as usize);
+            devices[k].tasks += 1;
+            cost_done[k] += costs.as_slice()[t];
+            if let Some(launch) = &report.outputs[t].launch {
+                let d = &mut devices[k];
+                d.rays += launch.rays;
+                d.traffic += launch.traffic;
+                d.film_bytes += launch.film_bytes;
+                if let Some(s) = launch.device_seconds {
+                    *d.device_seconds.get_or_insert(0.0) += s;
+                }
+            }
+        }
+        self.learn(&active, &devices, &cost_done);
+
+        let order = crate::camera::morton_order(options.width, options.height);
+        let mut film = Film::new(options.width, options.height);
+        for (task, out) in tasks.iter().zip(&report.outputs) {
+            for (rank, &v) in task.clone().zip(&out.values) {
+                film.set(order[rank] as usize, v);
+            }
+        }
+        let stats = FrameStats {
+            paths,
+            tasks: tasks.len(),
+            task_size: tasks.iter().map(|t| t.len()).max().unwrap_or(0),
+            policy: self.settings.policy,
+            mode: self.settings.mode,
+            rays: devices.iter().map(|d| d.rays).sum(),
+            estimate_seconds,
+            plan_seconds: report.plan_seconds,
+            run_seconds,
+            seconds: start.elapsed().as_secs_f64(),
+            balance_efficiency: report.metrics.balance_efficiency,
+            devices,
+            reruns: report.reruns,
+            failures: report
+                .failures
+                .into_iter()
+                .map(|f| sched::DeviceFailure {
+                    device: active[f.device],
+                    ..f
+                })
+                .collect(),
+        };
+        self.log.push(stats.clone());
+        Ok(FrameRendering { film, stats })
+    }
+
+    /// Measures each device class's speed on this frame (planned cost per busy second,
+    /// relative to the fastest class) for the next frame's plan. A class that did no work
+    /// keeps its speed.
+    fn learn(&mut self, active: &[usize], devices: &[PathDeviceStats], cost_done: &[f64]) {
+        let mut by_class: HashMap<String, (f64, f64)> = HashMap::new();
+        for ((&d, stats), &cost) in active.iter().zip(devices).zip(cost_done) {
+            if stats.tasks == 0 || stats.busy <= 0.0 || self.retired[d] {
+                continue;
+            }
+            let e = by_class.entry(self.devices[d].class()).or_default();
+            e.0 += cost;
+            e.1 += stats.busy;
+        }
+        let rates: Vec<(String, f64)> = by_class
+            .into_iter()
+            .map(|(class, (cost, busy))| (class, cost / busy))
+            .filter(|(_, r)| r.is_finite() && *r > 0.0)
+            .collect();
+        let Some(fastest) = rates.iter().map(|(_, r)| *r).reduce(f64::max) else {
+            return;
+        };
+        // Classes measured before but not on this frame keep their speed, rescaled with the
+        // others only when they share a frame again.
+        for (class, rate) in rates {
+            self.speeds.insert(class, rate / fastest);
+        }
+    }
+}

@@ -1,0 +1,90 @@
+//! What a frame did, for reports: the plan, each device's share, and what crossed the links.
+
+use sched::{DeviceFailure, Policy};
+
+use super::Traffic;
+use crate::scheduled::Mode;
+
+/// One device's part of a frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathDeviceStats {
+    /// Index among the renderer's devices.
+    pub index: usize,
+    /// Its name.
+    pub name: String,
+    /// The relative speed the frame was planned with.
+    pub speed: f64,
+    /// Tasks it delivered.
+    pub tasks: usize,
+    /// Launches it ran.
+    pub launches: u64,
+    /// Seconds busy (wall time of its launches).
+    pub busy: f64,
+    /// Rays it traced.
+    pub rays: usize,
+    /// What crossed between the host and it, the paths' values excepted.
+    pub traffic: Traffic,
+    /// Bytes of paths' values it sent to the host.
+    pub film_bytes: u64,
+    /// Kernel seconds it measured itself, where it can.
+    pub device_seconds: Option<f64>,
+}
+
+/// One rendered frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameStats {
+    /// Paths (pixels) of the frame.
+    pub paths: usize,
+    /// Tasks the paths were cut into.
+    pub tasks: usize,
+    /// Paths of the largest task.
+    pub task_size: usize,
+    /// The policy.
+    pub policy: Policy,
+    /// Regular (equal costs) or cost-based.
+    pub mode: Mode,
+    /// Rays traced over all generations and devices.
+    pub rays: usize,
+    /// Seconds spent estimating the tasks' costs (0 in regular mode).
+    pub estimate_seconds: f64,
+    /// Seconds the policy spent planning.
+    pub plan_seconds: f64,
+    /// Wall seconds of the run on the devices.
+    pub run_seconds: f64,
+    /// Wall seconds of the whole frame: estimate, plan, run and the film.
+    pub seconds: f64,
+    /// Busy time summed over devices / (makespan × devices).
+    pub balance_efficiency: f64,
+    /// Each device's part.
+    pub devices: Vec<PathDeviceStats>,
+    /// Task runs lost to failed devices and run again elsewhere.
+    pub reruns: u64,
+    /// Devices that failed during the frame.
+    pub failures: Vec<DeviceFailure>,
+}
+
+impl FrameStats {
+    /// Rendering efficiency: rays over the frame's wall time, in millions per second.
+    pub fn mrays_per_s(&self) -> f64 {
+        self.rays as f64 / self.seconds.max(1e-12) / 1e6
+    }
+
+    /// What crossed between the host and every device, the paths' values excepted.
+    pub fn traffic(&self) -> Traffic {
+        let mut t = Traffic::default();
+        for d in &self.devices {
+            t += d.traffic;
+        }
+        t
+    }
+
+    /// Bytes of paths' values sent to the host over all devices.
+    pub fn film_bytes(&self) -> u64 {
+        self.devices.iter().map(|d| d.film_bytes).sum()
+    }
+
+    /// Launches over all devices.
+    pub fn launches(&self) -> u64 {
+        self.devices.iter().map(|d| d.launches).sum()
+    }
+}

@@ -1,0 +1,155 @@
+//! Path-resident rendering: the image of every policy, mode, task size and device mix is the
+//! CPU reference's, a device lost mid-frame changes nothing, and on a GPU what crosses the
+//! bus grows with the tasks, not with the rays.
+
+use sched::Policy;
+
+use crate::paths::{CpuPaths, FailingPaths, PathDevice, PathRenderer};
+use crate::scheduled::{Mode, Settings};
+use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, WhittedSettings, render};
+use crate::{Bvh, Camera, Film, Scene};
+
+fn scene(name: &str, shader: &Shader) -> (Scene, Bvh) {
+    let scene = crate::SceneSource::parse(name)
+        .and_then(|s| s.load(shader.needs()))
+        .expect("built-in scene");
+    let bvh = Bvh::build(&scene, crate::BuildPreset::Medium).expect("BVH");
+    (scene, bvh)
+}
+
+fn bits(film: &Film) -> Vec<[u32; 3]> {
+    film.pixels()
+        .iter()
+        .map(|p| p.to_array().map(f32::to_bits))
+        .collect()
+}
+
+fn cpus(n: usize) -> Vec<Box<dyn PathDevice>> {
+    CpuPaths::many(0, n, 1)
+        .expect("threads")
+        .into_iter()
+        .map(|d| Box::new(d) as Box<dyn PathDevice>)
+        .collect()
+}
+
+fn settings(policy: Policy, mode: Mode, task_size: usize) -> Settings {
+    Settings {
+        policy,
+        mode,
+        task_size: std::num::NonZeroUsize::new(task_size).expect("positive"),
+        ..Settings::default()
+    }
+}
+
+const SHADERS: [Shader; 2] = [
+    Shader::Ao(AoSettings {
+        samples: 6,
+        max_distance: None,
+        seed: 3,
+    }),
+    Shader::Whitted(WhittedSettings { bounces: 2 }),
+];
+
+/// Every policy, both modes and three task sizes give the reference image bit for bit, on
+/// two CPU devices, frame after frame (the second frame plans with measured speeds).
+#[test]
+fn every_plan_renders_the_reference_image() {
+    for shader in SHADERS {
+        let (scene, bvh) = scene("builtin:cornell:0.2", &shader);
+        let options = RenderOptions::new(37, 29, Camera::thesis(&scene.bounds(), 1), shader);
+        let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
+        for policy in Policy::ALL {
+            for mode in Mode::ALL {
+                for task_size in [64, 200, 4096] {
+                    let mut r =
+                        PathRenderer::new(cpus(2), settings(policy, mode, task_size)).expect("r");
+                    for frame in 0..2 {
+                        let out = r.render(&scene, &bvh, &options).expect("frame");
+                        assert_eq!(
+                            bits(&out.film),
+                            reference,
+                            "{} {policy:?} {mode:?} {task_size} frame {frame}",
+                            shader.name()
+                        );
+                        assert_eq!(out.stats.traffic().bytes(), 0);
+                        assert_eq!(out.stats.film_bytes(), 0);
+                        assert!(out.stats.rays >= out.stats.paths);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A device that fails mid-frame has its paths rendered by the other: the same image, the
+/// failure and the re-runs reported, and the device left out of the next frame.
+#[test]
+fn a_device_lost_mid_frame_changes_nothing() {
+    for shader in SHADERS {
+        let (scene, bvh) = scene("builtin:forest:0.05", &shader);
+        let options = RenderOptions::new(48, 40, Camera::thesis(&scene.bounds(), 0), shader);
+        let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
+        for policy in [Policy::StaticLpt, Policy::QueueFifo, Policy::Hybrid] {
+            let mut devices = cpus(2);
+            let failing = devices.remove(1);
+            devices.push(Box::new(FailingPaths::new(failing, 2)));
+            let mut r = PathRenderer::new(devices, settings(policy, Mode::Cost, 64)).expect("r");
+            let out = r.render(&scene, &bvh, &options).expect("frame");
+            assert_eq!(bits(&out.film), reference, "{policy:?}");
+            assert_eq!(out.stats.failures.len(), 1, "{policy:?}");
+            assert_eq!(out.stats.failures[0].device, 1);
+            let next = r.render(&scene, &bvh, &options).expect("next frame");
+            assert_eq!(bits(&next.film), reference);
+            assert_eq!(next.stats.devices.len(), 1, "the failed device is retired");
+        }
+    }
+}
+
+/// When every device fails, the frame is an error naming them, never a partial image.
+#[test]
+fn a_frame_without_devices_left_is_an_error() {
+    let shader = SHADERS[0];
+    let (scene, bvh) = scene("builtin:cornell:0.2", &shader);
+    let options = RenderOptions::new(16, 16, Camera::thesis(&scene.bounds(), 0), shader);
+    let devices: Vec<Box<dyn PathDevice>> = cpus(2)
+        .into_iter()
+        .map(|d| Box::new(FailingPaths::new(d, 0)) as Box<dyn PathDevice>)
+        .collect();
+    let mut r = PathRenderer::new(devices, Settings::default()).expect("r");
+    let e = r
+        .render(&scene, &bvh, &options)
+        .expect_err("no device works");
+    assert!(e.to_string().contains("injected fault"), "{e}");
+}
+
+/// The cost of a task, estimated from a sample of its paths traced for real, ranks tasks as
+/// their measured work does: a task of sky costs less than a task of forest.
+#[test]
+fn sampled_paths_rank_tasks_by_their_work() {
+    use crate::cost::CostModel;
+    use crate::paths::{Frame, estimate_paths};
+    let shader = SHADERS[0];
+    let (scene, bvh) = scene("builtin:forest:0.05", &shader);
+    let options = RenderOptions::new(64, 64, Camera::thesis(&scene.bounds(), 0), shader);
+    let frame = Frame {
+        scene: &scene,
+        bvh: &bvh,
+        options: &options,
+    };
+    let tasks = sched::split_ranges(64 * 64, 256);
+    let model = CostModel::default();
+    let full: Vec<f64> = estimate_paths(&frame, &tasks, sched::SampleRate::FULL)
+        .into_iter()
+        .map(|w| model.cost(w))
+        .collect();
+    let sampled: Vec<f64> = estimate_paths(&frame, &tasks, sched::SampleRate::THESIS)
+        .into_iter()
+        .map(|w| model.cost(w))
+        .collect();
+    let error = sched::prediction_error(&sampled, &full).expect("tasks");
+    assert!(error < 0.25, "error {error}");
+    let (lo, hi) = full
+        .iter()
+        .fold((f64::MAX, 0.0f64), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+    assert!(hi > 2.0 * lo, "tasks differ in work: {lo}..{hi}");
+}
