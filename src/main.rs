@@ -10,6 +10,7 @@ mod input;
 mod knn;
 mod render;
 mod render_gpu;
+mod render_paths;
 mod schedule;
 mod spatial;
 mod trace;

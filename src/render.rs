@@ -47,10 +47,13 @@ pub enum ShaderArg {
 /// Where a render runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum PipelineArg {
-    /// Every generation scheduled over `--devices` by `--policy`.
+    /// Every generation scheduled over `--devices` by `--policy`, rays made and shaded on
+    /// the host.
     Scheduled,
-    /// The whole render on the first GPU adapter (software ones only with
-    /// `COBALT_GPU_SOFTWARE=1`): rays, traces, shading and image stay on the device.
+    /// Every frame scheduled over `--devices` by `--policy` as tasks of whole paths, each
+    /// made, traced and shaded on the device that runs it.
+    Paths,
+    /// `paths` on `--devices gpu:0` (software adapters only with `COBALT_GPU_SOFTWARE=1`).
     Gpu,
 }
 
@@ -87,19 +90,15 @@ pub struct Args {
     /// adapters (software ones only with `COBALT_GPU_SOFTWARE=1`).
     #[arg(long, default_value = "cpu:2")]
     devices: String,
-    /// `scheduled` (over `--devices`), or `gpu`: the whole render (either shader) on one
-    /// GPU, without scheduling (`--devices`, `--policy`, `--mode`, `--task-size`,
-    /// `--sample-rate` do not apply).
+    /// `scheduled` (every generation over `--devices`, shaded on the host), `paths` (every
+    /// frame over `--devices` as tasks of whole paths, rendered where they run), or `gpu`
+    /// (`paths` on `--devices gpu:0`).
     #[arg(long, value_enum, default_value = "scheduled")]
     pipeline: PipelineArg,
-    /// With `--pipeline gpu`: `persistent` threads (a queue of ray batches) or one thread
-    /// `per-ray`.
-    #[arg(long, value_enum, default_value = "persistent")]
-    gpu_threads: crate::render_gpu::GpuThreadsArg,
-    /// With `--pipeline gpu`: render this many times in one process and report the fastest
-    /// (the first render also pays the driver's warm-up; the image is the same each time).
+    /// With `--pipeline paths` or `gpu`: render this many frames through one renderer (each
+    /// plans with the speeds measured on the ones before) and report the fastest.
     #[arg(long, default_value = "1", value_parser = clap::value_parser!(u32).range(1..=1000))]
-    gpu_repeats: u32,
+    repeats: u32,
     /// How tasks go to devices: static-equal, static-lpt (lpt), queue-fifo (fifo),
     /// queue-sorted (sorted) or hybrid.
     #[arg(long, default_value = "static-lpt")]
@@ -258,14 +257,19 @@ struct Report {
     cost: Option<CostReport>,
 }
 
-/// The report of `--pipeline gpu`.
+/// The report of `--pipeline paths` (and `gpu`).
 #[derive(Debug, Serialize)]
-struct GpuReport {
+struct PathsReport {
     #[serde(flatten)]
     header: Header,
     pipeline: &'static str,
+    devices: String,
+    policy: Policy,
+    mode: &'static str,
+    task_size: usize,
+    sample_rate: f64,
     #[serde(flatten)]
-    run: crate::render_gpu::GpuRun,
+    run: crate::render_paths::PathRun,
 }
 
 /// What every render report opens with: the scene, the image, the camera and the shader.
@@ -459,7 +463,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 "not available under mpirun: every rank estimates its slice on its host",
             ));
         }
-        if args.pipeline == PipelineArg::Gpu {
+        if args.pipeline != PipelineArg::Scheduled {
             return Err(arg(
                 "pipeline",
                 &Some("gpu".to_string()),
@@ -482,20 +486,26 @@ pub fn run(args: Args) -> Result<(), CliError> {
         });
     }
 
-    if args.pipeline != PipelineArg::Gpu && args.gpu_repeats != 1 {
-        let value = Some(args.gpu_repeats.to_string());
-        return Err(arg("gpu-repeats", &value, "only with --pipeline gpu"));
+    let by_paths = args.pipeline != PipelineArg::Scheduled;
+    if !by_paths && args.repeats != 1 {
+        let value = Some(args.repeats.to_string());
+        return Err(arg("repeats", &value, "only with --pipeline paths or gpu"));
     }
-    if args.pipeline == PipelineArg::Gpu {
+    if by_paths {
         let refuse = |flag: &'static str, value: &Option<String>, why: &str| {
-            Err(arg(flag, value, &format!("{why} with --pipeline gpu")))
+            Err(arg(
+                flag,
+                value,
+                &format!("{why} with --pipeline paths or gpu"),
+            ))
         };
         if args.cost_image.is_some() {
             let path = args.cost_image.as_ref().map(|p| p.display().to_string());
             return refuse("cost-image", &path, "there is no cost image");
         }
-        if args.fail.is_some() {
-            return refuse("fail", &args.fail, "there are no devices to fail");
+        if args.estimate_on == EstimateOn::Gpu {
+            let why = "the estimate traces sampled paths on the host";
+            return refuse("estimate-on", &Some("gpu".into()), why);
         }
     }
 
@@ -514,20 +524,34 @@ pub fn run(args: Args) -> Result<(), CliError> {
         preset,
         load_seconds,
     );
-    if args.pipeline == PipelineArg::Gpu {
-        let (film, run) = crate::render_gpu::render(
+    if by_paths {
+        let (pipeline, devices, specs) = match args.pipeline {
+            PipelineArg::Gpu => (
+                "gpu",
+                String::from("gpu:0"),
+                vec![DeviceSpec::Gpu(raytrace::devices::GpuSelect::Index(0))],
+            ),
+            _ => ("paths", args.devices.clone(), specs),
+        };
+        let options = RenderOptions::new(width, height, camera, shader);
+        let (film, run) = crate::render_paths::render(
             &scene,
             &bvh,
-            (width, height),
-            &camera,
-            &shader,
-            args.gpu_threads,
-            args.gpu_repeats,
+            &options,
+            &specs,
+            &faults,
+            settings,
+            args.repeats,
         )?;
         let image = film.png(ToneMap::Srgb)?;
-        let report = GpuReport {
+        let report = PathsReport {
             header,
-            pipeline: "gpu",
+            pipeline,
+            devices,
+            policy: settings.policy,
+            mode: settings.mode.name(),
+            task_size: settings.task_size.get(),
+            sample_rate: settings.sample_rate.get(),
             run,
         };
         let json =
@@ -539,22 +563,28 @@ pub fn run(args: Args) -> Result<(), CliError> {
         return if args.json {
             crate::print_json(&report)
         } else {
-            let kernels = report.run.trace_mrays_per_s.map_or(String::new(), |r| {
-                format!(" (traversal kernels alone {r:.1} MRays/s)")
-            });
+            let r = &report.run;
             crate::print_text(&format!(
-                "{} ({} triangles), {}, {width}x{height} on the GPU ({}, {} threads): {} rays \
-                 in {:.3} s, {:.2} MRays/s{kernels}; best of {}, the first took {:.3} s\n",
+                "{} {} of {} ({} triangles) on {} by paths, {} {}, tasks of {}: {} rays in \
+                 {:.3} s, {:.2} MRays/s, balance {:.1} %; {} B to and {} B from devices, {} \
+                 waits, {} B of film; fastest of {} frame(s)\n",
+                report.header.shader,
+                report.header.size,
                 report.header.scene,
                 report.header.triangles,
-                report.header.shader,
-                report.run.adapter,
-                report.run.gpu_threads,
-                report.run.total_rays,
-                report.run.render_seconds,
-                report.run.mrays_per_s,
-                report.run.repeats,
-                report.run.first_render_seconds,
+                report.devices,
+                report.policy.name(),
+                report.mode,
+                report.task_size,
+                r.total_rays,
+                r.render_seconds,
+                r.mrays_per_s,
+                100.0 * r.balance_efficiency,
+                r.host_to_device_bytes,
+                r.device_to_host_bytes,
+                r.host_waits,
+                r.film_bytes,
+                r.frames,
             ))
         };
     }

@@ -345,14 +345,16 @@ fn cpu_and_gpu_render_the_cpu_image() {
     }
 }
 
-/// `--pipeline gpu` renders on one GPU, ray generation to image, and writes the CPU's image for
-/// both shaders: at most 1 % of pixels may differ (see `raytrace::gpu::GpuRenderer` for where
-/// the two can differ; on lavapipe they are equal). Without any adapter: a note, or a failure
-/// when `CI` is set. A cost image and fault injection are refused, naming the flag, and so is
-/// `--gpu-repeats` without the GPU pipeline.
+/// `--pipeline paths` renders whole paths on the devices through `sched`: on `cpu:2` under
+/// every policy it writes the scheduled pipeline's image byte for byte and moves nothing;
+/// `--pipeline gpu` (paths on `gpu:0`) and a CPU and a GPU together write it too (at most 1 %
+/// of pixels may differ, see `raytrace::gpu::GpuRenderer`; on lavapipe they are equal), with
+/// a GPU's traffic bounded by its tasks. Without any adapter: a note, or a failure when `CI`
+/// is set. A cost image is refused, naming the flag, and so is `--repeats` without the path
+/// pipeline.
 #[test]
-fn gpu_pipeline_renders_the_cpu_image() {
-    let dir = crate::testkit::temp_dir("render-gpu-pipeline");
+fn the_path_pipeline_renders_the_cpu_image() {
+    let dir = crate::testkit::temp_dir("render-paths");
     let run = |shader: &str, extra: &[&str], name: &str| {
         let out = dir.join(name);
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
@@ -365,11 +367,8 @@ fn gpu_pipeline_renders_the_cpu_image() {
             .expect("the cobalt binary runs");
         (o, out)
     };
-    for (shader, threads) in [
-        ("ao", "persistent"),
-        ("ao", "per-ray"),
-        ("whitted", "persistent"),
-    ] {
+    let load = |p: &Path| image::open(p).expect("PNG").to_rgb8().into_raw();
+    for shader in ["ao", "whitted"] {
         let (cpu, cpu_png) = run(
             shader,
             &["--devices", "cpu:2"],
@@ -380,56 +379,85 @@ fn gpu_pipeline_renders_the_cpu_image() {
             "{}",
             String::from_utf8_lossy(&cpu.stderr)
         );
-        // Two renders in one process for per-ray threads: the report keeps the faster.
-        let repeats = if threads == "per-ray" { "2" } else { "1" };
-        let (gpu, gpu_png) = run(
-            shader,
-            &[
-                "--pipeline",
-                "gpu",
-                "--gpu-threads",
-                threads,
-                "--gpu-repeats",
-                repeats,
-            ],
-            &format!("gpu-{shader}-{threads}.png"),
-        );
-        let err = String::from_utf8_lossy(&gpu.stderr);
-        if err.contains("no GPU adapter") {
-            assert!(
-                std::env::var_os("CI").is_none(),
-                "CI is set but no GPU adapter was found: {err}"
+        let reference = load(&cpu_png);
+        for policy in ["static-lpt", "queue-sorted", "hybrid"] {
+            let (o, png) = run(
+                shader,
+                &[
+                    "--pipeline",
+                    "paths",
+                    "--devices",
+                    "cpu:2",
+                    "--policy",
+                    policy,
+                ],
+                &format!("paths-{shader}-{policy}.png"),
             );
-            eprintln!("note: no GPU adapter here; the GPU pipeline was not checked");
-            return;
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON report");
+            assert_eq!(v["pipeline"], "paths");
+            assert_eq!(v["paths"], 40 * 24);
+            assert_eq!(v["host_to_device_bytes"], 0);
+            assert_eq!(v["film_bytes"], 0);
+            assert_eq!(load(&png), reference, "{shader} {policy}");
         }
-        assert!(gpu.status.success(), "{err}");
-        let v: serde_json::Value = serde_json::from_slice(&gpu.stdout).expect("JSON report");
-        assert_eq!(v["pipeline"], "gpu");
-        assert_eq!(v["shader"], shader);
-        assert_eq!(v["gpu_threads"], threads);
-        assert_eq!(v["primary_rays"], 40 * 24);
-        assert_eq!(v["repeats"].to_string(), repeats);
-        let seconds = |k: &str| v[k].as_f64().expect(k);
-        assert!(seconds("render_seconds") <= seconds("first_render_seconds"));
-        if shader == "ao" {
-            assert_eq!(v["secondary_rays"], 40 * 24 * 4);
-        } else {
-            assert_eq!(v["bounces"], 2);
+        for (name, extra) in [
+            ("gpu", &["--pipeline", "gpu", "--repeats", "2"][..]),
+            (
+                "mixed",
+                &[
+                    "--pipeline",
+                    "paths",
+                    "--devices",
+                    "cpu:1,gpu:0",
+                    "--policy",
+                    "hybrid",
+                ][..],
+            ),
+        ] {
+            let (gpu, gpu_png) = run(shader, extra, &format!("{name}-{shader}.png"));
+            let err = String::from_utf8_lossy(&gpu.stderr);
+            if err.contains("no GPU adapter") {
+                assert!(
+                    std::env::var_os("CI").is_none(),
+                    "CI is set but no GPU adapter was found: {err}"
+                );
+                eprintln!("note: no GPU adapter here; the GPU path pipeline was not checked");
+                return;
+            }
+            assert!(gpu.status.success(), "{err}");
+            let v: serde_json::Value = serde_json::from_slice(&gpu.stdout).expect("JSON report");
+            assert_eq!(v["shader"], shader);
+            let tasks = v["tasks"].as_u64().expect("tasks");
+            let bytes = v["host_to_device_bytes"].as_u64().expect("bytes")
+                + v["device_to_host_bytes"].as_u64().expect("bytes");
+            let launches = v["launches"].as_u64().expect("launches");
+            // Per launch: its parameters and the trace queues' state; per task: its entry.
+            assert!(bytes <= 1024 * launches + 64 * tasks, "{name}: {bytes} B");
+            if name == "gpu" {
+                assert_eq!(v["pipeline"], "gpu");
+                assert_eq!(v["frames"], 2);
+                let seconds = |k: &str| v[k].as_f64().expect(k);
+                assert!(seconds("render_seconds") <= seconds("first_render_seconds"));
+            }
+            let b = load(&gpu_png);
+            assert_eq!(reference.len(), b.len());
+            let differ = reference
+                .chunks(3)
+                .zip(b.chunks(3))
+                .filter(|(x, y)| x != y)
+                .count();
+            eprintln!("{name} {shader}: {differ} pixels differ from the CPU's");
+            assert!(
+                differ * 100 <= reference.len() / 3,
+                "{name} {shader}: {differ} pixels differ"
+            );
         }
-        let load = |p: &Path| image::open(p).expect("PNG").to_rgb8().into_raw();
-        let (a, b) = (load(&cpu_png), load(&gpu_png));
-        assert_eq!(a.len(), b.len());
-        let differ = a.chunks(3).zip(b.chunks(3)).filter(|(x, y)| x != y).count();
-        assert!(
-            differ * 100 <= a.len() / 3,
-            "{shader} {threads}: {differ} pixels differ"
-        );
     }
     for (extra, flag) in [
         (&["gpu", "--cost-image", "c.png"][..], "--cost-image"),
-        (&["gpu", "--fail", "0@1"][..], "--fail"),
-        (&["scheduled", "--gpu-repeats", "2"][..], "--gpu-repeats"),
+        (&["paths", "--estimate-on", "gpu"][..], "--estimate-on"),
+        (&["scheduled", "--repeats", "2"][..], "--repeats"),
     ] {
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
             .args(["render", "--scene", "builtin:cornell", "--size", "8x8"])

@@ -1,0 +1,141 @@
+//! `cobalt render --pipeline paths`: every frame through `sched` on path-resident devices
+//! ([`raytrace::paths`]): each task's paths are made, traced and shaded on the device that
+//! runs it, and only task lists, costs and the paths' values cross between host and device.
+//! `--pipeline gpu` is this pipeline on `--devices gpu:0`.
+
+use serde::Serialize;
+
+use raytrace::Film;
+use raytrace::paths::{FrameRendering, FrameStats, PathRenderer, build_path_devices};
+use raytrace::scheduled::{FailAfter, Settings};
+use raytrace::shade::RenderOptions;
+use raytrace::{Bvh, Scene};
+
+use crate::error::CliError;
+
+/// One device's part of the reported frame.
+#[derive(Debug, Serialize)]
+pub struct DeviceReport {
+    name: String,
+    speed: f64,
+    tasks: usize,
+    launches: u64,
+    busy_seconds: f64,
+    rays: usize,
+    host_to_device_bytes: u64,
+    device_to_host_bytes: u64,
+    host_waits: u64,
+    film_bytes: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    device_seconds: Option<f64>,
+}
+
+/// What the path pipeline reports beside the image: the fastest of `frames` renders.
+#[derive(Debug, Serialize)]
+pub struct PathRun {
+    /// Frames rendered through one renderer (`--repeats`); the figures are the fastest one's.
+    pub frames: u32,
+    /// Wall time of the first frame (the first plan has no measured speeds).
+    pub first_render_seconds: f64,
+    /// Wall time of the fastest frame: estimate, plan, run and film.
+    pub render_seconds: f64,
+    /// Rays traced over every generation and device.
+    pub total_rays: usize,
+    /// Rendering efficiency: rays over the frame's wall time.
+    pub mrays_per_s: f64,
+    /// Paths (pixels) and tasks of the frame.
+    pub paths: usize,
+    pub tasks: usize,
+    pub estimate_seconds: f64,
+    pub plan_seconds: f64,
+    pub balance_efficiency: f64,
+    pub launches: u64,
+    pub reruns: u64,
+    /// Devices that failed, with why.
+    pub failures: Vec<String>,
+    /// What crossed between the host and the devices, the paths' values excepted.
+    pub host_to_device_bytes: u64,
+    pub device_to_host_bytes: u64,
+    pub host_waits: u64,
+    /// Bytes of the paths' values sent to the host.
+    pub film_bytes: u64,
+    pub devices: Vec<DeviceReport>,
+}
+
+impl PathRun {
+    fn new(frames: u32, first_render_seconds: f64, s: &FrameStats) -> Self {
+        let t = s.traffic();
+        Self {
+            frames,
+            first_render_seconds,
+            render_seconds: s.seconds,
+            total_rays: s.rays,
+            mrays_per_s: s.mrays_per_s(),
+            paths: s.paths,
+            tasks: s.tasks,
+            estimate_seconds: s.estimate_seconds,
+            plan_seconds: s.plan_seconds,
+            balance_efficiency: s.balance_efficiency,
+            launches: s.launches(),
+            reruns: s.reruns,
+            failures: s
+                .failures
+                .iter()
+                .map(|f| format!("{}: {}", f.name, f.reason))
+                .collect(),
+            host_to_device_bytes: t.host_to_device_bytes,
+            device_to_host_bytes: t.device_to_host_bytes,
+            host_waits: t.host_waits,
+            film_bytes: s.film_bytes(),
+            devices: s
+                .devices
+                .iter()
+                .map(|d| DeviceReport {
+                    name: d.name.clone(),
+                    speed: d.speed,
+                    tasks: d.tasks,
+                    launches: d.launches,
+                    busy_seconds: d.busy,
+                    rays: d.rays,
+                    host_to_device_bytes: d.traffic.host_to_device_bytes,
+                    device_to_host_bytes: d.traffic.device_to_host_bytes,
+                    host_waits: d.traffic.host_waits,
+                    film_bytes: d.film_bytes,
+                    device_seconds: d.device_seconds,
+                })
+                .collect(),
+        }
+    }
+}
+
+/// Renders `frames` frames of `options` through one path renderer over `specs`, keeping the
+/// fastest; a frame whose every device failed is an error naming them.
+pub fn render(
+    scene: &Scene,
+    bvh: &Bvh,
+    options: &RenderOptions,
+    specs: &[raytrace::devices::DeviceSpec],
+    faults: &[FailAfter],
+    settings: Settings,
+    frames: u32,
+) -> Result<(Film, PathRun), CliError> {
+    let devices = build_path_devices(scene, bvh, specs, faults)?;
+    let mut renderer = PathRenderer::new(devices, settings)?;
+    let mut best: Option<FrameRendering> = None;
+    let mut first_render_seconds = 0.0;
+    for k in 0..frames.max(1) {
+        let frame = renderer.render(scene, bvh, options)?;
+        if k == 0 {
+            first_render_seconds = frame.stats.seconds;
+        }
+        if best
+            .as_ref()
+            .is_none_or(|b| frame.stats.seconds < b.stats.seconds)
+        {
+            best = Some(frame);
+        }
+    }
+    let best = best.ok_or_else(|| CliError::Write("no frame was rendered".into()))?;
+    let run = PathRun::new(frames.max(1), first_render_seconds, &best.stats);
+    Ok((best.film, run))
+}
