@@ -4,7 +4,7 @@
 
 use super::{CpuPaths, FailingPaths, PathDevice};
 use crate::devices::DeviceSpec;
-use crate::scheduled::FailAfter;
+use crate::scheduled::{FailAfter, assemble};
 use crate::{Bvh, Error, Result, Scene};
 
 /// The devices of `specs` for `scene` (with its `bvh`), with `faults` injected; the error
@@ -19,54 +19,18 @@ pub fn build_path_devices<'a>(
     specs: &[DeviceSpec],
     faults: &[FailAfter],
 ) -> Result<Vec<Box<dyn PathDevice + 'a>>> {
-    let mut devices: Vec<Box<dyn PathDevice + 'a>> = Vec::new();
-    let mut cpu_count = 0;
-    let mut skipped_gpu = None;
-    for spec in specs {
-        match *spec {
-            DeviceSpec::Cpu { count, threads } => {
-                let cpus = CpuPaths::many(cpu_count, count, threads)?;
-                cpu_count += cpus.len();
-                devices.extend(
-                    cpus.into_iter()
-                        .map(|cpu| Box::new(cpu) as Box<dyn PathDevice + 'a>),
-                );
-            }
-            DeviceSpec::Gpu(select) => match gpu_devices(scene, bvh, select, spec)? {
-                Ok(gpus) => devices.extend(gpus),
-                Err(why) => skipped_gpu = Some((spec.to_string(), why)),
-            },
-        }
-    }
-    if let Some((arg, why)) = skipped_gpu {
-        if devices.is_empty() {
-            return Err(Error::DeviceArg { arg, why });
-        }
-        eprintln!("note: {arg}: {why}; rendering without a GPU");
-    }
-    let m = devices.len();
-    if let Some(f) = faults.iter().find(|f| f.device >= m) {
-        return Err(Error::DeviceArg {
-            arg: format!("{}@{}", f.device, f.tasks),
-            why: format!("no device {} to fail (there are {m})", f.device),
-        });
-    }
-    Ok(devices
-        .into_iter()
-        .enumerate()
-        .map(|(i, d)| {
-            // The earliest of several faults on one device is the one that happens.
-            let fault = faults
-                .iter()
-                .filter(|f| f.device == i)
-                .map(|f| f.tasks)
-                .min();
-            match fault {
-                Some(tasks) => Box::new(FailingPaths::new(d, tasks)),
-                None => d,
-            }
-        })
-        .collect())
+    assemble(
+        specs,
+        faults,
+        |first, count, threads| {
+            Ok(CpuPaths::many(first, count, threads)?
+                .into_iter()
+                .map(|cpu| Box::new(cpu) as Box<dyn PathDevice + 'a>)
+                .collect())
+        },
+        |select, spec| gpu_devices(scene, bvh, select, spec),
+        |d, tasks| Box::new(FailingPaths::new(d, tasks)),
+    )
 }
 
 /// The GPU devices of one entry: `Ok(Err(why))` when `gpu:all` finds no adapter (skippable),

@@ -17,36 +17,21 @@ use super::Frame;
 use crate::cost::Work;
 use crate::shade::{RenderOptions, Shader, Tracer, render_paths};
 use crate::traverse::{any_hits_counted, closest_hits_counted};
-use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
+use crate::{Bvh, HitBatch, RayBatch, RayKind};
 
-/// A tracer that traces for real and sums the counts of every ray, keeping AO probes apart
-/// (they are scaled by the probes left out).
+/// A tracer that traces for real and sums the counts of every ray ([`Work::sum`], exact in
+/// integers per generation), keeping AO probes apart (they are scaled by the probes left out).
 struct Counting<'a> {
     bvh: &'a Bvh,
-    paths: Counts64,
-    probes: Counts64,
+    paths: Work,
+    probes: Work,
 }
 
-/// Counts summed in integers, so a sum does not depend on its order.
-#[derive(Clone, Copy, Default)]
-struct Counts64 {
-    nodes: u64,
-    tris: u64,
-}
-
-impl Counts64 {
-    fn add(&mut self, counts: &[Counts]) {
-        for c in counts {
-            self.nodes += u64::from(c.nodes);
-            self.tris += u64::from(c.tris);
-        }
-    }
-
-    fn work(self, scale: f64) -> Work {
-        Work {
-            nodes: self.nodes as f64 * scale,
-            tris: self.tris as f64 * scale,
-        }
+/// `a + b`, component by component.
+fn plus(a: Work, b: Work) -> Work {
+    Work {
+        nodes: a.nodes + b.nodes,
+        tris: a.tris + b.tris,
     }
 }
 
@@ -57,9 +42,10 @@ impl Tracer for Counting<'_> {
         } else {
             closest_hits_counted(self.bvh, rays)
         };
+        let work = Work::sum(&counts);
         match kind {
-            RayKind::Ao => self.probes.add(&counts),
-            _ => self.paths.add(&counts),
+            RayKind::Ao => self.probes = plus(self.probes, work),
+            _ => self.paths = plus(self.paths, work),
         }
         hits
     }
@@ -92,19 +78,19 @@ pub fn estimate_paths(frame: &Frame<'_>, tasks: &[Range<usize>], rate: SampleRat
             }
             let mut tracer = Counting {
                 bvh: frame.bvh,
-                paths: Counts64::default(),
-                probes: Counts64::default(),
+                paths: Work::default(),
+                probes: Work::default(),
             };
             render_paths(frame.scene, &mut tracer, &options, &ranks);
-            let scale = task.len() as f64 / ranks.len() as f64;
-            let (p, q) = (
-                tracer.paths.work(scale),
-                tracer.probes.work(scale * probe_scale),
-            );
-            Work {
-                nodes: p.nodes + q.nodes,
-                tris: p.tris + q.tris,
-            }
+            let paths = tracer.paths.scaled(task.len(), ranks.len());
+            let probes = tracer.probes.scaled(task.len(), ranks.len());
+            plus(
+                paths,
+                Work {
+                    nodes: probes.nodes * probe_scale,
+                    tris: probes.tris * probe_scale,
+                },
+            )
         })
         .collect()
 }

@@ -28,21 +28,46 @@ pub fn build_devices<'a>(
     specs: &[DeviceSpec],
     faults: &[FailAfter],
 ) -> Result<Vec<Box<dyn RayDevice + 'a>>> {
-    let mut devices: Vec<Box<dyn RayDevice + 'a>> = Vec::new();
+    assemble(
+        specs,
+        faults,
+        |first, count, threads| {
+            Ok(CpuDevice::many(bvh, first, count, threads)?
+                .into_iter()
+                .map(|cpu| Box::new(cpu) as Box<dyn RayDevice + 'a>)
+                .collect())
+        },
+        |select, spec| gpu_devices(bvh, select, spec),
+        |d, tasks| Box::new(FailingAfter::new(d, tasks)),
+    )
+}
+
+/// What becomes of a device list whatever the devices are: CPU entries made by `cpus(first,
+/// count, threads)`, numbered in list order; GPU entries by `gpus`, which answers `Ok(Err(why))`
+/// when an entry finds no adapter (skipped, with a note, unless nothing else is left); then
+/// each device with a fault wrapped by `fail(device, tasks)`, the earliest of its faults.
+pub(crate) fn assemble<D: ?Sized>(
+    specs: &[DeviceSpec],
+    faults: &[FailAfter],
+    mut cpus: impl FnMut(usize, usize, usize) -> Result<Vec<Box<D>>>,
+    mut gpus: impl FnMut(
+        crate::devices::GpuSelect,
+        &DeviceSpec,
+    ) -> Result<std::result::Result<Vec<Box<D>>, String>>,
+    fail: impl Fn(Box<D>, u64) -> Box<D>,
+) -> Result<Vec<Box<D>>> {
+    let mut devices: Vec<Box<D>> = Vec::new();
     let mut cpu_count = 0;
     let mut skipped_gpu = None;
     for spec in specs {
         match *spec {
             DeviceSpec::Cpu { count, threads } => {
-                let cpus = CpuDevice::many(bvh, cpu_count, count, threads)?;
-                cpu_count += cpus.len();
-                devices.extend(
-                    cpus.into_iter()
-                        .map(|cpu| Box::new(cpu) as Box<dyn RayDevice + 'a>),
-                );
+                let made = cpus(cpu_count, count, threads)?;
+                cpu_count += made.len();
+                devices.extend(made);
             }
-            DeviceSpec::Gpu(select) => match gpu_devices(bvh, select, spec)? {
-                Ok(gpus) => devices.extend(gpus),
+            DeviceSpec::Gpu(select) => match gpus(select, spec)? {
+                Ok(made) => devices.extend(made),
                 Err(why) => skipped_gpu = Some((spec.to_string(), why)),
             },
         }
@@ -71,7 +96,7 @@ pub fn build_devices<'a>(
                 .map(|f| f.tasks)
                 .min();
             match fault {
-                Some(tasks) => Box::new(FailingAfter::new(d, tasks)),
+                Some(tasks) => fail(d, tasks),
                 None => d,
             }
         })

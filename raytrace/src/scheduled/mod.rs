@@ -41,6 +41,7 @@ mod speeds;
 mod stats;
 mod tracer;
 
+pub(crate) use build::assemble;
 pub use build::{FailAfter, build_devices};
 pub use device::{BadRange, Bound, RayDevice};
 pub use fault::{FailingAfter, InjectedFault};
