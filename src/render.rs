@@ -352,6 +352,9 @@ impl CameraChoice {
 /// written until the render is done.
 pub fn run(args: Args) -> Result<(), CliError> {
     let (width, height) = parse_size(&args.size)?;
+    // The film, the rays of a generation and their hits, per pixel and sample.
+    let pixels = width as usize * height as usize;
+    crate::limits::memory("size", &args.size, &[(pixels, 256)])?;
     let specs = parse_devices(&args.devices)?;
     let threads: usize = specs
         .iter()
@@ -499,6 +502,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
     }
 
+    let outputs = crate::output::Outputs::check(
+        &[
+            ("out", Some(&args.out)),
+            ("cost-image", args.cost_image.as_deref()),
+            ("report", args.report.as_deref()),
+        ],
+        &[("scene", std::path::Path::new(&args.scene))],
+    )?;
     let loading = Instant::now();
     let scene = SceneSource::parse(&args.scene)?.load(shader.needs())?;
     let load_seconds = loading.elapsed().as_secs_f64();
@@ -532,17 +543,15 @@ pub fn run(args: Args) -> Result<(), CliError> {
         };
         let json =
             serde_json::to_string_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
-        crate::write_file(&args.out, &image)?;
-        if let Some(path) = &args.report {
-            crate::write_file(path, format!("{json}\n").as_bytes())?;
-        }
+        let json = format!("{json}\n");
+        outputs.commit(&[("out", &image), ("report", json.as_bytes())])?;
         return if args.json {
-            crate::print_json(&report)
+            outputs.print_json(&report)
         } else {
             let kernels = report.run.trace_mrays_per_s.map_or(String::new(), |r| {
                 format!(" (traversal kernels alone {r:.1} MRays/s)")
             });
-            crate::print_text(&format!(
+            outputs.print(&format!(
                 "{} ({} triangles), {}, {width}x{height} on the GPU ({}, {} threads): {} rays \
                  in {:.3} s, {:.2} MRays/s{kernels}; best of {}, the first took {:.3} s\n",
                 report.header.scene,
@@ -606,17 +615,16 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let report_json =
         serde_json::to_string_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
 
-    crate::write_file(&args.out, &image)?;
-    if let (Some(path), Some(png)) = (&args.cost_image, &cost_png) {
-        crate::write_file(path, png)?;
-    }
-    if let Some(path) = &args.report {
-        crate::write_file(path, format!("{report_json}\n").as_bytes())?;
-    }
+    let report_json = format!("{report_json}\n");
+    outputs.commit(&[
+        ("out", &image),
+        ("cost-image", cost_png.as_deref().unwrap_or_default()),
+        ("report", report_json.as_bytes()),
+    ])?;
     if args.json {
-        crate::print_json(&report)
+        outputs.print_json(&report)
     } else {
-        crate::print_text(&summary(&report))
+        outputs.print(&summary(&report))
     }
 }
 
@@ -834,9 +842,15 @@ fn parse_devices(text: &str) -> Result<Vec<DeviceSpec>, CliError> {
             threads = threads.max(t);
         }
     }
-    if devices > MAX_DEVICES || threads > MAX_DEVICES {
+    let total = specs.iter().try_fold(0usize, |sum, spec| match *spec {
+        DeviceSpec::Cpu { count, threads } => count.checked_mul(threads)?.checked_add(sum),
+        DeviceSpec::Gpu(_) => Some(sum),
+    });
+    let max_threads = crate::limits::MAX_THREADS;
+    if devices > MAX_DEVICES || threads > MAX_DEVICES || total.is_none_or(|t| t > max_threads) {
         return Err(bad(format!(
-            "at most {MAX_DEVICES} devices and {MAX_DEVICES} threads per device"
+            "at most {MAX_DEVICES} devices, {MAX_DEVICES} threads per device and \
+             {max_threads} threads in all"
         )));
     }
     Ok(specs)

@@ -76,6 +76,17 @@ pub fn run(args: Args) -> Result<(), CliError> {
         value: args.preset.clone(),
         message: e,
     })?;
+    if args.scene == "-" && args.rays == Path::new("-") {
+        return Err(CliError::Arg {
+            flag: "rays",
+            value: "-".into(),
+            message: "--scene already reads standard input".into(),
+        });
+    }
+    let outputs = crate::output::Outputs::check(
+        &[("out", Some(&args.out))],
+        &[("scene", Path::new(&args.scene)), ("rays", &args.rays)],
+    )?;
     let loading = Instant::now();
     let scene = SceneSource::parse(&args.scene)?.load(SceneNeeds::AO)?;
     let load_seconds = loading.elapsed().as_secs_f64();
@@ -94,7 +105,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
         Device::Gpu => gpu_trace(&bvh, &rays, args.any_hit)?,
     };
-    crate::write_file(&args.out, &encode_hits(&hits))?;
+    outputs.commit(&[("out", &encode_hits(&hits))])?;
 
     let report = Report {
         scene: args.scene.clone(),
@@ -116,9 +127,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         threads: rayon::current_num_threads(),
     };
     if args.json {
-        crate::print_json(&report)
+        outputs.print_json(&report)
     } else {
-        crate::print_text(&format!(
+        outputs.print(&format!(
             "{} rays ({} hit) on {} ({} triangles): {:.3} s, {:.2} MRays/s; BVH {} built in {:.3} s\n",
             report.rays,
             report.hits,
@@ -164,10 +175,7 @@ fn gpu_trace(_: &Bvh, _: &RayBatch, _: bool) -> Result<(HitBatch, f64, Option<St
 
 /// Reads and checks a ray file; the error names the file, the ray and the bad value.
 pub(crate) fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
-    let bytes = std::fs::read(path).map_err(|source| CliError::Read {
-        path: path.to_owned(),
-        source,
-    })?;
+    let bytes = crate::input::read_bytes(path)?;
     let bad = |ray: usize, message: String| CliError::Record {
         path: path.to_owned(),
         what: "ray",
@@ -224,4 +232,30 @@ fn encode_hits(hits: &HitBatch) -> Vec<u8> {
         out.extend_from_slice(&prim.to_le_bytes());
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    proptest! {
+        /// Random bytes: rays that are all usable, or an error naming the file.
+        #[test]
+        fn random_ray_files_never_panic(body in proptest::collection::vec(any::<u8>(), 0..200)) {
+            let p = std::env::temp_dir()
+                .join(format!("cobalt-rays-{}-prop", std::process::id()));
+            std::fs::write(&p, &body).expect("temp file");
+            match read_rays(&p) {
+                Ok(rays) => {
+                    prop_assert_eq!(rays.len(), body.len() / RAY_BYTES);
+                    for i in 0..rays.len() {
+                        prop_assert!(rays.tmin[i] >= 0.0 && rays.tmin[i] <= rays.tmax[i]);
+                    }
+                }
+                Err(e) => prop_assert!(e.to_string().contains("cobalt-rays")),
+            }
+        }
+    }
 }
