@@ -78,6 +78,14 @@ pub enum SchedError {
         /// One line per failed device.
         failures: Vec<DeviceFailure>,
     },
+    /// The operating system refused to start the threads the devices need.
+    #[error("starting {threads} device threads: {why}; use fewer devices")]
+    Threads {
+        /// Threads asked for.
+        threads: usize,
+        /// The system's reason.
+        why: String,
+    },
     /// An unknown policy name was given.
     #[error(
         "unknown policy {0:?}: expected static-equal, static-lpt, queue-fifo, queue-sorted or hybrid"
