@@ -177,6 +177,9 @@ fn check_one(
             file: None,
         });
     }
+    if path.as_os_str().is_empty() {
+        return Err(bad(flag, path, "the path is empty".into()));
+    }
     let text = path.as_os_str().to_string_lossy();
     let Some(name) = path.file_name().filter(|_| !text.ends_with('/')) else {
         return Err(bad(flag, path, "names a directory, not a file".into()));
