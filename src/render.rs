@@ -84,7 +84,8 @@ pub struct Args {
     ao_distance: Option<String>,
     /// Devices: `cpu:N` (N devices of one thread), `cpu:N/T` (T threads each), several
     /// comma-separated, or `cpu` (one device with every core); `gpu:all` or `gpu:K` adds wgpu
-    /// adapters (software ones only with `COBALT_GPU_SOFTWARE=1`).
+    /// adapters (software ones only with `COBALT_GPU_SOFTWARE=1`). At most 1024 CPU devices,
+    /// 1024 threads each and 4096 threads in all.
     #[arg(long, default_value = "cpu:2")]
     devices: String,
     /// `scheduled` (over `--devices`), or `gpu`: the whole render (either shader) on one
