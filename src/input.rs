@@ -1,6 +1,6 @@
 //! Reading the small text inputs of the command line: cost files and comma lists.
 
-use std::io::Read;
+use std::io::{BufRead, Read};
 use std::path::Path;
 
 use crate::error::CliError;
@@ -8,7 +8,7 @@ use crate::error::CliError;
 /// Reads one non-negative cost per line from `path` (`-` for standard input). Blank lines and
 /// lines starting with `#` are skipped. Every bad line is reported with its number.
 pub fn read_costs(path: &Path) -> Result<Vec<f64>, CliError> {
-    let bytes = read_bytes(path)?;
+    let bytes = read_text(path)?;
     let text = String::from_utf8(bytes).map_err(|e| CliError::Read {
         path: path.to_owned(),
         source: std::io::Error::new(
@@ -43,30 +43,56 @@ pub fn read_costs(path: &Path) -> Result<Vec<f64>, CliError> {
 /// an error instead of filling memory.
 pub const MAX_INPUT_BYTES: u64 = 1 << 30;
 
-/// Reads a whole input file, or standard input for `-`, up to [`MAX_INPUT_BYTES`].
-pub fn read_bytes(path: &Path) -> Result<Vec<u8>, CliError> {
+/// Opens an input file, or standard input for `-`, buffered.
+pub fn open(path: &Path) -> Result<Box<dyn BufRead>, CliError> {
+    if path == Path::new("-") {
+        return Ok(Box::new(std::io::stdin().lock()));
+    }
+    let file = std::fs::File::open(path).map_err(|source| CliError::Read {
+        path: path.to_owned(),
+        source,
+    })?;
+    Ok(Box::new(std::io::BufReader::new(file)))
+}
+
+/// The error of an input past [`MAX_INPUT_BYTES`].
+pub fn too_large(path: &Path) -> CliError {
+    CliError::Read {
+        path: path.to_owned(),
+        source: std::io::Error::new(
+            std::io::ErrorKind::FileTooLarge,
+            format!("larger than the limit of {MAX_INPUT_BYTES} bytes"),
+        ),
+    }
+}
+
+/// Reads a whole text input, or standard input for `-`, up to [`MAX_INPUT_BYTES`]. NUL bytes
+/// at the start (UTF-16, binary data, `/dev/zero`) end the read at once.
+pub fn read_text(path: &Path) -> Result<Vec<u8>, CliError> {
     let read_err = |source| CliError::Read {
         path: path.to_owned(),
         source,
     };
+    let mut input = open(path)?.take(MAX_INPUT_BYTES + 1);
     let mut bytes = Vec::new();
-    let limit = MAX_INPUT_BYTES + 1;
-    if path == Path::new("-") {
-        std::io::stdin()
-            .lock()
-            .take(limit)
-            .read_to_end(&mut bytes)
-            .map_err(read_err)?;
-    } else {
-        std::fs::File::open(path)
-            .and_then(|f| f.take(limit).read_to_end(&mut bytes))
-            .map_err(read_err)?;
+    let mut block = vec![0u8; 1 << 16];
+    loop {
+        let n = match input.read(&mut block) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(read_err(e)),
+        };
+        if bytes.len() < block.len() && block[..n].contains(&0) {
+            return Err(read_err(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                "holds NUL bytes: binary data or UTF-16, not UTF-8 text",
+            )));
+        }
+        bytes.extend_from_slice(&block[..n]);
     }
     if bytes.len() as u64 > MAX_INPUT_BYTES {
-        return Err(read_err(std::io::Error::new(
-            std::io::ErrorKind::FileTooLarge,
-            format!("larger than the limit of {MAX_INPUT_BYTES} bytes"),
-        )));
+        return Err(too_large(path));
     }
     Ok(bytes)
 }

@@ -173,28 +173,46 @@ fn gpu_trace(_: &Bvh, _: &RayBatch, _: bool) -> Result<(HitBatch, f64, Option<St
     })
 }
 
-/// Reads and checks a ray file; the error names the file, the ray and the bad value.
+/// Reads and checks a ray file (or standard input for `-`) one ray at a time, so that the
+/// first bad ray ends the read; the error names the file, the ray and the bad value.
 pub(crate) fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
-    let bytes = crate::input::read_bytes(path)?;
+    let read_err = |source| CliError::Read {
+        path: path.to_owned(),
+        source,
+    };
     let bad = |ray: usize, message: String| CliError::Record {
         path: path.to_owned(),
         what: "ray",
         index: ray,
         message,
     };
-    if bytes.len() % RAY_BYTES != 0 {
-        return Err(bad(
-            bytes.len() / RAY_BYTES,
-            format!(
-                "truncated: the file has {} bytes, not a multiple of {RAY_BYTES}",
-                bytes.len()
-            ),
-        ));
-    }
-    let n = bytes.len() / RAY_BYTES;
-    let mut rays = RayBatch::with_capacity(n);
+    let max_rays = (crate::input::MAX_INPUT_BYTES / RAY_BYTES as u64) as usize;
+    // A regular file says how many rays to expect; anything else grows as it is read.
+    let expected = std::fs::metadata(path)
+        .ok()
+        .filter(|m| m.is_file() && path != Path::new("-"))
+        .map_or(0, |m| {
+            (m.len() / RAY_BYTES as u64).min(max_rays as u64) as usize
+        });
+    let mut input = crate::input::open(path)?;
+    let mut rays = RayBatch::with_capacity(expected);
     const FIELDS: [&str; 8] = ["ox", "oy", "oz", "dx", "dy", "dz", "tmin", "tmax"];
-    for (i, record) in bytes.chunks_exact(RAY_BYTES).enumerate() {
+    let mut record = [0u8; RAY_BYTES];
+    for i in 0.. {
+        let got = fill(&mut input, &mut record).map_err(read_err)?;
+        if got == 0 {
+            break;
+        }
+        if got < RAY_BYTES {
+            let len = i * RAY_BYTES + got;
+            return Err(bad(
+                i,
+                format!("truncated: the file has {len} bytes, not a multiple of {RAY_BYTES}"),
+            ));
+        }
+        if i == max_rays {
+            return Err(crate::input::too_large(path));
+        }
         let mut v = [0f32; 8];
         for (k, word) in record.chunks_exact(4).enumerate() {
             v[k] = f32::from_le_bytes([word[0], word[1], word[2], word[3]]);
@@ -222,6 +240,20 @@ pub(crate) fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
         rays.tmax.push(v[7]);
     }
     Ok(rays)
+}
+
+/// Reads until `buf` is full or the input ends; returns the bytes read.
+fn fill(input: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut got = 0;
+    while got < buf.len() {
+        match input.read(&mut buf[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(got)
 }
 
 fn encode_hits(hits: &HitBatch) -> Vec<u8> {
