@@ -54,6 +54,18 @@ pub fn run(args: Args) -> Result<(), CliError> {
             ("devices", args.devices),
         ],
     )?;
+    use crate::limits::{MAX_THREADS, count, memory};
+    count("bodies", args.bodies, 1 << 24)?;
+    count("terrain", args.terrain, 1 << 13)?;
+    count("task-size", args.task_size, 1 << 24)?;
+    count("devices", args.devices, MAX_THREADS)?;
+    // A body's shape (a convex hull at most), its pose, bounds and contacts.
+    memory("bodies", &args.bodies.to_string(), &[(args.bodies, 1024)])?;
+    if args.scene.is_none() {
+        // Two triangles per quad, with the mesh's vertices, indices and BVH.
+        let quads = args.terrain * args.terrain;
+        memory("terrain", &args.terrain.to_string(), &[(quads, 2 * 128)])?;
+    }
     let (mesh, source) = match &args.scene {
         Some(path) => (
             scene_mesh(path).map_err(|e| CliError::Arg {

@@ -59,4 +59,22 @@ pub enum CliError {
     /// Output could not be written.
     #[error("writing output: {0}")]
     Write(String),
+    /// An output path cannot be written safely, or writing it failed.
+    #[error("{}{}: {message}", flag_prefix(flag), path.display())]
+    Output {
+        /// The flag, without dashes; empty where the path is not a flag's value.
+        flag: &'static str,
+        /// The path as given.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
+}
+
+fn flag_prefix(flag: &str) -> String {
+    if flag.is_empty() {
+        String::new()
+    } else {
+        format!("--{flag} ")
+    }
 }

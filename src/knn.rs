@@ -63,6 +63,23 @@ pub fn run(args: Args) -> Result<(), CliError> {
             ("devices", args.devices),
         ],
     )?;
+    use crate::limits::{MAX_THREADS, count, memory};
+    count("points", args.points, 1 << 28)?;
+    count("queries", args.queries, 1 << 28)?;
+    count("k", args.k, 1024)?;
+    count("task-size", args.task_size, 1 << 24)?;
+    count("devices", args.devices, MAX_THREADS)?;
+    if args.scene.is_none() {
+        // The cloud, its copy in the index and the index's own nodes.
+        memory("points", &args.points.to_string(), &[(args.points, 64)])?;
+    }
+    // Each query, its sorted copy and its k neighbours (index and distance).
+    let per_query = 32 + 8 * args.k as u64;
+    memory(
+        "queries",
+        &args.queries.to_string(),
+        &[(args.queries, per_query)],
+    )?;
     let density = match args.estimator.as_str() {
         "probe" => false,
         "density" => true,
@@ -70,7 +87,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             return Err(CliError::Arg {
                 flag: "estimator",
                 value: other.into(),
-                message: "expected probe or density".into(),
+                message: "expected `density` or `probe`".into(),
             });
         }
     };

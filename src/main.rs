@@ -8,6 +8,8 @@ mod error;
 mod estimate;
 mod input;
 mod knn;
+mod limits;
+mod output;
 mod render;
 mod render_gpu;
 mod render_paths;
@@ -88,12 +90,9 @@ fn print_text(text: &str) -> Result<(), CliError> {
         .map_err(|e| CliError::Write(e.to_string()))
 }
 
-/// Writes a whole file through a temporary sibling and a rename, so a failure never leaves a
-/// half-written file where a good one was.
+/// Writes one file the way every output is written (see [`output::Outputs`]), for outputs not
+/// yet checked up front with the command's other outputs.
 fn write_file(path: &std::path::Path, bytes: &[u8]) -> Result<(), CliError> {
-    let err = |e: std::io::Error| CliError::Write(format!("{}: {e}", path.display()));
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".partial");
-    std::fs::write(&tmp, bytes).map_err(err)?;
-    std::fs::rename(&tmp, path).map_err(err)
+    let outputs = output::Outputs::check(&[("", Some(path))], &[])?;
+    outputs.commit(&[("", bytes)])
 }

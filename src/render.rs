@@ -87,7 +87,8 @@ pub struct Args {
     ao_distance: Option<String>,
     /// Devices: `cpu:N` (N devices of one thread), `cpu:N/T` (T threads each), several
     /// comma-separated, or `cpu` (one device with every core); `gpu:all` or `gpu:K` adds wgpu
-    /// adapters (software ones only with `COBALT_GPU_SOFTWARE=1`).
+    /// adapters (software ones only with `COBALT_GPU_SOFTWARE=1`). At most 1024 CPU devices,
+    /// 1024 threads each and 4096 threads in all.
     #[arg(long, default_value = "cpu:2")]
     devices: String,
     /// `scheduled` (every generation over `--devices`, shaded on the host), `paths` (every
@@ -356,6 +357,9 @@ impl CameraChoice {
 /// written until the render is done.
 pub fn run(args: Args) -> Result<(), CliError> {
     let (width, height) = parse_size(&args.size)?;
+    // The film, the rays of a generation and their hits, per pixel and sample.
+    let pixels = width as usize * height as usize;
+    crate::limits::memory("size", &args.size, &[(pixels, 256)])?;
     let specs = parse_devices(&args.devices)?;
     let threads: usize = specs
         .iter()
@@ -509,6 +513,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
     }
 
+    let outputs = crate::output::Outputs::check(
+        &[
+            ("out", Some(&args.out)),
+            ("cost-image", args.cost_image.as_deref()),
+            ("report", args.report.as_deref()),
+        ],
+        &[("scene", std::path::Path::new(&args.scene))],
+    )?;
     let loading = Instant::now();
     let scene = SceneSource::parse(&args.scene)?.load(shader.needs())?;
     let load_seconds = loading.elapsed().as_secs_f64();
@@ -556,15 +568,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
         };
         let json =
             serde_json::to_string_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
-        crate::write_file(&args.out, &image)?;
-        if let Some(path) = &args.report {
-            crate::write_file(path, format!("{json}\n").as_bytes())?;
-        }
+        let json = format!("{json}\n");
+        outputs.commit(&[("out", &image), ("report", json.as_bytes())])?;
         return if args.json {
-            crate::print_json(&report)
+            outputs.print_json(&report)
         } else {
             let r = &report.run;
-            crate::print_text(&format!(
+            outputs.print(&format!(
                 "{} {} of {} ({} triangles) on {} by paths, {} {}, tasks of {}: {} rays in \
                  {:.3} s, {:.2} MRays/s, balance {:.1} %; {} B to and {} B from devices, {} \
                  waits, {} B of film; fastest of {} frame(s)\n",
@@ -636,17 +646,16 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let report_json =
         serde_json::to_string_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
 
-    crate::write_file(&args.out, &image)?;
-    if let (Some(path), Some(png)) = (&args.cost_image, &cost_png) {
-        crate::write_file(path, png)?;
-    }
-    if let Some(path) = &args.report {
-        crate::write_file(path, format!("{report_json}\n").as_bytes())?;
-    }
+    let report_json = format!("{report_json}\n");
+    outputs.commit(&[
+        ("out", &image),
+        ("cost-image", cost_png.as_deref().unwrap_or_default()),
+        ("report", report_json.as_bytes()),
+    ])?;
     if args.json {
-        crate::print_json(&report)
+        outputs.print_json(&report)
     } else {
-        crate::print_text(&summary(&report))
+        outputs.print(&summary(&report))
     }
 }
 
@@ -864,9 +873,15 @@ fn parse_devices(text: &str) -> Result<Vec<DeviceSpec>, CliError> {
             threads = threads.max(t);
         }
     }
-    if devices > MAX_DEVICES || threads > MAX_DEVICES {
+    let total = specs.iter().try_fold(0usize, |sum, spec| match *spec {
+        DeviceSpec::Cpu { count, threads } => count.checked_mul(threads)?.checked_add(sum),
+        DeviceSpec::Gpu(_) => Some(sum),
+    });
+    let max_threads = crate::limits::MAX_THREADS;
+    if devices > MAX_DEVICES || threads > MAX_DEVICES || total.is_none_or(|t| t > max_threads) {
         return Err(bad(format!(
-            "at most {MAX_DEVICES} devices and {MAX_DEVICES} threads per device"
+            "at most {MAX_DEVICES} devices, {MAX_DEVICES} threads per device and \
+             {max_threads} threads in all"
         )));
     }
     Ok(specs)

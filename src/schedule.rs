@@ -1,6 +1,6 @@
 //! `cobalt schedule`: plan a list of task costs with a policy and report the result.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use sched::bounds::{guarantee, lower_bound};
@@ -62,9 +62,22 @@ struct Report {
 
 /// Runs the command and prints its report.
 pub fn run(args: Args) -> Result<(), CliError> {
-    let estimated = Costs::new(read_costs(&args.costs)?)?;
+    if args.costs == Path::new("-") && args.actual.as_deref() == Some(Path::new("-")) {
+        return Err(CliError::Arg {
+            flag: "actual",
+            value: "-".into(),
+            message: "--costs already reads standard input".into(),
+        });
+    }
+    fn named(path: &Path) -> impl FnOnce(sched::SchedError) -> CliError + '_ {
+        move |e| CliError::Read {
+            path: path.to_owned(),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()),
+        }
+    }
+    let estimated = Costs::new(read_costs(&args.costs)?).map_err(named(&args.costs))?;
     let actual = match &args.actual {
-        Some(path) => Costs::new(read_costs(path)?)?,
+        Some(path) => Costs::new(read_costs(path)?).map_err(named(path))?,
         None => estimated.clone(),
     };
     let speeds = Speeds::new(parse_list("speeds", &args.speeds)?)?;
@@ -82,6 +95,22 @@ pub fn run(args: Args) -> Result<(), CliError> {
 
     let bound = lower_bound(&actual, &speeds);
     let makespan = result.metrics.makespan;
+    // The costs' sum is finite, but divided by slow speeds or plus a latency it may not be.
+    let finite = [makespan, bound, result.metrics.balance_efficiency]
+        .into_iter()
+        .chain(result.metrics.busy.iter().copied())
+        .all(f64::is_finite);
+    if !finite {
+        return Err(CliError::Arg {
+            flag: "speeds",
+            value: args.speeds.clone(),
+            message: format!(
+                "the costs divided by these speeds (plus --latency {}) overflow: a makespan \
+                 of {makespan:e} cannot be reported; scale the costs down",
+                args.latency
+            ),
+        });
+    }
     let report = Report {
         policy: args.policy,
         tasks: estimated.len(),

@@ -76,6 +76,17 @@ pub fn run(args: Args) -> Result<(), CliError> {
         value: args.preset.clone(),
         message: e,
     })?;
+    if args.scene == "-" && args.rays == Path::new("-") {
+        return Err(CliError::Arg {
+            flag: "rays",
+            value: "-".into(),
+            message: "--scene already reads standard input".into(),
+        });
+    }
+    let outputs = crate::output::Outputs::check(
+        &[("out", Some(&args.out))],
+        &[("scene", Path::new(&args.scene)), ("rays", &args.rays)],
+    )?;
     let loading = Instant::now();
     let scene = SceneSource::parse(&args.scene)?.load(SceneNeeds::AO)?;
     let load_seconds = loading.elapsed().as_secs_f64();
@@ -94,7 +105,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
         Device::Gpu => gpu_trace(&bvh, &rays, args.any_hit)?,
     };
-    crate::write_file(&args.out, &encode_hits(&hits))?;
+    outputs.commit(&[("out", &encode_hits(&hits))])?;
 
     let report = Report {
         scene: args.scene.clone(),
@@ -116,9 +127,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         threads: rayon::current_num_threads(),
     };
     if args.json {
-        crate::print_json(&report)
+        outputs.print_json(&report)
     } else {
-        crate::print_text(&format!(
+        outputs.print(&format!(
             "{} rays ({} hit) on {} ({} triangles): {:.3} s, {:.2} MRays/s; BVH {} built in {:.3} s\n",
             report.rays,
             report.hits,
@@ -162,31 +173,46 @@ fn gpu_trace(_: &Bvh, _: &RayBatch, _: bool) -> Result<(HitBatch, f64, Option<St
     })
 }
 
-/// Reads and checks a ray file; the error names the file, the ray and the bad value.
+/// Reads and checks a ray file (or standard input for `-`) one ray at a time, so that the
+/// first bad ray ends the read; the error names the file, the ray and the bad value.
 pub(crate) fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
-    let bytes = std::fs::read(path).map_err(|source| CliError::Read {
+    let read_err = |source| CliError::Read {
         path: path.to_owned(),
         source,
-    })?;
+    };
     let bad = |ray: usize, message: String| CliError::Record {
         path: path.to_owned(),
         what: "ray",
         index: ray,
         message,
     };
-    if bytes.len() % RAY_BYTES != 0 {
-        return Err(bad(
-            bytes.len() / RAY_BYTES,
-            format!(
-                "truncated: the file has {} bytes, not a multiple of {RAY_BYTES}",
-                bytes.len()
-            ),
-        ));
-    }
-    let n = bytes.len() / RAY_BYTES;
-    let mut rays = RayBatch::with_capacity(n);
+    let max_rays = (crate::input::MAX_INPUT_BYTES / RAY_BYTES as u64) as usize;
+    // A regular file says how many rays to expect; anything else grows as it is read.
+    let expected = std::fs::metadata(path)
+        .ok()
+        .filter(|m| m.is_file() && path != Path::new("-"))
+        .map_or(0, |m| {
+            (m.len() / RAY_BYTES as u64).min(max_rays as u64) as usize
+        });
+    let mut input = crate::input::open(path)?;
+    let mut rays = RayBatch::with_capacity(expected);
     const FIELDS: [&str; 8] = ["ox", "oy", "oz", "dx", "dy", "dz", "tmin", "tmax"];
-    for (i, record) in bytes.chunks_exact(RAY_BYTES).enumerate() {
+    let mut record = [0u8; RAY_BYTES];
+    for i in 0.. {
+        let got = fill(&mut input, &mut record).map_err(read_err)?;
+        if got == 0 {
+            break;
+        }
+        if got < RAY_BYTES {
+            let len = i * RAY_BYTES + got;
+            return Err(bad(
+                i,
+                format!("truncated: the file has {len} bytes, not a multiple of {RAY_BYTES}"),
+            ));
+        }
+        if i == max_rays {
+            return Err(crate::input::too_large(path));
+        }
         let mut v = [0f32; 8];
         for (k, word) in record.chunks_exact(4).enumerate() {
             v[k] = f32::from_le_bytes([word[0], word[1], word[2], word[3]]);
@@ -216,6 +242,20 @@ pub(crate) fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
     Ok(rays)
 }
 
+/// Reads until `buf` is full or the input ends; returns the bytes read.
+fn fill(input: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut got = 0;
+    while got < buf.len() {
+        match input.read(&mut buf[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(got)
+}
+
 fn encode_hits(hits: &HitBatch) -> Vec<u8> {
     let mut out = Vec::with_capacity(hits.len() * 8);
     for (t, prim) in hits.t.iter().zip(&hits.prim) {
@@ -224,4 +264,30 @@ fn encode_hits(hits: &HitBatch) -> Vec<u8> {
         out.extend_from_slice(&prim.to_le_bytes());
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    proptest! {
+        /// Random bytes: rays that are all usable, or an error naming the file.
+        #[test]
+        fn random_ray_files_never_panic(body in proptest::collection::vec(any::<u8>(), 0..200)) {
+            let p = std::env::temp_dir()
+                .join(format!("cobalt-rays-{}-prop", std::process::id()));
+            std::fs::write(&p, &body).expect("temp file");
+            match read_rays(&p) {
+                Ok(rays) => {
+                    prop_assert_eq!(rays.len(), body.len() / RAY_BYTES);
+                    for i in 0..rays.len() {
+                        prop_assert!(rays.tmin[i] >= 0.0 && rays.tmin[i] <= rays.tmax[i]);
+                    }
+                }
+                Err(e) => prop_assert!(e.to_string().contains("cobalt-rays")),
+            }
+        }
+    }
 }

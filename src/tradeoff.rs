@@ -7,6 +7,7 @@
 //!   scrambling seed, so the reference's noise is independent of the estimate's) against render
 //!   time.
 
+use std::path::Path;
 use std::time::Instant;
 
 use raytrace::shade::{AoSettings, CpuTracer, RenderOptions, Shader, render};
@@ -79,15 +80,21 @@ struct Report {
     ao: Vec<SampleRecord>,
 }
 
-fn list<T: std::str::FromStr>(flag: &'static str, text: &str) -> Result<Vec<T>, CliError> {
+/// A comma-separated list; an error names the bad item and says what `valid` items are.
+fn list<T: std::str::FromStr>(
+    flag: &'static str,
+    text: &str,
+    valid: &str,
+) -> Result<Vec<T>, CliError> {
     text.split(',')
-        .map(|s| s.trim().parse::<T>())
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|_| CliError::Arg {
-            flag,
-            value: text.into(),
-            message: "expected a comma-separated list".into(),
+        .map(|item| {
+            item.trim().parse::<T>().map_err(|_| CliError::Arg {
+                flag,
+                value: text.into(),
+                message: format!("{:?} is not valid: expected {valid}", item.trim()),
+            })
         })
+        .collect()
 }
 
 /// Runs both measurements and prints the tables.
@@ -96,17 +103,32 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let camera = parse_camera(&args.camera)?;
     let presets: Vec<BuildPreset> = match &args.presets {
         None => BuildPreset::ALL.to_vec(),
-        Some(p) => list("presets", p)?,
+        Some(p) => list(
+            "presets",
+            p,
+            "fastest, very-fast, fast, medium, slow or very-slow",
+        )?,
     };
-    let counts: Vec<u32> = list("ao-samples", &args.ao_samples)?;
+    let counts: Vec<u32> = list("ao-samples", &args.ao_samples, "whole numbers in 1..=4096")?;
     let bad_count = |n: &u32| !(1..=4096).contains(n);
-    if counts.iter().any(bad_count) || bad_count(&args.reference) {
+    if let Some(n) = counts.iter().find(|n| bad_count(n)) {
         return Err(CliError::Arg {
             flag: "ao-samples",
-            value: format!("{} (reference {})", args.ao_samples, args.reference),
-            message: "sample counts must be in 1..=4096".into(),
+            value: args.ao_samples.clone(),
+            message: format!("{n} is not a sample count in 1..=4096"),
         });
     }
+    if bad_count(&args.reference) {
+        return Err(CliError::Arg {
+            flag: "reference",
+            value: args.reference.to_string(),
+            message: "expected a sample count in 1..=4096".into(),
+        });
+    }
+    let outputs = crate::output::Outputs::check(
+        &[("json", args.json.as_deref())],
+        &[("scene", Path::new(&args.scene))],
+    )?;
     let scene = SceneSource::parse(&args.scene)?.load(raytrace::SceneNeeds::AO)?;
 
     let mut preset_records = Vec::new();
@@ -182,13 +204,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         reference_seconds: reference.seconds,
         ao: ao_records,
     };
-    crate::print_text(&tables(&report))?;
-    if let Some(path) = &args.json {
-        let text =
-            serde_json::to_vec_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
-        crate::write_file(path, &text)?;
-    }
-    Ok(())
+    let text = serde_json::to_vec_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
+    outputs.commit(&[("json", &text)])?;
+    outputs.print(&tables(&report))
 }
 
 fn tables(r: &Report) -> String {

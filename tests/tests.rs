@@ -35,6 +35,11 @@ mod bench;
 // `cobalt knn` and `cobalt collide`: the bench record shape, full sampling exact, bad input.
 mod spatial;
 
+// Hostile input: special files, links and inputs given as outputs, failures at each step of
+// writing, absurd sizes, odd encodings, degenerate scenes, overflowing costs, bad GPU settings;
+// random and mutated argument lists, ray files and cost files.
+mod hostile;
+
 // `mpirun -np 3 cobalt render`: the image of one process, byte for byte; a scene missing on
 // some ranks ends every rank with an error (feature `mpi`, needs Open MPI's `mpirun`).
 #[cfg(feature = "mpi")]

@@ -10,7 +10,8 @@ use crate::{Error, Result};
 /// Which GPU adapters to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GpuSelect {
-    /// Every hardware adapter found.
+    /// Every adapter found that may be used: hardware ones, and software ones where allowed
+    /// (see `gpu::GpuOptions`).
     All,
     /// The adapter with this index in wgpu's enumeration.
     Index(usize),
@@ -74,7 +75,12 @@ pub fn parse_devices(arg: &str) -> Result<Vec<DeviceSpec>> {
                 Ok(k) => DeviceSpec::Gpu(GpuSelect::Index(k)),
                 Err(_) => return Err(bad(entry, "expected gpu:all or gpu:K (an adapter index)")),
             },
-            _ => return Err(bad(entry, "the kind must be `cpu` or `gpu`")),
+            _ => {
+                return Err(bad(
+                    entry,
+                    "the kind must be `cpu` or `gpu`: cpu:N, cpu:N/T, gpu:all or gpu:K",
+                ));
+            }
         };
         out.push(spec);
     }

@@ -15,6 +15,22 @@ pub enum Error {
         /// What the OS said.
         source: std::io::Error,
     },
+    /// The file is not UTF-8 text (UTF-16 or another encoding, or binary data).
+    #[error("{path}: {why}; save it as UTF-8 text")]
+    Encoding {
+        /// The file.
+        path: PathBuf,
+        /// What was found instead, and where.
+        why: String,
+    },
+    /// The file is larger than the loader reads.
+    #[error("{path}: larger than the limit of {limit} bytes")]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// The limit, in bytes.
+        limit: u64,
+    },
     /// A line could not be parsed (garbled or truncated file).
     #[error("{path}:{line}: {what}")]
     Parse {

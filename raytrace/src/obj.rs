@@ -21,12 +21,8 @@ struct Scan {
 /// after fan triangulation (`f a b c d` gives `a b c` then `a c d`).
 pub(crate) fn load(path: &Path, needs: SceneNeeds) -> Result<Scene> {
     let start = Instant::now();
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    // Lossy: comments in old files are often Latin-1; garbage in `v`/`f` lines is caught below.
-    let text = String::from_utf8_lossy(&bytes);
+    let bytes = read(path)?;
+    let text = decode(&bytes, path)?;
     let scan = scan(&text, path)?;
 
     let options = tobj::LoadOptions {
@@ -140,6 +136,82 @@ pub(crate) fn load(path: &Path, needs: SceneNeeds) -> Result<Scene> {
     }
     scene.report.seconds = start.elapsed().as_secs_f64();
     Ok(scene)
+}
+
+/// Largest OBJ file read: `/dev/zero` or a wrong path to a huge file ends in an error instead
+/// of filling memory.
+pub const MAX_OBJ_BYTES: u64 = 4 << 30;
+
+/// Bytes read at a time; NUL bytes in the first block end the read at once (UTF-16, binary
+/// data, `/dev/zero`).
+const BLOCK: usize = 1 << 16;
+
+/// Reads the file, or standard input for `-`, up to [`MAX_OBJ_BYTES`].
+fn read(path: &Path) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let io = |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut input: Box<dyn Read> = if path == Path::new("-") {
+        Box::new(std::io::stdin().lock())
+    } else {
+        Box::new(std::fs::File::open(path).map_err(io)?)
+    };
+    let mut bytes = Vec::new();
+    let mut block = vec![0u8; BLOCK];
+    loop {
+        let n = match input.read(&mut block) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(io(e)),
+        };
+        if bytes.len() < BLOCK && block[..n].contains(&0) {
+            return Err(not_text(path, &block[..n]));
+        }
+        bytes.extend_from_slice(&block[..n]);
+        if bytes.len() as u64 > MAX_OBJ_BYTES {
+            return Err(Error::TooLarge {
+                path: path.to_path_buf(),
+                limit: MAX_OBJ_BYTES,
+            });
+        }
+    }
+    Ok(bytes)
+}
+
+fn not_text(path: &Path, start: &[u8]) -> Error {
+    let why = if start.starts_with(&[0xFF, 0xFE]) || start.starts_with(&[0xFE, 0xFF]) {
+        "the file is UTF-16 or UTF-32 (it starts with that byte-order mark)"
+    } else {
+        "the file holds NUL bytes: it is binary, UTF-16 or UTF-32, not an OBJ text file"
+    };
+    Error::Encoding {
+        path: path.to_path_buf(),
+        why: why.into(),
+    }
+}
+
+/// The text of the file. A UTF-8 byte-order mark is dropped (it would otherwise hide the first
+/// line's keyword). Comments may be in another encoding (old files often have Latin-1 ones),
+/// but every other line must be UTF-8: names and numbers read in the wrong encoding would
+/// silently be wrong.
+fn decode<'a>(bytes: &'a [u8], path: &Path) -> Result<std::borrow::Cow<'a, str>> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
+        return Err(not_text(path, bytes));
+    }
+    for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let comment = line.trim_ascii_start().starts_with(b"#");
+        if !comment && std::str::from_utf8(line).is_err() {
+            return Err(Error::Encoding {
+                path: path.to_path_buf(),
+                why: format!("line {} is not UTF-8", i + 1),
+            });
+        }
+    }
+    Ok(String::from_utf8_lossy(bytes))
 }
 
 fn load_mtl(path: &Path) -> tobj::MTLLoadResult {

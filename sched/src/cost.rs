@@ -22,6 +22,15 @@ impl Costs {
         {
             return Err(SchedError::BadCost { task, value });
         }
+        // Every policy and the simulator add costs up; a total that overflows would come out
+        // as an infinite makespan and a NaN balance.
+        let mut total = 0.0f64;
+        for (task, &value) in costs.iter().enumerate() {
+            total += value;
+            if !total.is_finite() {
+                return Err(SchedError::CostOverflow { task, value });
+            }
+        }
         // −0.0 passes the check; make it +0.0 so costs order like their bits.
         Ok(Costs(costs.into_iter().map(|c| c + 0.0).collect()))
     }

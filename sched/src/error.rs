@@ -14,6 +14,17 @@ pub enum SchedError {
         /// The rejected value.
         value: f64,
     },
+    /// The costs are each finite, but their sum is not.
+    #[error(
+        "cost of task {task} is {value:e}: the sum of the costs up to it overflows (exceeds {max:e})",
+        max = f64::MAX
+    )]
+    CostOverflow {
+        /// Index of the task whose cost made the sum overflow.
+        task: usize,
+        /// Its cost.
+        value: f64,
+    },
     /// A device speed is NaN, infinite, zero or negative.
     #[error("speed of device {device} is {value}: speeds must be finite and positive")]
     BadSpeed {
@@ -66,6 +77,14 @@ pub enum SchedError {
         unfinished: usize,
         /// One line per failed device.
         failures: Vec<DeviceFailure>,
+    },
+    /// The operating system refused to start the threads the devices need.
+    #[error("starting {threads} device threads: {why}; use fewer devices")]
+    Threads {
+        /// Threads asked for.
+        threads: usize,
+        /// The system's reason.
+        why: String,
     },
     /// An unknown policy name was given.
     #[error(

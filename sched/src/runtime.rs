@@ -91,7 +91,10 @@ impl Runtime {
     /// first run does not wait for new threads: call it while setting up. Runs drive device
     /// 0 on the calling thread and the others on parked threads kept between runs.
     pub fn start_threads(devices: usize) {
-        workers::give_back(workers::take(devices.saturating_sub(1)));
+        // A refusal here shows again, as an error, in the run that needs the threads.
+        if let Ok(pool) = workers::take(devices.saturating_sub(1)) {
+            workers::give_back(pool);
+        }
     }
 
     /// Runs every task exactly once across `executors` and returns their outputs in task
@@ -139,7 +142,7 @@ impl Runtime {
             start: Instant::now(),
         };
         let mut per_device = vec![(0.0, 0u64); m];
-        let pool = workers::take(m.saturating_sub(1));
+        let pool = workers::take(m.saturating_sub(1))?;
         {
             let shared = &shared;
             let names = &names;
@@ -203,6 +206,7 @@ mod workers {
     use crossbeam::channel::{Sender, unbounded};
     use crossbeam::sync::WaitGroup;
 
+    use crate::SchedError;
     use crate::placement::{ThreadId, allow_this_thread, keep_off_caller, this_thread};
 
     type Job = Box<dyn FnOnce() + Send + 'static>;
@@ -217,11 +221,17 @@ mod workers {
     static IDLE: Mutex<Vec<Pool>> = Mutex::new(Vec::new());
 
     /// A pool of at least `threads` threads that no other run is using.
-    pub(super) fn take(threads: usize) -> Pool {
+    ///
+    /// # Errors
+    /// [`SchedError::Threads`] when the operating system refuses a thread.
+    pub(super) fn take(threads: usize) -> Result<Pool, SchedError> {
         let mut idle = IDLE.lock().unwrap_or_else(|p| p.into_inner());
         match idle.iter().position(|p| p.threads.len() >= threads) {
-            Some(i) => idle.swap_remove(i),
-            None => Pool::new(threads),
+            Some(i) => Ok(idle.swap_remove(i)),
+            None => Pool::new(threads).map_err(|e| SchedError::Threads {
+                threads,
+                why: e.to_string(),
+            }),
         }
     }
 
@@ -242,7 +252,9 @@ mod workers {
     }
 
     impl Pool {
-        fn new(threads: usize) -> Pool {
+        /// Starts the threads; if the system refuses one, those already started end as
+        /// their channels close.
+        fn new(threads: usize) -> std::io::Result<Pool> {
             let (ids, started) = unbounded::<(usize, ThreadId)>();
             let threads: Vec<Sender<Job>> = (0..threads)
                 .map(|k| {
@@ -259,18 +271,15 @@ mod workers {
                                 let _ = catch_unwind(AssertUnwindSafe(job));
                             }
                         })
-                        // Like `std::thread::spawn`: the OS refusing a thread is not
-                        // something a scheduler can work around.
-                        .expect("the OS could not start a device thread");
-                    jobs
+                        .map(|_| jobs)
                 })
-                .collect();
+                .collect::<std::io::Result<_>>()?;
             drop(ids);
             let mut id = vec![None; threads.len()];
             for (k, t) in started {
                 id[k] = t;
             }
-            Pool { threads, ids: id }
+            Ok(Pool { threads, ids: id })
         }
 
         /// Runs `jobs[k]` on thread `k` and `here` on the calling thread, and returns once all

@@ -125,6 +125,8 @@ fn list<T>(
 /// Runs the benchmark; every argument is checked before anything is measured.
 pub fn run(args: Args) -> Result<(), CliError> {
     let started = Instant::now();
+    // A bad --json path fails now rather than after the whole matrix has run.
+    crate::output::Outputs::check(&[("json", args.json.as_deref())], &[])?;
     let size_text = args
         .size
         .clone()

@@ -11,7 +11,7 @@ use obvhs::{
     triangle::Triangle,
 };
 
-use super::{Bvh, BvhTriangle, MAX_DEPTH, Node};
+use super::{Bvh, BvhTriangle, MAX_DEPTH, Node, bound};
 use crate::{Error, Result, Scene};
 
 /// obvhs's build presets, from fastest build to best trees. The trade (build time against
@@ -114,8 +114,18 @@ fn v3a(p: glam::Vec3) -> Vec3A {
 impl Bvh {
     /// Builds over the scene's non-degenerate triangles.
     ///
-    /// Errors only when the tree is deeper than [`MAX_DEPTH`].
+    /// The depth stays within [`MAX_DEPTH`], which any scene that fits in memory can keep.
     pub fn build(scene: &Scene, preset: BuildPreset) -> Result<Self> {
+        Self::build_within(scene, preset, MAX_DEPTH)
+    }
+
+    /// [`Bvh::build`] with the depth bounded by `max_depth` instead of [`MAX_DEPTH`]: subtrees
+    /// that would go deeper are rebuilt by object median (see [`super::bound`]).
+    pub(crate) fn build_within(
+        scene: &Scene,
+        preset: BuildPreset,
+        max_depth: usize,
+    ) -> Result<Self> {
         let start = Instant::now();
         let params = preset.params();
         // obvhs wants dense indices 0..n into the primitives it is given, so it gets only the
@@ -234,12 +244,21 @@ impl Bvh {
         let mut out_tris: Vec<BvhTriangle> = Vec::with_capacity(aabbs.len());
         nodes.push(Node::default());
         nodes.push(Node::PAD);
+        let shape = bound::Shape::of(&bvh2);
         let mut depth = 0usize;
         let mut stack: Vec<(usize, usize, usize)> = vec![(0, 0, 1)];
         while let Some((s, d, level)) = stack.pop() {
             depth = depth.max(level);
             let n = &src[s];
-            if n.is_leaf() {
+            if shape.rebuild_here(&bvh2, s, level, max_depth) {
+                let mut prims = bound::gather(&bvh2, s);
+                let mut out = bound::Out {
+                    nodes: &mut nodes,
+                    tris: &mut out_tris,
+                };
+                let below = bound::median(&mut prims, d, &tris, &ids, &mut out);
+                depth = depth.max(level + below - 1);
+            } else if n.is_leaf() {
                 let first = out_tris.len() as u32;
                 for k in n.first_index..n.first_index + n.prim_count {
                     let local = bvh2.primitive_indices[k as usize] as usize;
@@ -257,10 +276,10 @@ impl Bvh {
                 stack.push((c, l, level + 1));
             }
         }
-        if depth > MAX_DEPTH {
+        if depth > max_depth {
             return Err(Error::BvhTooDeep {
                 depth,
-                max: MAX_DEPTH,
+                max: max_depth,
             });
         }
 
@@ -285,7 +304,7 @@ impl Bvh {
 }
 
 /// An obvhs triangle in the GPU layout, tagged with its scene primitive id.
-fn leaf_triangle(t: &Triangle, prim: u32) -> BvhTriangle {
+pub(super) fn leaf_triangle(t: &Triangle, prim: u32) -> BvhTriangle {
     BvhTriangle {
         v0: t.v0.to_array(),
         prim,

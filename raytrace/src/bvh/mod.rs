@@ -1,6 +1,7 @@
 //! The bounding volume hierarchy: built by obvhs ([`build`]), flattened into [`Node`]s and
 //! [`BvhTriangle`]s in leaf order ([`node`]), and checked ([`validate`]).
 
+mod bound;
 pub mod build;
 pub mod node;
 pub mod validate;
@@ -9,8 +10,8 @@ pub use build::{BuildPreset, BuildReport};
 pub use node::{BvhTriangle, Node, NodeArray};
 pub use validate::{ValidationReport, validate};
 
-/// Deepest tree the traversal stack supports; deeper builds fail with
-/// [`crate::Error::BvhTooDeep`] rather than overflow.
+/// Deepest tree the traversal stacks (CPU and GPU) support; the build keeps every tree within
+/// it by rebuilding deeper subtrees by object median.
 pub const MAX_DEPTH: usize = 256;
 
 /// A flattened binary BVH over a scene's non-degenerate triangles.

@@ -2,9 +2,11 @@
 //!
 //! Backends: those named by `WGPU_BACKEND` if it is set (tests pin `vulkan`), else Vulkan,
 //! Metal and DX12 — never OpenGL unless asked for, since wgpu would otherwise fall back to it
-//! silently where no Vulkan driver is installed. Software adapters (device type `Cpu`, such as
-//! Mesa's lavapipe) are skipped by `gpu:all` unless [`GpuOptions::allow_software`] is set (by
-//! `COBALT_GPU_SOFTWARE=1`); `gpu:K` uses adapter `K` whatever it is, since it was named.
+//! silently where no Vulkan driver is installed; a name that is not a built-in backend is an
+//! error naming the variable, not an empty search. Software adapters (device type `Cpu`, such
+//! as Mesa's lavapipe) are used only when [`GpuOptions::allow_software`] is set (by
+//! `COBALT_GPU_SOFTWARE=1`), by every GPU spec alike: `gpu:all` skips them, and `gpu:K` naming
+//! one is an error. A silent software fallback would pass for a GPU in every timing.
 //! Each device is opened with its adapter's own limits, not wgpu's defaults.
 
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -32,9 +34,38 @@ impl GpuOptions {
 }
 
 /// The backends searched: `WGPU_BACKEND` if set, else Vulkan, Metal and DX12.
-pub fn backends() -> wgpu::Backends {
-    wgpu::Backends::from_env()
-        .unwrap_or(wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12)
+///
+/// # Errors
+/// [`GpuError::BadBackend`] when `WGPU_BACKEND` names anything but those three.
+pub fn backends() -> Result<wgpu::Backends, GpuError> {
+    match std::env::var("WGPU_BACKEND") {
+        Ok(value) => parse_backends(&value),
+        Err(_) => Ok(wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12),
+    }
+}
+
+/// `WGPU_BACKEND`'s comma list, with wgpu's spellings of the backends cobalt is built with.
+/// wgpu's own parser skips unknown names, which turns a typo into "no adapter".
+fn parse_backends(value: &str) -> Result<wgpu::Backends, GpuError> {
+    let mut backends = wgpu::Backends::empty();
+    for item in value.split(',') {
+        backends |= match item.trim().to_lowercase().as_str() {
+            "vulkan" | "vk" => wgpu::Backends::VULKAN,
+            "metal" | "mtl" => wgpu::Backends::METAL,
+            "dx12" | "d3d12" => wgpu::Backends::DX12,
+            _ => {
+                return Err(GpuError::BadBackend {
+                    value: value.to_string(),
+                    item: item.trim().to_string(),
+                });
+            }
+        };
+    }
+    Ok(backends)
+}
+
+fn allowed(options: GpuOptions, adapter: &wgpu::Adapter) -> bool {
+    options.allow_software || adapter.get_info().device_type != wgpu::DeviceType::Cpu
 }
 
 fn instance(backends: wgpu::Backends) -> wgpu::Instance {
@@ -50,10 +81,10 @@ fn backend_names(b: wgpu::Backends) -> String {
 /// True when at least one adapter that [`GpuContext::open`] with `GpuSelect::All` would use
 /// exists.
 pub fn adapters_available(options: GpuOptions) -> bool {
-    let b = backends();
+    let Ok(b) = backends() else { return false };
     pollster::block_on(instance(b).enumerate_adapters(b))
         .iter()
-        .any(|a| options.allow_software || a.get_info().device_type != wgpu::DeviceType::Cpu)
+        .any(|a| allowed(options, a))
 }
 
 /// One opened adapter: its device and queue, and what the kernels need to know about it.
@@ -91,8 +122,9 @@ impl GpuContext {
     /// Opens the adapters `select` names (see the module docs for which are used).
     ///
     /// # Errors
-    /// [`GpuError::NoAdapter`] when `gpu:all` finds none that may be used,
-    /// [`GpuError::NoSuchAdapter`] for a `gpu:K` beyond the list, and
+    /// [`GpuError::BadBackend`] for a bad `WGPU_BACKEND`, [`GpuError::NoAdapter`] when
+    /// `gpu:all` finds none that may be used, [`GpuError::NoSuchAdapter`] for a `gpu:K` beyond
+    /// the list, [`GpuError::SoftwareAdapter`] for a `gpu:K` that may not be used, and
     /// [`GpuError::RequestDevice`] when an adapter refuses to open.
     ///
     /// The adapters are opened once per process and selection: a later call returns clones
@@ -115,11 +147,17 @@ impl GpuContext {
 
     /// [`GpuContext::open`] without the process's cache.
     fn open_anew(select: GpuSelect, options: GpuOptions) -> Result<Vec<Self>, GpuError> {
-        let b = backends();
+        let b = backends()?;
         let adapters = pollster::block_on(instance(b).enumerate_adapters(b));
         let chosen: Vec<(usize, &wgpu::Adapter)> = match select {
             GpuSelect::Index(index) => match adapters.get(index) {
-                Some(a) => vec![(index, a)],
+                Some(a) if allowed(options, a) => vec![(index, a)],
+                Some(a) => {
+                    return Err(GpuError::SoftwareAdapter {
+                        index,
+                        name: a.get_info().name,
+                    });
+                }
                 None => {
                     return Err(GpuError::NoSuchAdapter {
                         index,
@@ -132,9 +170,7 @@ impl GpuContext {
                 let usable: Vec<_> = adapters
                     .iter()
                     .enumerate()
-                    .filter(|(_, a)| {
-                        options.allow_software || a.get_info().device_type != wgpu::DeviceType::Cpu
-                    })
+                    .filter(|(_, a)| allowed(options, a))
                     .collect();
                 if usable.is_empty() {
                     let skipped = adapters.len();
@@ -201,5 +237,23 @@ impl GpuContext {
     /// The device's name in cobalt: `gpu{index}`.
     pub fn name(&self) -> String {
         format!("gpu{}", self.index)
+    }
+}
+
+#[cfg(test)]
+mod backend_tests {
+    use super::*;
+
+    #[test]
+    fn backend_names_parse_and_typos_are_named() {
+        assert_eq!(
+            parse_backends("Vulkan, metal").unwrap(),
+            wgpu::Backends::VULKAN | wgpu::Backends::METAL
+        );
+        for bad in ["vulcan", "vulkan,gl", "", "webgpu"] {
+            let e = parse_backends(bad).unwrap_err();
+            assert!(matches!(e, GpuError::BadBackend { .. }), "{bad}: {e}");
+            assert!(e.to_string().contains("vulkan, metal, dx12"), "{e}");
+        }
     }
 }

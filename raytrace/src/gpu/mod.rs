@@ -64,6 +64,28 @@ pub enum GpuError {
         /// The backends searched.
         backends: String,
     },
+    /// `WGPU_BACKEND` names a backend that does not exist or is not built in.
+    #[error(
+        "WGPU_BACKEND={value:?}: {item:?} is not a backend cobalt can use (expected a \
+         comma-separated list of vulkan, metal, dx12)"
+    )]
+    BadBackend {
+        /// The variable's value.
+        value: String,
+        /// The item that is wrong.
+        item: String,
+    },
+    /// `gpu:K` names a software adapter while software adapters are not allowed.
+    #[error(
+        "GPU adapter {index} ({name}) is a software adapter; set COBALT_GPU_SOFTWARE=1 to use \
+         software adapters"
+    )]
+    SoftwareAdapter {
+        /// The index asked for.
+        index: usize,
+        /// The adapter's name.
+        name: String,
+    },
     /// The adapter refused to open a device.
     #[error("{adapter}: cannot open a device: {why}")]
     RequestDevice {

@@ -119,3 +119,76 @@ fn builtins_are_deterministic_and_sized() {
     assert_eq!(plain.materials, vec![crate::Material::default()]);
     assert_eq!(plain.lights.len(), 1);
 }
+
+/// A polygon of `n` vertices on a circle, fan-triangulated as the OBJ loader does: many thin
+/// triangles sharing one vertex, which a cost-driven builder nests deeply.
+fn fan(n: usize) -> crate::Scene {
+    let mut obj = String::new();
+    for k in 0..n {
+        let a = k as f32 / n as f32 * std::f32::consts::TAU;
+        obj += &format!("v {} {} 0\n", a.cos(), a.sin());
+    }
+    obj += "f";
+    for k in 1..=n {
+        obj += &format!(" {k}");
+    }
+    obj += "\n";
+    let dir = std::env::temp_dir().join(format!("cobalt-rt-{}-fan-{n}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("fan.obj");
+    std::fs::write(&path, obj).unwrap();
+    SceneSource::File(path).load(SceneNeeds::AO).unwrap()
+}
+
+#[test]
+fn a_polygon_of_many_vertices_builds_within_the_stack_with_every_preset() {
+    let scene = fan(1000);
+    let unbounded =
+        BuildPreset::ALL.map(|p| Bvh::build_within(&scene, p, usize::MAX).unwrap().depth());
+    assert!(
+        unbounded.iter().any(|&d| d > crate::bvh::MAX_DEPTH),
+        "the fan no longer needs the bound: {unbounded:?}"
+    );
+    for p in BuildPreset::ALL {
+        let bvh = Bvh::build(&scene, p).unwrap_or_else(|e| panic!("{p:?}: {e}"));
+        assert!(
+            bvh.depth() <= crate::bvh::MAX_DEPTH,
+            "{p:?}: {}",
+            bvh.depth()
+        );
+        validate(&bvh, &scene).unwrap_or_else(|e| panic!("{p:?}: {e}"));
+    }
+}
+
+/// With a tight limit, the subtrees past it are rebuilt by median: the depth holds, the tree
+/// validates, and every hit is still the exact one.
+#[test]
+fn a_bounded_depth_keeps_exact_hits() {
+    let mut rng = crate::Rng::new(testkit::seed(7));
+    let scene = testkit::random_triangles(&mut rng, 3000, 10.0, 0.5);
+    let free = Bvh::build(&scene, BuildPreset::Medium).unwrap();
+    // 3000 triangles in leaves of at most 4 need 11 levels; the bound must cut the tree in
+    // between.
+    assert!(
+        free.depth() > 13,
+        "the test needs a deeper tree: {}",
+        free.depth()
+    );
+    for max in [free.depth() - 1, 13, 12] {
+        let bvh = Bvh::build_within(&scene, BuildPreset::Medium, max).unwrap();
+        assert!(bvh.depth() <= max, "{} > {max}", bvh.depth());
+        validate(&bvh, &scene).unwrap();
+        for _ in 0..2000 {
+            let o = Vec3::new(rng.f32() * 24.0 - 12.0, rng.f32() * 24.0 - 12.0, -15.0);
+            let to = Vec3::new(rng.f32() * 20.0 - 10.0, rng.f32() * 20.0 - 10.0, 10.0);
+            let ray = Ray::new(o, to - o);
+            let r = testkit::reference_closest(&scene, &ray, 1e-5, 1e-5);
+            if r.ambiguous {
+                continue;
+            }
+            let got = bvh.closest_hit(&ray).map(|h| h.prim);
+            assert_eq!(got, r.hit.map(|(_, p)| p), "max depth {max}");
+            assert_eq!(got, free.closest_hit(&ray).map(|h| h.prim));
+        }
+    }
+}

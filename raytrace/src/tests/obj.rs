@@ -199,3 +199,76 @@ fn scene_arguments() {
         assert!(e.to_string().contains(bad), "{e}");
     }
 }
+
+#[test]
+fn a_utf8_byte_order_mark_keeps_the_first_line() {
+    let p = write(
+        "bom",
+        "a.obj",
+        b"\xEF\xBB\xBFv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    let s = load(&p, SceneNeeds::AO).unwrap();
+    assert_eq!(s.len(), 1);
+    assert_eq!(s.vertices(0)[0], Vec3::ZERO);
+}
+
+#[test]
+fn utf16_is_refused_naming_the_file() {
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    for bom in [[0xFF, 0xFE], [0xFE, 0xFF]] {
+        let mut body = bom.to_vec();
+        for u in text.encode_utf16() {
+            body.extend_from_slice(&u.to_le_bytes());
+        }
+        let p = write("utf16", "a.obj", &body);
+        let e = load(&p, SceneNeeds::AO).unwrap_err();
+        assert!(matches!(e, Error::Encoding { .. }), "{e}");
+        assert!(e.to_string().contains("a.obj"), "{e}");
+    }
+}
+
+#[test]
+fn latin1_outside_comments_is_refused_with_its_line() {
+    let body = b"v 0 0 0\nv 1 0 0\nv 0 1 0\ng caf\xe9\nf 1 2 3\n";
+    let p = write("latin1-name", "a.obj", body);
+    let e = load(&p, SceneNeeds::AO).unwrap_err().to_string();
+    assert!(e.contains("a.obj") && e.contains("line 4"), "{e}");
+}
+
+/// A valid OBJ text, to be mutated.
+const TRIANGLES: &str = "# a fan\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 0 0 1\n\
+o fan\nf 1 2 3\nf 2 4 3\nf 1//1 2//1 4//1\n";
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+
+    /// Random bytes load or fail with an error; they never panic.
+    #[test]
+    fn random_bytes_never_panic(body in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..512)) {
+        let p = write("prop-random", "a.obj", &body);
+        let _ = load(&p, SceneNeeds::WHITTED);
+    }
+
+    /// A valid file with bytes overwritten, inserted or cut: an error, or a scene whose BVH
+    /// builds and validates.
+    #[test]
+    fn mutated_files_never_panic(
+        edits in proptest::collection::vec((0usize..200, proptest::prelude::any::<u8>(), 0u8..3), 1..8)
+    ) {
+        let mut body = TRIANGLES.as_bytes().to_vec();
+        for (at, byte, op) in edits {
+            let at = at % (body.len() + 1);
+            match op {
+                0 if at < body.len() => body[at] = byte,
+                1 => body.insert(at, byte),
+                _ if at < body.len() => { body.remove(at); }
+                _ => {}
+            }
+        }
+        let p = write("prop-mutated", "a.obj", &body);
+        if let Ok(scene) = load(&p, SceneNeeds::WHITTED) {
+            let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
+            crate::bvh::validate(&bvh, &scene).unwrap();
+        }
+    }
+}

@@ -438,7 +438,7 @@ fn bad_device_lists_and_faults_are_named() {
 #[cfg(feature = "gpu")]
 #[test]
 fn cpu_and_gpu_render_the_cpu_image() {
-    if crate::gpu::tests::gpu().is_none() {
+    if !gpu0_usable() {
         return;
     }
     for (source, shader) in [
@@ -448,7 +448,6 @@ fn cpu_and_gpu_render_the_cpu_image() {
         let (scene, bvh) = load(source, shader);
         let want = reference(&scene, &bvh, shader);
         for policy in [Policy::StaticLpt, Policy::QueueSorted] {
-            // `gpu:0` names the adapter, so a software one (lavapipe) is used too.
             let (got, stats) = scheduled(
                 &scene,
                 &bvh,
@@ -509,7 +508,7 @@ fn cpu_and_gpu_render_the_cpu_image() {
 #[cfg(feature = "gpu")]
 #[test]
 fn a_failing_or_lost_gpu_has_its_tasks_rerun_elsewhere() {
-    if crate::gpu::tests::gpu().is_none() {
+    if !gpu0_usable() {
         return;
     }
     let shader = ao();
@@ -559,7 +558,7 @@ fn a_failing_or_lost_gpu_has_its_tasks_rerun_elsewhere() {
 #[test]
 fn estimates_on_the_gpu_equal_the_hosts() {
     use crate::scheduled::EstimateOn;
-    if crate::gpu::tests::gpu().is_none() {
+    if !gpu0_usable() {
         return;
     }
     let shader = whitted();
@@ -605,4 +604,14 @@ fn estimates_on_the_gpu_equal_the_hosts() {
             .iter()
             .all(|s| s.estimated_on.as_deref() == Some("gpu0"))
     );
+}
+
+/// Whether `gpu:0` opens: there is an adapter, and it is hardware or software adapters are
+/// allowed (`COBALT_GPU_SOFTWARE=1`, as `scripts/test-all` sets).
+#[cfg(feature = "gpu")]
+fn gpu0_usable() -> bool {
+    crate::gpu::tests::gpu().is_some_and(|c| {
+        c.info.device_type != wgpu::DeviceType::Cpu
+            || crate::gpu::GpuOptions::from_env().allow_software
+    })
 }
