@@ -18,6 +18,7 @@ use sched::mpi::Cluster;
 use serde::Serialize;
 
 use crate::error::CliError;
+use crate::output::Outputs;
 use crate::render::CameraChoice;
 
 /// A checked `cobalt render` command line, as every rank parsed it.
@@ -34,6 +35,8 @@ pub(crate) struct Job<'a> {
     pub out: &'a Path,
     pub report: Option<&'a Path>,
     pub json: bool,
+    /// `--host-fallback`: a generation whose every node failed is traced on rank 0's host.
+    pub host_fallback: bool,
 }
 
 /// The report of a render over ranks (rank 0's view).
@@ -92,6 +95,14 @@ struct GenerationReport {
 /// Renders `job` on every rank of the MPI job this process belongs to.
 pub(crate) fn render(job: Job<'_>) -> Result<(), CliError> {
     let cluster = Cluster::init()?;
+    // Rank 0 writes every output, so it checks them before any rank starts work.
+    let outputs = cluster.is_root().then(|| {
+        Outputs::check(
+            &[("out", Some(job.out)), ("report", job.report)],
+            &[("scene", Path::new(job.scene))],
+        )
+    });
+    let outputs = cluster.agree("checking the outputs", outputs.transpose())?;
     let loaded = SceneSource::parse(job.scene)
         .and_then(|s| s.load(job.shader.needs()))
         .and_then(|scene| Bvh::build(&scene, job.preset).map(|bvh| (scene, bvh)));
@@ -108,8 +119,17 @@ pub(crate) fn render(job: Job<'_>) -> Result<(), CliError> {
     let started = Instant::now();
     let rendering = shade(&scene, &mut tracer, &options);
     let seconds = started.elapsed().as_secs_f64();
-    if !cluster.is_root() {
+    let Some(outputs) = outputs else {
         return Ok(());
+    };
+    let fallbacks = tracer.stats().iter().filter(|g| g.host_fallback).count();
+    if fallbacks > 0 && !job.host_fallback {
+        let failures: Vec<_> = tracer
+            .stats()
+            .iter()
+            .flat_map(|g| g.failures.iter().cloned())
+            .collect();
+        return Err(CliError::devices_failed(&device_list(job.specs), &failures));
     }
 
     let comm_seconds = cluster.comm_seconds() - comm_before;
@@ -146,14 +166,12 @@ pub(crate) fn render(job: Job<'_>) -> Result<(), CliError> {
     let image = rendering.film.png(ToneMap::Srgb)?;
     let report_json =
         serde_json::to_string_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
-    crate::write_file(job.out, &image)?;
-    if let Some(path) = job.report {
-        crate::write_file(path, format!("{report_json}\n").as_bytes())?;
-    }
+    let report_json = format!("{report_json}\n");
+    outputs.commit(&[("out", &image), ("report", report_json.as_bytes())])?;
     if job.json {
-        crate::print_json(&report)
+        outputs.print_json(&report)
     } else {
-        crate::print_text(&summary(&report))
+        outputs.print(&summary(&report))
     }
 }
 
@@ -228,6 +246,9 @@ fn summary(r: &Report) -> String {
             g.tasks_per_rank,
             speeds.join(", "),
         );
+        if g.host_fallback {
+            s += "    every node failed: traced on rank 0's host instead (--host-fallback)\n";
+        }
         for f in &g.failures {
             s += &format!("    {f}\n");
         }

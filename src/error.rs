@@ -56,6 +56,17 @@ pub enum CliError {
     #[cfg(feature = "mpi")]
     #[error(transparent)]
     Cluster(#[from] sched::mpi::ClusterError),
+    /// Every device the user asked for failed, and no fallback to the host was allowed.
+    #[error(
+        "every device of --devices {devices} failed, so nothing was written: {failures}; \
+         pass --host-fallback to finish on the host's threads instead"
+    )]
+    DevicesFailed {
+        /// `--devices` as given.
+        devices: String,
+        /// One entry per failure: the device and why.
+        failures: String,
+    },
     /// Output could not be written.
     #[error("writing output: {0}")]
     Write(String),
@@ -69,6 +80,34 @@ pub enum CliError {
         /// What is wrong with it.
         message: String,
     },
+}
+
+impl CliError {
+    /// The process's exit status for this error: 3 when the devices failed (the input was
+    /// fine; the hardware or its driver was not), 2 for everything else.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Self::DevicesFailed { .. } => 3,
+            _ => 2,
+        }
+    }
+
+    /// The error for a run whose every device failed, listing each failure.
+    pub fn devices_failed(devices: &str, failures: &[sched::DeviceFailure]) -> Self {
+        let failures = if failures.is_empty() {
+            String::from("no device was left from earlier failures")
+        } else {
+            failures
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join("; ")
+        };
+        Self::DevicesFailed {
+            devices: devices.to_string(),
+            failures,
+        }
+    }
 }
 
 fn flag_prefix(flag: &str) -> String {

@@ -71,7 +71,7 @@ fn main() -> ExitCode {
             // the pieces `eprintln!` writes one by one would interleave.
             let line = format!("cobalt: error: {e}\n");
             let _ = std::io::Write::write_all(&mut std::io::stderr().lock(), line.as_bytes());
-            ExitCode::from(2)
+            ExitCode::from(e.exit_code())
         }
     }
 }

@@ -128,6 +128,10 @@ pub struct Args {
     /// elsewhere.
     #[arg(long)]
     fail: Option<String>,
+    /// When every device of `--devices` fails, finish the frame on the host's threads and say
+    /// so, instead of exiting with status 3 and writing nothing.
+    #[arg(long)]
+    host_fallback: bool,
     /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
     #[arg(long, default_value = "medium")]
     preset: String,
@@ -252,6 +256,8 @@ struct Report {
     plan_seconds: f64,
     launches: u64,
     reruns: u64,
+    /// Generations traced on the host because every device had failed (`--host-fallback`).
+    host_fallback_generations: usize,
     /// The last fit of every device and ray kind: the calibration the next render would use.
     calibration: Vec<FitReport>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -487,6 +493,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             out: &args.out,
             report: args.report.as_deref(),
             json: args.json,
+            host_fallback: args.host_fallback,
         });
     }
 
@@ -554,6 +561,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
             &faults,
             settings,
             args.repeats,
+            &crate::render_paths::Fallback {
+                devices: &devices,
+                host_fallback: args.host_fallback,
+            },
         )?;
         let image = film.png(ToneMap::Srgb)?;
         let report = PathsReport {
@@ -574,7 +585,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             outputs.print_json(&report)
         } else {
             let r = &report.run;
-            outputs.print(&format!(
+            let mut text = format!(
                 "{} {} of {} ({} triangles) on {} by paths, {} {}, tasks of {}: {} rays in \
                  {:.3} s, {:.2} MRays/s, balance {:.1} %; {} B to and {} B from devices, {} \
                  waits, {} B of film; fastest of {} frame(s)\n",
@@ -595,7 +606,15 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 r.host_waits,
                 r.film_bytes,
                 r.frames,
-            ))
+            );
+            if r.host_fallback {
+                text += "every device failed: the frames were rendered on the host instead \
+                         (--host-fallback)\n";
+            }
+            for f in &r.failures {
+                text += &format!("  failed: {f}\n");
+            }
+            outputs.print(&text)
         };
     }
     let devices = build_devices(&bvh, &specs, &faults)?;
@@ -603,6 +622,15 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let mut options = RenderOptions::new(width, height, camera, shader);
     options.count_primary = args.cost_image.is_some();
     let rendering = render(&scene, &mut tracer, &options);
+    let host_fallback_generations = tracer.stats().iter().filter(|g| g.host_fallback).count();
+    if host_fallback_generations > 0 && !args.host_fallback {
+        let failures: Vec<_> = tracer
+            .stats()
+            .iter()
+            .flat_map(|g| g.failures.iter().cloned())
+            .collect();
+        return Err(CliError::devices_failed(&args.devices, &failures));
+    }
 
     // Encode everything first, so a failure leaves no partial set of outputs.
     let image = rendering.film.png(ToneMap::Srgb)?;
@@ -630,6 +658,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         plan_seconds: tracer.stats().iter().map(|g| g.plan_seconds).sum(),
         launches: tracer.stats().iter().map(GenerationStats::launches).sum(),
         reruns: tracer.stats().iter().map(|g| g.reruns).sum(),
+        host_fallback_generations,
         calibration: final_calibration(tracer.stats()),
         cost: rendering.primary_counts.as_ref().map(|counts| {
             let max = max_counts(counts);
@@ -764,6 +793,12 @@ fn summary(r: &Report) -> String {
         r.mrays_per_s,
         100.0 * r.balance_efficiency,
     );
+    if r.host_fallback_generations > 0 {
+        s += &format!(
+            "every device failed: {} generation(s) traced on the host instead (--host-fallback)\n",
+            r.host_fallback_generations
+        );
+    }
     for g in &r.generations {
         s += &format!(
             "  {:<10} bounce {}  {:>10} rays  {:.4} s  {:.2} MRays/s",
@@ -780,8 +815,11 @@ fn summary(r: &Report) -> String {
                 x.launches,
                 speeds.join(", "),
             );
-            if x.reruns > 0 || x.host_fallback {
+            if x.reruns > 0 {
                 s += &format!("  reruns {}", x.reruns);
+            }
+            if x.host_fallback {
+                s += "  traced on the host";
             }
             for f in &x.failures {
                 s += &format!("\n    {f}");

@@ -6,10 +6,12 @@
 use serde::Serialize;
 
 use raytrace::Film;
+use raytrace::devices::DeviceSpec;
 use raytrace::paths::{FrameRendering, FrameStats, PathRenderer, build_path_devices};
 use raytrace::scheduled::{FailAfter, Settings};
 use raytrace::shade::RenderOptions;
 use raytrace::{Bvh, Scene};
+use sched::{DeviceFailure, SchedError};
 
 use crate::error::CliError;
 
@@ -51,6 +53,8 @@ pub struct PathRun {
     pub balance_efficiency: f64,
     pub launches: u64,
     pub reruns: u64,
+    /// Every device failed and the frames were rendered on the host (`--host-fallback`).
+    pub host_fallback: bool,
     /// Devices that failed, with why.
     pub failures: Vec<String>,
     /// What crossed between the host and the devices, the paths' values excepted.
@@ -78,11 +82,8 @@ impl PathRun {
             balance_efficiency: s.balance_efficiency,
             launches: s.launches(),
             reruns: s.reruns,
-            failures: s
-                .failures
-                .iter()
-                .map(|f| format!("{}: {}", f.name, f.reason))
-                .collect(),
+            host_fallback: false,
+            failures: s.failures.iter().map(ToString::to_string).collect(),
             host_to_device_bytes: t.host_to_device_bytes,
             device_to_host_bytes: t.device_to_host_bytes,
             host_waits: t.host_waits,
@@ -108,8 +109,17 @@ impl PathRun {
     }
 }
 
+/// Where a failed frame may go: when every device of `devices` (the `--devices` text) fails,
+/// `host_fallback` finishes the frames on the host's threads; otherwise the failure is an
+/// error naming each device.
+pub struct Fallback<'s> {
+    pub devices: &'s str,
+    pub host_fallback: bool,
+}
+
 /// Renders `frames` frames of `options` through one path renderer over `specs`, keeping the
-/// fastest; a frame whose every device failed is an error naming them.
+/// fastest; a frame whose every device failed goes where `fallback` says.
+#[allow(clippy::too_many_arguments)]
 pub fn render(
     scene: &Scene,
     bvh: &Bvh,
@@ -118,13 +128,35 @@ pub fn render(
     faults: &[FailAfter],
     settings: Settings,
     frames: u32,
+    fallback: &Fallback<'_>,
 ) -> Result<(Film, PathRun), CliError> {
     let devices = build_path_devices(scene, bvh, specs, faults)?;
     let mut renderer = PathRenderer::new(devices, settings)?;
+    let mut host: Option<PathRenderer> = None;
+    let mut lost: Vec<DeviceFailure> = Vec::new();
     let mut best: Option<FrameRendering> = None;
     let mut first_render_seconds = 0.0;
     for k in 0..frames.max(1) {
-        let frame = renderer.render(scene, bvh, options)?;
+        let frame = match host.as_mut() {
+            Some(host) => host.render(scene, bvh, options)?,
+            None => match renderer.render(scene, bvh, options) {
+                Ok(frame) => frame,
+                Err(e @ (SchedError::AllDevicesFailed { .. } | SchedError::NoDevices)) => {
+                    if let SchedError::AllDevicesFailed { failures, .. } = e {
+                        lost.extend(failures);
+                    }
+                    if !fallback.host_fallback {
+                        return Err(CliError::devices_failed(fallback.devices, &lost));
+                    }
+                    let threads = std::thread::available_parallelism().map_or(1, usize::from);
+                    let spec = DeviceSpec::Cpu { count: 1, threads };
+                    let devices = build_path_devices(scene, bvh, &[spec], &[])?;
+                    host.insert(PathRenderer::new(devices, settings)?)
+                        .render(scene, bvh, options)?
+                }
+                Err(e) => return Err(e.into()),
+            },
+        };
         if k == 0 {
             first_render_seconds = frame.stats.seconds;
         }
@@ -136,6 +168,8 @@ pub fn render(
         }
     }
     let best = best.ok_or_else(|| CliError::Write("no frame was rendered".into()))?;
-    let run = PathRun::new(frames.max(1), first_render_seconds, &best.stats);
+    let mut run = PathRun::new(frames.max(1), first_render_seconds, &best.stats);
+    run.host_fallback = host.is_some();
+    run.failures.extend(lost.iter().map(ToString::to_string));
     Ok((best.film, run))
 }
