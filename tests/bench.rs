@@ -56,6 +56,10 @@ fn bench_writes_one_record_per_run_and_the_charts() {
         ] {
             assert!(r.get(field).is_some(), "{field} missing in {r}");
         }
+        // CPU devices render their paths where they live: nothing crosses a link.
+        assert_eq!(r["pipeline"], "paths", "{r}");
+        assert_eq!(r["host_to_device_bytes"], 0, "{r}");
+        assert_eq!(r["device_to_host_bytes"], 0, "{r}");
         let balance = r["balance_efficiency"].as_f64().expect("balance");
         assert!(balance > 0.0 && balance <= 1.0 + 1e-9, "{r}");
         assert!(r["rays"].as_u64().is_some_and(|n| n > 0), "{r}");
@@ -105,6 +109,52 @@ fn bench_writes_one_record_per_run_and_the_charts() {
     }
 }
 
+/// The generation pipeline, as the thesis measures it: an AO record counts the AO rays only,
+/// fewer than the path pipeline's, which counts every ray of the frame.
+#[test]
+fn bench_runs_the_generation_pipeline_on_request() {
+    let dir = temp_dir("bench-generations");
+    let rays = |pipeline: &str| {
+        let json = dir.join(format!("{pipeline}.json"));
+        let o = cobalt(&[
+            "bench",
+            "--scene",
+            "builtin:cornell:0.2",
+            "--size",
+            "16x16",
+            "--task-sizes",
+            "64",
+            "--policies",
+            "static-lpt",
+            "--shaders",
+            "ao",
+            "--ao-samples",
+            "2",
+            "--pipeline",
+            pipeline,
+            "--json",
+            &json.display().to_string(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&json).expect("json")).expect("JSON");
+        let r = v
+            .as_array()
+            .and_then(|a| a.iter().find(|r| r["source"] == "measured"))
+            .cloned()
+            .expect("a measured record");
+        assert_eq!(r["pipeline"], pipeline, "{r}");
+        assert_eq!(
+            r["host_to_device_bytes"].is_null(),
+            pipeline == "generations"
+        );
+        r["rays"].as_u64().expect("rays")
+    };
+    let (generations, paths) = (rays("generations"), rays("paths"));
+    // 256 primary rays, and the AO probes of the primary hits.
+    assert_eq!(paths - generations, 256);
+}
+
 #[test]
 fn bench_rejects_bad_values_naming_them() {
     for (flag, value) in [
@@ -116,6 +166,9 @@ fn bench_rejects_bad_values_naming_them() {
         ("--simulate", "x"),
         ("--repeats", "0"),
         ("--scene", "/no/such/scene.obj"),
+        // Flags of the generation pipeline, given without it.
+        ("--probe", "trace"),
+        ("--estimate-on", "gpu"),
     ] {
         let o = cobalt(&["bench", flag, value]);
         assert_eq!(o.status.code(), Some(2), "{flag} {value}");

@@ -1,14 +1,19 @@
 //! The thesis experiment on real devices: every (shader, task size, policy, mode) of one scene
-//! rendered through the scheduled tracer, one record per run (DESIGN.md, "The thesis
-//! experiment"). Whitted runs measure the coherent rays (all its generations), AO runs the
-//! diffuse rays (the AO generation; its primary generation is not part of the record).
+//! rendered through `sched`, one record per run.
+//!
+//! Two pipelines run a cell. `paths` (the default) renders frames of whole paths on
+//! path-resident devices (see `paths.rs`); a record covers every ray of its frames.
+//! `generations` schedules each generation of rays on its own, the rays made and shaded on
+//! the host, as the thesis measures them: Whitted runs measure the coherent rays (all its
+//! generations), AO runs the diffuse rays (the AO generation; its primary generation is not
+//! part of the record).
 
 use std::num::NonZeroUsize;
 
 use raytrace::cost::SampleRate;
 use raytrace::scheduled::{GenerationStats, Mode, ScheduledTracer, Settings, build_devices};
-use raytrace::shade::{AoSettings, RenderOptions, Shader, WhittedSettings, render};
-use raytrace::{Bvh, Camera, RayKind, Scene};
+use raytrace::shade::{AoSettings, Shader, WhittedSettings, render};
+use raytrace::{Bvh, RayKind, Scene};
 use sched::Policy;
 use serde::Serialize;
 
@@ -49,11 +54,23 @@ impl Workload {
     }
 }
 
+/// How a cell's frames are rendered.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Pipeline {
+    /// Frames of whole paths, each task's paths made, traced and shaded on the device that
+    /// runs it.
+    Paths,
+    /// Each generation of rays scheduled on its own, the rays made and shaded on the host.
+    Generations,
+}
+
 /// One run of the matrix: the fields `cobalt bench --json` promises, plus context.
 #[derive(Clone, Debug, Serialize)]
 pub struct Record {
     /// `measured` (here a run on real devices) or `simulated`.
     pub source: &'static str,
+    /// `paths` or `generations`.
+    pub pipeline: &'static str,
     pub scene: String,
     pub shader: &'static str,
     pub ray_kind: &'static str,
@@ -88,6 +105,65 @@ pub struct Record {
     pub run_mrays_per_s: Vec<f64>,
     /// Every run's balance efficiency, in the order they ran.
     pub run_balance_efficiency: Vec<f64>,
+    /// What crossed between the host and the devices, the paths' values excepted (path
+    /// pipeline only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub host_to_device_bytes: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub device_to_host_bytes: Option<u64>,
+    /// Times the host blocked on a device (path pipeline only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub host_waits: Option<u64>,
+    /// Bytes of the paths' values sent to the host (path pipeline only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub film_bytes: Option<u64>,
+}
+
+impl Record {
+    /// A record of one run of `plan`'s cell (`w`, `settings`) on `devices` devices, its
+    /// figures still zero.
+    pub fn new(plan: &Plan<'_>, w: Workload, settings: Settings, devices: usize) -> Self {
+        Self {
+            source: "measured",
+            pipeline: "generations",
+            scene: plan.scene_name.to_string(),
+            shader: w.name(),
+            ray_kind: w.ray_kind(),
+            policy: settings.policy.name(),
+            mode: settings.mode.name(),
+            probe: settings.probe.name(),
+            task_size: settings.task_size.get(),
+            devices,
+            device_list: plan.device_list.to_string(),
+            cameras: plan.cameras,
+            width: plan.width,
+            height: plan.height,
+            rays: 0,
+            seconds: 0.0,
+            mrays_per_s: 0.0,
+            balance_efficiency: 1.0,
+            estimate_seconds: 0.0,
+            plan_seconds: 0.0,
+            prediction_error: None,
+            launches: 0,
+            reruns: 0,
+            repeats: 1,
+            run_mrays_per_s: Vec::new(),
+            run_balance_efficiency: Vec::new(),
+            host_to_device_bytes: None,
+            device_to_host_bytes: None,
+            host_waits: None,
+            film_bytes: None,
+        }
+    }
+}
+
+/// What one run of a cell gave: its record, the tasks the simulator replays (one entry per
+/// measured generation, or per frame), and, when probed, the estimate's prediction error.
+pub struct CellRun {
+    pub record: Record,
+    pub replay: Vec<Replay>,
+    pub error: Option<f64>,
 }
 
 /// Measured tasks of one generation, for the simulator: estimated cost and seconds of each.
@@ -132,6 +208,8 @@ pub struct Plan<'a> {
     pub probe: raytrace::Probe,
     /// Runs of every cell, in rounds that each run every cell of the matrix once.
     pub repeats: usize,
+    /// How each cell's frames are rendered.
+    pub pipeline: Pipeline,
 }
 
 impl Plan<'_> {
@@ -144,7 +222,7 @@ impl Plan<'_> {
             * self.repeats
     }
 
-    fn shader(&self, w: Workload) -> Shader {
+    pub(super) fn shader(&self, w: Workload) -> Shader {
         match w {
             Workload::Whitted => Shader::Whitted(WhittedSettings::default()),
             Workload::Ao => Shader::Ao(AoSettings {
@@ -163,19 +241,12 @@ impl Plan<'_> {
         settings: Settings,
         probe: bool,
     ) -> Result<Rendered, CliError> {
-        let bounds = self.scene.bounds();
         let devices = build_devices(self.bvh, self.devices, &[])?;
         let tracer = ScheduledTracer::new(self.bvh, devices, settings)?;
         let mut p = Probe::new(tracer, self.bvh, &settings, probe);
         let mut seen = 0;
         for cam in 0..self.cameras {
-            let options = RenderOptions::new(
-                self.width,
-                self.height,
-                Camera::thesis(&bounds, cam),
-                self.shader(w),
-            );
-            render(self.scene, &mut p, &options);
+            render(self.scene, &mut p, &self.options(w, cam));
             // A device that failed is retired for the rest of the run, which changes what the
             // run measures: say so, rather than leave a row of fewer devices unexplained.
             let gens = p.inner.stats();
@@ -193,13 +264,44 @@ impl Plan<'_> {
         Ok((p.inner.stats().to_vec(), p.sums))
     }
 
+    /// One run of a cell through the generation pipeline: its measured generations' record
+    /// and replays, and when `probe`, the prediction error over them.
+    fn run_generations(
+        &self,
+        w: Workload,
+        settings: Settings,
+        probe: bool,
+    ) -> Result<CellRun, CliError> {
+        let (stats, sums) = self.render_all(w, settings, probe)?;
+        let error = probe.then(|| {
+            let mut total = ErrorSums::default();
+            for (_, s) in sums.iter().filter(|(k, _)| w.counts(*k)) {
+                total += *s;
+            }
+            total.ratio()
+        });
+        let measured: Vec<&GenerationStats> = stats.iter().filter(|g| w.counts(g.kind)).collect();
+        Ok(CellRun {
+            record: self.record(w, settings, &measured),
+            replay: measured.iter().map(|g| replay(g)).collect(),
+            error,
+        })
+    }
+
+    fn run_cell(&self, w: Workload, settings: Settings, probe: bool) -> Result<CellRun, CliError> {
+        match self.pipeline {
+            Pipeline::Paths => self.run_paths(w, settings, probe),
+            Pipeline::Generations => self.run_generations(w, settings, probe),
+        }
+    }
+
     /// Runs the whole matrix, calling `tick` after each run; returns one record per cell (the
     /// medians of its repeats) and, per (workload, task size), the replay of the cost-based
     /// StaticLpt run of median time.
     pub fn run(&self, mut tick: impl FnMut(&str)) -> Result<(Vec<Record>, Vec<Replays>), CliError> {
         // Untimed warm-up: page in the scene, the BVH and the thread pools.
         if let Some(&w) = self.workloads.first() {
-            self.render_all(w, Settings::default(), false)?;
+            self.run_cell(w, Settings::default(), false)?;
         }
         // Every cell of the matrix: (workload, task size) blocks of policies and modes.
         let mut cells: Vec<(Workload, Settings)> = Vec::new();
@@ -236,20 +338,14 @@ impl Plan<'_> {
                 let ((w, settings), key) = (*c, block(c));
                 let known = errors.iter().any(|(k, _)| *k == key);
                 let probe = settings.mode == Mode::Cost && !known;
-                let (stats, sums) = self.render_all(w, settings, probe)?;
-                if probe {
-                    let (d, f) = sums
-                        .iter()
-                        .filter(|(k, _)| w.counts(*k))
-                        .fold((0.0, 0.0), |(d, f), (_, s)| (d + s.diff, f + s.full));
-                    errors.push((key, if f > 0.0 { d / f } else { 0.0 }));
+                let run = self.run_cell(w, settings, probe)?;
+                if let Some(e) = run.error {
+                    errors.push((key, e));
                 }
-                let measured: Vec<&GenerationStats> =
-                    stats.iter().filter(|g| w.counts(g.kind)).collect();
                 if settings.mode == Mode::Cost && settings.policy == Policy::StaticLpt {
-                    lpt_gens[cell].push(measured.iter().map(|g| replay(g)).collect());
+                    lpt_gens[cell].push(run.replay);
                 }
-                runs[cell].push(self.record(w, settings, &measured));
+                runs[cell].push(run.record);
                 tick(&format!(
                     "{} {} {} {}",
                     w.name(),
@@ -298,33 +394,23 @@ impl Plan<'_> {
             reruns += g.reruns;
         }
         let balance = if capacity > 0.0 { busy / capacity } else { 1.0 };
-        Record {
-            source: "measured",
-            scene: self.scene_name.to_string(),
-            shader: w.name(),
-            ray_kind: w.ray_kind(),
-            policy: settings.policy.name(),
-            mode: settings.mode.name(),
-            probe: settings.probe.name(),
-            task_size: settings.task_size.get(),
-            devices: gens.first().map_or(0, |g| g.devices.len()),
-            device_list: self.device_list.to_string(),
-            cameras: self.cameras,
-            width: self.width,
-            height: self.height,
-            rays,
-            seconds,
-            mrays_per_s: rays as f64 / seconds.max(1e-12) / 1e6,
-            balance_efficiency: balance,
-            estimate_seconds: est,
-            plan_seconds: plan,
-            prediction_error: None,
-            launches,
-            reruns,
-            repeats: 1,
-            run_mrays_per_s: vec![rays as f64 / seconds.max(1e-12) / 1e6],
-            run_balance_efficiency: vec![balance],
-        }
+        let mut r = Record::new(
+            self,
+            w,
+            settings,
+            gens.first().map_or(0, |g| g.devices.len()),
+        );
+        r.rays = rays;
+        r.seconds = seconds;
+        r.mrays_per_s = rays as f64 / seconds.max(1e-12) / 1e6;
+        r.balance_efficiency = balance;
+        r.estimate_seconds = est;
+        r.plan_seconds = plan;
+        r.launches = launches;
+        r.reruns = reruns;
+        r.run_mrays_per_s = vec![r.mrays_per_s];
+        r.run_balance_efficiency = vec![balance];
+        r
     }
 }
 

@@ -10,6 +10,7 @@
 mod matrix;
 #[cfg(feature = "mpi")]
 mod mpi;
+mod paths;
 mod plots;
 mod probe;
 mod repeats;
@@ -28,7 +29,7 @@ use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
 use sched::Policy;
 
 use crate::error::CliError;
-use matrix::{Plan, Workload};
+use matrix::{Pipeline, Plan, Workload};
 
 /// Arguments of `cobalt bench`.
 #[derive(Debug, clap::Args)]
@@ -61,14 +62,20 @@ pub struct Args {
     /// Share of each task's rays traced to estimate it (cost mode).
     #[arg(long, default_value_t = 0.125)]
     sample_rate: f64,
-    /// Where cost mode's estimate runs: `cpu` (the host's cores) or `gpu` (the first GPU
-    /// among `--devices`, as the thesis does).
-    #[arg(long, default_value = "cpu")]
-    estimate_on: raytrace::scheduled::EstimateOn,
-    /// How cost mode traces each task's sample: `thesis`, `first-leaf` or `trace` (see
-    /// `cobalt render --probe`).
-    #[arg(long, default_value = "thesis")]
-    probe: raytrace::Probe,
+    /// How each cell renders: `paths` (frames of whole paths on path-resident devices; the
+    /// default) or `generations` (each generation of rays scheduled on its own, made and
+    /// shaded on the host, as the thesis measures them; the only one under `--mpi`).
+    #[arg(long, value_enum)]
+    pipeline: Option<Pipeline>,
+    /// Where cost mode's estimate runs: `cpu` (the host's cores; the default) or `gpu` (the
+    /// first GPU among `--devices`, as the thesis does). `--pipeline generations` only.
+    #[arg(long)]
+    estimate_on: Option<raytrace::scheduled::EstimateOn>,
+    /// How cost mode traces each task's sample: `thesis` (the default), `first-leaf` or
+    /// `trace` (see `cobalt render --probe`). `--pipeline generations` only: the path
+    /// pipeline renders its sampled paths for real.
+    #[arg(long)]
+    probe: Option<raytrace::Probe>,
     /// AO probes per primary hit.
     #[arg(long, default_value_t = 32)]
     ao_samples: u32,
@@ -186,6 +193,40 @@ pub fn run(args: Args) -> Result<(), CliError> {
     } else {
         args.scenes.clone()
     };
+    #[cfg(feature = "mpi")]
+    let under_mpi = args.mpi;
+    #[cfg(not(feature = "mpi"))]
+    let under_mpi = false;
+    let pipeline = match (args.pipeline, under_mpi) {
+        (Some(Pipeline::Paths), true) => {
+            return Err(bad(
+                "pipeline",
+                "paths",
+                "not available with --mpi, which benches the generations pipeline over ranks",
+            ));
+        }
+        (Some(p), _) => p,
+        (None, true) => Pipeline::Generations,
+        (None, false) => Pipeline::Paths,
+    };
+    if pipeline == Pipeline::Paths {
+        if let Some(p) = args.probe {
+            return Err(bad(
+                "probe",
+                p.name(),
+                "applies to --pipeline generations; the path pipeline renders its sampled paths for real",
+            ));
+        }
+        if let Some(on) = args.estimate_on {
+            return Err(bad(
+                "estimate-on",
+                on.name(),
+                "applies to --pipeline generations; the path pipeline estimates on the host",
+            ));
+        }
+    }
+    let probe = args.probe.unwrap_or(raytrace::Probe::Thesis);
+    let estimate_on = args.estimate_on.unwrap_or_default();
     let needs = if workloads.contains(&Workload::Whitted) {
         SceneNeeds::WHITTED
     } else {
@@ -210,7 +251,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             task_sizes: &task_sizes,
             policies: &policies,
             rate,
-            probe: args.probe,
+            probe,
             preset,
         };
         return run_mpi(&args, &scenes, needs, settings, started);
@@ -243,9 +284,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
             height,
             ao_samples: args.ao_samples,
             sample_rate: rate,
-            estimate_on: args.estimate_on,
-            probe: args.probe,
+            estimate_on,
+            probe,
             repeats: args.repeats,
+            pipeline,
         };
         let bar = ProgressBar::new(plan.runs() as u64);
         bar.set_style(
@@ -268,12 +310,16 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
 
     let mut out = format!(
-        "cobalt bench: {} at {}x{}, {} camera(s), devices {}, sample rate {}{}\n\n",
+        "cobalt bench: {} at {}x{}, {} camera(s), devices {}, {} pipeline, sample rate {}{}\n\n",
         scenes.join(", "),
         width,
         height,
         cameras,
         args.devices,
+        match pipeline {
+            Pipeline::Paths => "paths",
+            Pipeline::Generations => "generations",
+        },
         rate.get(),
         if args.repeats > 1 {
             format!(
@@ -285,7 +331,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
     );
     out += &table::runs(&records);
-    out += "\nTargets on these devices (issue 4):\n\n";
+    out += "\nTargets on these devices:\n\n";
     out += &table::targets(&records);
     out += "\nSampling rate (thesis Table 4.1):\n\n";
     out += &table::trade(&points);

@@ -20,6 +20,24 @@ pub struct ErrorSums {
     pub full: f64,
 }
 
+impl std::ops::AddAssign for ErrorSums {
+    fn add_assign(&mut self, o: Self) {
+        self.diff += o.diff;
+        self.full += o.full;
+    }
+}
+
+impl ErrorSums {
+    /// The thesis's prediction error, `Σ|estimated − full| / Σ full` (0 for no work).
+    pub fn ratio(self) -> f64 {
+        if self.full > 0.0 {
+            self.diff / self.full
+        } else {
+            0.0
+        }
+    }
+}
+
 /// Wraps a tracer; when `enabled`, records the prediction error sums of each generation.
 pub struct Probe<'a, T> {
     pub inner: T,

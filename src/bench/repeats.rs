@@ -58,6 +58,7 @@ mod tests {
     fn run(seconds: f64, balance: f64, launches: u64, reruns: u64) -> Record {
         Record {
             source: "measured",
+            pipeline: "paths",
             scene: "s".into(),
             shader: "ao",
             ray_kind: "diffuse",
@@ -82,6 +83,10 @@ mod tests {
             repeats: 1,
             run_mrays_per_s: vec![2.0 / seconds],
             run_balance_efficiency: vec![balance],
+            host_to_device_bytes: None,
+            device_to_host_bytes: None,
+            host_waits: None,
+            film_bytes: None,
         }
     }
 

@@ -32,15 +32,24 @@ fn of_runs(n: usize, ok: impl Fn(usize) -> bool) -> String {
     }
 }
 
+/// Bytes that crossed between the host and the devices, both ways, the film excepted; `–`
+/// where the pipeline does not count them.
+fn link_bytes(r: &Record) -> String {
+    match (r.host_to_device_bytes, r.device_to_host_bytes) {
+        (Some(up), Some(down)) => (up + down).to_string(),
+        _ => "–".into(),
+    }
+}
+
 /// Every measured run.
 pub fn runs(records: &[Record]) -> String {
     let mut s = String::from(
-        "| scene | shader | task size | policy | mode | rays | MRays/s | balance | estimate s | plan s | pred. error | launches |\n\
-         |---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| scene | shader | task size | policy | mode | rays | MRays/s | balance | estimate s | plan s | pred. error | launches | link bytes |\n\
+         |---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in records {
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.4} | {:.5} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.4} | {:.5} | {} | {} | {} |\n",
             r.scene,
             r.shader,
             r.task_size,
@@ -52,7 +61,8 @@ pub fn runs(records: &[Record]) -> String {
             r.estimate_seconds,
             r.plan_seconds,
             r.prediction_error.map_or_else(|| "–".into(), pct),
-            r.launches
+            r.launches,
+            link_bytes(r),
         );
     }
     s

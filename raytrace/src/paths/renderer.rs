@@ -8,7 +8,7 @@ use sched::{Costs, Runtime, SchedError, split_ranges};
 
 use super::{BoundPaths, Frame, FrameStats, PathDevice, PathDeviceStats, estimate_paths};
 use crate::cost::CostModel;
-use crate::scheduled::{Mode, Settings};
+use crate::scheduled::{Mode, Settings, TaskStats};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene};
 
@@ -172,10 +172,23 @@ impl<'a> PathRenderer<'a> {
             })
             .collect();
         let mut cost_done = vec![0.0; active.len()];
+        let undelivered = TaskStats {
+            cost: 0.0,
+            seconds: 0.0,
+            device: usize::MAX,
+            device_seconds: None,
+        };
+        let mut task_stats = vec![undelivered; tasks.len()];
         for span in &report.timeline.spans {
             let (k, t) = (span.device as usize, span.task as usize);
             devices[k].tasks += 1;
             cost_done[k] += costs.as_slice()[t];
+            task_stats[t] = TaskStats {
+                cost: costs.as_slice()[t],
+                seconds: span.end - span.start,
+                device: active[k],
+                device_seconds: span.device_seconds,
+            };
             if let Some(launch) = &report.outputs[t].launch {
                 let d = &mut devices[k];
                 d.rays += launch.rays;
@@ -206,7 +219,9 @@ impl<'a> PathRenderer<'a> {
             plan_seconds: report.plan_seconds,
             run_seconds,
             seconds: start.elapsed().as_secs_f64(),
+            makespan: report.metrics.makespan,
             balance_efficiency: report.metrics.balance_efficiency,
+            task_stats,
             devices,
             reruns: report.reruns,
             failures: report

@@ -3,7 +3,7 @@
 use sched::{DeviceFailure, Policy};
 
 use super::Traffic;
-use crate::scheduled::Mode;
+use crate::scheduled::{Mode, TaskStats};
 
 /// One device's part of a frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -53,8 +53,13 @@ pub struct FrameStats {
     pub run_seconds: f64,
     /// Wall seconds of the whole frame: estimate, plan, run and the film.
     pub seconds: f64,
+    /// Wall seconds from the run's start to the last task's delivery.
+    pub makespan: f64,
     /// Busy time summed over devices / (makespan × devices).
     pub balance_efficiency: f64,
+    /// Each task's planned cost, measured time and device (an index among the renderer's
+    /// devices), in task order.
+    pub task_stats: Vec<TaskStats>,
     /// Each device's part.
     pub devices: Vec<PathDeviceStats>,
     /// Task runs lost to failed devices and run again elsewhere.

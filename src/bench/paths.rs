@@ -1,0 +1,147 @@
+//! One cell of the matrix on path-resident devices ([`raytrace::paths`]): every camera is a
+//! frame of whole paths, each task's paths made, traced and shaded on the device that runs
+//! it. A record covers every ray of the frames (an AO record's primary rays included), and
+//! the simulator replays each frame's tasks.
+
+use raytrace::cost::{CostModel, SampleRate};
+use raytrace::paths::{Frame, FrameStats, PathRenderer, build_path_devices, estimate_paths};
+use raytrace::scheduled::Settings;
+use raytrace::shade::RenderOptions;
+use raytrace::{Bvh, Scene};
+
+use super::matrix::{CellRun, Plan, Record, Replay, Workload};
+use super::probe::ErrorSums;
+use crate::error::CliError;
+
+impl Plan<'_> {
+    /// Renders every camera once with `settings` through one path renderer (each frame plans
+    /// with the device speeds measured on the frames before it); when `probe`, also the
+    /// prediction error of each frame's estimate against every path counted.
+    pub(super) fn run_paths(
+        &self,
+        w: Workload,
+        settings: Settings,
+        probe: bool,
+    ) -> Result<CellRun, CliError> {
+        let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
+        let mut renderer = PathRenderer::new(devices, settings)?;
+        let mut frames = Vec::with_capacity(self.cameras);
+        let mut sums = ErrorSums::default();
+        for cam in 0..self.cameras {
+            let options = self.options(w, cam);
+            let frame = renderer
+                .render(self.scene, self.bvh, &options)
+                .map_err(|e| match e {
+                    sched::SchedError::AllDevicesFailed { failures, .. } => {
+                        CliError::devices_failed(self.device_list, &failures)
+                    }
+                    e => e.into(),
+                })?;
+            for f in &frame.stats.failures {
+                eprintln!(
+                    "cobalt bench: {} {} {} {}, camera {cam}: {f}",
+                    self.scene_name,
+                    w.name(),
+                    settings.policy.name(),
+                    settings.mode.name(),
+                );
+            }
+            if probe {
+                sums += frame_error(self.scene, self.bvh, &options, &frame.stats)?;
+            }
+            frames.push(frame.stats);
+        }
+        let error = probe.then(|| sums.ratio());
+        Ok(CellRun {
+            record: self.frames_record(w, settings, &frames),
+            replay: frames.iter().map(replay).collect(),
+            error,
+        })
+    }
+
+    fn frames_record(&self, w: Workload, settings: Settings, frames: &[FrameStats]) -> Record {
+        let (mut rays, mut seconds, mut est, mut plan) = (0usize, 0.0, 0.0, 0.0);
+        let (mut busy, mut capacity, mut launches, mut reruns) = (0.0, 0.0, 0u64, 0u64);
+        let mut traffic = raytrace::paths::Traffic::default();
+        let mut film_bytes = 0;
+        for f in frames {
+            rays += f.rays;
+            seconds += f.seconds;
+            est += f.estimate_seconds;
+            plan += f.plan_seconds;
+            busy += f.devices.iter().map(|d| d.busy).sum::<f64>();
+            capacity += f.makespan * f.devices.len() as f64;
+            launches += f.launches();
+            reruns += f.reruns;
+            traffic += f.traffic();
+            film_bytes += f.film_bytes();
+        }
+        let balance = if capacity > 0.0 { busy / capacity } else { 1.0 };
+        let mut r = Record::new(
+            self,
+            w,
+            settings,
+            frames.first().map_or(0, |f| f.devices.len()),
+        );
+        r.pipeline = "paths";
+        r.probe = "sampled-paths";
+        r.rays = rays;
+        r.seconds = seconds;
+        r.mrays_per_s = rays as f64 / seconds.max(1e-12) / 1e6;
+        r.balance_efficiency = balance;
+        r.estimate_seconds = est;
+        r.plan_seconds = plan;
+        r.launches = launches;
+        r.reruns = reruns;
+        r.host_to_device_bytes = Some(traffic.host_to_device_bytes);
+        r.device_to_host_bytes = Some(traffic.device_to_host_bytes);
+        r.host_waits = Some(traffic.host_waits);
+        r.film_bytes = Some(film_bytes);
+        r.run_mrays_per_s = vec![r.mrays_per_s];
+        r.run_balance_efficiency = vec![balance];
+        r
+    }
+
+    /// The image, camera and shader of camera `cam` for workload `w`.
+    pub(super) fn options(&self, w: Workload, cam: usize) -> RenderOptions {
+        RenderOptions::new(
+            self.width,
+            self.height,
+            raytrace::Camera::thesis(&self.scene.bounds(), cam),
+            self.shader(w),
+        )
+    }
+}
+
+/// The frame's estimate judged against every path of each task counted (the estimate at
+/// full sampling), in the renderer's cost units; outside every clock of the frame.
+fn frame_error(
+    scene: &Scene,
+    bvh: &Bvh,
+    options: &RenderOptions,
+    stats: &FrameStats,
+) -> Result<ErrorSums, CliError> {
+    let frame = Frame {
+        scene,
+        bvh,
+        options,
+    };
+    let tasks = sched::split_ranges(stats.paths, stats.task_size.max(1));
+    let full_rate = SampleRate::new(1.0).map_err(|e| CliError::Write(e.to_string()))?;
+    let full = CostModel::default().costs(&estimate_paths(&frame, &tasks, full_rate));
+    let estimated = stats.task_stats.iter().map(|t| t.cost);
+    Ok(ErrorSums {
+        diff: estimated.zip(&full).map(|(e, f)| (e - f).abs()).sum(),
+        full: full.iter().sum(),
+    })
+}
+
+/// A frame's tasks for the simulator: each one's planned cost and measured time.
+fn replay(f: &FrameStats) -> Replay {
+    Replay {
+        rays: f.rays,
+        estimate_seconds: f.estimate_seconds,
+        estimated: f.task_stats.iter().map(|t| t.cost).collect(),
+        seconds: f.task_stats.iter().map(|t| t.seconds).collect(),
+    }
+}
