@@ -47,14 +47,23 @@ pub enum ShaderArg {
 /// Where a render runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum PipelineArg {
-    /// Every generation scheduled over `--devices` by `--policy`, rays made and shaded on
-    /// the host.
-    Scheduled,
     /// Every frame scheduled over `--devices` by `--policy` as tasks of whole paths, each
     /// made, traced and shaded on the device that runs it.
     Paths,
+    /// Every generation of rays scheduled over `--devices` by `--policy` on its own, the rays
+    /// made and shaded on the host (per-generation statistics and calibration).
+    #[value(alias = "scheduled")]
+    Generations,
     /// `paths` on `--devices gpu:0` (software adapters only with `COBALT_GPU_SOFTWARE=1`).
     Gpu,
+}
+
+fn pipeline_name(p: PipelineArg) -> &'static str {
+    match p {
+        PipelineArg::Paths => "paths",
+        PipelineArg::Generations => "generations",
+        PipelineArg::Gpu => "gpu",
+    }
 }
 
 /// Arguments of `cobalt render`.
@@ -91,11 +100,12 @@ pub struct Args {
     /// 1024 threads each and 4096 threads in all.
     #[arg(long, default_value = "cpu:2")]
     devices: String,
-    /// `scheduled` (every generation over `--devices`, shaded on the host), `paths` (every
-    /// frame over `--devices` as tasks of whole paths, rendered where they run), or `gpu`
-    /// (`paths` on `--devices gpu:0`).
-    #[arg(long, value_enum, default_value = "scheduled")]
-    pipeline: PipelineArg,
+    /// `paths` (every frame over `--devices` as tasks of whole paths, rendered where they
+    /// run; the default), `generations` (every generation of rays over `--devices` on its
+    /// own, made and shaded on the host; the default under `mpirun`), or `gpu` (`paths` on
+    /// `--devices gpu:0`).
+    #[arg(long, value_enum)]
+    pipeline: Option<PipelineArg>,
     /// With `--pipeline paths` or `gpu`: render this many frames through one renderer (each
     /// plans with the speeds measured on the ones before) and report the fastest.
     #[arg(long, default_value = "1", value_parser = clap::value_parser!(u32).range(1..=1000))]
@@ -113,16 +123,18 @@ pub struct Args {
     /// Fraction of each task's rays the cost estimate traces, in (0, 1].
     #[arg(long, default_value = "0.125")]
     sample_rate: String,
-    /// Where cost mode's estimate runs: `cpu` (the host's cores) or `gpu` (the first GPU
-    /// among `--devices`, as the thesis does; the host where there is none).
-    #[arg(long, default_value = "cpu")]
-    estimate_on: EstimateOn,
+    /// Where cost mode's estimate runs: `cpu` (the host's cores; the default) or `gpu` (the
+    /// first GPU among `--devices`, as the thesis does; the host where there is none).
+    /// `--pipeline generations` only.
+    #[arg(long)]
+    estimate_on: Option<EstimateOn>,
     /// How cost mode traces each task's sample: `thesis` (the reduced traversal of the whole
     /// ray), `first-leaf` (closest-hit rays end at the exit of the first leaf they reach;
     /// better on closed meshes; shadow and AO rays keep the thesis's), or `trace` (the real
-    /// trace, counted; on the CPU). See `cobalt estimate --probe`.
-    #[arg(long, default_value = "thesis")]
-    probe: Probe,
+    /// trace, counted; on the CPU). See `cobalt estimate --probe`. `--pipeline generations`
+    /// only: the path pipeline renders its sampled paths for real.
+    #[arg(long)]
+    probe: Option<Probe>,
     /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order, a
     /// GPU included) fails after completing TASKS tasks; its unfinished tasks are re-run
     /// elsewhere.
@@ -402,8 +414,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 ));
             }
         },
-        estimate_on: args.estimate_on,
-        probe: args.probe,
+        estimate_on: args.estimate_on.unwrap_or_default(),
+        probe: args.probe.unwrap_or(Probe::Thesis),
     };
     let camera_choice = match (&args.camera, &args.eye, &args.at) {
         (_, Some(eye), Some(at)) => {
@@ -466,18 +478,19 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 "not available under mpirun; render the cost image in one process",
             ));
         }
-        if args.estimate_on == EstimateOn::Gpu {
+        if args.estimate_on == Some(EstimateOn::Gpu) {
             return Err(arg(
                 "estimate-on",
                 &Some("gpu".to_string()),
                 "not available under mpirun: every rank estimates its slice on its host",
             ));
         }
-        if args.pipeline != PipelineArg::Scheduled {
+        if let Some(p @ (PipelineArg::Paths | PipelineArg::Gpu)) = args.pipeline {
             return Err(arg(
                 "pipeline",
-                &Some("gpu".to_string()),
-                "not available under mpirun; give each rank `--devices …,gpu:all` instead",
+                &Some(pipeline_name(p).to_string()),
+                "not available under mpirun, which renders by generations; give each rank \
+                 `--devices …,gpu:all` instead",
             ));
         }
         return crate::cluster::render(crate::cluster::Job {
@@ -497,26 +510,27 @@ pub fn run(args: Args) -> Result<(), CliError> {
         });
     }
 
-    let by_paths = args.pipeline != PipelineArg::Scheduled;
+    let pipeline = args.pipeline.unwrap_or(PipelineArg::Paths);
+    let by_paths = pipeline != PipelineArg::Generations;
     if !by_paths && args.repeats != 1 {
         let value = Some(args.repeats.to_string());
         return Err(arg("repeats", &value, "only with --pipeline paths or gpu"));
     }
     if by_paths {
-        let refuse = |flag: &'static str, value: &Option<String>, why: &str| {
+        let refuse = |flag: &'static str, value: Option<&str>, why: &str| {
             Err(arg(
                 flag,
-                value,
-                &format!("{why} with --pipeline paths or gpu"),
+                &value.map(str::to_string),
+                &format!("{why}; it applies to --pipeline generations"),
             ))
         };
-        if args.cost_image.is_some() {
-            let path = args.cost_image.as_ref().map(|p| p.display().to_string());
-            return refuse("cost-image", &path, "there is no cost image");
+        if let Some(on) = args.estimate_on {
+            let why = "the path pipeline estimates its sampled paths on the host";
+            return refuse("estimate-on", Some(on.name()), why);
         }
-        if args.estimate_on == EstimateOn::Gpu {
-            let why = "the estimate traces sampled paths on the host";
-            return refuse("estimate-on", &Some("gpu".into()), why);
+        if let Some(probe) = args.probe {
+            let why = "the path pipeline renders its sampled paths for real";
+            return refuse("probe", Some(probe.name()), why);
         }
     }
 
@@ -544,14 +558,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
         load_seconds,
     );
     if by_paths {
-        let (pipeline, devices, specs) = match args.pipeline {
+        let (devices, specs) = match pipeline {
             PipelineArg::Gpu => (
-                "gpu",
                 String::from("gpu:0"),
                 vec![DeviceSpec::Gpu(raytrace::devices::GpuSelect::Index(0))],
             ),
-            _ => ("paths", args.devices.clone(), specs),
+            _ => (args.devices.clone(), specs),
         };
+        let pipeline = pipeline_name(pipeline);
         let options = RenderOptions::new(width, height, camera, shader);
         let (film, run) = crate::render_paths::render(
             &scene,
@@ -567,6 +581,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
             },
         )?;
         let image = film.png(ToneMap::Srgb)?;
+        let cost_png = match &args.cost_image {
+            Some(_) => {
+                let counts = raytrace::cost_image::primary_counts(&bvh, &camera, width, height);
+                Some(cost_image(&counts, width, height).png(ToneMap::Display)?)
+            }
+            None => None,
+        };
         let report = PathsReport {
             header,
             pipeline,
@@ -580,7 +601,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
         let json =
             serde_json::to_string_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
         let json = format!("{json}\n");
-        outputs.commit(&[("out", &image), ("report", json.as_bytes())])?;
+        outputs.commit(&[
+            ("out", &image),
+            ("cost-image", cost_png.as_deref().unwrap_or_default()),
+            ("report", json.as_bytes()),
+        ])?;
         return if args.json {
             outputs.print_json(&report)
         } else {

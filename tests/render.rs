@@ -24,6 +24,8 @@ fn render_writes_the_image_the_cost_image_and_the_report() {
     for shader in ["whitted", "ao"] {
         let o = cobalt(&[
             "render",
+            "--pipeline",
+            "generations",
             "--scene",
             "builtin:cornell",
             "--shader",
@@ -66,6 +68,30 @@ fn render_writes_the_image_the_cost_image_and_the_report() {
             assert_eq!(kinds, ["primary", "ao"]);
             assert_eq!(v["ao_samples"], 32);
         }
+        // The default pipeline renders by paths and counts the same cost image on the host.
+        let (out2, cost2) = (dir.join("x2.png"), dir.join("c2.png"));
+        let o = cobalt(&[
+            "render",
+            "--scene",
+            "builtin:cornell",
+            "--shader",
+            shader,
+            "--size",
+            "32x24",
+            "--out",
+            out2.to_str().unwrap(),
+            "--cost-image",
+            cost2.to_str().unwrap(),
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON on stdout");
+        assert_eq!(v["pipeline"], "paths");
+        assert_eq!(std::fs::read(&out2).unwrap(), std::fs::read(&out).unwrap());
+        assert_eq!(
+            std::fs::read(&cost2).unwrap(),
+            std::fs::read(&cost).unwrap()
+        );
     }
 }
 
@@ -138,6 +164,8 @@ fn render_with(tag: &str, shader: &str, extra: &[&str]) -> (Vec<u8>, serde_json:
     );
     let mut args = vec![
         "render",
+        "--pipeline",
+        "generations",
         "--scene",
         "builtin:cornell",
         "--shader",
@@ -290,6 +318,8 @@ fn cpu_and_gpu_render_the_cpu_image() {
             .env("COBALT_GPU_SOFTWARE", "1")
             .args([
                 "render",
+                "--pipeline",
+                "generations",
                 "--scene",
                 "builtin:cornell",
                 "--size",
@@ -346,12 +376,12 @@ fn cpu_and_gpu_render_the_cpu_image() {
 }
 
 /// `--pipeline paths` renders whole paths on the devices through `sched`: on `cpu:2` under
-/// every policy it writes the scheduled pipeline's image byte for byte and moves nothing;
+/// every policy it writes the generation pipeline's image byte for byte and moves nothing;
 /// `--pipeline gpu` (paths on `gpu:0`) and a CPU and a GPU together write it too (at most 1 %
 /// of pixels may differ, see `raytrace::gpu::GpuRenderer`; on lavapipe they are equal), with
 /// a GPU's traffic bounded by its tasks. Without any adapter: a note, or a failure when `CI`
-/// is set. A cost image is refused, naming the flag, and so is `--repeats` without the path
-/// pipeline.
+/// is set. The generation pipeline's flags are refused with it, naming the flag, and so is
+/// `--repeats` without it.
 #[test]
 fn the_path_pipeline_renders_the_cpu_image() {
     let dir = crate::testkit::temp_dir("render-paths");
@@ -371,7 +401,7 @@ fn the_path_pipeline_renders_the_cpu_image() {
     for shader in ["ao", "whitted"] {
         let (cpu, cpu_png) = run(
             shader,
-            &["--devices", "cpu:2"],
+            &["--pipeline", "generations", "--devices", "cpu:2"],
             &format!("cpu-{shader}.png"),
         );
         assert!(
@@ -455,9 +485,9 @@ fn the_path_pipeline_renders_the_cpu_image() {
         }
     }
     for (extra, flag) in [
-        (&["gpu", "--cost-image", "c.png"][..], "--cost-image"),
+        (&["gpu", "--probe", "trace"][..], "--probe"),
         (&["paths", "--estimate-on", "gpu"][..], "--estimate-on"),
-        (&["scheduled", "--repeats", "2"][..], "--repeats"),
+        (&["generations", "--repeats", "2"][..], "--repeats"),
     ] {
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
             .args(["render", "--scene", "builtin:cornell", "--size", "8x8"])
@@ -481,8 +511,16 @@ fn a_failing_gpu_is_reported_and_the_image_is_still_complete() {
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
             .env("COBALT_GPU_SOFTWARE", "1")
             .args(["render", "--scene", "builtin:cornell", "--shader", "ao"])
-            .args(["--size", "32x32", "--ao-samples", "4", "--task-size", "128"])
-            .args(["--policy", "static-equal", "--json", "--devices", devices])
+            .args([
+                "--pipeline",
+                "generations",
+                "--size",
+                "32x32",
+                "--ao-samples",
+                "4",
+            ])
+            .args(["--task-size", "128", "--policy", "static-equal", "--json"])
+            .args(["--devices", devices])
             .args(extra)
             .arg("--out")
             .arg(&out)

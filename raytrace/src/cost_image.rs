@@ -11,7 +11,7 @@
 
 use glam::Vec3;
 
-use crate::{Counts, Film};
+use crate::{Bvh, Camera, Counts, Film};
 
 /// Stops of the colour ramp, evenly spaced over `[0, 1]` (display-referred RGB).
 const RAMP: [Vec3; 5] = [
@@ -27,6 +27,19 @@ pub fn ramp(x: f32) -> Vec3 {
     let x = crate::film::saturate(x) * (RAMP.len() - 1) as f32;
     let i = (x as usize).min(RAMP.len() - 2);
     RAMP[i].lerp(RAMP[i + 1], x - i as f32)
+}
+
+/// `B` and `T` of every primary ray of `camera`'s `width x height` image, by pixel
+/// (`y * width + x`), traced on the host's threads apart from any render: a render's devices
+/// keep their rays, so the map is counted where the BVH's host copy is.
+pub fn primary_counts(bvh: &Bvh, camera: &Camera, width: u32, height: u32) -> Vec<Counts> {
+    let primary = camera.primary_rays(width, height);
+    let (_, counts) = crate::traverse::closest_hits_counted(bvh, &primary.rays);
+    let mut by_pixel = vec![Counts::default(); counts.len()];
+    for (c, &p) in counts.iter().zip(&primary.pixels) {
+        by_pixel[p as usize] = *c;
+    }
+    by_pixel
 }
 
 /// Largest `B` and `T` over the pixels: the values each panel's top colour stands for.
