@@ -24,6 +24,7 @@ pub mod buffers;
 pub mod context;
 mod device;
 mod estimate;
+mod launch;
 pub mod pipeline;
 mod program;
 mod render;

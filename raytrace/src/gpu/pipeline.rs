@@ -295,10 +295,178 @@ pub(crate) fn grid(limits: &wgpu::Limits, workgroups: u32) -> (u32, u32) {
     (x, workgroups.div_ceil(x).max(1))
 }
 
+/// One trace's bind group, grid and first round of dispatches: its rays, results, queue and
+/// parameters bound, and how many dispatches drain the queue when every workgroup runs its
+/// loop to the end.
+pub(crate) struct TraceRound {
+    bind: wgpu::BindGroup,
+    grid: (u32, u32),
+    per_dispatch: u64,
+    /// The queue head and the loop-cut flag, zeroed.
+    pub(crate) queue: wgpu::Buffer,
+    /// Dispatches of the first round.
+    pub(crate) dispatches: u64,
+    pipeline: usize,
+    mode: usize,
+}
+
+impl TraceRound {
+    /// Binds the first `n` rays of `rays` and their results in `out` for a trace in `mode`
+    /// with `threads`; uploads the queue's two words and the parameters (counted).
+    #[allow(clippy::too_many_arguments)] // the buffers and the two choices of a trace
+    pub(crate) fn new(
+        ctx: &GpuContext,
+        kernels: &Kernels,
+        scene: &SceneBuffers,
+        rays: &wgpu::Buffer,
+        out: &wgpu::Buffer,
+        n: u32,
+        mode: GpuMode,
+        threads: Threads,
+        traffic: &mut Traffic,
+    ) -> Self {
+        let device = &ctx.device;
+        let queue = init(
+            device,
+            "cobalt ray queue",
+            bytemuck::cast_slice(&[0u32, 0]),
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        );
+        let params = init(
+            device,
+            "cobalt launch parameters",
+            bytemuck::cast_slice(&[n, 0, 0, 0]),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        // The queue's two words and the parameters.
+        traffic.host_to_device_bytes += 8 + 16;
+        // Only the launch's rays and results are bound: a device's reused buffers are larger,
+        // and wgpu tracks the initialisation of every byte a bind group covers (on an H100,
+        // binding the launch's part alone took launches through 16-million-ray buffers from
+        // 44 to 31 ms; `staging::MOST_RAYS` did the rest).
+        let first = |buffer, bytes| wgpu::BufferBinding {
+            buffer,
+            offset: 0,
+            size: std::num::NonZeroU64::new(bytes),
+        };
+        let whole = wgpu::Buffer::as_entire_buffer_binding;
+        let bind = kernels.program.bind_ranges(
+            device,
+            "cobalt traverse bind group",
+            &[
+                whole(&scene.nodes),
+                whole(&scene.tris),
+                first(rays, u64::from(n) * size_of::<GpuRay>() as u64),
+                first(out, u64::from(n) * RESULT_BYTES),
+                whole(&queue),
+                whole(&params),
+            ],
+        );
+        let batches = n.div_ceil(64);
+        let (grid_x, grid_y, per_dispatch) = match threads {
+            Threads::Persistent => {
+                let max_wg = MAX_WORKGROUPS.min(ctx.limits.max_compute_workgroups_per_dimension);
+                let workgroups = batches.div_ceil(BATCHES).clamp(1, max_wg);
+                (
+                    workgroups,
+                    1,
+                    u64::from(workgroups) * u64::from(BATCHES) * 64,
+                )
+            }
+            Threads::PerRay => {
+                let (x, y) = grid(&ctx.limits, batches);
+                (x, y, u64::from(x) * u64::from(y) * 64)
+            }
+        };
+        Self {
+            bind,
+            grid: (grid_x, grid_y),
+            per_dispatch,
+            queue,
+            dispatches: u64::from(n).div_ceil(per_dispatch),
+            pipeline: threads.index(),
+            mode: mode.index(),
+        }
+    }
+
+    /// Records `dispatches` passes of the trace into `encoder`, the first one's start and the
+    /// last one's end timestamped into `timing` (queries 0 and 1) when given.
+    pub(crate) fn record(
+        &self,
+        kernels: &Kernels,
+        encoder: &mut wgpu::CommandEncoder,
+        dispatches: u64,
+        timing: Option<&wgpu::QuerySet>,
+    ) {
+        let pipeline = &kernels.pipelines[self.pipeline][self.mode];
+        for k in 0..dispatches {
+            let timestamp_writes = timing.and_then(|set| pass_timestamps(set, k, dispatches));
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("cobalt traverse pass"),
+                timestamp_writes,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.bind, &[]);
+            pass.dispatch_workgroups(self.grid.0, self.grid.1, 1);
+        }
+    }
+
+    /// Whether the queue's state `[head, cut]` read after the trace of `n` rays with `threads`
+    /// says it is done; `Err` when a traversal loop was cut short, `Ok(Some(dispatches))` for
+    /// the dispatches still needed.
+    pub(crate) fn check(
+        &self,
+        adapter: &str,
+        state: [u32; 2],
+        n: u32,
+        threads: Threads,
+    ) -> Result<Option<u64>, GpuError> {
+        if state[1] != 0 {
+            return Err(GpuError::LoopCut {
+                adapter: adapter.to_string(),
+                batches: BATCHES,
+            });
+        }
+        // One thread per ray covers every ray in its one dispatch; the queue is not used.
+        if threads == Threads::PerRay || state[0] >= n {
+            return Ok(None);
+        }
+        Ok(Some(
+            u64::from(n - state[0]).div_ceil(self.per_dispatch).max(1),
+        ))
+    }
+}
+
+/// A query set of two timestamps and the buffer they resolve to, where the adapter has
+/// timestamps.
+pub(crate) fn timestamps(ctx: &GpuContext) -> Option<(wgpu::QuerySet, wgpu::Buffer)> {
+    ctx.timestamps.then(|| {
+        let set = ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("cobalt traverse timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2,
+        });
+        let resolve = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cobalt timestamps resolved"),
+            size: 16,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        (set, resolve)
+    })
+}
+
+/// Seconds between two timestamps read back; a counter that went backwards (a reset) counts
+/// as nothing.
+pub(crate) fn stamp_seconds(ctx: &GpuContext, stamps: [u64; 2]) -> f64 {
+    let period = f64::from(ctx.queue.get_timestamp_period());
+    stamps[1].saturating_sub(stamps[0]) as f64 * period * 1e-9
+}
+
 /// Traces the first `n` rays of `rays` (a storage buffer of [`GpuRay`]s already on the device)
 /// into `out` (`n` results of [`RESULT_BYTES`]), leaving the results on the device; returns
-/// the kernels' GPU seconds where timestamps exist. Waits for the GPU: only the queue's state
-/// (8 bytes) and the timestamps are read back.
+/// the kernels' GPU seconds where timestamps exist. Waits for the GPU after each round: only
+/// the queue's state (8 bytes) and the timestamps are read back.
 ///
 /// # Errors
 /// As [`launch`].
@@ -319,100 +487,27 @@ pub(crate) fn trace_resident(
     }
     let device = &ctx.device;
     let name = ctx.info.name.as_str();
-    let queue_buf = init(
-        device,
-        "cobalt ray queue",
-        bytemuck::cast_slice(&[0u32, 0]),
-        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-    );
-    let params = init(
-        device,
-        "cobalt launch parameters",
-        bytemuck::cast_slice(&[n, 0, 0, 0]),
-        wgpu::BufferUsages::UNIFORM,
-    );
-    // The queue's two words and the parameters.
-    traffic.host_to_device_bytes += 8 + 16;
+    let round = TraceRound::new(ctx, kernels, scene, rays, out, n, mode, threads, traffic);
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("cobalt queue state read-back"),
         size: 8 + 16,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    // Only the launch's rays and results are bound: a device's reused buffers are larger,
-    // and wgpu tracks the initialisation of every byte a bind group covers (on an H100,
-    // binding the launch's part alone took launches through 16-million-ray buffers from 44
-    // to 31 ms; `staging::MOST_RAYS` did the rest).
-    let first = |buffer, bytes| wgpu::BufferBinding {
-        buffer,
-        offset: 0,
-        size: std::num::NonZeroU64::new(bytes),
-    };
-    let whole = wgpu::Buffer::as_entire_buffer_binding;
-    let bind = kernels.program.bind_ranges(
-        device,
-        "cobalt traverse bind group",
-        &[
-            whole(&scene.nodes),
-            whole(&scene.tris),
-            first(rays, u64::from(n) * size_of::<GpuRay>() as u64),
-            first(out, u64::from(n) * RESULT_BYTES),
-            whole(&queue_buf),
-            whole(&params),
-        ],
-    );
-    let batches = n.div_ceil(64);
-    let (grid_x, grid_y, per_dispatch) = match threads {
-        Threads::Persistent => {
-            let max_wg = MAX_WORKGROUPS.min(ctx.limits.max_compute_workgroups_per_dimension);
-            let workgroups = batches.div_ceil(BATCHES).clamp(1, max_wg);
-            (
-                workgroups,
-                1,
-                u64::from(workgroups) * u64::from(BATCHES) * 64,
-            )
-        }
-        Threads::PerRay => {
-            let (x, y) = grid(&ctx.limits, batches);
-            (x, y, u64::from(x) * u64::from(y) * 64)
-        }
-    };
-    let mut dispatches = u64::from(n).div_ceil(per_dispatch);
-    // Timestamps at the start of the first pass and the end of the last, per round.
-    let timing = ctx.timestamps.then(|| {
-        let set = device.create_query_set(&wgpu::QuerySetDescriptor {
-            label: Some("cobalt traverse timestamps"),
-            ty: wgpu::QueryType::Timestamp,
-            count: 2,
-        });
-        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("cobalt timestamps resolved"),
-            size: 16,
-            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        (set, resolve)
-    });
-    let period = f64::from(ctx.queue.get_timestamp_period());
+    let timing = timestamps(ctx);
     let mut gpu_seconds = 0.0;
-    let pipeline = &kernels.pipelines[threads.index()][mode.index()];
+    let mut dispatches = round.dispatches;
     loop {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("cobalt traverse commands"),
         });
-        for k in 0..dispatches {
-            let timestamp_writes = timing
-                .as_ref()
-                .and_then(|(set, _)| pass_timestamps(set, k, dispatches));
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("cobalt traverse pass"),
-                timestamp_writes,
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(grid_x, grid_y, 1);
-        }
-        encoder.copy_buffer_to_buffer(&queue_buf, 0, &readback, 0, 8);
+        round.record(
+            kernels,
+            &mut encoder,
+            dispatches,
+            timing.as_ref().map(|t| &t.0),
+        );
+        encoder.copy_buffer_to_buffer(&round.queue, 0, &readback, 0, 8);
         if let Some((set, resolve)) = &timing {
             encoder.resolve_query_set(set, 0..2, resolve, 0);
             encoder.copy_buffer_to_buffer(resolve, 0, &readback, 8, 16);
@@ -422,21 +517,11 @@ pub(crate) fn trace_resident(
         traffic.device_to_host_bytes += bytes.len() as u64;
         traffic.host_waits += 1;
         let (status, stamps) = bytes.split_at(8);
-        let status: [u32; 2] = bytemuck::pod_read_unaligned(status);
-        let stamps: [u64; 2] = bytemuck::pod_read_unaligned(stamps);
-        // Ticks to seconds; a counter that went backwards (a reset) counts as nothing.
-        gpu_seconds += stamps[1].saturating_sub(stamps[0]) as f64 * period * 1e-9;
-        if status[1] != 0 {
-            return Err(GpuError::LoopCut {
-                adapter: name.to_string(),
-                batches: BATCHES,
-            });
+        gpu_seconds += stamp_seconds(ctx, bytemuck::pod_read_unaligned(stamps));
+        match round.check(name, bytemuck::pod_read_unaligned(status), n, threads)? {
+            None => return Ok(timing.is_some().then_some(gpu_seconds)),
+            // Some workgroups stopped early: dispatch again for what is left.
+            Some(left) => dispatches = left,
         }
-        // One thread per ray covers every ray in its one dispatch; the queue is not used.
-        if threads == Threads::PerRay || status[0] >= n {
-            return Ok(timing.is_some().then_some(gpu_seconds));
-        }
-        // Some workgroups stopped early: dispatch again for what is left.
-        dispatches = u64::from(n - status[0]).div_ceil(per_dispatch).max(1);
     }
 }

@@ -2,8 +2,9 @@
 //! Morton order), primary rays made on the device, closest hits, ambient-occlusion probes
 //! with the CPU's Halton points, any hits, and each path's value, every stage a kernel over
 //! device buffers (`render.wgsl`, with the traces of `traverse.wgsl`; Whitted shading is
-//! `whitted.rs`). What crosses the bus is the task list and the launch's parameters, the
-//! queue's state after each trace round, and the paths' values at the end.
+//! `whitted.rs`). A launch is one submission (see `launch.rs`): what crosses the bus is the
+//! task list and the launch's parameters on the way in, and on the way out, in the launch's
+//! single read-back, the paths' values with each trace's queue state.
 //!
 //! The values equal [`crate::shade::render`]'s up to the differences `render.wgsl` lists
 //! (`cos`/`sin` rounding, exact-edge ties): a pixel is a fraction of probes, so a probe that
@@ -18,8 +19,9 @@ use glam::Vec3;
 use super::buffers::{
     GpuRay, RESULT_BYTES, SceneBuffers, check_size, fetch, init, rays_per_launch, storage,
 };
-use super::pipeline::{GpuMode, Kernels, Threads, grid, trace_resident};
-use super::program::{Program, READ, UNIFORM, WRITE, dispatch, with_shading};
+use super::launch::Recorder;
+use super::pipeline::{GpuMode, Kernels, Threads};
+use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
 use super::{GpuContext, GpuError};
 use crate::paths::Traffic;
 use crate::shade::AoSettings;
@@ -96,7 +98,7 @@ pub struct GpuRenderer {
     pub(super) tris: wgpu::Buffer,
     pub(super) whitted: super::whitted::WhittedKernels,
     program: Program,
-    raygen: wgpu::ComputePipeline,
+    pub(super) raygen: wgpu::ComputePipeline,
     shade_ao: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
     pub(super) threads: Threads,
@@ -105,29 +107,6 @@ pub struct GpuRenderer {
 }
 
 impl GpuRenderer {
-    /// Traces `count` rays already on the device from `rays` into `out` (both renderers'
-    /// traces): the GPU seconds, where timestamps measured them.
-    pub(super) fn trace(
-        &self,
-        rays: &wgpu::Buffer,
-        out: &wgpu::Buffer,
-        count: u32,
-        mode: GpuMode,
-        traffic: &mut Traffic,
-    ) -> Result<Option<f64>, GpuError> {
-        trace_resident(
-            &self.ctx,
-            &self.kernels,
-            &self.scene,
-            rays,
-            out,
-            count,
-            mode,
-            self.threads,
-            traffic,
-        )
-    }
-
     /// Uploads `scene` (its triangles by primitive id, for shading) and `bvh` (built from it)
     /// and compiles the kernels.
     ///
@@ -189,14 +168,15 @@ impl GpuRenderer {
     }
 
     /// Checks the image and the launch, creates the buffers of a launch of the paths of
-    /// `tasks` and generates their primary rays.
+    /// `tasks`, and binds them with the launch's parameters (its first chunk of probes):
+    /// `raygen` over that group makes the primary rays.
     pub(super) fn begin(
         &self,
         frame: &FrameParams<'_>,
         tasks: &[&Range<usize>],
         settings: &AoSettings,
         traffic: &mut Traffic,
-    ) -> Result<Stage, GpuError> {
+    ) -> Result<(Stage, wgpu::BindGroup), GpuError> {
         let ctx = &self.ctx;
         let device = &ctx.device;
         let (width, height) = (frame.width, frame.height);
@@ -277,7 +257,7 @@ impl GpuRenderer {
             count: n,
             samples,
             base: 0,
-            chunk: 0,
+            chunk: chunk.min(n),
             // The seed's two words.
             seed_lo: settings.seed as u32,
             seed_hi: (settings.seed >> 32) as u32,
@@ -312,9 +292,12 @@ impl GpuRenderer {
             },
         };
         let group = self.bind(&stage, &params, traffic);
-        ctx.queue
-            .submit([self.run(&self.raygen, &group, n).finish()]);
-        Ok(stage)
+        Ok((stage, group))
+    }
+
+    /// A launch's recorder on this device (see [`Recorder`]).
+    pub(super) fn recorder(&self, checked: bool) -> Recorder<'_> {
+        Recorder::new(&self.ctx, &self.kernels, &self.scene, self.threads, checked)
     }
 
     /// A storage buffer of at least `size` bytes (a binding may not be empty), also usable
@@ -349,23 +332,6 @@ impl GpuRenderer {
         )
     }
 
-    /// Commands running `pipeline` over `items` invocations.
-    pub(super) fn run(
-        &self,
-        pipeline: &wgpu::ComputePipeline,
-        group: &wgpu::BindGroup,
-        items: u32,
-    ) -> wgpu::CommandEncoder {
-        let grid = grid(&self.ctx.limits, items.div_ceil(64));
-        dispatch(
-            &self.ctx.device,
-            "cobalt render pass",
-            pipeline,
-            group,
-            grid,
-        )
-    }
-
     /// Renders the paths of `tasks` with ambient occlusion as [`crate::shade::render`] does
     /// with [`crate::shade::Shader::Ao`]`(settings)`: `settings.samples` probes per primary
     /// hit, each path's probes seeded by its rank, so a path's value does not depend on the
@@ -381,69 +347,87 @@ impl GpuRenderer {
         tasks: &[&Range<usize>],
         settings: &AoSettings,
     ) -> Result<PathValues, GpuError> {
+        match self.launch_ao(frame, tasks, settings, false)? {
+            Some(values) => Ok(values),
+            // A queue was not drained in one submission: again, checking every trace.
+            None => self
+                .launch_ao(frame, tasks, settings, true)?
+                .ok_or_else(|| GpuError::LoopCut {
+                    adapter: self.ctx.info.name.clone(),
+                    batches: super::pipeline::BATCHES,
+                }),
+        }
+    }
+
+    /// One launch of [`GpuRenderer::render_ao`], recorded as one submission (`checked`: the
+    /// host checks each trace); `None` when a trace's queue was found not drained.
+    fn launch_ao(
+        &self,
+        frame: &FrameParams<'_>,
+        tasks: &[&Range<usize>],
+        settings: &AoSettings,
+        checked: bool,
+    ) -> Result<Option<PathValues>, GpuError> {
         let mut traffic = Traffic::default();
-        let stage = self.begin(frame, tasks, settings, &mut traffic)?;
+        let (stage, first) = self.begin(frame, tasks, settings, &mut traffic)?;
         let n = stage.n;
         let samples = settings.samples;
         if self.scene.empty {
             // Every primary misses and sees the sky.
-            return Ok(PathValues {
+            return Ok(Some(PathValues {
                 values: vec![Vec3::ONE; n as usize],
                 rays: n as usize,
                 trace_gpu_seconds: None,
                 traffic,
                 film_bytes: 0,
-            });
+            }));
         }
-        let ctx = &self.ctx;
-        let mut gpu_seconds = ctx.timestamps.then_some(0.0);
-        let s = self.trace(
+        let mut launch = self.recorder(checked);
+        launch.pass_over(&self.raygen, &first, n);
+        launch.trace(
             &stage.primary,
             &stage.hits,
             n,
             GpuMode::Closest,
             &mut traffic,
         )?;
-        gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
         let mut base = 0;
         while base < n {
             let len = stage.chunk.min(n - base);
-            let group = self.bind(
-                &stage,
-                &Params {
-                    base,
-                    chunk: len,
-                    ..stage.params
-                },
-                &mut traffic,
-            );
+            let params = Params {
+                base,
+                chunk: len,
+                ..stage.params
+            };
+            // The first chunk's parameters are the launch's: no second upload.
+            let other = (base > 0).then(|| self.bind(&stage, &params, &mut traffic));
+            let group = other.as_ref().unwrap_or(&first);
             if samples > 0 {
-                ctx.queue
-                    .submit([self.run(&self.shade_ao, &group, len).finish()]);
-                let s = self.trace(
+                launch.pass_over(&self.shade_ao, group, len);
+                launch.trace(
                     &stage.probes,
                     &stage.probe_hits,
                     len * samples,
                     GpuMode::Any,
                     &mut traffic,
                 )?;
-                gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
             }
-            ctx.queue
-                .submit([self.run(&self.accumulate, &group, len).finish()]);
+            launch.pass_over(&self.accumulate, group, len);
             base += len;
         }
         let film_bytes = u64::from(n) * 4;
-        let bytes = fetch(&self.ctx, &stage.film, film_bytes)?;
-        traffic.host_waits += 1;
-        let values: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
-        Ok(PathValues {
+        let done = launch.finish(&stage.film, film_bytes, &mut traffic)?;
+        if !done.drained {
+            return Ok(None);
+        }
+        let values: Vec<f32> = bytemuck::pod_collect_to_vec(&done.values);
+        Ok(Some(PathValues {
             values: values.into_iter().map(Vec3::splat).collect(),
             rays: n as usize * (1 + samples as usize),
-            trace_gpu_seconds: gpu_seconds,
+            trace_gpu_seconds: done.trace_seconds,
             traffic,
             film_bytes,
-        })
+        }))
     }
 
     /// The primary rays a launch of `tasks` generates on the device, read back (the CPU's
@@ -457,7 +441,10 @@ impl GpuRenderer {
         tasks: &[&Range<usize>],
     ) -> Result<(Vec<GpuRay>, Vec<u32>), GpuError> {
         let mut traffic = Traffic::default();
-        let stage = self.begin(frame, tasks, &AoSettings::default(), &mut traffic)?;
+        let (stage, group) = self.begin(frame, tasks, &AoSettings::default(), &mut traffic)?;
+        let mut launch = self.recorder(false);
+        launch.pass_over(&self.raygen, &group, stage.n);
+        launch.finish(&stage.film, 0, &mut traffic)?;
         let n = u64::from(stage.n);
         let rays = fetch(&self.ctx, &stage.primary, n * size_of::<GpuRay>() as u64)?;
         let ranks = fetch(&self.ctx, &stage.ranks, n * 4)?;

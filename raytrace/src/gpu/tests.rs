@@ -809,6 +809,8 @@ fn a_scheduled_gpu_frame_moves_bytes_by_task_not_by_ray() {
         );
         assert_eq!(stats.launches(), 1);
         assert!(traffic.bytes() <= 64 * stats.tasks as u64, "{traffic:?}");
+        // One submission per launch: the host waits once, for the values and queue states.
+        assert_eq!(traffic.host_waits, stats.launches(), "{traffic:?}");
         assert_eq!(stats.film_bytes(), u64::from(w * h) * 4);
         let cpu = render(&scene, &mut CpuTracer::new(&bvh), &options).film;
         let (kernels, _) = gpu_film(

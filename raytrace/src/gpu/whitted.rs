@@ -13,7 +13,7 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::buffers::{GpuRay, RESULT_BYTES, check_size, fetch, init};
+use super::buffers::{GpuRay, RESULT_BYTES, check_size, init};
 use super::pipeline::GpuMode;
 use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
 use super::render::{FrameParams, GpuRenderer, PathValues};
@@ -148,23 +148,44 @@ impl GpuRenderer {
         tasks: &[&Range<usize>],
         settings: &WhittedSettings,
     ) -> Result<PathValues, GpuError> {
+        match self.launch_whitted(frame, tasks, settings, false)? {
+            Some(values) => Ok(values),
+            // A queue was not drained in one submission: again, checking every trace.
+            None => self
+                .launch_whitted(frame, tasks, settings, true)?
+                .ok_or_else(|| GpuError::LoopCut {
+                    adapter: self.ctx.info.name.clone(),
+                    batches: super::pipeline::BATCHES,
+                }),
+        }
+    }
+
+    /// One launch of [`GpuRenderer::render_whitted`], recorded as one submission (`checked`:
+    /// the host checks each trace); `None` when a trace's queue was found not drained.
+    fn launch_whitted(
+        &self,
+        frame: &FrameParams<'_>,
+        tasks: &[&Range<usize>],
+        settings: &WhittedSettings,
+        checked: bool,
+    ) -> Result<Option<PathValues>, GpuError> {
         // No probes: the stage's probe buffer (one ray per path) holds the mirror rays.
         let no_probes = AoSettings {
             samples: 0,
             ..AoSettings::default()
         };
         let mut traffic = Traffic::default();
-        let stage = self.begin(frame, tasks, &no_probes, &mut traffic)?;
+        let (stage, raygen) = self.begin(frame, tasks, &no_probes, &mut traffic)?;
         let n = stage.n;
         if self.scene.empty {
             // Every primary misses and sees the sky.
-            return Ok(PathValues {
+            return Ok(Some(PathValues {
                 values: vec![SKY; n as usize],
                 rays: n as usize,
                 trace_gpu_seconds: None,
                 traffic,
                 film_bytes: 0,
-            });
+            }));
         }
         let ctx = &self.ctx;
         let device = &ctx.device;
@@ -219,46 +240,47 @@ impl GpuRenderer {
                 ],
             )
         };
-        let start = bind(&base, &stage.primary, &stage.probes);
-        ctx.queue.submit([self.run(&w.start, &start, n).finish()]);
         let mut groups = Vec::new();
         let (mut rays, mut next) = (&stage.primary, &stage.probes);
         for bounce in 0..=settings.bounces {
             groups.push(bind(&Params { bounce, ..base }, rays, next));
             std::mem::swap(&mut rays, &mut next);
         }
-        let mut gpu_seconds = ctx.timestamps.then_some(0.0);
+        let mut launch = self.recorder(checked);
+        launch.pass_over(&self.raygen, &raygen, n);
+        // Bounce 0's group starts the paths: the same buffers and parameters.
+        launch.pass_over(&w.start, &groups[0], n);
         let mut traced = 0usize;
         let (mut rays, mut next) = (&stage.primary, &stage.probes);
         for group in &groups {
-            let s = self.trace(rays, &stage.hits, n, GpuMode::Closest, &mut traffic)?;
-            gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
-            ctx.queue.submit([self.run(&w.shade, group, n).finish()]);
+            launch.trace(rays, &stage.hits, n, GpuMode::Closest, &mut traffic)?;
+            launch.pass_over(&w.shade, group, n);
             if lights > 0 {
                 // `slots` fits one binding, so far below 2^32.
-                let s = self.trace(
+                launch.trace(
                     &shadow_rays,
                     &shadow_hits,
                     slots as u32,
                     GpuMode::Any,
                     &mut traffic,
                 )?;
-                gpu_seconds = gpu_seconds.zip(s).map(|(a, b)| a + b);
-                ctx.queue.submit([self.run(&w.shadows, group, n).finish()]);
+                launch.pass_over(&w.shadows, group, n);
             }
             traced += n as usize + slots as usize;
             std::mem::swap(&mut rays, &mut next);
         }
         let film_bytes = u64::from(n) * 16;
-        let bytes = fetch(&self.ctx, &film, film_bytes)?;
-        traffic.host_waits += 1;
-        let values: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-        Ok(PathValues {
+        let done = launch.finish(&film, film_bytes, &mut traffic)?;
+        if !done.drained {
+            return Ok(None);
+        }
+        let values: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&done.values);
+        Ok(Some(PathValues {
             values: values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect(),
             rays: traced,
-            trace_gpu_seconds: gpu_seconds,
+            trace_gpu_seconds: done.trace_seconds,
             traffic,
             film_bytes,
-        })
+        }))
     }
 }

@@ -81,6 +81,29 @@ fn every_plan_renders_the_reference_image() {
     }
 }
 
+/// A device that takes a millisecond more per launch: under a queue policy the other device
+/// then gets tasks of its own, however the threads are scheduled on a loaded machine.
+struct Slow(Box<dyn PathDevice>);
+
+impl PathDevice for Slow {
+    fn render(
+        &mut self,
+        frame: &crate::paths::Frame<'_>,
+        tasks: &[&std::ops::Range<usize>],
+    ) -> Result<crate::paths::Launch, sched::DeviceError> {
+        std::thread::sleep(std::time::Duration::from_millis(1));
+        self.0.render(frame, tasks)
+    }
+
+    fn name(&self) -> String {
+        self.0.name()
+    }
+
+    fn class(&self) -> String {
+        self.0.class()
+    }
+}
+
 /// A device that fails mid-frame has its paths rendered by the other: the same image, the
 /// failure and the re-runs reported, and the device left out of the next frame.
 #[test]
@@ -92,6 +115,8 @@ fn a_device_lost_mid_frame_changes_nothing() {
         for policy in [Policy::StaticLpt, Policy::QueueFifo, Policy::Hybrid] {
             let mut devices = cpus(2);
             let failing = devices.remove(1);
+            let healthy = devices.remove(0);
+            devices.push(Box::new(Slow(healthy)));
             devices.push(Box::new(FailingPaths::new(failing, 2)));
             let mut r = PathRenderer::new(devices, settings(policy, Mode::Cost, 64)).expect("r");
             let out = r.render(&scene, &bvh, &options).expect("frame");
