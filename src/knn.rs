@@ -7,6 +7,7 @@ use knn::{
     Clustered, DensityEstimator, DensityGrid, Device, KnnIndex, KnnQueries, PointCloud, SampleRate,
     SampledQueries,
 };
+use raytrace::{SceneNeeds, SceneSource};
 use sched::{CostEstimator, Policy};
 
 use crate::error::CliError;
@@ -100,7 +101,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
     };
     let (cloud, source) = match &args.scene {
         Some(path) => (
-            PointCloud::from_scene(path).map_err(knn_err("scene", path.display().to_string()))?,
+            {
+                // Geometry only: the cloud is the scene's vertices, which sample its surfaces
+                // densely where the modeller put detail and sparsely elsewhere.
+                let scene = SceneSource::parse(&path.to_string_lossy())?.load(SceneNeeds::AO)?;
+                PointCloud {
+                    points: scene.positions.iter().map(|p| p.to_array()).collect(),
+                }
+            },
             path.display().to_string(),
         ),
         None => (
