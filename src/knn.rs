@@ -100,17 +100,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
     };
     let (cloud, source) = match &args.scene {
-        Some(path) => (
-            {
-                // Geometry only: the cloud is the scene's vertices, which sample its surfaces
-                // densely where the modeller put detail and sparsely elsewhere.
-                let scene = SceneSource::parse(&path.to_string_lossy())?.load(SceneNeeds::AO)?;
-                PointCloud {
-                    points: scene.positions.iter().map(|p| p.to_array()).collect(),
-                }
-            },
-            path.display().to_string(),
-        ),
+        Some(path) => {
+            // Geometry only: the cloud is the scene's vertices, which sample its surfaces
+            // densely where the modeller put detail and sparsely elsewhere.
+            let scene = SceneSource::parse(&path.to_string_lossy())?.load(SceneNeeds::AO)?;
+            let points = scene.positions.iter().map(|p| p.to_array()).collect();
+            (PointCloud { points }, path.display().to_string())
+        }
         None => (
             PointCloud::clustered(args.points, Clustered::default(), args.seed),
             "clustered".to_string(),

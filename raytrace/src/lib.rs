@@ -65,9 +65,9 @@ pub use film::Film;
 /// The math crate of the public API (points, directions, colours), so callers need not pin it.
 pub use glam;
 pub use ray::{Hit, HitBatch, Ray, RayBatch, RayKind};
+pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};
 /// The seeded generator of the built-in scenes and the seeded tests.
 pub use sched::Rng;
-pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};
 pub use traverse::{Counts, Probe};
 pub use triangle::{RayShear, intersect_watertight};
 

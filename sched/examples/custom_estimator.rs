@@ -23,7 +23,10 @@ const MAX_ITER: u32 = 400;
 /// Escape-time iterations of pixel `p` (row-major).
 fn iterations(p: usize) -> u32 {
     let (x, y) = ((p % WIDTH) as f64, (p / WIDTH) as f64);
-    let c = (-2.2 + 3.2 * x / WIDTH as f64, -1.2 + 2.4 * y / HEIGHT as f64);
+    let c = (
+        -2.2 + 3.2 * x / WIDTH as f64,
+        -1.2 + 2.4 * y / HEIGHT as f64,
+    );
     let mut z = (0.0f64, 0.0f64);
     for i in 0..MAX_ITER {
         if z.0 * z.0 + z.1 * z.1 > 4.0 {
@@ -98,7 +101,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let blind = makespan(&by_items.costs)? / optimum;
     let informed = makespan(&sampled.costs)? / optimum;
-    println!("static LPT, makespan over the lower bound: by items {blind:.3}, sampled {informed:.3}");
+    println!(
+        "static LPT, makespan over the lower bound: by items {blind:.3}, sampled {informed:.3}"
+    );
     assert!(informed < blind, "the estimate beats counting pixels");
     Ok(())
 }

@@ -54,7 +54,12 @@ fn main() -> Result<(), sched::SchedError> {
         at: 0.5 * optimum,
     });
     let report = sim.run_actual(&estimated, &actual)?;
-    assert!(report.assignment.iter().all(|&d| (d as usize) < speeds.len()));
+    assert!(
+        report
+            .assignment
+            .iter()
+            .all(|&d| (d as usize) < speeds.len())
+    );
     println!(
         "hybrid with device 7 failing at half the bound: makespan/bound {:.3}, {} task run(s) lost",
         report.metrics.makespan / optimum,

@@ -49,7 +49,10 @@ pub fn morton(p: [f32; 3], lo: [f32; 3], hi: [f32; 3]) -> u32 {
 /// Panics if there are more than `u32::MAX` points (indices are `u32` to halve the memory
 /// of the permutation).
 pub fn morton_order(points: &[[f32; 3]]) -> Vec<u32> {
-    assert!(u32::try_from(points.len()).is_ok(), "more than 2^32 - 1 points");
+    assert!(
+        u32::try_from(points.len()).is_ok(),
+        "more than 2^32 - 1 points"
+    );
     let (lo, hi) = bounds(points);
     let mut keys: Vec<(u32, u32)> = points
         .iter()

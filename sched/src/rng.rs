@@ -81,7 +81,11 @@ mod tests {
         let first: Vec<u64> = (0..3).map(|_| rng.next_u64()).collect();
         assert_eq!(
             first,
-            [0xE99F_F867_DBF6_82C9, 0x382F_F84C_B272_81E9, 0x6D1D_B36C_CBA9_82D2]
+            [
+                0xE99F_F867_DBF6_82C9,
+                0x382F_F84C_B272_81E9,
+                0x6D1D_B36C_CBA9_82D2
+            ]
         );
     }
 
@@ -110,6 +114,9 @@ mod tests {
         let normals: Vec<f64> = (0..n).map(|_| f64::from(rng.normal())).collect();
         let m = normals.iter().sum::<f64>() / n as f64;
         let var = normals.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / n as f64;
-        assert!(m.abs() < 0.02 && (var - 1.0).abs() < 0.03, "normal {m} {var}");
+        assert!(
+            m.abs() < 0.02 && (var - 1.0).abs() < 0.03,
+            "normal {m} {var}"
+        );
     }
 }

@@ -94,8 +94,8 @@ fn tree(m: &mut MeshBuilder, rng: &mut Rng, ground: Vec3) {
     m.tube(&trunk, r, 8, BARK);
     for _ in 0..4 {
         let start = ground + Vec3::Y * rng.range(0.5 * h, 0.85 * h);
-        let d =
-            (Vec3::from(rng.unit_vector()) * Vec3::new(1.0, 0.3, 1.0) + Vec3::Y * 0.4).normalize_or(Vec3::Y);
+        let d = (Vec3::from(rng.unit_vector()) * Vec3::new(1.0, 0.3, 1.0) + Vec3::Y * 0.4)
+            .normalize_or(Vec3::Y);
         let len = rng.range(0.2, 0.4) * h;
         let path: Vec<Vec3> = (0..=3).map(|i| start + d * len * i as f32 / 3.0).collect();
         m.tube(&path, r * 0.4, 5, BARK);

@@ -91,7 +91,12 @@ fn rays_for(name: &str, seed: u64) -> RayBatch {
         } else {
             f32::INFINITY
         };
-        rays.push(&Ray::with_range(o, Vec3::from(rng.unit_vector()), 0.0, tmax));
+        rays.push(&Ray::with_range(
+            o,
+            Vec3::from(rng.unit_vector()),
+            0.0,
+            tmax,
+        ));
     }
     // Axis-aligned directions (zero components of both signs hit the NaN-slab rules).
     for d in [
