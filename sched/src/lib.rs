@@ -43,6 +43,16 @@
 //! [`exact`] computes the optimum of small instances, against which the guarantees are
 //! property-tested.
 //!
+//! Two helpers for building workloads: [`locality`] sorts 3D points along a Z curve, so that
+//! a range of them (a task) is a compact region of space, and [`Rng`] is a small seeded
+//! generator for reproducible workloads and tests.
+//!
+//! Runnable examples in `sched/examples/` go further: `custom_workload` (your own [`Task`]
+//! and [`Executor`], and a device that fails without losing work), `custom_estimator` (a
+//! sampling [`CostEstimator`] and the plan it buys) and `simulate` (every [`Policy`] in the
+//! [`Simulation`], with latency, wrong estimates and a fault). Run one with
+//! `cargo run -p sched --example simulate`.
+//!
 //! With the `mpi` feature, `mpi` makes the ranks of an MPI job the nodes of one run: a
 //! `RemoteNode` is another rank seen as an [`Executor`] by rank 0's runtime.
 
