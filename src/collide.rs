@@ -4,8 +4,9 @@
 use std::path::PathBuf;
 
 use collision::{
-    BroadPhaseCount, Device, SampleRate, Swarms, World, random_bodies, scene_mesh, terrain,
+    BroadPhaseCount, Device, SampleRate, Swarms, World, random_bodies, terrain, unit_cube_mesh,
 };
+use raytrace::{SceneNeeds, SceneSource};
 use sched::{CostEstimator, Policy};
 
 use crate::error::CliError;
@@ -67,14 +68,16 @@ pub fn run(args: Args) -> Result<(), CliError> {
         memory("terrain", &args.terrain.to_string(), &[(quads, 2 * 128)])?;
     }
     let (mesh, source) = match &args.scene {
-        Some(path) => (
-            scene_mesh(path).map_err(|e| CliError::Arg {
+        Some(path) => {
+            let scene = SceneSource::parse(&path.to_string_lossy())?.load(SceneNeeds::AO)?;
+            let vertices: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
+            let mesh = unit_cube_mesh(&vertices, scene.triangles).map_err(|e| CliError::Arg {
                 flag: "scene",
                 value: path.display().to_string(),
                 message: e.to_string(),
-            })?,
-            path.display().to_string(),
-        ),
+            })?;
+            (mesh, path.display().to_string())
+        }
         None => (
             terrain(args.terrain).map_err(|e| CliError::Write(e.to_string()))?,
             format!("terrain {}", args.terrain),

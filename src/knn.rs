@@ -7,6 +7,7 @@ use knn::{
     Clustered, DensityEstimator, DensityGrid, Device, KnnIndex, KnnQueries, PointCloud, SampleRate,
     SampledQueries,
 };
+use raytrace::{SceneNeeds, SceneSource};
 use sched::{CostEstimator, Policy};
 
 use crate::error::CliError;
@@ -99,10 +100,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
     };
     let (cloud, source) = match &args.scene {
-        Some(path) => (
-            PointCloud::from_scene(path).map_err(knn_err("scene", path.display().to_string()))?,
-            path.display().to_string(),
-        ),
+        Some(path) => {
+            // Geometry only: the cloud is the scene's vertices, which sample its surfaces
+            // densely where the modeller put detail and sparsely elsewhere.
+            let scene = SceneSource::parse(&path.to_string_lossy())?.load(SceneNeeds::AO)?;
+            let points = scene.positions.iter().map(|p| p.to_array()).collect();
+            (PointCloud { points }, path.display().to_string())
+        }
         None => (
             PointCloud::clustered(args.points, Clustered::default(), args.seed),
             "clustered".to_string(),

@@ -2,7 +2,7 @@ use parry3d::bounding_volume::Aabb;
 use parry3d::math::{Pose, Vector};
 use parry3d::shape::SharedShape;
 
-use raytrace::Rng;
+use sched::Rng;
 
 /// One moving body at its current pose.
 #[derive(Clone)]

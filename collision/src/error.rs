@@ -4,10 +4,15 @@ pub enum CollisionError {
     /// The sampling rate is not in (0, 1].
     #[error(transparent)]
     BadSampleRate(#[from] sched::BadSampleRate),
+    /// A vertex of the static mesh is NaN or infinite.
+    #[error("mesh vertex {index} has a non-finite coordinate {vertex:?}")]
+    NonFinite {
+        /// Index of the vertex.
+        index: usize,
+        /// The vertex.
+        vertex: [f32; 3],
+    },
     /// The static mesh could not be built (no triangles, bad indices…).
     #[error("building the triangle mesh: {0}")]
     Mesh(String),
-    /// The scene file could not be read.
-    #[error("loading the scene: {0}")]
-    Scene(String),
 }

@@ -1,11 +1,12 @@
 //! Collision queries on [parry3d], balanced across devices by [`sched`].
 //!
 //! Many moving bodies (balls, cuboids, convex hulls; [`random_bodies`] crowds some into
-//! swarms) against each other and a static triangle mesh ([`terrain`] or a scene). A task
-//! is a range of the Morton-sorted bodies; its [`Device`] runs the broad phase through
-//! parry's BVHs and the narrow phase with parry's `contact`. The [`BroadPhaseCount`]
-//! estimator is the thesis's reduced traversal: the broad phase of a sample of the bodies,
-//! counting nodes and candidate pairs, with no narrow phase.
+//! swarms) against each other and a static triangle mesh ([`terrain`], or any mesh through
+//! [`unit_cube_mesh`]). A task is a range of the bodies sorted along the Z curve
+//! ([`sched::locality`]); its [`Device`] runs the broad phase through parry's BVHs and the
+//! narrow phase with parry's `contact`. The [`BroadPhaseCount`] estimator is a reduced
+//! traversal: the broad phase of a sample of the bodies, counting nodes and candidate pairs,
+//! with no narrow phase (the candidate pairs stand for the narrow phase's work).
 //!
 //! # Example
 //!
@@ -39,8 +40,7 @@ pub use bodies::{Body, Swarms, random_bodies};
 pub use broad::{Work, body_candidates, count, mesh_candidates};
 pub use error::CollisionError;
 pub use estimate::{BroadPhaseCount, CANDIDATE_WEIGHT, SampleRate, prediction_error};
-pub use mesh::{scene_mesh, terrain};
+pub use mesh::{terrain, unit_cube_mesh};
 pub use narrow::{Pair, bodies_touch, brute_force, touches_triangle};
-pub use raytrace::Rng;
 pub use task::Device;
 pub use world::World;

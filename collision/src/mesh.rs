@@ -1,5 +1,3 @@
-use std::path::Path;
-
 use parry3d::math::Vector;
 use parry3d::shape::TriMesh;
 
@@ -28,34 +26,64 @@ pub fn terrain(side: usize) -> Result<TriMesh, CollisionError> {
     TriMesh::new(vertices, indices).map_err(|e| CollisionError::Mesh(e.to_string()))
 }
 
-/// The triangles of an OBJ scene, scaled uniformly into the unit cube (so the same bodies
-/// fit any scene).
-pub fn scene_mesh(path: &Path) -> Result<TriMesh, CollisionError> {
-    let arg = path.to_string_lossy();
-    let scene = raytrace::SceneSource::parse(&arg)
-        .and_then(|s| s.load(raytrace::SceneNeeds::AO))
-        .map_err(|e| CollisionError::Scene(e.to_string()))?;
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in &scene.positions {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
+/// A triangle mesh (`vertices` indexed by `triangles`, such as a scene loaded from a file),
+/// moved and scaled uniformly into the unit cube, so that the bodies of [`random_bodies`]
+/// fit any mesh.
+///
+/// [`random_bodies`]: crate::random_bodies
+pub fn unit_cube_mesh(
+    vertices: &[[f32; 3]],
+    triangles: Vec<[u32; 3]>,
+) -> Result<TriMesh, CollisionError> {
+    if let Some((index, vertex)) = vertices
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !v.iter().all(|x| x.is_finite()))
+    {
+        return Err(CollisionError::NonFinite {
+            index,
+            vertex: *vertex,
+        });
     }
+    let (lo, hi) = sched::locality::bounds(vertices);
     let scale = (0..3)
         .map(|a| hi[a] - lo[a])
         .fold(f32::MIN_POSITIVE, f32::max);
-    let vertices = scene
-        .positions
+    let vertices = vertices
         .iter()
         .map(|p| {
             Vector::new(
-                (p.x - lo[0]) / scale,
-                (p.y - lo[1]) / scale,
-                (p.z - lo[2]) / scale,
+                (p[0] - lo[0]) / scale,
+                (p[1] - lo[1]) / scale,
+                (p[2] - lo[2]) / scale,
             )
         })
         .collect();
-    TriMesh::new(vertices, scene.triangles.clone()).map_err(|e| CollisionError::Mesh(e.to_string()))
+    TriMesh::new(vertices, triangles).map_err(|e| CollisionError::Mesh(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_mesh_is_scaled_into_the_unit_cube() {
+        let vertices = [[10.0, 10.0, 10.0], [14.0, 10.0, 10.0], [10.0, 12.0, 11.0]];
+        let mesh = unit_cube_mesh(&vertices, vec![[0, 1, 2]]).unwrap();
+        let v = mesh.vertices();
+        assert_eq!(v[0], Vector::new(0.0, 0.0, 0.0));
+        assert_eq!(v[1], Vector::new(1.0, 0.0, 0.0));
+        assert_eq!(v[2], Vector::new(0.0, 0.5, 0.25));
+    }
+
+    #[test]
+    fn bad_meshes_name_the_fault() {
+        let nan = unit_cube_mesh(&[[0.0; 3], [1.0, f32::NAN, 0.0]], vec![]);
+        assert!(
+            matches!(nan, Err(CollisionError::NonFinite { index: 1, .. })),
+            "{nan:?}"
+        );
+        let empty = unit_cube_mesh(&[[0.0; 3]; 3], vec![]);
+        assert!(matches!(empty, Err(CollisionError::Mesh(_))), "{empty:?}");
+    }
 }

@@ -26,7 +26,7 @@ impl World {
     /// Sorts `bodies` spatially and builds the body BVH.
     pub fn new(bodies: Vec<Body>, mesh: TriMesh) -> Self {
         let centres: Vec<[f32; 3]> = bodies.iter().map(|b| b.aabb.center().to_array()).collect();
-        let order = raytrace::morton::morton_order(&centres);
+        let order = sched::locality::morton_order(&centres);
         let bodies: Vec<Body> = order.iter().map(|&i| bodies[i as usize].clone()).collect();
         let aabbs: Vec<_> = bodies.iter().map(|b| b.aabb).collect();
         let bvh = Bvh::from_leaves(BvhBuildStrategy::default(), &aabbs);

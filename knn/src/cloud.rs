@@ -1,9 +1,7 @@
-use std::path::Path;
+use sched::Rng;
 
-use crate::KnnError;
-use raytrace::Rng;
-
-/// Points in 3D.
+/// Points in 3D: generated ([`PointCloud::clustered`], [`PointCloud::uniform`]) or the
+/// caller's own, such as a mesh's vertices (`PointCloud { points }`).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PointCloud {
     /// The points, in no particular order.
@@ -64,24 +62,12 @@ impl PointCloud {
         }
     }
 
-    /// The vertices of an OBJ scene (`v` lines): a real surface sampled unevenly, dense where
-    /// the modeller put detail.
-    pub fn from_scene(path: &Path) -> Result<Self, KnnError> {
-        let arg = path.to_string_lossy();
-        let scene = raytrace::SceneSource::parse(&arg)
-            .and_then(|s| s.load(raytrace::SceneNeeds::AO))
-            .map_err(|e| KnnError::Scene(e.to_string()))?;
-        Ok(PointCloud {
-            points: scene.positions.iter().map(|p| p.to_array()).collect(),
-        })
-    }
-
     /// `n` query points: half jittered copies of cloud points (queries where the data is),
     /// half uniform in the cloud's bounding box (queries in the sparse space between
     /// clusters, whose neighbours are far and costly to find).
     pub fn queries(&self, n: usize, seed: u64) -> Vec<[f32; 3]> {
         let mut rng = Rng::new(seed ^ 0x5151_5151);
-        let (lo, hi) = raytrace::morton::bounds(&self.points);
+        let (lo, hi) = sched::locality::bounds(&self.points);
         let jitter = 1e-3 * (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f32::max);
         (0..n)
             .map(|i| {

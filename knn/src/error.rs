@@ -23,7 +23,4 @@ pub enum KnnError {
     /// kiddo could not build its tree.
     #[error("building the k-d tree: {0}")]
     Tree(String),
-    /// The scene file could not be read.
-    #[error("loading the scene: {0}")]
-    Scene(String),
 }

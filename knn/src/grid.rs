@@ -14,7 +14,7 @@ impl DensityGrid {
     /// A grid of `side`³ cells (at least 1) over `points`.
     pub fn new(points: &[[f32; 3]], side: usize) -> Self {
         let side = side.max(1);
-        let (lo, hi) = raytrace::morton::bounds(points);
+        let (lo, hi) = sched::locality::bounds(points);
         let cell = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / side as f32).max(f32::MIN_POSITIVE));
         let mut grid = DensityGrid {
             lo,

@@ -1,11 +1,12 @@
 //! Batched k-nearest-neighbour queries on [kiddo], balanced across devices by [`sched`].
 //!
-//! The thesis's method on another spatial structure: queries are sorted along the Z curve
-//! and cut into tasks (ranges), a cheap [`DensityEstimator`] predicts each task's cost from
-//! a coarse [`DensityGrid`] (no tree search, a sample of the queries), and a `sched` policy
-//! spreads the tasks over [`Device`]s. Point clouds of strongly varying density
-//! ([`PointCloud::clustered`], a scene's vertices) make the costs irregular: queries in the
-//! sparse space beside a dense cluster examine many more points than queries inside it.
+//! `sched`'s cost-based balancing on another spatial structure: queries are sorted along the
+//! Z curve ([`sched::locality`]) and cut into tasks (ranges), a cheap [`DensityEstimator`]
+//! predicts each task's cost from a coarse [`DensityGrid`] (no tree search, a sample of the
+//! queries), and a `sched` policy spreads the tasks over [`Device`]s. Point clouds of
+//! strongly varying density ([`PointCloud::clustered`], or the caller's own points such as a
+//! mesh's vertices) make the costs irregular: queries in the sparse space beside a dense
+//! cluster examine many more points than queries inside it.
 //!
 //! # Example
 //!
@@ -44,6 +45,4 @@ pub use error::KnnError;
 pub use estimate::{DensityEstimator, SampleRate, SampledQueries, prediction_error};
 pub use grid::DensityGrid;
 pub use query::{KnnIndex, KnnQueries};
-pub use raytrace::Rng;
-pub use raytrace::morton::{morton, morton_order};
 pub use task::Device;

@@ -44,7 +44,7 @@ impl KnnIndex {
 }
 
 /// A batch of kNN queries, sorted along the Z curve so that a range of them (a task) is a
-/// compact region of space, as the thesis sorts rays by pixel Morton code.
+/// compact region of space whose queries share tree nodes ([`sched::locality`]).
 #[derive(Debug, Clone)]
 pub struct KnnQueries {
     /// The queries in Morton order.
@@ -63,7 +63,7 @@ impl KnnQueries {
             .filter(|k| k.get() <= points)
             .ok_or(KnnError::BadK { k, points })?;
         check_finite(&queries)?;
-        let order = raytrace::morton::morton_order(&queries);
+        let order = sched::locality::morton_order(&queries);
         Ok(KnnQueries {
             points: order.iter().map(|&i| queries[i as usize]).collect(),
             order,

@@ -41,12 +41,10 @@ mod error;
 pub mod film;
 #[cfg(feature = "gpu")]
 pub mod gpu;
-pub mod morton;
 mod obj;
 mod packet;
 pub mod paths;
 mod ray;
-mod rng;
 mod scene;
 pub mod scheduled;
 pub mod shade;
@@ -67,8 +65,9 @@ pub use film::Film;
 /// The math crate of the public API (points, directions, colours), so callers need not pin it.
 pub use glam;
 pub use ray::{Hit, HitBatch, Ray, RayBatch, RayKind};
-pub use rng::Rng;
 pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};
+/// The seeded generator of the built-in scenes and the seeded tests.
+pub use sched::Rng;
 pub use traverse::{Counts, Probe};
 pub use triangle::{RayShear, intersect_watertight};
 

@@ -616,8 +616,8 @@ mod tests {
         let mut rng = Rng::new(testkit::seed(5));
         let c = b.center();
         for k in 0..3001 {
-            let o = c + rng.unit_vector() * b.extent().length() * rng.f32();
-            let mut d = rng.unit_vector();
+            let o = c + Vec3::from(rng.unit_vector()) * b.extent().length() * rng.f32();
+            let mut d = Vec3::from(rng.unit_vector());
             match k % 7 {
                 0 => d.x = 0.0,
                 1 => d.y = -0.0,

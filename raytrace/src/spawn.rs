@@ -144,7 +144,7 @@ mod tests {
             let o = Vec3::new(rng.f32() - 0.5, 1.0, rng.f32() - 0.5);
             let hit = bvh.closest_hit(&Ray::new(o, -Vec3::Y)).unwrap();
             let sp = scene.surface_point(&hit);
-            let mut out = rng.unit_vector();
+            let mut out = Vec3::from(rng.unit_vector());
             out.y = out.y.abs();
             assert!(bvh.closest_hit(&sp.spawn_ray(out, 1.0)).is_none(), "{out}");
         }

@@ -46,9 +46,9 @@ pub fn random_triangles(rng: &mut Rng, n: usize, extent: f32, size: f32) -> Scen
             rng.range(-extent, extent),
             rng.range(-extent, extent),
         );
-        let a = c + rng.unit_vector() * size * rng.range(0.3, 1.0);
-        let b = c + rng.unit_vector() * size * rng.range(0.3, 1.0);
-        let d = c + rng.unit_vector() * size * rng.range(0.3, 1.0);
+        let a = c + Vec3::from(rng.unit_vector()) * size * rng.range(0.3, 1.0);
+        let b = c + Vec3::from(rng.unit_vector()) * size * rng.range(0.3, 1.0);
+        let d = c + Vec3::from(rng.unit_vector()) * size * rng.range(0.3, 1.0);
         m.tri_points(a, b, d, 0);
     }
     scene_of("random", m).expect("n > 0")

@@ -15,7 +15,7 @@
 //! `B` counts nodes *entered* (the root, if its box is hit, and every child whose box is hit);
 //! entering an inner node costs two child box tests, entering a leaf `count` triangle tests.
 //!
-//! The ray/box test is Ize's conservative one ([`crate::slab`]), both children of a node at
+//! The ray/box test is Ize's conservative one (`slab.rs`), both children of a node at
 //! once. Sibling pairs are 64-byte aligned ([`crate::bvh::NodeArray`]), so a step reads one
 //! cache line.
 //!

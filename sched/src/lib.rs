@@ -43,6 +43,16 @@
 //! [`exact`] computes the optimum of small instances, against which the guarantees are
 //! property-tested.
 //!
+//! Two helpers for building workloads: [`locality`] sorts 3D points along a Z curve, so that
+//! a range of them (a task) is a compact region of space, and [`Rng`] is a small seeded
+//! generator for reproducible workloads and tests.
+//!
+//! Runnable examples in `sched/examples/` go further: `custom_workload` (your own [`Task`]
+//! and [`Executor`], and a device that fails without losing work), `custom_estimator` (a
+//! sampling [`CostEstimator`] and the plan it buys) and `simulate` (every [`Policy`] in the
+//! [`Simulation`], with latency, wrong estimates and a fault). Run one with
+//! `cargo run -p sched --example simulate`.
+//!
 //! With the `mpi` feature, `mpi` makes the ranks of an MPI job the nodes of one run: a
 //! `RemoteNode` is another rank seen as an [`Executor`] by rank 0's runtime.
 
@@ -53,11 +63,13 @@ mod error;
 pub mod exact;
 mod executor;
 mod load;
+pub mod locality;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 mod placement;
 mod plan;
 mod policy;
+mod rng;
 mod runtime;
 mod sample;
 mod simulate;
@@ -72,6 +84,7 @@ pub use executor::{DeviceError, Executor, Sink};
 pub use load::Load;
 pub use plan::Plan;
 pub use policy::{HybridDispatch, Policy, QueueDispatch, StaticDispatch, plan_equal, plan_lpt};
+pub use rng::Rng;
 pub use runtime::{RunReport, Runtime};
 pub use sample::{BadSampleRate, SampleRate};
 pub use simulate::{Fault, SimReport, Simulation};

@@ -1,11 +1,10 @@
 //! Keeping the device threads off the CPU of the thread that runs device 0.
 //!
 //! The calling thread runs device 0 and wakes the parked threads of the others. Linux tends to
-//! wake a thread on the waker's CPU, where it then waits for the waker to stop. On the 2-vCPU
-//! VM we develop on, two devices given 1.4 ms of work each (a scratch program, 8 blocks of 20
-//! runs): in 5 blocks the median run started the second device only once the first had
-//! finished (1.44 ms late, balance 0.50); kept off the caller's CPU, it started 14–25 µs late
-//! (block medians; balance 0.97–0.99). Whitted renders' short generations had run at 49–50 %.
+//! wake a thread on the waker's CPU, where it then waits for the waker to stop: on a machine
+//! with few CPUs, a second device can start only once the first has finished its share,
+//! which serialises a run that was planned to be parallel (a balance near 0.5 for two
+//! devices). Kept off the caller's CPU, it starts within microseconds.
 //!
 //! So before a run wakes them, the device threads are allowed every CPU the caller may use but
 //! the one it is on, when there are CPUs enough for that (with more devices than CPUs the OS

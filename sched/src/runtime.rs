@@ -198,7 +198,8 @@ impl Runtime {
 }
 
 /// Parked threads for the devices after the first, kept between runs: a thread woken from a
-/// park starts at once, where a new one waited up to 4 ms on two busy cores.
+/// park starts at once, where spawning a new one can take milliseconds on a busy machine,
+/// longer than a short run's tasks.
 mod workers {
     use std::panic::{AssertUnwindSafe, catch_unwind};
     use std::sync::Mutex;

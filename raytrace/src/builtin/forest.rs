@@ -94,8 +94,8 @@ fn tree(m: &mut MeshBuilder, rng: &mut Rng, ground: Vec3) {
     m.tube(&trunk, r, 8, BARK);
     for _ in 0..4 {
         let start = ground + Vec3::Y * rng.range(0.5 * h, 0.85 * h);
-        let d =
-            (rng.unit_vector() * Vec3::new(1.0, 0.3, 1.0) + Vec3::Y * 0.4).normalize_or(Vec3::Y);
+        let d = (Vec3::from(rng.unit_vector()) * Vec3::new(1.0, 0.3, 1.0) + Vec3::Y * 0.4)
+            .normalize_or(Vec3::Y);
         let len = rng.range(0.2, 0.4) * h;
         let path: Vec<Vec3> = (0..=3).map(|i| start + d * len * i as f32 / 3.0).collect();
         m.tube(&path, r * 0.4, 5, BARK);
@@ -103,9 +103,9 @@ fn tree(m: &mut MeshBuilder, rng: &mut Rng, ground: Vec3) {
     let crown = ground + Vec3::Y * h * 0.85;
     let spread = h * 0.35;
     for _ in 0..600 {
-        let c = crown + rng.unit_vector() * spread * rng.f32().cbrt();
+        let c = crown + Vec3::from(rng.unit_vector()) * spread * rng.f32().cbrt();
         let s = rng.range(0.05, 0.3);
-        let a = rng.unit_vector();
+        let a = Vec3::from(rng.unit_vector());
         let b = a.any_orthonormal_vector();
         let e = a.cross(b);
         m.quad([c, c + b * s, c + (b + e) * s * 0.8, c + e * s], LEAF);

@@ -1,6 +1,7 @@
 //! `builtin:hairball`: a dense tangle of thin tubes inside a unit sphere. Many long, thin,
 //! overlapping triangles make it the hard case for BVH quality and ray coherence.
 
+use glam::Vec3;
 use rayon::prelude::*;
 
 use super::MeshBuilder;
@@ -16,12 +17,12 @@ pub(super) fn generate(detail: f32) -> MeshBuilder {
         .into_par_iter()
         .map(|k| {
             let mut rng = Rng::new(0x4A1_2BA11 + k);
-            let mut p = rng.unit_vector() * rng.f32().cbrt();
-            let mut d = rng.unit_vector();
+            let mut p = Vec3::from(rng.unit_vector()) * rng.f32().cbrt();
+            let mut d = Vec3::from(rng.unit_vector());
             let mut path = Vec::with_capacity(SEGMENTS + 1);
             path.push(p);
             for _ in 0..SEGMENTS {
-                d = (d + 0.35 * rng.unit_vector()).normalize_or(d);
+                d = (d + 0.35 * Vec3::from(rng.unit_vector())).normalize_or(d);
                 if p.length() > 1.0 {
                     // Steer back inside so the ball stays a ball.
                     d = (d - 0.5 * p).normalize_or(-p);

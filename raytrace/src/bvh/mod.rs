@@ -1,5 +1,5 @@
 //! The bounding volume hierarchy: built by obvhs ([`build`]), flattened into [`Node`]s and
-//! [`BvhTriangle`]s in leaf order ([`node`]), and checked ([`validate`]).
+//! [`BvhTriangle`]s in leaf order ([`node`]), and checked ([`mod@validate`]).
 
 mod bound;
 pub mod build;
@@ -18,7 +18,7 @@ pub const MAX_DEPTH: usize = 256;
 ///
 /// The node array and the triangle array are the whole structure: the CPU traverses them and a
 /// GPU uploads them unchanged. Fields are private so the invariants that traversal relies on
-/// (checked by [`validate`]) cannot be broken after the build.
+/// (checked by [`validate()`]) cannot be broken after the build.
 #[derive(Clone, Debug)]
 pub struct Bvh {
     pub(crate) nodes: NodeArray,

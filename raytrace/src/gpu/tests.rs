@@ -91,7 +91,12 @@ fn rays_for(name: &str, seed: u64) -> RayBatch {
         } else {
             f32::INFINITY
         };
-        rays.push(&Ray::with_range(o, rng.unit_vector(), 0.0, tmax));
+        rays.push(&Ray::with_range(
+            o,
+            Vec3::from(rng.unit_vector()),
+            0.0,
+            tmax,
+        ));
     }
     // Axis-aligned directions (zero components of both signs hit the NaN-slab rules).
     for d in [
@@ -704,7 +709,7 @@ fn check_whitted_image(name: &str, bent: bool) {
         // the surface) and a second, coloured light.
         let mut rng = Rng::new(testkit::seed(21));
         let normals = (0..scene.positions.len())
-            .map(|_| (Vec3::Y + 0.6 * rng.unit_vector()).normalize_or(Vec3::Y))
+            .map(|_| (Vec3::Y + 0.6 * Vec3::from(rng.unit_vector())).normalize_or(Vec3::Y))
             .collect();
         scene.normals = Some(normals);
         let b = scene.bounds();

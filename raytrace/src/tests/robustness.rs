@@ -50,7 +50,7 @@ fn no_ray_escapes_a_closed_sphere() {
         let targets = vertices_and_edge_midpoints(&scene);
         let mut origins = vec![center];
         for _ in 0..8 {
-            origins.push(center + rng.unit_vector() * radius * rng.range(0.0, 0.9));
+            origins.push(center + Vec3::from(rng.unit_vector()) * radius * rng.range(0.0, 0.9));
         }
         let rays: RayBatch = origins
             .iter()
@@ -231,8 +231,8 @@ fn cluttered(seed: u64) -> (Scene, Vec<Ray>) {
     let scene = testkit::scene_of("cluttered", m).unwrap();
     let rays = (0..2000)
         .map(|_| {
-            let o = rng.unit_vector() * rng.range(0.0, 80.0);
-            let t = rng.unit_vector() * rng.range(0.0, 80.0);
+            let o = Vec3::from(rng.unit_vector()) * rng.range(0.0, 80.0);
+            let t = Vec3::from(rng.unit_vector()) * rng.range(0.0, 80.0);
             Ray::new(o, t - o)
         })
         .collect();
@@ -296,8 +296,8 @@ fn closest_hits_agree_with_an_f64_reference() {
         let bvh = build(&scene);
         let rays: RayBatch = (0..3000)
             .map(|_| {
-                let o = rng.unit_vector() * 15.0;
-                let t = rng.unit_vector() * rng.range(0.0, 10.0);
+                let o = Vec3::from(rng.unit_vector()) * 15.0;
+                let t = Vec3::from(rng.unit_vector()) * rng.range(0.0, 10.0);
                 Ray::with_range(o, t - o, 0.0, rng.range(0.5, 2.0))
             })
             .collect();
@@ -421,14 +421,14 @@ fn spawned_rays_never_hit_their_own_surface() {
         let mut escaped = 0;
         for _ in 0..3000 {
             // From outside, hit the sphere.
-            let o = center + rng.unit_vector() * radius * 3.0;
-            let target = center + rng.unit_vector() * radius * 0.5;
+            let o = center + Vec3::from(rng.unit_vector()) * radius * 3.0;
+            let target = center + Vec3::from(rng.unit_vector()) * radius * 0.5;
             let Some(hit) = bvh.closest_hit(&Ray::new(o, target - o)) else {
                 continue;
             };
             let sp = scene.surface_point(&hit);
             // Outward (AO/reflection side): the sphere is convex, so nothing to hit.
-            let mut out = rng.unit_vector();
+            let mut out = Vec3::from(rng.unit_vector());
             if out.dot(sp.normal) < 0.0 {
                 out = -out;
             }
