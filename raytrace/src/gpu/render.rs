@@ -104,6 +104,8 @@ pub struct GpuRenderer {
     pub(super) threads: Threads,
     /// The scene's bounding-box diagonal, for the default probe length.
     diagonal: f32,
+    /// Launch buffers kept for the next launch, by label (see [`GpuRenderer::scratch`]).
+    scratch: std::sync::Mutex<std::collections::HashMap<&'static str, wgpu::Buffer>>,
 }
 
 impl GpuRenderer {
@@ -154,6 +156,7 @@ impl GpuRenderer {
             kernels,
             scene: scene_buffers,
             threads: Threads::default(),
+            scratch: Default::default(),
         })
     }
 
@@ -264,7 +267,7 @@ impl GpuRenderer {
             tasks: table.len() as u32,
             pad: [0; 3],
         };
-        let storage = |label: &str, size: u64, usage| self.scratch(label, size, usage);
+        let storage = |label: &'static str, size: u64, usage| self.scratch(label, size, usage);
         let none = wgpu::BufferUsages::empty();
         let copy = wgpu::BufferUsages::COPY_SRC;
         let ray_bytes = size_of::<GpuRay>() as u64;
@@ -300,15 +303,37 @@ impl GpuRenderer {
         Recorder::new(&self.ctx, &self.kernels, &self.scene, self.threads, checked)
     }
 
-    /// A storage buffer of at least `size` bytes (a binding may not be empty), also usable
-    /// as `usage`.
+    /// A storage buffer of at least `size` bytes (and of one element of any array), also
+    /// usable as `usage`.
+    ///
+    /// Buffers live across launches and frames: each label keeps its largest buffer, and a
+    /// launch that fits in it reuses it (every launch waits for its read-back before the
+    /// next one is recorded, so no two launches share a buffer at once). The kernels bound
+    /// their loops by the launch's counts, never by a buffer's length.
     pub(super) fn scratch(
         &self,
-        label: &str,
+        label: &'static str,
         size: u64,
         usage: wgpu::BufferUsages,
     ) -> wgpu::Buffer {
-        storage(&self.ctx.device, label, size.max(16), usage)
+        // A binding holds at least one element of its array (the largest, a ray, is 32 bytes),
+        // even for a launch with none: a scene without lights has no shadow rays.
+        let size = size.max(64);
+        let wanted = wgpu::BufferUsages::STORAGE | usage;
+        // A poisoned lock only means another launch panicked; the buffers are still valid.
+        let mut kept = self
+            .scratch
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(b) = kept
+            .get(label)
+            .filter(|b| b.size() >= size && b.usage() == wanted)
+        {
+            return b.clone();
+        }
+        let b = storage(&self.ctx.device, label, size, usage);
+        kept.insert(label, b.clone());
+        b
     }
 
     /// A bind group of `stage`'s buffers with `params` (uploaded).

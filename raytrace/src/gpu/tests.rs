@@ -842,3 +842,45 @@ fn a_scheduled_gpu_frame_moves_bytes_by_task_not_by_ray() {
     }
     assert_eq!(seen[0], seen[1], "traffic does not grow with the probes");
 }
+
+/// One GPU device keeps its launch buffers across launches and frames: launches of one task
+/// each (a queue policy), frames of different sizes and shaders one after another, the
+/// small after the large, each equal to the kernels' image of that frame alone.
+#[test]
+fn launches_and_frames_of_every_size_share_one_device() {
+    use crate::paths::{GpuPaths, PathDevice, PathRenderer};
+    use crate::scheduled::{Mode, Settings};
+    let Some(ctx) = gpu() else { return };
+    let (scene, bvh) = testkit::builtin_with_bvh("builtin:cornell:0.2").expect("scene");
+    let camera = Camera::thesis(&scene.bounds(), 1);
+    let ao = Shader::Ao(AoSettings {
+        samples: 4,
+        ..AoSettings::default()
+    });
+    let whitted = Shader::Whitted(WhittedSettings::default());
+    let device: Box<dyn PathDevice> =
+        Box::new(GpuPaths::new(ctx.clone(), &scene, &bvh).expect("device"));
+    let mut r = PathRenderer::new(
+        vec![device],
+        Settings {
+            policy: sched::Policy::QueueFifo,
+            mode: Mode::Cost,
+            task_size: std::num::NonZeroUsize::new(100).expect("positive"),
+            ..Settings::default()
+        },
+    )
+    .expect("renderer");
+    for (w, h, shader) in [
+        (48, 40, ao),
+        (20, 12, whitted),
+        (48, 40, whitted),
+        (30, 14, ao),
+    ] {
+        let options = RenderOptions::new(w, h, camera, shader);
+        let frame = r.render(&scene, &bvh, &options).expect("frame");
+        assert!(frame.stats.launches() > 1, "{w}x{h}: one task a launch");
+        let alone = GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer");
+        let (kernels, _) = gpu_film(&alone, &options).expect("kernels");
+        assert_eq!(frame.film, kernels, "{w}x{h} {}", shader.name());
+    }
+}

@@ -195,7 +195,7 @@ impl GpuRenderer {
         let slots = u64::from(n) * u64::from(lights);
         let ray_bytes = size_of::<GpuRay>() as u64;
         check_size(ctx, "shadow rays", slots * ray_bytes)?;
-        let storage = |label: &str, size: u64, usage| self.scratch(label, size, usage);
+        let storage = |label: &'static str, size: u64, usage| self.scratch(label, size, usage);
         let none = wgpu::BufferUsages::empty();
         // Every path starts alive with weight 1; a kernel sets them, so nothing is uploaded.
         let paths = storage("cobalt Whitted paths", u64::from(n) * 16, none);
