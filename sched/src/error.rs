@@ -14,6 +14,14 @@ pub enum SchedError {
         /// The rejected value.
         value: f64,
     },
+    /// What moving a task from its home costs is NaN, infinite or negative.
+    #[error("moving task {task} from its home costs {value}: must be finite and non-negative")]
+    BadMoveCost {
+        /// Index of the task in the workload.
+        task: usize,
+        /// The rejected value.
+        value: f64,
+    },
     /// The costs are each finite, but their sum is not.
     #[error(
         "cost of task {task} is {value:e}: the sum of the costs up to it overflows (exceeds {max:e})",

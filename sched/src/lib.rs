@@ -62,6 +62,7 @@ mod dispatch;
 mod error;
 pub mod exact;
 mod executor;
+mod homes;
 mod load;
 pub mod locality;
 #[cfg(feature = "mpi")]
@@ -81,6 +82,7 @@ pub use cost::{ByItems, CostEstimator, Costs, Estimate, Uniform, prediction_erro
 pub use dispatch::Dispatch;
 pub use error::{DeviceFailure, SchedError};
 pub use executor::{DeviceError, Executor, Sink};
+pub use homes::{Homes, plan_lpt_homed};
 pub use load::Load;
 pub use plan::Plan;
 pub use policy::{HybridDispatch, Policy, QueueDispatch, StaticDispatch, plan_equal, plan_lpt};
