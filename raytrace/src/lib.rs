@@ -50,12 +50,14 @@ mod rng;
 mod scene;
 pub mod scheduled;
 pub mod shade;
+mod simd4;
 mod slab;
 pub mod spawn;
 pub mod testkit;
 #[cfg(test)]
 mod tests;
 pub mod traverse;
+mod traverse_wide;
 mod triangle;
 pub mod workload;
 
@@ -69,7 +71,7 @@ pub use glam;
 pub use ray::{Hit, HitBatch, Ray, RayBatch, RayKind};
 pub use rng::Rng;
 pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};
-pub use traverse::{Counts, Probe};
+pub use traverse::{Counts, Layout, Probe};
 pub use triangle::{RayShear, intersect_watertight};
 
 /// Result alias for this crate's [`Error`].
