@@ -320,6 +320,7 @@ mod sse {
 
 #[cfg(test)]
 mod tests {
+    use bytemuck::Zeroable;
     use glam::Vec3;
 
     use super::*;

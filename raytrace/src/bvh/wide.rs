@@ -91,6 +91,16 @@ impl WideBvh {
         if tris.is_empty() {
             return out;
         }
+        let spans = spans(nodes);
+        // An inner node whose subtree holds at most one group's triangles, in one run, becomes
+        // a leaf: one four-triangle test costs less than the boxes and tests below it.
+        let leaf_of = |i: usize| -> Option<(u32, u32)> {
+            let n = &nodes[i];
+            if n.is_leaf() {
+                return Some((n.index, n.count));
+            }
+            spans[i].filter(|&(_, c)| c <= 4)
+        };
         out.nodes.push(Node4::EMPTY);
         // (wide node to fill, binary node whose children it gets). A lone root leaf becomes
         // the only child of the wide root.
@@ -109,7 +119,7 @@ impl WideBvh {
                 let widest = kids
                     .iter()
                     .enumerate()
-                    .filter(|(_, i)| !nodes[**i].is_leaf())
+                    .filter(|(_, i)| leaf_of(**i).is_none())
                     .max_by(|a, b| {
                         let area = |i: usize| nodes[i].aabb().half_area();
                         area(*a.1).total_cmp(&area(*b.1))
@@ -122,16 +132,16 @@ impl WideBvh {
             let mut inner = Vec::new();
             for (k, &i) in kids.iter().enumerate() {
                 let n = &nodes[i];
-                if n.is_leaf() {
+                if let Some((start, count)) = leaf_of(i) {
                     let first = out.groups.len() as u32;
-                    let leaf = &tris[n.index as usize..(n.index + n.count) as usize];
+                    let leaf = &tris[start as usize..(start + count) as usize];
                     for chunk in leaf.chunks(4) {
                         out.groups.push(pack(chunk));
                     }
-                    out.nodes[w].set(k, n, first, n.count);
+                    out.nodes[w].set(k, n, first, count);
                 } else {
                     let c = out.nodes.len();
-                    out.nodes.push(Node4::EMPTY);
+        out.nodes.push(Node4::EMPTY);
                     out.nodes[w].set(k, n, c as u32, 0);
                     inner.push((c, Some(i)));
                 }
@@ -141,6 +151,26 @@ impl WideBvh {
         }
         out
     }
+}
+
+/// Each node's triangles as one run `(first, count)` of the triangle array, where they form
+/// one (the flattening writes leaves depth first, so every subtree's do).
+fn spans(nodes: &[Node]) -> Vec<Option<(u32, u32)>> {
+    let mut spans = vec![None; nodes.len()];
+    // Children come after their parent, so a backward sweep sees them first.
+    for i in (0..nodes.len()).rev() {
+        let n = &nodes[i];
+        if n.is_leaf() {
+            spans[i] = Some((n.index, n.count));
+        } else if i == 0 || n != &Node::PAD {
+            let l = n.index as usize;
+            spans[i] = match (spans.get(l).copied().flatten(), spans.get(l + 1).copied().flatten()) {
+                (Some((a, m)), Some((b, k))) if a + m == b => Some((a, m + k)),
+                _ => None,
+            };
+        }
+    }
+    spans
 }
 
 /// One to four triangles in lanes, the last repeated into the spare lanes.
