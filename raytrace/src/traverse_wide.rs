@@ -8,15 +8,15 @@
 //! Children hit are visited nearest first; the others wait on a stack with their entry
 //! distance and are dropped when the nearest hit so far is closer.
 //!
-//! `B` counts nodes entered as in the binary traversal: the root, if its box is hit, and every
-//! child (inner or leaf) taken from the tree, whose boxes are the binary tree's; `T` counts the
+//! `B` counts nodes entered as in the binary traversal: the root, if one of its children's
+//! boxes is hit, and every child (inner or leaf) taken from the stack, whose boxes are the
+//! binary tree's; `T` counts the
 //! triangles of the leaves tested (not the repeats that fill a leaf's last group).
 
 use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
 use crate::simd4::{Box4Ray, Shear4};
-use crate::slab::BoxRay;
 use crate::traverse::{ANY, ANY_COUNTED, COUNTED, Counts, better, cull_bound};
 use crate::triangle::RayShear;
 use crate::{Hit, Ray};
@@ -57,9 +57,6 @@ impl Bvh {
         let (tmin, tmax) = (ray.tmin, ray.tmax);
         let mut best: Option<Hit> = None;
         let mut cull = cull_bound(tmax);
-        if BoxRay::new(ray).hit(&self.nodes[0], tmin, cull).is_none() {
-            return (None, counts);
-        }
         let boxes = Box4Ray::new(ray);
         let shear = Shear4::new(shear);
         let nodes = &wide.nodes[..];
@@ -79,6 +76,11 @@ impl Bvh {
                 // which only writes indices of nodes it pushed.
                 let node = unsafe { nodes.get_unchecked(child as usize) };
                 let (mask, near) = boxes.hit4(node, tmin, cull);
+                if mask == 0 && child == 0 {
+                    // The root's own box is not tested (its children's are, at once): a ray
+                    // that meets none of them has entered nothing.
+                    return (None, Counts::default());
+                }
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;
                     if mask & (mask - 1) == 0 {
