@@ -38,7 +38,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
     let primary = workload::thesis_primary(&scene, size, size, 0..1);
     let ao = workload::thesis_ao(&scene, &bvh, size / 2, size / 2, 0, samples);
-    let vertices = scene.positions.iter().flat_map(|p| p.to_array().map(f32::to_le_bytes));
+    let vertices = scene
+        .positions
+        .iter()
+        .flat_map(|p| p.to_array().map(f32::to_le_bytes));
     write(&dir.join("vertices.f32"), vertices)?;
     let tris = scene.triangles.iter().flat_map(|t| t.map(u32::to_le_bytes));
     write(&dir.join("triangles.u32"), tris)?;

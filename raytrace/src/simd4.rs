@@ -7,10 +7,10 @@
 //! it). On x86_64 the lanes are SSE2 registers (SSE2 is part of the x86_64 baseline, so no
 //! detection is needed); elsewhere they are loops over `[f32; 4]`.
 
+use crate::Ray;
 use crate::bvh::wide::{Node4, Tri4};
 use crate::slab::far_scale;
 use crate::triangle::RayShear;
-use crate::Ray;
 
 /// The per-ray part of the four-box test.
 #[derive(Clone, Copy)]
@@ -252,10 +252,18 @@ mod sse {
             let edge_lanes = _mm_movemask_ps(on_edge);
             if edge_lanes != 0 {
                 // Rare: redo the lanes with a zero edge function in f64, exactly as the scalar test.
-                let (ax, ay, bx, by, cx, cy) =
-                    (store(ax), store(ay), store(bx), store(by), store(cx), store(cy));
+                let (ax, ay, bx, by, cx, cy) = (
+                    store(ax),
+                    store(ay),
+                    store(bx),
+                    store(by),
+                    store(cx),
+                    store(cy),
+                );
                 let (mut uu, mut vv, mut ww) = (store(u), store(w_v), store(w));
-                let d = |p: f32, q: f32, r: f32, t: f32| (p as f64 * q as f64 - r as f64 * t as f64) as f32;
+                let d = |p: f32, q: f32, r: f32, t: f32| {
+                    (p as f64 * q as f64 - r as f64 * t as f64) as f32
+                };
                 for k in 0..4 {
                     if edge_lanes & (1 << k) != 0 {
                         uu[k] = d(cx[k], by[k], cy[k], bx[k]);
@@ -303,8 +311,10 @@ mod sse {
                     _mm_cmpgt_ps(t_scaled, _mm_mul_ps(_mm_set1_ps(tmax), det_abs)),
                 ),
             );
-            let mask = (_mm_movemask_ps(_mm_andnot_ps(reject, _mm_castsi128_ps(_mm_set1_epi32(-1))))
-                & 0xF) as u32;
+            let mask = (_mm_movemask_ps(_mm_andnot_ps(
+                reject,
+                _mm_castsi128_ps(_mm_set1_epi32(-1)),
+            )) & 0xF) as u32;
             let rcp = _mm_div_ps(_mm_set1_ps(1.0), det);
             // `+ 0.0` turns a -0.0 distance into +0.0, as the scalar test does.
             let t = _mm_add_ps(_mm_div_ps(t_scaled, det_abs), zero);
@@ -389,6 +399,9 @@ mod tests {
             tri_hits += h.mask.count_ones();
         }
         // Both outcomes are exercised, not just misses.
-        assert!(box_hits > 5_000 && tri_hits > 2_000, "{box_hits} {tri_hits}");
+        assert!(
+            box_hits > 5_000 && tri_hits > 2_000,
+            "{box_hits} {tri_hits}"
+        );
     }
 }

@@ -358,18 +358,17 @@ impl Bvh {
                         // triangles hit does not depend on the walk (see `better`).
                         if let Some((t_hit, u, v)) =
                             intersect_watertight(&shear, &t.v0, &t.v1, &t.v2, tmin, tmax)
+                            && better(t_hit, t.prim, best)
                         {
-                            if better(t_hit, t.prim, best) {
-                                best_t = cull_bound(t_hit);
-                                best = Some(Hit {
-                                    t: t_hit,
-                                    prim: t.prim,
-                                    u,
-                                    v,
-                                });
-                                if MODE == ANY || MODE == ANY_COUNTED {
-                                    return (best, counts);
-                                }
+                            best_t = cull_bound(t_hit);
+                            best = Some(Hit {
+                                t: t_hit,
+                                prim: t.prim,
+                                u,
+                                v,
+                            });
+                            if MODE == ANY || MODE == ANY_COUNTED {
+                                return (best, counts);
                             }
                         }
                     }

@@ -91,14 +91,14 @@ impl Bvh {
                     // walk is deterministic), push all but the nearest, farthest first.
                     let mut hit = [(0usize, 0f32); 4];
                     let mut n = 0;
-                    for k in 0..4 {
+                    for (k, &t) in near.iter().enumerate() {
                         if mask & (1 << k) != 0 {
                             let mut j = n;
-                            while j > 0 && hit[j - 1].1 > near[k] {
+                            while j > 0 && hit[j - 1].1 > t {
                                 hit[j] = hit[j - 1];
                                 j -= 1;
                             }
-                            hit[j] = (k, near[k]);
+                            hit[j] = (k, t);
                             n += 1;
                         }
                     }

@@ -141,7 +141,7 @@ impl WideBvh {
                     out.nodes[w].set(k, n, first, count);
                 } else {
                     let c = out.nodes.len();
-        out.nodes.push(Node4::EMPTY);
+                    out.nodes.push(Node4::EMPTY);
                     out.nodes[w].set(k, n, c as u32, 0);
                     inner.push((c, Some(i)));
                 }
@@ -164,7 +164,10 @@ fn spans(nodes: &[Node]) -> Vec<Option<(u32, u32)>> {
             spans[i] = Some((n.index, n.count));
         } else if i == 0 || n != &Node::PAD {
             let l = n.index as usize;
-            spans[i] = match (spans.get(l).copied().flatten(), spans.get(l + 1).copied().flatten()) {
+            spans[i] = match (
+                spans.get(l).copied().flatten(),
+                spans.get(l + 1).copied().flatten(),
+            ) {
                 (Some((a, m)), Some((b, k))) if a + m == b => Some((a, m + k)),
                 _ => None,
             };
@@ -179,8 +182,8 @@ fn pack(tris: &[BvhTriangle]) -> Tri4 {
     for lane in 0..4 {
         let t = &tris[lane.min(tris.len() - 1)];
         for (vertex, p) in [t.v0, t.v1, t.v2].iter().enumerate() {
-            for axis in 0..3 {
-                g.v[vertex][axis][lane] = p[axis];
+            for (axis, &x) in p.iter().enumerate() {
+                g.v[vertex][axis][lane] = x;
             }
         }
         g.prim[lane] = t.prim;

@@ -65,8 +65,15 @@ fn differential(name: &str, preset: BuildPreset, seed: u64) {
     let mut rng = Rng::new(seed);
     let mut hits = 0;
     for (i, r) in rays(&scene, &mut rng, 4000).iter().enumerate() {
-        let at = || format!("{name} {} ray {i} {r:?} (COBALT_SEED={seed})", preset.name());
-        let bits = |h: Option<crate::Hit>| h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()));
+        let at = || {
+            format!(
+                "{name} {} ray {i} {r:?} (COBALT_SEED={seed})",
+                preset.name()
+            )
+        };
+        let bits = |h: Option<crate::Hit>| {
+            h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
+        };
         let binary = bvh.closest_hit_in(r, Layout::Binary);
         let wide = bvh.closest_hit_in(r, Layout::Wide);
         assert_eq!(bits(wide), bits(binary), "closest hit: {}", at());
@@ -95,7 +102,12 @@ fn differential(name: &str, preset: BuildPreset, seed: u64) {
                 r.tmin,
                 r.tmax,
             );
-            assert_eq!(again.map(|x| x.0.to_bits()), Some(h.t.to_bits()), "{}", at());
+            assert_eq!(
+                again.map(|x| x.0.to_bits()),
+                Some(h.t.to_bits()),
+                "{}",
+                at()
+            );
         }
         let (counted_any, _) = bvh.counted_in(r, true, Layout::Wide);
         assert_eq!(bits(counted_any), bits(any), "counted any: {}", at());
@@ -105,12 +117,20 @@ fn differential(name: &str, preset: BuildPreset, seed: u64) {
 
 #[test]
 fn wide_equals_binary_on_forest() {
-    differential("builtin:forest:0.05", BuildPreset::Medium, testkit::seed(21));
+    differential(
+        "builtin:forest:0.05",
+        BuildPreset::Medium,
+        testkit::seed(21),
+    );
 }
 
 #[test]
 fn wide_equals_binary_on_hairball() {
-    differential("builtin:hairball:0.1", BuildPreset::Medium, testkit::seed(22));
+    differential(
+        "builtin:hairball:0.1",
+        BuildPreset::Medium,
+        testkit::seed(22),
+    );
 }
 
 #[test]
