@@ -178,6 +178,58 @@ fn trace_matches_an_f64_reference_and_the_id_contract() {
     );
 }
 
+/// `--layout binary` (the GPU's tree) and `wide` (the CPU's default) write the same closest
+/// hits, byte for byte; an unknown layout is refused naming the flag.
+#[test]
+fn trace_layouts_write_the_same_hits() {
+    let mut rng = Rng::from_env(18);
+    let dir = crate::testkit::temp_dir("trace-layouts");
+    let (obj, _) = random_obj(&mut rng, 300);
+    let scene = dir.join("soup.obj");
+    std::fs::write(&scene, obj).unwrap();
+    let mut bytes = Vec::new();
+    for _ in 0..5_000 {
+        let r = [
+            rng.range(-12.0, 12.0),
+            rng.range(-12.0, 12.0),
+            rng.range(-12.0, 12.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        ];
+        for x in r.iter().map(|&x| x as f32).chain([0.0, f32::INFINITY]) {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    let rays = dir.join("rays.bin");
+    std::fs::write(&rays, &bytes).unwrap();
+    let trace = |layout: &str, out: &std::path::Path| {
+        Command::new(env!("CARGO_BIN_EXE_cobalt"))
+            .args(["trace", "--scene", scene.to_str().unwrap()])
+            .args([
+                "--rays",
+                rays.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .args(["--layout", layout, "--repeats", "2"])
+            .output()
+            .unwrap()
+    };
+    let (wide, binary) = (dir.join("wide.bin"), dir.join("binary.bin"));
+    for (layout, out) in [("wide", &wide), ("binary", &binary)] {
+        let o = trace(layout, out);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    assert_eq!(
+        std::fs::read(&wide).unwrap(),
+        std::fs::read(&binary).unwrap()
+    );
+    let bad = trace("octree", &dir.join("bad.bin"));
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("layout"));
+}
+
 #[test]
 fn trace_rejects_bad_rays_and_writes_nothing() {
     let dir = crate::testkit::temp_dir("trace-bad");

@@ -48,12 +48,14 @@ mod ray;
 mod scene;
 pub mod scheduled;
 pub mod shade;
+mod simd4;
 mod slab;
 pub mod spawn;
 pub mod testkit;
 #[cfg(test)]
 mod tests;
 pub mod traverse;
+mod traverse_wide;
 mod triangle;
 pub mod workload;
 
@@ -68,7 +70,7 @@ pub use ray::{Hit, HitBatch, Ray, RayBatch, RayKind};
 pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};
 /// The seeded generator of the built-in scenes and the seeded tests.
 pub use sched::Rng;
-pub use traverse::{Counts, Probe};
+pub use traverse::{Counts, Layout, Probe};
 pub use triangle::{RayShear, intersect_watertight};
 
 /// Result alias for this crate's [`Error`].

@@ -7,3 +7,4 @@ mod paths;
 mod robustness;
 mod scheduled;
 mod shade;
+mod wide;

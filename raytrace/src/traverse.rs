@@ -47,12 +47,65 @@ impl std::ops::AddAssign for Counts {
     }
 }
 
-const CLOSEST: u8 = 0;
-const ANY: u8 = 1;
-const COUNTED: u8 = 2;
+pub(crate) const CLOSEST: u8 = 0;
+pub(crate) const ANY: u8 = 1;
+pub(crate) const COUNTED: u8 = 2;
 const REDUCED: u8 = 3;
 const FIRST_LEAF: u8 = 4;
-const ANY_COUNTED: u8 = 5;
+pub(crate) const ANY_COUNTED: u8 = 5;
+
+/// Which tree the hit queries walk. Both give the same closest hits, bit for bit; the any-hit
+/// queries may stop at different hits (each returns some hit in range exactly when there is
+/// one).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Layout {
+    /// The binary tree, two boxes and one triangle at a time: what the GPU walks.
+    Binary,
+    /// The 4-wide tree collapsed from it ([`crate::bvh::wide`]), four boxes and four
+    /// triangles at a time: what the CPU queries walk.
+    #[default]
+    Wide,
+}
+
+impl Layout {
+    /// The name used on the command line: `binary` or `wide`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Binary => "binary",
+            Self::Wide => "wide",
+        }
+    }
+}
+
+impl std::str::FromStr for Layout {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        [Self::Binary, Self::Wide]
+            .into_iter()
+            .find(|l| l.name() == s.trim())
+            .ok_or_else(|| format!("unknown BVH layout `{s}` (expected binary or wide)"))
+    }
+}
+
+/// Whether a hit at `t` on `prim` replaces `best`: the smaller distance, and on equal
+/// distances the smaller primitive id, so the closest hit does not depend on the order the
+/// tree is walked in.
+#[inline(always)]
+pub(crate) fn better(t: f32, prim: u32, best: Option<Hit>) -> bool {
+    match best {
+        None => true,
+        Some(b) => t < b.t || (t == b.t && prim < b.prim),
+    }
+}
+
+/// How far past the nearest hit so far nodes are still entered. A triangle's computed
+/// distance and its leaf box's computed entry differ by a few roundings, so a leaf holding a
+/// hit at exactly the nearest distance (a tie the primitive id decides) could otherwise be
+/// culled by one walk and not by another.
+#[inline(always)]
+pub(crate) fn cull_bound(t: f32) -> f32 {
+    t + t.abs() * (16.0 * crate::spawn::gamma(3))
+}
 
 /// How the cost estimator traces its sampled rays.
 ///
@@ -199,8 +252,49 @@ impl Bvh {
         }
     }
 
+    /// The nearest hit on the tree `layout` names; equal to [`Bvh::closest_hit`]'s.
+    #[inline]
+    pub fn closest_hit_in(&self, ray: &Ray, layout: Layout) -> Option<Hit> {
+        match layout {
+            Layout::Binary => self.run_binary::<CLOSEST>(ray).0,
+            Layout::Wide => self.run_wide::<CLOSEST>(ray).0,
+        }
+    }
+
+    /// Some hit in range on the tree `layout` names.
+    #[inline]
+    pub fn any_hit_in(&self, ray: &Ray, layout: Layout) -> Option<Hit> {
+        match layout {
+            Layout::Binary => self.run_binary::<ANY>(ray).0,
+            Layout::Wide => self.run_wide::<ANY>(ray).0,
+        }
+    }
+
+    /// The counted queries on the tree `layout` names (`any` for the any-hit one), for
+    /// comparing the two trees' work.
+    #[inline]
+    pub fn counted_in(&self, ray: &Ray, any: bool, layout: Layout) -> (Option<Hit>, Counts) {
+        match (layout, any) {
+            (Layout::Binary, false) => self.run_binary::<COUNTED>(ray),
+            (Layout::Binary, true) => self.run_binary::<ANY_COUNTED>(ray),
+            (Layout::Wide, false) => self.run_wide::<COUNTED>(ray),
+            (Layout::Wide, true) => self.run_wide::<ANY_COUNTED>(ray),
+        }
+    }
+
+    /// Hit queries walk the wide tree, which is faster on the CPU; the reduced traversals stay
+    /// on the binary tree, the one the GPU walks, so the estimator counts the GPU's work.
     #[inline(always)]
     fn run<const MODE: u8>(&self, ray: &Ray) -> (Option<Hit>, Counts) {
+        if MODE == REDUCED || MODE == FIRST_LEAF {
+            self.run_binary::<MODE>(ray)
+        } else {
+            self.run_wide::<MODE>(ray)
+        }
+    }
+
+    #[inline(always)]
+    fn run_binary<const MODE: u8>(&self, ray: &Ray) -> (Option<Hit>, Counts) {
         if self.depth <= 64 {
             self.traverse::<MODE, 64>(ray)
         } else {
@@ -218,8 +312,11 @@ impl Bvh {
         if ray.tmin.partial_cmp(&ray.tmax).is_none_or(|o| o.is_gt()) {
             return (None, counts);
         }
-        let tmin = ray.tmin;
-        let mut best_t = ray.tmax;
+        let (tmin, tmax) = (ray.tmin, ray.tmax);
+        let reduced = MODE == REDUCED || MODE == FIRST_LEAF;
+        // The reduced traversals bound boxes by `best_t` itself (the first-leaf probe shortens
+        // it); the hit queries by `cull_bound` of the nearest hit.
+        let mut best_t = if reduced { tmax } else { cull_bound(tmax) };
         let mut best: Option<Hit> = None;
         let boxes = BoxRay::new(ray);
         let negative = boxes.negative();
@@ -257,21 +354,21 @@ impl Bvh {
                         if MODE == COUNTED || MODE == ANY_COUNTED {
                             counts.tris += 1;
                         }
+                        // The range is the ray's own, not the nearest hit's, so that which
+                        // triangles hit does not depend on the walk (see `better`).
                         if let Some((t_hit, u, v)) =
-                            intersect_watertight(&shear, &t.v0, &t.v1, &t.v2, tmin, best_t)
+                            intersect_watertight(&shear, &t.v0, &t.v1, &t.v2, tmin, tmax)
+                            && better(t_hit, t.prim, best)
                         {
-                            // Ties keep the first found, so results are deterministic.
-                            if best.is_none() || t_hit < best_t {
-                                best_t = t_hit;
-                                best = Some(Hit {
-                                    t: t_hit,
-                                    prim: t.prim,
-                                    u,
-                                    v,
-                                });
-                                if MODE == ANY || MODE == ANY_COUNTED {
-                                    return (best, counts);
-                                }
+                            best_t = cull_bound(t_hit);
+                            best = Some(Hit {
+                                t: t_hit,
+                                prim: t.prim,
+                                u,
+                                v,
+                            });
+                            if MODE == ANY || MODE == ANY_COUNTED {
+                                return (best, counts);
                             }
                         }
                     }
@@ -366,6 +463,19 @@ pub fn closest_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
 /// Panics if the batch's columns have different lengths.
 pub fn any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
     hits_of(rays, |r| bvh.any_hit(r))
+}
+
+/// [`closest_hits`] or, with `any`, [`any_hits`], on the tree `layout` names: for comparing
+/// the two trees' speed.
+///
+/// # Panics
+/// Panics if the batch's columns have different lengths.
+pub fn hits_in(bvh: &Bvh, rays: &RayBatch, any: bool, layout: Layout) -> HitBatch {
+    if any {
+        hits_of(rays, |r| bvh.any_hit_in(r, layout))
+    } else {
+        hits_of(rays, |r| bvh.closest_hit_in(r, layout))
+    }
 }
 
 /// Closest hits and per-ray counts, in parallel.

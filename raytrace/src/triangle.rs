@@ -55,6 +55,16 @@ impl RayShear {
             sz: 1.0 / d[kz],
         })
     }
+
+    /// The origin, the axes `kx, ky, kz` and the shear `sx, sy, sz`, for the four-lane test.
+    #[inline(always)]
+    pub(crate) fn parts(&self) -> ([f32; 3], [usize; 3], [f32; 3]) {
+        (
+            self.org,
+            [self.kx, self.ky, self.kz],
+            [self.sx, self.sy, self.sz],
+        )
+    }
 }
 
 /// Intersects the ray described by `s` with triangle `(v0, v1, v2)`, accepting

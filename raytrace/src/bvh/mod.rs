@@ -5,26 +5,32 @@ mod bound;
 pub mod build;
 pub mod node;
 pub mod validate;
+pub mod wide;
 
 pub use build::{BuildPreset, BuildReport};
 pub use node::{BvhTriangle, Node, NodeArray};
 pub use validate::{ValidationReport, validate};
+pub use wide::WideBvh;
 
 /// Deepest tree the traversal stacks (CPU and GPU) support; the build keeps every tree within
 /// it by rebuilding deeper subtrees by object median.
 pub const MAX_DEPTH: usize = 256;
 
-/// A flattened binary BVH over a scene's non-degenerate triangles.
+/// A flattened binary BVH over a scene's non-degenerate triangles, and the 4-wide tree
+/// collapsed from it.
 ///
-/// The node array and the triangle array are the whole structure: the CPU traverses them and a
-/// GPU uploads them unchanged. Fields are private so the invariants that traversal relies on
-/// (checked by [`validate()`]) cannot be broken after the build.
+/// The node array and the triangle array are the binary tree: a GPU uploads them unchanged and
+/// the CPU's reduced traversals walk them. The CPU's hit queries walk the wide tree
+/// ([`Bvh::wide`]), built from the same nodes and triangles. Fields are private so the
+/// invariants that traversal relies on (checked by [`validate()`]) cannot be broken after the
+/// build.
 #[derive(Clone, Debug)]
 pub struct Bvh {
     pub(crate) nodes: NodeArray,
     pub(crate) tris: Vec<BvhTriangle>,
     pub(crate) depth: usize,
     pub(crate) report: BuildReport,
+    pub(crate) wide: WideBvh,
 }
 
 impl Bvh {
@@ -37,6 +43,11 @@ impl Bvh {
     /// Triangles in leaf order (a triangle can appear more than once with spatial splits).
     pub fn triangles(&self) -> &[BvhTriangle] {
         &self.tris
+    }
+
+    /// The 4-wide tree the CPU's hit queries walk.
+    pub fn wide(&self) -> &WideBvh {
+        &self.wide
     }
 
     /// Depth of the tree (a lone root leaf has depth 1).

@@ -199,9 +199,11 @@ fn check_scene(name: &str, seed: u64) {
         &closest,
     );
     let any = dev.hits(true, &rays, &[&all]).expect("GPU any hits");
+    // An any-hit query returns the first hit its walk finds: the GPU walks the binary tree,
+    // so the binary tree's CPU walk finds the same one (the wide tree's may find another).
     assert_same_hits(
         &format!("{name} any"),
-        &traverse::any_hits(&bvh, &rays),
+        &traverse::hits_in(&bvh, &rays, true, traverse::Layout::Binary),
         &any,
     );
     for probe in [crate::Probe::Thesis, crate::Probe::FirstLeaf] {
@@ -257,9 +259,16 @@ fn splits_launches_and_names_the_limit() {
     let split = launch(&ctx, &kernels, &scene, &packed, GpuMode::Closest).expect("split launch");
     assert_eq!(whole, split);
     let cpu = traverse::closest_hits(&bvh, &rays);
+    let mut want = HitBatch::misses(0);
+    let mut got = HitBatch::misses(0);
     for (k, i) in a.clone().chain(b.clone()).enumerate() {
-        assert_eq!(whole[k][1], cpu.prim[i], "ray {i}");
+        want.t.push(cpu.t[i]);
+        want.prim.push(cpu.prim[i]);
+        got.t.push(f32::from_bits(whole[k][0]));
+        got.prim.push(whole[k][1]);
     }
+    // Exact-distance ties may go to another triangle on the GPU (see `assert_same_hits`).
+    assert_same_hits("split launches", &want, &got);
     let e = SceneBuffers::upload(&ctx, &bvh).expect_err("nodes beyond the limit");
     assert!(matches!(e, GpuError::TooLarge { .. }), "{e:?}");
     assert!(

@@ -1,0 +1,174 @@
+// Differential tests of the 4-wide tree against the binary one: the same closest hits, bit
+// for bit, on the built-in scenes with random, grazing and vertex- and edge-aimed rays; any-hit
+// queries that agree on whether something is hit and return real hits.
+
+use glam::Vec3;
+
+use crate::testkit;
+use crate::traverse::Layout;
+use crate::{BuildPreset, Bvh, Ray, Rng, Scene, SceneNeeds, SceneSource, intersect_watertight};
+
+fn load(name: &str, preset: BuildPreset) -> (Scene, Bvh) {
+    let scene = SceneSource::parse(name)
+        .and_then(|s| s.load(SceneNeeds::AO))
+        .unwrap();
+    let bvh = Bvh::build(&scene, preset).unwrap();
+    (scene, bvh)
+}
+
+/// Random rays through the scene, rays aimed exactly at vertices and edge midpoints, and
+/// grazing rays that start on a triangle and run nearly along it; some with a short range.
+fn rays(scene: &Scene, rng: &mut Rng, n: usize) -> Vec<Ray> {
+    let b = scene.bounds();
+    let (lo, hi) = (b.min, b.max);
+    let ext = (hi - lo).max_element();
+    let inside = |rng: &mut Rng| {
+        Vec3::new(
+            rng.range(lo.x, hi.x),
+            rng.range(lo.y, hi.y),
+            rng.range(lo.z, hi.z),
+        )
+    };
+    let mut out = Vec::with_capacity(n);
+    while out.len() < n {
+        let prim = rng.below(scene.len() as u32) as usize;
+        let [a, p, q] = scene.vertices(prim);
+        let r = match rng.below(4) {
+            0 => Ray::new(inside(rng), rng.unit_vector()),
+            1 => {
+                // At a vertex or an edge midpoint, from anywhere.
+                let target = [a, (a + p) * 0.5, (p + q) * 0.5][rng.below(3) as usize];
+                let o = inside(rng) + rng.unit_vector() * ext * 0.5;
+                Ray::new(o, target - o)
+            }
+            2 => {
+                // Grazing: from a point of the triangle, along its plane, tilted a hair.
+                let nrm = (p - a).cross(q - a).normalize_or_zero();
+                let along = (p - a).normalize_or_zero();
+                let o = a + (p - a) * rng.f32() * 0.5 + (q - a) * rng.f32() * 0.5;
+                Ray::new(o, along + nrm * rng.range(-1e-4, 1e-4))
+            }
+            _ => Ray::with_range(
+                inside(rng),
+                rng.unit_vector(),
+                rng.range(0.0, 0.01) * ext,
+                rng.range(0.01, 0.3) * ext,
+            ),
+        };
+        out.push(r);
+    }
+    out
+}
+
+fn differential(name: &str, preset: BuildPreset, seed: u64) {
+    let (scene, bvh) = load(name, preset);
+    let mut rng = Rng::new(seed);
+    let mut hits = 0;
+    for (i, r) in rays(&scene, &mut rng, 4000).iter().enumerate() {
+        let at = || {
+            format!(
+                "{name} {} ray {i} {r:?} (COBALT_SEED={seed})",
+                preset.name()
+            )
+        };
+        let bits = |h: Option<crate::Hit>| {
+            h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
+        };
+        let binary = bvh.closest_hit_in(r, Layout::Binary);
+        let wide = bvh.closest_hit_in(r, Layout::Wide);
+        assert_eq!(bits(wide), bits(binary), "closest hit: {}", at());
+        assert_eq!(bits(bvh.closest_hit(r)), bits(wide), "default: {}", at());
+        let (counted, _) = bvh.counted_in(r, false, Layout::Wide);
+        assert_eq!(bits(counted), bits(wide), "counted: {}", at());
+        hits += usize::from(wide.is_some());
+
+        let any = bvh.any_hit_in(r, Layout::Wide);
+        assert_eq!(
+            any.is_some(),
+            bvh.any_hit_in(r, Layout::Binary).is_some(),
+            "any hit: {}",
+            at()
+        );
+        assert_eq!(any.is_some(), wide.is_some(), "any vs closest: {}", at());
+        if let Some(h) = any {
+            // A real hit of that triangle, at that distance.
+            let [a, b, c] = scene.vertices(h.prim as usize);
+            let shear = crate::RayShear::new(r.origin, r.dir).unwrap();
+            let again = intersect_watertight(
+                &shear,
+                &a.to_array(),
+                &b.to_array(),
+                &c.to_array(),
+                r.tmin,
+                r.tmax,
+            );
+            assert_eq!(
+                again.map(|x| x.0.to_bits()),
+                Some(h.t.to_bits()),
+                "{}",
+                at()
+            );
+        }
+        let (counted_any, _) = bvh.counted_in(r, true, Layout::Wide);
+        assert_eq!(bits(counted_any), bits(any), "counted any: {}", at());
+    }
+    assert!(hits > 500, "{name}: only {hits} rays hit");
+}
+
+#[test]
+fn wide_equals_binary_on_forest() {
+    differential(
+        "builtin:forest:0.05",
+        BuildPreset::Medium,
+        testkit::seed(21),
+    );
+}
+
+#[test]
+fn wide_equals_binary_on_hairball() {
+    differential(
+        "builtin:hairball:0.1",
+        BuildPreset::Medium,
+        testkit::seed(22),
+    );
+}
+
+#[test]
+fn wide_equals_binary_on_cornell() {
+    let seed = testkit::seed(23);
+    differential("builtin:cornell:0.2", BuildPreset::Medium, seed);
+    // Spatial splits put a triangle in several leaves; the smallest build, one triangle each.
+    differential("builtin:cornell:0.2", BuildPreset::Slow, seed);
+    differential("builtin:cornell:0.2", BuildPreset::Fastest, seed);
+}
+
+/// The wide tree holds every leaf triangle of the binary tree once, plus repeats that only fill
+/// groups, and does less work per ray.
+#[test]
+fn wide_tree_holds_the_binary_leaves() {
+    let (scene, bvh) = load("builtin:hairball:0.1", BuildPreset::Medium);
+    let w = bvh.wide();
+    let mut binary: Vec<u32> = bvh.triangles().iter().map(|t| t.prim).collect();
+    let mut wide = Vec::new();
+    for n in w.nodes() {
+        for k in 0..4 {
+            if n.count[k] > 0 {
+                let first = n.child[k] as usize;
+                for j in 0..n.count[k] as usize {
+                    wide.push(w.groups()[first + j / 4].prim[j % 4]);
+                }
+            }
+        }
+    }
+    binary.sort_unstable();
+    wide.sort_unstable();
+    assert_eq!(wide, binary);
+    assert!(w.nodes().len() * 2 < bvh.nodes().len());
+    let mut rng = Rng::new(testkit::seed(24));
+    let (mut nb, mut nw) = (0, 0);
+    for r in rays(&scene, &mut rng, 500) {
+        nb += bvh.counted_in(&r, false, Layout::Binary).1.nodes;
+        nw += bvh.counted_in(&r, false, Layout::Wide).1.nodes;
+    }
+    assert!(nw < nb, "wide entered {nw} nodes, binary {nb}");
+}
