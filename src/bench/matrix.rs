@@ -381,33 +381,66 @@ impl Plan<'_> {
     }
 
     fn record(&self, w: Workload, settings: Settings, gens: &[&GenerationStats]) -> Record {
-        let (mut rays, mut seconds, mut est, mut plan) = (0usize, 0.0, 0.0, 0.0);
-        let (mut busy, mut capacity, mut launches, mut reruns) = (0.0, 0.0, 0u64, 0u64);
+        let mut t = Totals::default();
         for g in gens {
-            rays += g.rays;
-            seconds += g.estimate_seconds + g.run_seconds;
-            est += g.estimate_seconds;
-            plan += g.plan_seconds;
-            busy += g.devices.iter().map(|d| d.busy).sum::<f64>();
-            capacity += g.makespan * g.devices.len() as f64;
-            launches += g.launches();
-            reruns += g.reruns;
+            t.add(Totals {
+                rays: g.rays,
+                seconds: g.estimate_seconds + g.run_seconds,
+                estimate: g.estimate_seconds,
+                plan: g.plan_seconds,
+                busy: g.devices.iter().map(|d| d.busy).sum(),
+                capacity: g.makespan * g.devices.len() as f64,
+                launches: g.launches(),
+                reruns: g.reruns,
+            });
         }
-        let balance = if capacity > 0.0 { busy / capacity } else { 1.0 };
-        let mut r = Record::new(
-            self,
-            w,
-            settings,
-            gens.first().map_or(0, |g| g.devices.len()),
-        );
-        r.rays = rays;
-        r.seconds = seconds;
-        r.mrays_per_s = rays as f64 / seconds.max(1e-12) / 1e6;
+        let devices = gens.first().map_or(0, |g| g.devices.len());
+        t.record(Record::new(self, w, settings, devices))
+    }
+}
+
+/// What a run's measured generations or frames add up to.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Totals {
+    pub rays: usize,
+    /// Wall seconds: estimation, planning and the run.
+    pub seconds: f64,
+    pub estimate: f64,
+    pub plan: f64,
+    /// Device busy seconds, and makespan × devices: balance is their ratio.
+    pub busy: f64,
+    pub capacity: f64,
+    pub launches: u64,
+    pub reruns: u64,
+}
+
+impl Totals {
+    pub fn add(&mut self, o: Totals) {
+        self.rays += o.rays;
+        self.seconds += o.seconds;
+        self.estimate += o.estimate;
+        self.plan += o.plan;
+        self.busy += o.busy;
+        self.capacity += o.capacity;
+        self.launches += o.launches;
+        self.reruns += o.reruns;
+    }
+
+    /// `r` with these figures, as the record of a single run.
+    pub fn record(self, mut r: Record) -> Record {
+        let balance = if self.capacity > 0.0 {
+            self.busy / self.capacity
+        } else {
+            1.0
+        };
+        r.rays = self.rays;
+        r.seconds = self.seconds;
+        r.mrays_per_s = self.rays as f64 / self.seconds.max(1e-12) / 1e6;
         r.balance_efficiency = balance;
-        r.estimate_seconds = est;
-        r.plan_seconds = plan;
-        r.launches = launches;
-        r.reruns = reruns;
+        r.estimate_seconds = self.estimate;
+        r.plan_seconds = self.plan;
+        r.launches = self.launches;
+        r.reruns = self.reruns;
         r.run_mrays_per_s = vec![r.mrays_per_s];
         r.run_balance_efficiency = vec![balance];
         r

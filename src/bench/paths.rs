@@ -9,7 +9,7 @@ use raytrace::scheduled::Settings;
 use raytrace::shade::RenderOptions;
 use raytrace::{Bvh, Scene};
 
-use super::matrix::{CellRun, Plan, Record, Replay, Workload};
+use super::matrix::{CellRun, Plan, Record, Replay, Totals, Workload};
 use super::probe::ErrorSums;
 use crate::error::CliError;
 
@@ -60,45 +60,31 @@ impl Plan<'_> {
     }
 
     fn frames_record(&self, w: Workload, settings: Settings, frames: &[FrameStats]) -> Record {
-        let (mut rays, mut seconds, mut est, mut plan) = (0usize, 0.0, 0.0, 0.0);
-        let (mut busy, mut capacity, mut launches, mut reruns) = (0.0, 0.0, 0u64, 0u64);
+        let mut t = Totals::default();
         let mut traffic = raytrace::paths::Traffic::default();
         let mut film_bytes = 0;
         for f in frames {
-            rays += f.rays;
-            seconds += f.seconds;
-            est += f.estimate_seconds;
-            plan += f.plan_seconds;
-            busy += f.devices.iter().map(|d| d.busy).sum::<f64>();
-            capacity += f.makespan * f.devices.len() as f64;
-            launches += f.launches();
-            reruns += f.reruns;
+            t.add(Totals {
+                rays: f.rays,
+                seconds: f.seconds,
+                estimate: f.estimate_seconds,
+                plan: f.plan_seconds,
+                busy: f.devices.iter().map(|d| d.busy).sum(),
+                capacity: f.makespan * f.devices.len() as f64,
+                launches: f.launches(),
+                reruns: f.reruns,
+            });
             traffic += f.traffic();
             film_bytes += f.film_bytes();
         }
-        let balance = if capacity > 0.0 { busy / capacity } else { 1.0 };
-        let mut r = Record::new(
-            self,
-            w,
-            settings,
-            frames.first().map_or(0, |f| f.devices.len()),
-        );
+        let devices = frames.first().map_or(0, |f| f.devices.len());
+        let mut r = t.record(Record::new(self, w, settings, devices));
         r.pipeline = "paths";
         r.probe = "sampled-paths";
-        r.rays = rays;
-        r.seconds = seconds;
-        r.mrays_per_s = rays as f64 / seconds.max(1e-12) / 1e6;
-        r.balance_efficiency = balance;
-        r.estimate_seconds = est;
-        r.plan_seconds = plan;
-        r.launches = launches;
-        r.reruns = reruns;
         r.host_to_device_bytes = Some(traffic.host_to_device_bytes);
         r.device_to_host_bytes = Some(traffic.device_to_host_bytes);
         r.host_waits = Some(traffic.host_waits);
         r.film_bytes = Some(film_bytes);
-        r.run_mrays_per_s = vec![r.mrays_per_s];
-        r.run_balance_efficiency = vec![balance];
         r
     }
 

@@ -34,11 +34,11 @@ fn rays(scene: &Scene, rng: &mut Rng, n: usize) -> Vec<Ray> {
         let prim = rng.below(scene.len() as u32) as usize;
         let [a, p, q] = scene.vertices(prim);
         let r = match rng.below(4) {
-            0 => Ray::new(inside(rng), rng.unit_vector()),
+            0 => Ray::new(inside(rng), Vec3::from(rng.unit_vector())),
             1 => {
                 // At a vertex or an edge midpoint, from anywhere.
                 let target = [a, (a + p) * 0.5, (p + q) * 0.5][rng.below(3) as usize];
-                let o = inside(rng) + rng.unit_vector() * ext * 0.5;
+                let o = inside(rng) + Vec3::from(rng.unit_vector()) * ext * 0.5;
                 Ray::new(o, target - o)
             }
             2 => {
@@ -50,7 +50,7 @@ fn rays(scene: &Scene, rng: &mut Rng, n: usize) -> Vec<Ray> {
             }
             _ => Ray::with_range(
                 inside(rng),
-                rng.unit_vector(),
+                Vec3::from(rng.unit_vector()),
                 rng.range(0.0, 0.01) * ext,
                 rng.range(0.01, 0.3) * ext,
             ),
