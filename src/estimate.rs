@@ -1,5 +1,5 @@
 //! `cobalt estimate`: how well the reduced traversal of a sample predicts each task's cost,
-//! and what it costs (DESIGN.md, "Metrics" and "The thesis experiment").
+//! and what it costs (see `raytrace::cost::metrics`).
 //!
 //! For one generation of rays cut into tasks it reports the thesis's prediction error
 //! (against the full reduced traversal) and overhead (estimation time over the full trace

@@ -1,5 +1,5 @@
 //! `cobalt render`: a scene, a camera and a shader in; a PNG, an optional cost image and a
-//! JSON report of every generation of rays out (DESIGN.md, "Command line").
+//! JSON report of every generation of rays out (see README.md, "cobalt render").
 //!
 //! Every generation of rays is scheduled by `sched` over the `--devices` (see
 //! [`raytrace::scheduled`]): cut into `--task-size` tasks, costed (`--mode`), planned by

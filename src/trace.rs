@@ -1,5 +1,5 @@
 //! `cobalt trace`: binary rays in, binary hits out, JSON timing: the contract any external
-//! tool can check our hits and speed against (DESIGN.md, "Command line").
+//! tool can check our hits and speed against (see README.md, "cobalt trace").
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -1,6 +1,6 @@
 //! `cobalt tradeoff`: what speed costs in accuracy, measured on one scene in one run.
 //!
-//! Two tables (issue 3, item 7):
+//! Two tables:
 //! - BVH build preset: build time and SAH cost against trace throughput (primary rays of the
 //!   four thesis cameras, closest hit; AO probes, any hit), all on the same rays;
 //! - AO sample count: image error against a high-sample reference (its own Halton

@@ -36,7 +36,7 @@ fn intersect(o: V, d: V, [a, b, c]: [V; 3]) -> Option<f64> {
 }
 
 /// Random triangles and quads written as OBJ text, with one degenerate face, and the
-/// triangles in the id order DESIGN.md specifies (file order after fan triangulation).
+/// triangles in the id order the OBJ loader gives them (file order after fan triangulation).
 fn random_obj(rng: &mut Rng, faces: usize) -> (String, Vec<[V; 3]>) {
     let mut text = String::from("# random soup\n");
     let mut tris = Vec::new();

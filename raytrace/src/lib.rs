@@ -1,6 +1,6 @@
 //! Ray tracing workload of cobalt: scenes, a BVH shared by CPU and GPU, and robust traversal.
 //!
-//! The pieces, in the order data flows through them (see `DESIGN.md`):
+//! The pieces, in the order data flows through them (see ARCHITECTURE.md):
 //! - [`Scene`] (from an OBJ file or a built-in generator, via [`SceneSource`]) keeps only what the
 //!   shader needs ([`SceneNeeds`]);
 //! - [`Bvh`] is built by obvhs ([`BuildPreset`]) and flattened into one GPU-uploadable [`Node`]

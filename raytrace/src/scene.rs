@@ -7,7 +7,7 @@ use glam::Vec3;
 
 use crate::{Aabb, Error, Result, builtin};
 
-/// Mirror reflectance of the default material, given to scenes without materials (DESIGN.md).
+/// Mirror reflectance of the default material, given to scenes without materials.
 pub const DEFAULT_REFLECTANCE: f32 = 0.3;
 
 /// What a shader will read, so a scene keeps nothing else (ambient occlusion needs only

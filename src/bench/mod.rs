@@ -1,4 +1,4 @@
-//! `cobalt bench`: the thesis experiment (DESIGN.md, "The thesis experiment"), measured.
+//! `cobalt bench`: the thesis experiment, measured.
 //!
 //! For each scene, each workload (Whitted: coherent rays; AO: diffuse rays), task size,
 //! policy and mode (`regular`: equal costs; `cost`: reduced-traversal estimates), every camera

@@ -175,7 +175,7 @@ pub fn simulated(records: &[SimRecord], task_size: usize) -> String {
     s
 }
 
-/// Table 4.1's trade, beside the thesis's figures and issue 4's target.
+/// Table 4.1's trade, beside the thesis's figures and the bench's target.
 pub fn trade(points: &[TradePoint]) -> String {
     let mut s = String::from(
         "| scene | rays | task size | sampled | prediction error | overhead | thesis (error, overhead) | error ≤ 2 / 3 %, overhead ≤ 4 % |\n\

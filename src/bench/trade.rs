@@ -54,7 +54,7 @@ const THESIS: [(&str, [Published; 4]); 2] = [
     ),
 ];
 
-/// Issue 4's targets: prediction error at most 2 % (coherent) or 3 % (diffuse) rays, with an
+/// The targets the bench checks: prediction error at most 2 % (coherent) or 3 % (diffuse) rays, with an
 /// overhead of at most 4 % of the full trace.
 fn meets_target(kind: &str, error: f64, overhead: f64) -> bool {
     let most = if kind == "coherent" { 0.02 } else { 0.03 };
@@ -79,7 +79,7 @@ pub struct TradePoint {
     /// The thesis's error and overhead at this rate and ray kind, where Table 4.1 has them.
     pub thesis_prediction_error: Option<f64>,
     pub thesis_overhead: Option<f64>,
-    /// Issue 4's target met: error ≤ 2 % coherent / 3 % diffuse, overhead ≤ 4 %.
+    /// The target met: error ≤ 2 % coherent / 3 % diffuse, overhead ≤ 4 %.
     pub meets_target: bool,
 }
 

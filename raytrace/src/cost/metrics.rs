@@ -1,4 +1,4 @@
-//! How good an estimate is (`DESIGN.md`, "Metrics"): the thesis's prediction error against
+//! How good an estimate is: the thesis's prediction error against
 //! the full reduced traversal, and, beyond the thesis, error and rank correlation against
 //! measured time. All are fractions, not percentages.
 

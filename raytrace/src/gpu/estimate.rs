@@ -1,11 +1,11 @@
-//! The thesis's estimator on the GPU (issue 5): every task sampled and its samples compacted
+//! The thesis's estimator on the GPU: every task sampled and its samples compacted
 //! on the host ([`Compacted::gather`], the CPU estimator's own sample), only the samples
 //! uploaded, traced there by the reduced traversal and their `B` and `T` summed per task;
 //! one pair of sums per task comes back.
 //!
 //! The thesis samples and compacts on the GPU, where its rays already are. Ours are made on the
 //! host, and an H100 spent most of the estimate uploading every ray of every task to keep an
-//! eighth of them: the estimate cost 60–89 % of the GPU's trace (session 8). Sampling first
+//! eighth of them: the estimate cost 60–89 % of the GPU's trace. Sampling first
 //! uploads an eighth of the bytes, and tasks of any length can be sampled (the device's u32
 //! sample arithmetic limited them to 46 340 rays).
 //!

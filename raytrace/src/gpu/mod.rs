@@ -1,4 +1,4 @@
-//! The GPU devices (issue 5): wgpu compute kernels in WGSL for closest-hit, any-hit and the
+//! The GPU devices: wgpu compute kernels in WGSL for closest-hit, any-hit and the
 //! thesis's reduced traversal, over the same node and triangle arrays the CPU traverses,
 //! uploaded unchanged.
 //!

@@ -65,7 +65,7 @@ impl GpuMode {
     }
 }
 
-/// How rays are handed to invocations (issue 5: persistent threads, measured against one
+/// How rays are handed to invocations (persistent threads, measured against one
 /// thread per ray).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Threads {

@@ -1,4 +1,4 @@
-// Whitted shading on the GPU (issue 5), mirroring `shade/whitted.rs` and `shade/surface.rs`
+// Whitted shading on the GPU, mirroring `shade/whitted.rs` and `shade/surface.rs`
 // operation for operation in f32 (the host puts `shading.wgsl` in front). One path per slot of
 // the launch; a generation keeps every path's slot, and a path that
 // ended (a miss, or no mirror) traces an empty-range ray that ends at once and adds nothing:

@@ -1,5 +1,5 @@
 //! The scheduled tracer: every generation cut into tasks, costed, planned by a policy and run
-//! on devices by `sched`'s runtime (DESIGN.md, "How data flows").
+//! on devices by `sched`'s runtime (see ARCHITECTURE.md).
 
 use std::ops::Range;
 use std::time::Instant;

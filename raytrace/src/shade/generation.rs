@@ -30,7 +30,7 @@ impl Generation {
 }
 
 /// Drives a tracer generation by generation and keeps the log. Empty batches are not traced
-/// and leave no record: a scene models only what it needs (DESIGN.md).
+/// and leave no record: a scene models only what it needs.
 pub(crate) struct Generations<'t, T: Tracer + ?Sized> {
     tracer: &'t mut T,
     pub(crate) log: Vec<Generation>,

@@ -1,4 +1,4 @@
-//! Shading as generations of ray batches (DESIGN.md, "How data flows"): a shader turns hits
+//! Shading as generations of ray batches: a shader turns hits
 //! into the next batch of rays (shadow, reflection or AO probes) or into pixels, and every
 //! batch is traced through one [`Tracer`], the seam where a scheduler will cut generations
 //! into tasks and spread them over devices.
