@@ -70,10 +70,9 @@ const CHUNK: usize = 1024;
 /// chooses the per-ray scrambling.
 ///
 /// Runs in the caller's rayon pool, in chunks of hits whose parts are joined in order, so the
-/// rays are the same however many threads made them. On one thread, the host's work between
-/// an AO render's two generations took 1.3 s of 1.7 s on a 16-core H100 host (1024², 32
-/// probes). Each hit's probes share its frame and their two possible origins: forest at 512²
-/// with 32 probes took 0.207–0.210 s on one thread before, 0.154–0.159 s after (best of 7).
+/// rays are the same however many threads made them: on one thread, the host's work between
+/// an AO render's two generations can take most of the render beside a GPU. Each hit's probes
+/// share its frame and their two possible origins, computed once.
 pub fn ao_rays(
     scene: &Scene,
     primary: &RayBatch,

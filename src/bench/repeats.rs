@@ -3,10 +3,9 @@
 //! balance beside it.
 //!
 //! On a shared machine one run is a sample of the neighbours' load as much as of the policy:
-//! on the 2-vCPU VM we develop on, one of two identical static-LPT AO renders gave its two
-//! equal halves 0.571 and 0.663 s of busy time (93.1 %), the next three 98.8–99.7 %. A
-//! median of rounds, each of which runs every cell once, stops such a run from deciding a
-//! cell, and the runs kept beside it show how much the cell moved.
+//! two identical static-LPT renders can give equal halves of work several points of balance
+//! apart. A median of rounds, each of which runs every cell once, stops such a run from
+//! deciding a cell, and the runs kept beside it show how much the cell moved.
 
 use super::matrix::Record;
 

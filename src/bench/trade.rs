@@ -54,8 +54,8 @@ const THESIS: [(&str, [Published; 4]); 2] = [
     ),
 ];
 
-/// The targets the bench checks: prediction error at most 2 % (coherent) or 3 % (diffuse) rays, with an
-/// overhead of at most 4 % of the full trace.
+/// The targets the bench checks: prediction error at most 2 % (coherent) or 3 % (diffuse)
+/// rays, with an overhead of at most 4 % of the full trace.
 fn meets_target(kind: &str, error: f64, overhead: f64) -> bool {
     let most = if kind == "coherent" { 0.02 } else { 0.03 };
     error <= most && overhead <= 0.04

@@ -1,6 +1,6 @@
 //! The 4-wide BVH the CPU traces: the binary tree collapsed so that each node holds up to four
 //! children's boxes side by side (one SIMD lane each), and each leaf's triangles packed four to
-//! a group, coordinates by lane (see [`crate::simd4`]).
+//! a group, coordinates by lane (see `simd4.rs`).
 //!
 //! Collapsing keeps the binary tree's leaves and boxes as they are: a wide node's children are
 //! binary nodes, chosen by opening the largest-area inner child until there are four. A ray

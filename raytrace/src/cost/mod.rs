@@ -1,6 +1,6 @@
 //! Cost estimation of ray tasks by the thesis's reduced traversal (section 3.1), and what is
 //! needed to judge it: full counts, measured task times, a least-squares calibration of
-//! `C = kB·B + kT·T`, and the error metrics of [`metrics`].
+//! `C = kB·B + kT·T`, and the error metrics ([`prediction_error`], [`error_vs_time`], [`spearman`]).
 //!
 //! A task is a `Range<usize>` of a [`RayBatch`](crate::RayBatch) (`sched` implements
 //! [`sched::Task`] for ranges). The pieces:

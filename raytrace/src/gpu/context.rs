@@ -128,9 +128,9 @@ impl GpuContext {
     /// [`GpuError::RequestDevice`] when an adapter refuses to open.
     ///
     /// The adapters are opened once per process and selection: a later call returns clones
-    /// sharing their devices. Opening them anew each time was not only slow: on an H100
-    /// host, NVIDIA's Vulkan driver found no adapter any more after about 30 opens in one
-    /// `cobalt bench`, whose later runs then went on without the GPU.
+    /// sharing their devices. Opening them anew each time was not only slow: a driver may find
+    /// no adapter any more after some dozens of opens in one process, and a long bench would
+    /// then go on without the GPU.
     pub fn open(select: GpuSelect, options: GpuOptions) -> Result<Vec<Self>, GpuError> {
         type Opened = Vec<((GpuSelect, GpuOptions), Vec<GpuContext>)>;
         static OPENED: Mutex<Opened> = Mutex::new(Vec::new());

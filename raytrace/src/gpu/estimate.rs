@@ -4,10 +4,9 @@
 //! one pair of sums per task comes back.
 //!
 //! The thesis samples and compacts on the GPU, where its rays already are. Ours are made on the
-//! host, and an H100 spent most of the estimate uploading every ray of every task to keep an
-//! eighth of them: the estimate cost 60–89 % of the GPU's trace. Sampling first
-//! uploads an eighth of the bytes, and tasks of any length can be sampled (the device's u32
-//! sample arithmetic limited them to 46 340 rays).
+//! host, and uploading every ray of every task to keep an eighth of them made the estimate
+//! cost most of the GPU's trace. Sampling first uploads an eighth of the bytes, and tasks of
+//! any length can be sampled (the device's u32 sample arithmetic limited them to 46 340 rays).
 //!
 //! The samples are the CPU's and their counts are summed exactly (64-bit integers), so its
 //! [`Work`] is bit for bit the CPU's [`crate::cost::ReducedTraversal::try_work`].

@@ -273,7 +273,7 @@ fn launch_one(
 
 /// The timestamp writes of pass `k` of `passes`: the start of the first and the end of the
 /// last. A pass in between gets none at all, since wgpu refuses writes that name neither index
-/// (seen on an H100, whose AO launches took 32 passes; lavapipe's never took more than two).
+/// (a large GPU's launch may take dozens of passes).
 fn pass_timestamps(
     set: &wgpu::QuerySet,
     k: u64,
@@ -341,9 +341,7 @@ impl TraceRound {
         // The queue's two words and the parameters.
         traffic.host_to_device_bytes += 8 + 16;
         // Only the launch's rays and results are bound: a device's reused buffers are larger,
-        // and wgpu tracks the initialisation of every byte a bind group covers (on an H100,
-        // binding the launch's part alone took launches through 16-million-ray buffers from
-        // 44 to 31 ms; `staging::MOST_RAYS` did the rest).
+        // and wgpu tracks the initialisation of every byte a bind group covers.
         let first = |buffer, bytes| wgpu::BufferBinding {
             buffer,
             offset: 0,

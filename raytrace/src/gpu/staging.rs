@@ -1,14 +1,13 @@
 //! The buffers a GPU device keeps from one hit launch to the next: rays going up, results
 //! coming back, and the host-visible buffers they pass through.
 //!
-//! A launch that allocated its own paid for fresh memory at every step. On an H100 host (a
-//! virtual machine, where a first touch of a page is dear) a million rays took 37 ms from
-//! host to hits against the kernels' 0.5 ms: 25 ms to pack them into a new vector, 6 ms to
-//! copy that into a new upload buffer, 4 ms to copy the results out of a new read-back buffer
-//! into two more vectors. Here the rays are packed straight into a mapped upload buffer and
-//! the hits read straight out of a mapped read-back buffer, all four buffers reused; they grow
-//! (to a power of two of rays) when a launch needs more, never past one binding or
-//! [`MOST_RAYS`]: a larger launch goes in several.
+//! A launch that allocated its own paid for fresh memory at every step (packing into a new
+//! vector, copying it into a new upload buffer, copying results out of a new read-back buffer
+//! into more vectors), which on a virtual machine, where a first touch of a page is dear, took
+//! many times the kernels' time. Here the rays are packed straight into a mapped upload
+//! buffer and the hits read straight out of a mapped read-back buffer, all four buffers
+//! reused; they grow (to a power of two of rays) when a launch needs more, never past one
+//! binding or [`MOST_RAYS`]: a larger launch goes in several.
 
 use std::ops::Range;
 
@@ -22,10 +21,10 @@ use super::{GpuContext, GpuError};
 
 const RAY_BYTES: u64 = size_of::<GpuRay>() as u64;
 
-/// Rays per launch at most, however many a binding could hold. On an H100 a launch through
-/// buffers of 16 million rays paid about 31 ms whatever its size (its kernels took 0.1–7 ms),
-/// one through buffers of half a million rays 0.2 ms; a million rays keep that fixed cost
-/// small against the 6–10 ms such a launch takes (packing about 4, reading back about 4).
+/// Rays per launch at most, however many a binding could hold: a launch through very large
+/// buffers pays a fixed cost that grows with the buffers, not the launch (wgpu tracks their
+/// every byte), and a million rays keep that cost small against the launch's own packing and
+/// reading back.
 const MOST_RAYS: usize = 1 << 20;
 
 /// See the module documentation.
@@ -161,8 +160,7 @@ fn run(
     let name = ctx.info.name.as_str();
     let n: u64 = chunk.iter().map(|r| r.len() as u64).sum();
     // Only what the launch writes and reads is mapped: wgpu zeroes a mapped range it has not
-    // seen written, and the buffers may be far larger than this launch (the first map of a
-    // 16-million-ray upload buffer took 116 ms on an H100 host, 53 ms mapping a half).
+    // seen written, and the buffers may be far larger than this launch.
     map(
         &ctx.device,
         name,

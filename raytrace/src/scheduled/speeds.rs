@@ -1,12 +1,12 @@
 //! The device speeds a tracer plans with: one blend over every generation measured, and one
 //! per ray kind.
 //!
-//! A device's speed relative to another depends on the rays. On an H100 host, a CPU device of
-//! 15 threads and the GPU traced a forest's primary rays at 1.08 : 0.92, its AO rays at
-//! 0.46 : 1.54 and its shadow rays at 0.33 : 1.67 (the GPU's any-hit kernel is cheap, the
-//! host's side of a launch is not). One blend for all kinds planned every AO and shadow
-//! generation with the primary rays' ratio, and static LPT balanced them at 58–63 %. So a kind
-//! measured before plans with its own speeds; a kind not seen yet falls back to the blend.
+//! A device's speed relative to another depends on the rays: a GPU's any-hit kernel is cheap
+//! against its closest-hit one, while the host's side of a launch costs the same, so a CPU
+//! and a GPU that trace primary rays at about one speed can trace shadow rays at 1 : 5. One
+//! blend for all kinds would plan every AO and shadow generation with the primary rays'
+//! ratio. So a kind measured before plans with its own speeds; a kind not seen yet falls back
+//! to the blend.
 
 use std::collections::BTreeMap;
 
