@@ -261,3 +261,133 @@ fn summary(r: &Report) -> String {
     }
     s
 }
+
+/// The report of a path render over ranks (rank 0's view).
+#[derive(Debug, Serialize)]
+struct PathsReport {
+    scene: String,
+    shader: &'static str,
+    width: u32,
+    height: u32,
+    ranks: usize,
+    /// Devices of each rank, as given to `--devices`.
+    devices_per_rank: String,
+    pipeline: &'static str,
+    policy: sched::Policy,
+    mode: &'static str,
+    task_size: usize,
+    #[serde(flatten)]
+    run: crate::render_paths::PathRun,
+}
+
+/// Renders `job` by paths on every rank of the MPI job: on rank 0, every other rank is one
+/// path device beside rank 0's own devices; the others render the tasks they are sent on
+/// their own devices and return the paths' values.
+pub(crate) fn render_paths(job: Job<'_>) -> Result<(), CliError> {
+    use raytrace::distributed::{RankPaths, serve_paths};
+    use raytrace::paths::{Frame, PathDevice, PathRenderer, build_path_devices};
+
+    let cluster = Cluster::init()?;
+    let outputs = cluster.is_root().then(|| {
+        Outputs::check(
+            &[("out", Some(job.out)), ("report", job.report)],
+            &[("scene", Path::new(job.scene))],
+        )
+    });
+    let outputs = cluster.agree("checking the outputs", outputs.transpose())?;
+    let loaded = SceneSource::parse(job.scene)
+        .and_then(|s| s.load(job.shader.needs()))
+        .and_then(|scene| Bvh::build(&scene, job.preset).map(|bvh| (scene, bvh)));
+    let (scene, bvh) = cluster.agree("loading the scene", loaded)?;
+    let local = build_path_devices(&scene, &bvh, job.specs, job.faults);
+    let mut devices = cluster.agree("opening this rank's devices", local)?;
+    let (camera, _) = job.camera.resolve(&scene.bounds());
+    let options = RenderOptions::new(job.width, job.height, camera, job.shader);
+
+    let Some(outputs) = outputs else {
+        let mut renderer = PathRenderer::new(devices, job.settings)?;
+        let frame = Frame {
+            scene: &scene,
+            bvh: &bvh,
+            options: &options,
+        };
+        serve_paths(&cluster, &mut renderer, &frame);
+        return Ok(());
+    };
+    for rank in 1..cluster.size() {
+        devices.push(Box::new(RankPaths::new(&cluster, rank)) as Box<dyn PathDevice + '_>);
+    }
+    let rendered =
+        PathRenderer::new(devices, job.settings).and_then(|mut r| r.render(&scene, &bvh, &options));
+    // Every other rank serves until told the frame is done, whatever happened here.
+    cluster.finish();
+    let mut lost = Vec::new();
+    let frame = match rendered {
+        Ok(frame) => frame,
+        Err(sched::SchedError::AllDevicesFailed { failures, .. }) => {
+            if !job.host_fallback {
+                return Err(CliError::devices_failed(&device_list(job.specs), &failures));
+            }
+            lost = failures;
+            let threads = std::thread::available_parallelism().map_or(1, usize::from);
+            let spec = [DeviceSpec::Cpu { count: 1, threads }];
+            let host = build_path_devices(&scene, &bvh, &spec, &[])?;
+            PathRenderer::new(host, job.settings)?.render(&scene, &bvh, &options)?
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let mut run = crate::render_paths::PathRun::new(1, frame.stats.seconds, &frame.stats);
+    run.host_fallback = !lost.is_empty();
+    run.failures.extend(lost.iter().map(ToString::to_string));
+    let image = frame.film.png(ToneMap::Srgb)?;
+    let report = PathsReport {
+        scene: job.scene.to_string(),
+        shader: job.shader.name(),
+        width: job.width,
+        height: job.height,
+        ranks: cluster.size(),
+        devices_per_rank: device_list(job.specs),
+        pipeline: "paths",
+        policy: job.settings.policy,
+        mode: job.settings.mode.name(),
+        task_size: job.settings.task_size.get(),
+        run,
+    };
+    let json = serde_json::to_string_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;
+    let json = format!("{json}\n");
+    outputs.commit(&[("out", &image), ("report", json.as_bytes())])?;
+    if job.json {
+        return outputs.print_json(&report);
+    }
+    let r = &report.run;
+    let mut text = format!(
+        "{} {}x{} of {} by paths on {} rank(s) × {}, {} {}, tasks of {}: {} rays in {:.3} s, \
+         {:.2} MRays/s, balance {:.1} %; {} B to and {} B from other ranks and devices, {} waits, \
+         {} B of values\n",
+        report.shader,
+        report.width,
+        report.height,
+        report.scene,
+        report.ranks,
+        report.devices_per_rank,
+        report.policy,
+        report.mode,
+        report.task_size,
+        r.total_rays,
+        r.render_seconds,
+        r.mrays_per_s,
+        100.0 * r.balance_efficiency,
+        r.host_to_device_bytes,
+        r.device_to_host_bytes,
+        r.host_waits,
+        r.film_bytes,
+    );
+    if r.host_fallback {
+        text += "every device failed: the frame was rendered on rank 0's host instead \
+                 (--host-fallback)\n";
+    }
+    for f in &r.failures {
+        text += &format!("  failed: {f}\n");
+    }
+    outputs.print(&text)
+}

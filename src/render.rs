@@ -102,8 +102,8 @@ pub struct Args {
     devices: String,
     /// `paths` (every frame over `--devices` as tasks of whole paths, rendered where they
     /// run; the default), `generations` (every generation of rays over `--devices` on its
-    /// own, made and shaded on the host; the default under `mpirun`), or `gpu` (`paths` on
-    /// `--devices gpu:0`).
+    /// own, made and shaded on the host), or `gpu` (`paths` on `--devices gpu:0`). Under
+    /// `mpirun`, `paths` makes every other rank a path device of rank 0.
     #[arg(long, value_enum)]
     pipeline: Option<PipelineArg>,
     /// With `--pipeline paths` or `gpu`: render this many frames through one renderer (each
@@ -485,15 +485,23 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 "not available under mpirun: every rank estimates its slice on its host",
             ));
         }
-        if let Some(p @ (PipelineArg::Paths | PipelineArg::Gpu)) = args.pipeline {
+        let pipeline = args.pipeline.unwrap_or(PipelineArg::Paths);
+        if pipeline == PipelineArg::Gpu {
             return Err(arg(
                 "pipeline",
-                &Some(pipeline_name(p).to_string()),
-                "not available under mpirun, which renders by generations; give each rank \
-                 `--devices …,gpu:all` instead",
+                &Some("gpu".to_string()),
+                "not available under mpirun; give each rank `--devices …,gpu:all` instead",
             ));
         }
-        return crate::cluster::render(crate::cluster::Job {
+        if let (PipelineArg::Paths, Some(probe)) = (pipeline, args.probe) {
+            return Err(arg(
+                "probe",
+                &Some(probe.name().to_string()),
+                "the path pipeline renders its sampled paths for real; it applies to \
+                 --pipeline generations",
+            ));
+        }
+        let job = crate::cluster::Job {
             scene: &args.scene,
             shader,
             width,
@@ -507,7 +515,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
             report: args.report.as_deref(),
             json: args.json,
             host_fallback: args.host_fallback,
-        });
+        };
+        return if pipeline == PipelineArg::Paths {
+            crate::cluster::render_paths(job)
+        } else {
+            crate::cluster::render(job)
+        };
     }
 
     let pipeline = args.pipeline.unwrap_or(PipelineArg::Paths);

@@ -67,7 +67,7 @@ pub struct PathRun {
 }
 
 impl PathRun {
-    fn new(frames: u32, first_render_seconds: f64, s: &FrameStats) -> Self {
+    pub(crate) fn new(frames: u32, first_render_seconds: f64, s: &FrameStats) -> Self {
         let t = s.traffic();
         Self {
             frames,

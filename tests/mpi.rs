@@ -70,55 +70,85 @@ fn three_ranks_render_the_image_of_one_process_byte_for_byte() {
     let expected = std::fs::read(&single).expect("the single-process image");
 
     for policy in ["static-lpt", "queue-fifo", "hybrid"] {
-        let name = format!("{policy}.png");
-        let mut launch = vec!["-np", "3", COBALT];
-        launch.extend(render_args("builtin:cornell", policy, &name));
-        launch.extend(["--report", "report.json"]);
-        let run = mpirun(&launch, &dir);
-        let stdout = String::from_utf8_lossy(&run.stdout);
-        assert!(
-            run.status.success(),
-            "{policy}: {stdout}\n{}",
-            String::from_utf8_lossy(&run.stderr)
-        );
-        assert!(stdout.contains("on 3 rank(s)"), "{stdout}");
-        let image = std::fs::read(dir.join(&name)).expect("rank 0 wrote the image");
-        assert!(
-            image == expected,
-            "{policy}: the image over 3 ranks differs"
-        );
-
-        // Every task was traced exactly once, and (under a plan) every rank took part.
-        let report: serde_json::Value = serde_json::from_slice(
-            &std::fs::read(dir.join("report.json")).expect("rank 0 wrote the report"),
-        )
-        .expect("the report is JSON");
-        assert_eq!(report["ranks"], 3);
-        for g in report["generations"].as_array().expect("generations") {
-            let per_rank: Vec<u64> = g["tasks_per_rank"]
-                .as_array()
-                .expect("tasks per rank")
-                .iter()
-                .map(|t| t.as_u64().expect("a count"))
-                .collect();
-            assert_eq!(per_rank.len(), 3);
-            assert_eq!(
-                per_rank.iter().sum::<u64>(),
-                g["tasks"].as_u64().expect("tasks")
+        for pipeline in ["generations", "paths"] {
+            let name = format!("{policy}-{pipeline}.png");
+            let mut launch = vec!["-np", "3", COBALT];
+            launch.extend(render_args("builtin:cornell", policy, &name));
+            launch.extend(["--pipeline", pipeline, "--report", "report.json"]);
+            let run = mpirun(&launch, &dir);
+            let stdout = String::from_utf8_lossy(&run.stdout);
+            assert!(
+                run.status.success(),
+                "{policy} {pipeline}: {stdout}\n{}",
+                String::from_utf8_lossy(&run.stderr)
             );
-        }
-        let batches: u64 = report["links"]
-            .as_array()
-            .expect("links")
-            .iter()
-            .map(|l| l["batches"].as_u64().expect("batches"))
-            .sum();
-        // A plan gives ranks 1 and 2 their shares; a queue gives them whatever they take
-        // before rank 0 drains it, which on a loaded host may be nothing.
-        if !policy.starts_with("queue") {
-            assert!(batches > 0, "{policy}: no batch went to ranks 1 and 2");
+            assert!(stdout.contains("on 3 rank(s)"), "{stdout}");
+            let image = std::fs::read(dir.join(&name)).expect("rank 0 wrote the image");
+            assert!(
+                image == expected,
+                "{policy} {pipeline}: the image over 3 ranks differs"
+            );
+            let report: serde_json::Value = serde_json::from_slice(
+                &std::fs::read(dir.join("report.json")).expect("rank 0 wrote the report"),
+            )
+            .expect("the report is JSON");
+            assert_eq!(report["ranks"], 3);
+            if pipeline == "paths" {
+                check_path_report(policy, &report);
+            } else {
+                check_generation_report(policy, &report);
+            }
         }
     }
+}
+
+/// Every task was traced exactly once, and (under a plan) every rank took part.
+fn check_generation_report(policy: &str, report: &serde_json::Value) {
+    for g in report["generations"].as_array().expect("generations") {
+        let per_rank: Vec<u64> = g["tasks_per_rank"]
+            .as_array()
+            .expect("tasks per rank")
+            .iter()
+            .map(|t| t.as_u64().expect("a count"))
+            .collect();
+        assert_eq!(per_rank.len(), 3);
+        assert_eq!(
+            per_rank.iter().sum::<u64>(),
+            g["tasks"].as_u64().expect("tasks")
+        );
+    }
+    let batches: u64 = report["links"]
+        .as_array()
+        .expect("links")
+        .iter()
+        .map(|l| l["batches"].as_u64().expect("batches"))
+        .sum();
+    // A plan gives ranks 1 and 2 their shares; a queue gives them whatever they take
+    // before rank 0 drains it, which on a loaded host may be nothing.
+    if !policy.starts_with("queue") {
+        assert!(batches > 0, "{policy}: no batch went to ranks 1 and 2");
+    }
+}
+
+/// Ranks are path devices beside rank 0's own: every task delivered once, and under a plan
+/// ranks 1 and 2 rendered paths; only task ranges went out, never a ray.
+fn check_path_report(policy: &str, report: &serde_json::Value) {
+    assert_eq!(report["pipeline"], "paths");
+    let devices = report["devices"].as_array().expect("devices");
+    let tasks = |name: &str| {
+        devices
+            .iter()
+            .find(|d| d["name"] == name)
+            .and_then(|d| d["tasks"].as_u64())
+            .unwrap_or_else(|| panic!("{policy}: no device {name} in {report}"))
+    };
+    let all: u64 = devices.iter().filter_map(|d| d["tasks"].as_u64()).sum();
+    assert_eq!(all, report["tasks"].as_u64().expect("tasks"), "{report}");
+    if !policy.starts_with("queue") {
+        assert!(tasks("rank1") + tasks("rank2") > 0, "{policy}: {report}");
+    }
+    let out = report["host_to_device_bytes"].as_u64().expect("bytes out");
+    assert!(out <= 64 * all, "{policy}: {out} bytes for {all} tasks");
 }
 
 #[test]

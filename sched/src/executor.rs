@@ -83,7 +83,9 @@ pub struct Sink<O> {
 }
 
 impl<O> Sink<O> {
-    pub(crate) fn new(capacity: usize) -> Self {
+    /// A sink for a batch of `capacity` tasks: what an executor that runs its batches on
+    /// another executor (a device behind a link, say) hands that one.
+    pub fn new(capacity: usize) -> Self {
         Sink {
             outputs: Vec::with_capacity(capacity),
             capacity,
@@ -130,6 +132,11 @@ impl<O> Sink<O> {
 
     pub(crate) fn into_outputs(self) -> Vec<(O, Instant, Option<f64>)> {
         self.outputs
+    }
+
+    /// The outputs delivered, in order.
+    pub fn into_values(self) -> Vec<O> {
+        self.outputs.into_iter().map(|(o, ..)| o).collect()
     }
 }
 

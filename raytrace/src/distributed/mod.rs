@@ -20,9 +20,11 @@
 //! [`ScheduledTracer`]: crate::scheduled::ScheduledTracer
 
 mod node;
+mod paths;
 mod stats;
 mod tracer;
 mod wire;
 
+pub use paths::{PathOutput, RankPaths, serve_paths};
 pub use stats::{NodeGeneration, NodeRun};
 pub use tracer::ClusterTracer;

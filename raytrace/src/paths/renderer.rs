@@ -2,7 +2,10 @@
 //! and run on path-resident devices by `sched`'s runtime; the devices' values make the film.
 
 use std::collections::HashMap;
+use std::ops::Range;
 use std::time::Instant;
+
+use glam::Vec3;
 
 use sched::{Costs, Runtime, SchedError, split_ranges};
 
@@ -104,19 +107,65 @@ impl<'a> PathRenderer<'a> {
             options,
         };
         let paths = frame.paths();
+        let active = self.devices.len() - self.retired.iter().filter(|r| **r).count();
+        let tasks = split_ranges(paths, self.settings.task_size_for(paths, active.max(1)));
+        let (outputs, mut stats) = self.run_tasks(&frame, &tasks)?;
+        let order = crate::camera::morton_order(options.width, options.height);
+        let mut film = Film::new(options.width, options.height);
+        for (task, values) in tasks.iter().zip(&outputs) {
+            for (rank, &v) in task.clone().zip(values) {
+                film.set(order[rank] as usize, v);
+            }
+        }
+        stats.seconds = start.elapsed().as_secs_f64();
+        self.log.push(stats.clone());
+        Ok(FrameRendering { film, stats })
+    }
+
+    /// Renders the paths of `tasks` (ranges of `options`' paths in Morton order) as one
+    /// frame would: costed, planned and run on the devices, which learn their speeds from it.
+    /// Returns each task's values in path order, and the rays traced. A rank of an MPI job
+    /// runs the tasks it is sent this way.
+    ///
+    /// # Errors
+    /// As [`PathRenderer::render`].
+    pub fn render_tasks(
+        &mut self,
+        scene: &Scene,
+        bvh: &Bvh,
+        options: &RenderOptions,
+        tasks: &[Range<usize>],
+    ) -> Result<(Vec<Vec<Vec3>>, usize), SchedError> {
+        let frame = Frame {
+            scene,
+            bvh,
+            options,
+        };
+        let (outputs, stats) = self.run_tasks(&frame, tasks)?;
+        Ok((outputs, stats.rays))
+    }
+
+    /// Estimates, plans and runs `tasks` of `frame` on the devices left: each task's values,
+    /// and the frame's statistics (their `seconds` from the start of the estimate).
+    fn run_tasks(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[Range<usize>],
+    ) -> Result<(Vec<Vec<Vec3>>, FrameStats), SchedError> {
+        let start = Instant::now();
+        let paths = frame.paths();
         let active: Vec<usize> = (0..self.devices.len())
             .filter(|&d| !self.retired[d])
             .collect();
         if active.is_empty() {
             return Err(SchedError::NoDevices);
         }
-        let tasks = split_ranges(paths, self.settings.task_size_for(paths, active.len()));
 
         let estimating = Instant::now();
         let costs = match self.settings.mode {
             Mode::Regular => Costs::uniform(tasks.len()),
             Mode::Cost => {
-                let work = estimate_paths(&frame, &tasks, self.settings.sample_rate);
+                let work = estimate_paths(frame, tasks, self.settings.sample_rate);
                 // Counts are finite and non-negative, so only an empty frame could fail.
                 Costs::new(CostModel::default().costs(&work))
                     .unwrap_or_else(|_| Costs::uniform(tasks.len()))
@@ -135,10 +184,10 @@ impl<'a> PathRenderer<'a> {
             .enumerate()
             .filter(|(d, _)| !retired[*d])
             .zip(&speeds)
-            .map(|((_, device), &speed)| BoundPaths::new(device.as_mut(), &frame, speed))
+            .map(|((_, device), &speed)| BoundPaths::new(device.as_mut(), frame, speed))
             .collect();
         let running = Instant::now();
-        let result = Runtime::new(self.settings.policy).run(&tasks, &costs, &mut bound);
+        let result = Runtime::new(self.settings.policy).run(tasks, &costs, &mut bound);
         let run_seconds = running.elapsed().as_secs_f64();
         drop(bound);
         let report = match result {
@@ -201,13 +250,6 @@ impl<'a> PathRenderer<'a> {
         }
         self.learn(&active, &devices, &cost_done);
 
-        let order = crate::camera::morton_order(options.width, options.height);
-        let mut film = Film::new(options.width, options.height);
-        for (task, out) in tasks.iter().zip(&report.outputs) {
-            for (rank, &v) in task.clone().zip(&out.values) {
-                film.set(order[rank] as usize, v);
-            }
-        }
         let stats = FrameStats {
             paths,
             tasks: tasks.len(),
@@ -233,8 +275,8 @@ impl<'a> PathRenderer<'a> {
                 })
                 .collect(),
         };
-        self.log.push(stats.clone());
-        Ok(FrameRendering { film, stats })
+        let outputs = report.outputs.into_iter().map(|o| o.values).collect();
+        Ok((outputs, stats))
     }
 
     /// Measures each device class's speed on this frame (planned cost per busy second,
