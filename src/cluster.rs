@@ -92,10 +92,19 @@ struct GenerationReport {
     host_fallback: bool,
 }
 
-/// Renders `job` on every rank of the MPI job this process belongs to.
-pub(crate) fn render(job: Job<'_>) -> Result<(), CliError> {
+/// What every rank has agreed on before it renders: the job, rank 0's checked outputs
+/// (`None` elsewhere), and the scene with its BVH.
+struct Start {
+    cluster: Cluster,
+    outputs: Option<Outputs>,
+    scene: raytrace::Scene,
+    bvh: Bvh,
+}
+
+/// Joins the MPI job, checks rank 0's outputs (rank 0 writes every one, so before any rank
+/// starts work) and loads the scene on every rank, each step agreed by all.
+fn start(job: &Job<'_>) -> Result<Start, CliError> {
     let cluster = Cluster::init()?;
-    // Rank 0 writes every output, so it checks them before any rank starts work.
     let outputs = cluster.is_root().then(|| {
         Outputs::check(
             &[("out", Some(job.out)), ("report", job.report)],
@@ -107,6 +116,22 @@ pub(crate) fn render(job: Job<'_>) -> Result<(), CliError> {
         .and_then(|s| s.load(job.shader.needs()))
         .and_then(|scene| Bvh::build(&scene, job.preset).map(|bvh| (scene, bvh)));
     let (scene, bvh) = cluster.agree("loading the scene", loaded)?;
+    Ok(Start {
+        cluster,
+        outputs,
+        scene,
+        bvh,
+    })
+}
+
+/// Renders `job` on every rank of the MPI job this process belongs to.
+pub(crate) fn render(job: Job<'_>) -> Result<(), CliError> {
+    let Start {
+        cluster,
+        outputs,
+        scene,
+        bvh,
+    } = start(&job)?;
     let devices = build_devices(&bvh, job.specs, job.faults)
         .map_err(CliError::from)
         .and_then(|d| Ok(ScheduledTracer::new(&bvh, d, job.settings)?));
@@ -287,18 +312,12 @@ pub(crate) fn render_paths(job: Job<'_>) -> Result<(), CliError> {
     use raytrace::distributed::{RankPaths, serve_paths};
     use raytrace::paths::{Frame, PathDevice, PathRenderer, build_path_devices};
 
-    let cluster = Cluster::init()?;
-    let outputs = cluster.is_root().then(|| {
-        Outputs::check(
-            &[("out", Some(job.out)), ("report", job.report)],
-            &[("scene", Path::new(job.scene))],
-        )
-    });
-    let outputs = cluster.agree("checking the outputs", outputs.transpose())?;
-    let loaded = SceneSource::parse(job.scene)
-        .and_then(|s| s.load(job.shader.needs()))
-        .and_then(|scene| Bvh::build(&scene, job.preset).map(|bvh| (scene, bvh)));
-    let (scene, bvh) = cluster.agree("loading the scene", loaded)?;
+    let Start {
+        cluster,
+        outputs,
+        scene,
+        bvh,
+    } = start(&job)?;
     let local = build_path_devices(&scene, &bvh, job.specs, job.faults);
     let mut devices = cluster.agree("opening this rank's devices", local)?;
     let (camera, _) = job.camera.resolve(&scene.bounds());
