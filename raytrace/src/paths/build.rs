@@ -5,7 +5,7 @@
 use super::{CpuPaths, FailingPaths, PathDevice};
 use crate::devices::DeviceSpec;
 use crate::scheduled::{FailAfter, assemble};
-use crate::{Bvh, Error, Result, Scene};
+use crate::{Bvh, Result, Scene};
 
 /// The devices of `specs` for `scene` (with its `bvh`), with `faults` injected; the error
 /// names the entry or fault at fault.
@@ -33,8 +33,7 @@ pub fn build_path_devices<'a>(
     )
 }
 
-/// The GPU devices of one entry: `Ok(Err(why))` when `gpu:all` finds no adapter (skippable),
-/// `Err` for anything else that fails.
+/// The GPU devices of one entry, one `GpuPaths` per adapter (see `scheduled::open_gpus`).
 #[cfg(feature = "gpu")]
 #[allow(clippy::type_complexity)] // the two levels of failure, as the ray devices have them
 fn gpu_devices<'a>(
@@ -43,23 +42,9 @@ fn gpu_devices<'a>(
     select: crate::devices::GpuSelect,
     spec: &DeviceSpec,
 ) -> Result<std::result::Result<Vec<Box<dyn PathDevice + 'a>>, String>> {
-    use crate::gpu::{GpuContext, GpuError, GpuOptions};
-    let bad = |e: GpuError| Error::DeviceArg {
-        arg: spec.to_string(),
-        why: e.to_string(),
-    };
-    let contexts = match GpuContext::open(select, GpuOptions::from_env()) {
-        Ok(c) => c,
-        Err(e @ GpuError::NoAdapter { .. }) => return Ok(Err(e.to_string())),
-        Err(e) => return Err(bad(e)),
-    };
-    let mut out: Vec<Box<dyn PathDevice + 'a>> = Vec::new();
-    for ctx in contexts {
-        out.push(Box::new(
-            super::GpuPaths::new(ctx, scene, bvh).map_err(bad)?,
-        ));
-    }
-    Ok(Ok(out))
+    crate::scheduled::open_gpus(select, spec, |ctx| {
+        Ok(Box::new(super::GpuPaths::new(ctx, scene, bvh)?) as Box<dyn PathDevice + 'a>)
+    })
 }
 
 /// Without the `gpu` feature, GPU entries are refused.
@@ -71,8 +56,5 @@ fn gpu_devices<'a>(
     _: crate::devices::GpuSelect,
     spec: &DeviceSpec,
 ) -> Result<std::result::Result<Vec<Box<dyn PathDevice + 'a>>, String>> {
-    Err(Error::DeviceArg {
-        arg: spec.to_string(),
-        why: String::from("this build has no GPU support (the `gpu` feature of raytrace)"),
-    })
+    crate::scheduled::no_gpus(spec)
 }

@@ -111,21 +111,9 @@ fn gpu_devices<'a>(
     select: crate::devices::GpuSelect,
     spec: &DeviceSpec,
 ) -> Result<std::result::Result<Vec<Box<dyn RayDevice + 'a>>, String>> {
-    use crate::gpu::{GpuContext, GpuDevice, GpuError, GpuOptions};
-    let bad = |e: GpuError| Error::DeviceArg {
-        arg: spec.to_string(),
-        why: e.to_string(),
-    };
-    let contexts = match GpuContext::open(select, GpuOptions::from_env()) {
-        Ok(c) => c,
-        Err(e @ GpuError::NoAdapter { .. }) => return Ok(Err(e.to_string())),
-        Err(e) => return Err(bad(e)),
-    };
-    let mut out: Vec<Box<dyn RayDevice + 'a>> = Vec::new();
-    for ctx in contexts {
-        out.push(Box::new(GpuDevice::new(ctx, bvh).map_err(bad)?));
-    }
-    Ok(Ok(out))
+    open_gpus(select, spec, |ctx| {
+        Ok(Box::new(crate::gpu::GpuDevice::new(ctx, bvh)?) as Box<dyn RayDevice + 'a>)
+    })
 }
 
 /// Without the `gpu` feature, GPU entries are refused.
@@ -135,6 +123,40 @@ fn gpu_devices<'a>(
     _: crate::devices::GpuSelect,
     spec: &DeviceSpec,
 ) -> Result<std::result::Result<Vec<Box<dyn RayDevice + 'a>>, String>> {
+    no_gpus(spec)
+}
+
+/// Opens the adapters of one GPU entry and makes a device of each with `make`, for any kind of
+/// device list: `Ok(Err(why))` when `gpu:all` finds no adapter (skippable), `Err` naming the
+/// entry for anything else that fails.
+#[cfg(feature = "gpu")]
+pub(crate) fn open_gpus<D: ?Sized>(
+    select: crate::devices::GpuSelect,
+    spec: &DeviceSpec,
+    make: impl FnMut(crate::gpu::GpuContext) -> std::result::Result<Box<D>, crate::gpu::GpuError>,
+) -> Result<std::result::Result<Vec<Box<D>>, String>> {
+    use crate::gpu::{GpuContext, GpuError, GpuOptions};
+    let bad = |e: GpuError| Error::DeviceArg {
+        arg: spec.to_string(),
+        why: e.to_string(),
+    };
+    let contexts = match GpuContext::open(select, GpuOptions::from_env()) {
+        Ok(c) => c,
+        Err(e @ GpuError::NoAdapter { .. }) => return Ok(Err(e.to_string())),
+        Err(e) => return Err(bad(e)),
+    };
+    let out = contexts
+        .into_iter()
+        .map(make)
+        .collect::<std::result::Result<_, _>>();
+    Ok(Ok(out.map_err(bad)?))
+}
+
+/// Without the `gpu` feature, a GPU entry is an error naming it.
+#[cfg(not(feature = "gpu"))]
+pub(crate) fn no_gpus<D: ?Sized>(
+    spec: &DeviceSpec,
+) -> Result<std::result::Result<Vec<Box<D>>, String>> {
     Err(Error::DeviceArg {
         arg: spec.to_string(),
         why: String::from("this build has no GPU support (the `gpu` feature of raytrace)"),

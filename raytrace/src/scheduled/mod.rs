@@ -42,6 +42,10 @@ mod stats;
 mod tracer;
 
 pub(crate) use build::assemble;
+#[cfg(not(feature = "gpu"))]
+pub(crate) use build::no_gpus;
+#[cfg(feature = "gpu")]
+pub(crate) use build::open_gpus;
 pub use build::{FailAfter, build_devices};
 pub use device::{BadRange, Bound, RayDevice};
 pub use fault::{FailingAfter, InjectedFault};
