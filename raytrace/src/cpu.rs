@@ -29,20 +29,25 @@ pub struct CpuDevice<'a> {
     done: u64,
 }
 
+/// A pool of `threads` threads named `{label}-{i}`: a CPU device's own, so that its work
+/// stays on its threads; failing to start one is [`Error::ThreadPool`].
+pub(crate) fn thread_pool(label: String, threads: usize) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(move |i| format!("{label}-{i}"))
+        .build()
+        .map_err(|e| Error::ThreadPool {
+            threads,
+            why: e.to_string(),
+        })
+}
+
 impl<'a> CpuDevice<'a> {
     /// Device number `index` (named `cpu{index}`) with `threads` threads: one traces on the
     /// runtime's device thread itself, more start a pool of their own.
     pub fn new(bvh: &'a Bvh, index: usize, threads: usize) -> Result<Self> {
         let pool = if threads > 1 {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .thread_name(move |i| format!("cobalt-cpu{index}-{i}"))
-                .build()
-                .map_err(|e| Error::ThreadPool {
-                    threads,
-                    why: e.to_string(),
-                })?;
-            Some(pool)
+            Some(thread_pool(format!("cobalt-cpu{index}"), threads)?)
         } else {
             None
         };

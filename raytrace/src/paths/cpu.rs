@@ -7,8 +7,8 @@ use std::ops::Range;
 use sched::DeviceError;
 
 use super::{Frame, Launch, PathDevice};
+use crate::Result;
 use crate::shade::{CpuTracer, render_paths};
-use crate::{Error, Result};
 
 /// One CPU device. See the module documentation.
 pub struct CpuPaths {
@@ -23,17 +23,10 @@ impl CpuPaths {
     /// threads instead of the process's global pool.
     ///
     /// # Errors
-    /// [`Error::ThreadPool`] when the threads cannot be started.
+    /// [`crate::Error::ThreadPool`] when the threads cannot be started.
     pub fn new(index: usize, threads: usize) -> Result<Self> {
         let threads = threads.max(1);
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .thread_name(move |i| format!("cobalt-cpu{index}-{i}"))
-            .build()
-            .map_err(|e| Error::ThreadPool {
-                threads,
-                why: e.to_string(),
-            })?;
+        let pool = crate::cpu::thread_pool(format!("cobalt-cpu{index}"), threads)?;
         Ok(Self {
             index,
             threads,

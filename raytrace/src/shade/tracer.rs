@@ -4,7 +4,7 @@
 //! [`CpuTracer`] without touching any shader.
 
 use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
-use crate::{Bvh, Counts, Error, HitBatch, RayBatch, RayKind, Result};
+use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind, Result};
 
 /// Traces generations of rays. There is one required method.
 ///
@@ -39,14 +39,7 @@ impl<'a> CpuTracer<'a> {
 
     /// Traces in a pool of its own with `threads` threads (the `--devices cpu:N` device).
     pub fn with_threads(bvh: &'a Bvh, threads: usize) -> Result<Self> {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .thread_name(|i| format!("cobalt-cpu-{i}"))
-            .build()
-            .map_err(|e| Error::ThreadPool {
-                threads,
-                why: e.to_string(),
-            })?;
+        let pool = crate::cpu::thread_pool(String::from("cobalt-cpu"), threads)?;
         Ok(Self {
             bvh,
             pool: Some(pool),
