@@ -379,10 +379,8 @@ pub(crate) fn render_paths(job: Job<'_>) -> Result<(), CliError> {
         return outputs.print_json(&report);
     }
     let r = &report.run;
-    let mut text = format!(
-        "{} {}x{} of {} by paths on {} rank(s) × {}, {} {}, tasks of {}: {} rays in {:.3} s, \
-         {:.2} MRays/s, balance {:.1} %; {} B to and {} B from other ranks and devices, {} waits, \
-         {} B of values\n",
+    let text = format!(
+        "{} {}x{} of {} by paths on {} rank(s) × {}, {} {}, tasks of {}: {}\n{}",
         report.shader,
         report.width,
         report.height,
@@ -392,21 +390,8 @@ pub(crate) fn render_paths(job: Job<'_>) -> Result<(), CliError> {
         report.policy,
         report.mode,
         report.task_size,
-        r.total_rays,
-        r.render_seconds,
-        r.mrays_per_s,
-        100.0 * r.balance_efficiency,
-        r.host_to_device_bytes,
-        r.device_to_host_bytes,
-        r.host_waits,
-        r.film_bytes,
+        r.figures(),
+        r.notes(),
     );
-    if r.host_fallback {
-        text += "every device failed: the frame was rendered on rank 0's host instead \
-                 (--host-fallback)\n";
-    }
-    for f in &r.failures {
-        text += &format!("  failed: {f}\n");
-    }
     outputs.print(&text)
 }

@@ -623,10 +623,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
             outputs.print_json(&report)
         } else {
             let r = &report.run;
-            let mut text = format!(
-                "{} {} of {} ({} triangles) on {} by paths, {} {}, tasks of {}: {} rays in \
-                 {:.3} s, {:.2} MRays/s, balance {:.1} %; {} B to and {} B from devices, {} \
-                 waits, {} B of film; fastest of {} frame(s)\n",
+            let text = format!(
+                "{} {} of {} ({} triangles) on {} by paths, {} {}, tasks of {}: {}; fastest of {} \
+                 frame(s)\n{}",
                 report.header.shader,
                 report.header.size,
                 report.header.scene,
@@ -635,23 +634,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 report.policy.name(),
                 report.mode,
                 report.task_size,
-                r.total_rays,
-                r.render_seconds,
-                r.mrays_per_s,
-                100.0 * r.balance_efficiency,
-                r.host_to_device_bytes,
-                r.device_to_host_bytes,
-                r.host_waits,
-                r.film_bytes,
+                r.figures(),
                 r.frames,
+                r.notes(),
             );
-            if r.host_fallback {
-                text += "every device failed: the frames were rendered on the host instead \
-                         (--host-fallback)\n";
-            }
-            for f in &r.failures {
-                text += &format!("  failed: {f}\n");
-            }
             outputs.print(&text)
         };
     }

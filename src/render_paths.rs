@@ -67,6 +67,35 @@ pub struct PathRun {
 }
 
 impl PathRun {
+    /// The summary's figures: rays, time, speed, balance and what crossed the links.
+    pub fn figures(&self) -> String {
+        format!(
+            "{} rays in {:.3} s, {:.2} MRays/s, balance {:.1} %; {} B to and {} B from devices, \
+             {} waits, {} B of values",
+            self.total_rays,
+            self.render_seconds,
+            self.mrays_per_s,
+            100.0 * self.balance_efficiency,
+            self.host_to_device_bytes,
+            self.device_to_host_bytes,
+            self.host_waits,
+            self.film_bytes,
+        )
+    }
+
+    /// The summary's closing lines: a fallback to the host, and each failure.
+    pub fn notes(&self) -> String {
+        let mut text = String::new();
+        if self.host_fallback {
+            text += "every device failed: the frames were rendered on the host instead \
+                     (--host-fallback)\n";
+        }
+        for f in &self.failures {
+            text += &format!("  failed: {f}\n");
+        }
+        text
+    }
+
     pub(crate) fn new(frames: u32, first_render_seconds: f64, s: &FrameStats) -> Self {
         let t = s.traffic();
         Self {
