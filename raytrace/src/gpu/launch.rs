@@ -1,26 +1,53 @@
 //! One launch of paths as one submission: every kernel and trace of the launch recorded back
-//! to back, and a single read-back at the end that brings the paths' values, each trace's
-//! queue state and its timestamps together. The host blocks once per launch, not once per
-//! trace round.
+//! to back, and a single read-back at the end that brings the paths' values and the launch's
+//! verdict together. The host blocks once per launch, not once per trace round.
 //!
 //! A trace's dispatches are counted to drain its queue when every workgroup runs its loop to
-//! the end, which is what they do unless an implementation cuts a loop short; the queue
-//! states read at the end prove it. Should one not be drained, the launch is recorded again
-//! with the host checking every trace ([`trace_resident`](super::pipeline::trace_resident)):
-//! slower, but the same values.
+//! the end, which is what they do unless an implementation cuts a loop short. At the end of
+//! the launch, `verdict.wgsl` folds every trace's queue state into one word that proves it.
+//! Should a queue not be drained, the launch is recorded again with the host checking every
+//! trace ([`trace_resident`](super::pipeline::trace_resident)): slower, but the same values.
+//!
+//! Nothing of a trace is uploaded: its queue is a new (zeroed) buffer and its ray count is
+//! copied on the device from the launch's [`Header`](super::resident::Header).
 
-use super::buffers::{SceneBuffers, read_back};
+use super::buffers::{SceneBuffers, init, read_back};
 use super::pipeline::{
     GpuMode, Kernels, Threads, TraceRound, grid, stamp_seconds, timestamps, trace_resident,
 };
+use super::program::{Program, READ, WRITE};
 use super::{GpuContext, GpuError};
 use crate::paths::Traffic;
 
-/// A trace recorded in the launch, checked when the launch's results are read.
+/// The kernel folding a launch's queue states into one word (`verdict.wgsl`).
+#[derive(Debug)]
+pub(super) struct Verdict {
+    program: Program,
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl Verdict {
+    /// Compiles the kernel.
+    pub(super) fn new(device: &wgpu::Device) -> Self {
+        let program = Program::new(
+            device,
+            "verdict",
+            include_str!("verdict.wgsl").to_string(),
+            &[READ, WRITE],
+        );
+        let pipeline = program.pipeline(device, "main", "cobalt launch verdict pipeline");
+        Self { program, pipeline }
+    }
+}
+
+/// The verdict's bits (`verdict.wgsl`).
+const LOOP_CUT: u32 = 1;
+const NOT_DRAINED: u32 = 2;
+
+/// A trace recorded in the launch: its queue and parameters, read by the verdict.
 struct Recorded {
     round: TraceRound,
-    n: u32,
-    timing: Option<(wgpu::QuerySet, wgpu::Buffer)>,
+    params: wgpu::Buffer,
 }
 
 /// The commands of one launch, recorded until [`Recorder::finish`] submits them.
@@ -28,21 +55,31 @@ pub(super) struct Recorder<'a> {
     ctx: &'a GpuContext,
     kernels: &'a Kernels,
     scene: &'a SceneBuffers,
+    verdict: &'a Verdict,
     threads: Threads,
     encoder: wgpu::CommandEncoder,
     traces: Vec<Recorded>,
+    /// Passes recorded so far.
+    passes: u64,
+    /// The launch's two timestamps (its first pass's start, the verdict's end), where the
+    /// adapter has timestamps and the host does not check each trace.
+    timing: Option<(wgpu::QuerySet, wgpu::Buffer)>,
     /// Trace each generation with the host checking its queue (the fallback).
     checked: bool,
     /// Kernel seconds of the checked traces.
     checked_seconds: f64,
+    /// Record no dispatch of a trace (see `GpuRenderer::starved`).
+    #[cfg(test)]
+    pub(super) starved: bool,
 }
 
 /// What a finished launch read back.
 pub(super) struct Finished {
     /// The first bytes of the buffer handed to [`Recorder::finish`].
     pub values: Vec<u8>,
-    /// Kernel seconds of the traces, where the adapter has timestamps.
-    pub trace_seconds: Option<f64>,
+    /// Kernel seconds of the launch, from its first pass's start to its last pass's end
+    /// (in the checked fallback, of its traces only), where the adapter has timestamps.
+    pub kernel_seconds: Option<f64>,
     /// False when a trace's queue was not drained: the values are not to be used.
     pub drained: bool,
 }
@@ -61,6 +98,7 @@ impl<'a> Recorder<'a> {
         ctx: &'a GpuContext,
         kernels: &'a Kernels,
         scene: &'a SceneBuffers,
+        verdict: &'a Verdict,
         threads: Threads,
         checked: bool,
     ) -> Self {
@@ -68,12 +106,31 @@ impl<'a> Recorder<'a> {
             ctx,
             kernels,
             scene,
+            verdict,
             threads,
             encoder: encoder(ctx),
             traces: Vec::new(),
+            passes: 0,
+            timing: if checked { None } else { timestamps(ctx) },
             checked,
             checked_seconds: 0.0,
+            #[cfg(test)]
+            starved: false,
         }
+    }
+
+    /// Records a copy of `bytes` bytes on the device, from `from` at `from_at` to `to` at
+    /// `to_at`: a launch's counts into the blocks that use them.
+    pub(super) fn copy(
+        &mut self,
+        from: &wgpu::Buffer,
+        from_at: u64,
+        to: &wgpu::Buffer,
+        to_at: u64,
+        bytes: u64,
+    ) {
+        self.encoder
+            .copy_buffer_to_buffer(from, from_at, to, to_at, bytes);
     }
 
     /// Records one pass of `pipeline` with one invocation per item.
@@ -93,18 +150,43 @@ impl<'a> Recorder<'a> {
         group: &wgpu::BindGroup,
         grid: (u32, u32),
     ) {
+        self.pass_timed(pipeline, group, grid, false);
+    }
+
+    /// [`Recorder::pass`], the launch's first pass starting its time and, when `last`, this
+    /// one ending it.
+    fn pass_timed(
+        &mut self,
+        pipeline: &wgpu::ComputePipeline,
+        group: &wgpu::BindGroup,
+        grid: (u32, u32),
+        last: bool,
+    ) {
+        let first = self.passes == 0;
+        self.passes += 1;
+        let timestamp_writes = self
+            .timing
+            .as_ref()
+            .filter(|_| first || last)
+            .map(|(set, _)| wgpu::ComputePassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: first.then_some(0),
+                end_of_pass_write_index: last.then_some(1),
+            });
         let mut pass = self
             .encoder
             .begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("cobalt render pass"),
-                timestamp_writes: None,
+                timestamp_writes,
             });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, group, &[]);
         pass.dispatch_workgroups(grid.0, grid.1, 1);
     }
 
-    /// Records the trace of the first `n` rays of `rays` into `out` (checked: runs it).
+    /// Records the trace of the first `n` rays of `rays` into `out` (checked: runs it). The
+    /// trace's ray count is copied from the 4 bytes of `count` (a buffer and an offset) on
+    /// the device, or uploaded when `None`.
     ///
     /// # Errors
     /// Those of [`trace_resident`] when checked.
@@ -114,6 +196,7 @@ impl<'a> Recorder<'a> {
         out: &wgpu::Buffer,
         n: u32,
         mode: GpuMode,
+        count: Option<(&wgpu::Buffer, u64)>,
         traffic: &mut Traffic,
     ) -> Result<(), GpuError> {
         if n == 0 {
@@ -137,7 +220,38 @@ impl<'a> Recorder<'a> {
             self.checked_seconds += seconds.unwrap_or(0.0);
             return Ok(());
         }
-        let round = TraceRound::new(
+        let device = &self.ctx.device;
+        // New buffers are zeroed by wgpu: the queue starts empty without an upload.
+        let queue = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cobalt ray queue"),
+            size: 8,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_SRC;
+        let params = match count {
+            Some((from, at)) => {
+                let params = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("cobalt trace parameters"),
+                    size: 16,
+                    usage: usage | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                self.copy(from, at, &params, 0, 4);
+                params
+            }
+            None => {
+                traffic.host_to_device_bytes += 16;
+                let words = [n, 0, 0, 0];
+                init(
+                    device,
+                    "cobalt trace parameters",
+                    bytemuck::cast_slice(&words),
+                    usage,
+                )
+            }
+        };
+        let round = TraceRound::bound(
             self.ctx,
             self.kernels,
             self.scene,
@@ -146,21 +260,28 @@ impl<'a> Recorder<'a> {
             n,
             mode,
             self.threads,
-            traffic,
+            queue,
+            params.clone(),
         );
-        let timing = timestamps(self.ctx);
+        // A launch that starts with a trace starts its time there.
+        let timing = self.timing.as_ref().filter(|_| self.passes == 0);
+        #[cfg(test)]
+        let dispatches = if self.starved { 0 } else { round.dispatches };
+        #[cfg(not(test))]
+        let dispatches = round.dispatches;
         round.record(
             self.kernels,
             &mut self.encoder,
-            round.dispatches,
-            timing.as_ref().map(|t| &t.0),
+            dispatches,
+            timing.map(|(set, _)| set),
         );
-        self.traces.push(Recorded { round, n, timing });
+        self.passes += dispatches;
+        self.traces.push(Recorded { round, params });
         Ok(())
     }
 
-    /// Submits the launch and reads back, in one wait, the first `bytes` of `values` with
-    /// every trace's queue state and timestamps.
+    /// Records the verdict, submits the launch and reads back, in one wait, the first
+    /// `bytes` of `values` (a multiple of 4) with the verdict and the launch's timestamps.
     ///
     /// # Errors
     /// [`GpuError::LoopCut`] when a traversal loop was cut short, and the errors of a
@@ -171,52 +292,79 @@ impl<'a> Recorder<'a> {
         bytes: u64,
         traffic: &mut Traffic,
     ) -> Result<Finished, GpuError> {
-        // Values first, then per trace its queue's 8 bytes and, with timestamps, 16 more:
-        // offsets stay multiples of 8 as long as `bytes` is rounded up to one.
-        let head = bytes.next_multiple_of(8);
-        let per_trace = if self.ctx.timestamps { 24 } else { 8 };
-        let state_bytes = per_trace * self.traces.len() as u64;
-        let readback = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        let device = &self.ctx.device;
+        // Each trace's queue (head, cut) and ray count, side by side for the verdict; one
+        // empty state when there is no trace, so that the binding is not empty.
+        let states = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cobalt launch queue states"),
+            size: 16 * self.traces.len().max(1) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let word = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cobalt launch verdict"),
+            size: 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let traces = std::mem::take(&mut self.traces);
+        for (k, t) in traces.iter().enumerate() {
+            let at = 16 * k as u64;
+            self.copy(&t.round.queue, 0, &states, at, 8);
+            self.copy(&t.params, 0, &states, at + 8, 4);
+        }
+        let verdict = self.verdict;
+        let group = verdict.program.bind(
+            device,
+            "cobalt launch verdict bind group",
+            &[&states, &word],
+        );
+        let workgroups = grid(&self.ctx.limits, (traces.len().max(1) as u32).div_ceil(64));
+        self.pass_timed(&verdict.pipeline, &group, workgroups, true);
+
+        // The values, then the verdict's word, then the two timestamps.
+        let head = bytes.next_multiple_of(4);
+        let stamps = if self.timing.is_some() { 16 } else { 0 };
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("cobalt launch read-back"),
-            size: (head + state_bytes).max(16),
+            size: (head + 4 + stamps).max(16),
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         if bytes > 0 {
-            self.encoder
-                .copy_buffer_to_buffer(values, 0, &readback, 0, bytes);
+            self.copy(values, 0, &readback, 0, bytes);
         }
-        for (k, t) in self.traces.iter().enumerate() {
-            let at = head + per_trace * k as u64;
+        self.copy(&word, 0, &readback, head, 4);
+        if let Some((set, resolve)) = &self.timing {
+            self.encoder.resolve_query_set(set, 0..2, resolve, 0);
             self.encoder
-                .copy_buffer_to_buffer(&t.round.queue, 0, &readback, at, 8);
-            if let Some((set, resolve)) = &t.timing {
-                self.encoder.resolve_query_set(set, 0..2, resolve, 0);
-                self.encoder
-                    .copy_buffer_to_buffer(resolve, 0, &readback, at + 8, 16);
-            }
+                .copy_buffer_to_buffer(resolve, 0, &readback, head + 4, 16);
         }
         self.ctx.queue.submit([self.encoder.finish()]);
-        let all = read_back(&self.ctx.device, &self.ctx.info.name, &readback)?;
-        traffic.device_to_host_bytes += state_bytes;
-        traffic.host_waits += 1;
         let name = self.ctx.info.name.as_str();
-        let mut seconds = self.checked_seconds;
-        let mut drained = true;
-        for (k, t) in self.traces.iter().enumerate() {
-            let at = (head + per_trace * k as u64) as usize;
-            let state: [u32; 2] = bytemuck::pod_read_unaligned(&all[at..at + 8]);
-            drained &= t.round.check(name, state, t.n, self.threads)?.is_none();
-            if t.timing.is_some() {
-                seconds += stamp_seconds(
-                    self.ctx,
-                    bytemuck::pod_read_unaligned(&all[at + 8..at + 24]),
-                );
-            }
+        let all = read_back(device, name, &readback)?;
+        traffic.device_to_host_bytes += 4 + stamps;
+        traffic.host_waits += 1;
+        let at = head as usize;
+        let verdict: u32 = bytemuck::pod_read_unaligned(&all[at..at + 4]);
+        if verdict & LOOP_CUT != 0 {
+            return Err(GpuError::LoopCut {
+                adapter: name.to_string(),
+                batches: super::pipeline::BATCHES,
+            });
         }
+        // One thread per ray covers its rays in one dispatch and leaves the queue untouched.
+        let drained = self.threads == Threads::PerRay || verdict & NOT_DRAINED == 0;
+        let kernel_seconds = match &self.timing {
+            Some(_) => Some(stamp_seconds(
+                self.ctx,
+                bytemuck::pod_read_unaligned(&all[at + 4..at + 20]),
+            )),
+            None => self.ctx.timestamps.then_some(self.checked_seconds),
+        };
         Ok(Finished {
             values: all[..bytes as usize].to_vec(),
-            trace_seconds: self.ctx.timestamps.then_some(seconds),
+            kernel_seconds,
             drained,
         })
     }

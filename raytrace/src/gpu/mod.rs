@@ -28,6 +28,7 @@ mod launch;
 pub mod pipeline;
 mod program;
 mod render;
+mod resident;
 mod staging;
 #[cfg(test)]
 pub(crate) mod tests;

@@ -340,6 +340,27 @@ impl TraceRound {
         );
         // The queue's two words and the parameters.
         traffic.host_to_device_bytes += 8 + 16;
+        Self::bound(
+            ctx, kernels, scene, rays, out, n, mode, threads, queue, params,
+        )
+    }
+
+    /// As [`TraceRound::new`] with the queue (two words, zero) and the parameters (the ray
+    /// count first) already on the device: nothing is uploaded.
+    #[allow(clippy::too_many_arguments)] // the buffers and the two choices of a trace
+    pub(crate) fn bound(
+        ctx: &GpuContext,
+        kernels: &Kernels,
+        scene: &SceneBuffers,
+        rays: &wgpu::Buffer,
+        out: &wgpu::Buffer,
+        n: u32,
+        mode: GpuMode,
+        threads: Threads,
+        queue: wgpu::Buffer,
+        params: wgpu::Buffer,
+    ) -> Self {
+        let device = &ctx.device;
         // Only the launch's rays and results are bound: a device's reused buffers are larger,
         // and wgpu tracks the initialisation of every byte a bind group covers.
         let first = |buffer, bytes| wgpu::BufferBinding {

@@ -8,8 +8,6 @@
 
 use wgpu::BufferBindingType;
 
-use super::buffers::init;
-
 /// A storage buffer the kernels only read.
 pub(crate) const READ: BufferBindingType = BufferBindingType::Storage { read_only: true };
 /// A storage buffer the kernels write.
@@ -99,27 +97,6 @@ impl Program {
             compilation_options: options,
             cache: None,
         })
-    }
-
-    /// A bind group of `params` as a uniform block at binding 0, then `buffers` from binding
-    /// 1 (the layout of the shading kernels).
-    pub(crate) fn bind_params(
-        &self,
-        device: &wgpu::Device,
-        name: &str,
-        params: &[u8],
-        buffers: &[&wgpu::Buffer],
-    ) -> wgpu::BindGroup {
-        let uniform = init(
-            device,
-            &format!("cobalt {name} parameters"),
-            params,
-            wgpu::BufferUsages::UNIFORM,
-        );
-        let all: Vec<&wgpu::Buffer> = std::iter::once(&uniform)
-            .chain(buffers.iter().copied())
-            .collect();
-        self.bind(device, &format!("cobalt {name} bind group"), &all)
     }
 
     /// A bind group of `buffers`, binding `k` the `k`-th.

@@ -17,11 +17,12 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::buffers::{
-    GpuRay, RESULT_BYTES, SceneBuffers, check_size, fetch, init, rays_per_launch, storage,
+    GpuRay, RESULT_BYTES, SceneBuffers, check_size, fetch, init, rays_per_launch,
 };
-use super::launch::Recorder;
+use super::launch::{Recorder, Verdict};
 use super::pipeline::{GpuMode, Kernels, Threads};
 use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
+use super::resident::{Header, Resident};
 use super::{GpuContext, GpuError};
 use crate::paths::Traffic;
 use crate::shade::AoSettings;
@@ -41,17 +42,34 @@ pub(super) struct Params {
     gamma8: f32,
     width: u32,
     height: u32,
-    count: u32,
     samples: u32,
     base: u32,
-    chunk: u32,
     seed_lo: u32,
     seed_hi: u32,
+    pad: [u32; 2],
+    // The launch's counts, copied in on the device from its header (see `resident.rs`).
+    count: u32,
+    chunk: u32,
     tasks: u32,
-    pad: [u32; 3],
+    pad1: u32,
 }
 
 const _: () = assert!(size_of::<Params>() == 128);
+
+impl Params {
+    /// Byte offset of `count`, `chunk` and `tasks`, the header's first three words.
+    const COUNTS: u64 = 112;
+
+    /// The block without the launch's counts: what stays the same across a frame's launches.
+    fn frame_part(&self) -> Self {
+        Self {
+            count: 0,
+            chunk: 0,
+            tasks: 0,
+            ..*self
+        }
+    }
+}
 
 /// A scene triangle by primitive id (`struct SceneTri`).
 #[repr(C)]
@@ -69,8 +87,8 @@ pub struct PathValues {
     /// bounce one shadow ray per light and one mirror ray per path (slots of paths that ended
     /// hold empty-range rays, which end at once and add nothing).
     pub rays: usize,
-    /// Kernel time of the traces from timestamp queries, where the device has them.
-    pub trace_gpu_seconds: Option<f64>,
+    /// Kernel time of the launch from timestamp queries, where the device has them.
+    pub kernel_seconds: Option<f64>,
     /// What crossed between host and device, the values excepted.
     pub traffic: Traffic,
     /// Bytes of the values read back.
@@ -104,8 +122,13 @@ pub struct GpuRenderer {
     pub(super) threads: Threads,
     /// The scene's bounding-box diagonal, for the default probe length.
     diagonal: f32,
-    /// Launch buffers kept for the next launch, by label (see [`GpuRenderer::scratch`]).
-    scratch: std::sync::Mutex<std::collections::HashMap<&'static str, wgpu::Buffer>>,
+    /// Buffers and parameters kept across launches and frames.
+    pub(super) resident: Resident,
+    verdict: Verdict,
+    /// Launches record no dispatch of their traces, as an implementation that cut every loop
+    /// short would: the verdict must see it.
+    #[cfg(test)]
+    pub(super) starved: bool,
 }
 
 impl GpuRenderer {
@@ -144,6 +167,7 @@ impl GpuRenderer {
         );
         let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
         let whitted = super::whitted::WhittedKernels::new(&ctx, scene);
+        let verdict = Verdict::new(device);
         Ok(Self {
             whitted,
             raygen: make("raygen", "cobalt raygen pipeline"),
@@ -156,7 +180,10 @@ impl GpuRenderer {
             kernels,
             scene: scene_buffers,
             threads: Threads::default(),
-            scratch: Default::default(),
+            resident: Resident::default(),
+            verdict,
+            #[cfg(test)]
+            starved: false,
         })
     }
 
@@ -170,18 +197,19 @@ impl GpuRenderer {
         &self.ctx
     }
 
-    /// Checks the image and the launch, creates the buffers of a launch of the paths of
-    /// `tasks`, and binds them with the launch's parameters (its first chunk of probes):
-    /// `raygen` over that group makes the primary rays.
+    /// Checks the image and the launch, uploads its task list and header (`secondary`
+    /// secondary rays per path of the first chunk: AO probes, or shadow rays), keeps the
+    /// frame's parameters, and binds the launch's buffers with them (its first chunk of
+    /// probes): `raygen` over that group makes the primary rays.
     pub(super) fn begin(
         &self,
         frame: &FrameParams<'_>,
         tasks: &[&Range<usize>],
         settings: &AoSettings,
+        secondary: u32,
         traffic: &mut Traffic,
     ) -> Result<(Stage, wgpu::BindGroup), GpuError> {
         let ctx = &self.ctx;
-        let device = &ctx.device;
         let (width, height) = (frame.width, frame.height);
         let too_large =
             |what: &'static str, bytes: u64, limit: &'static str, max: u64| GpuError::TooLarge {
@@ -244,6 +272,13 @@ impl GpuRenderer {
         check_size(ctx, "AO probes", probe_slots * size_of::<GpuRay>() as u64)?;
         let f = frame.camera.frame(width, height);
         let v4 = |v: Vec3| v.extend(0.0).to_array();
+        let header = Header {
+            count: n,
+            chunk: chunk.min(n),
+            tasks: table.len() as u32,
+            // Below a binding's rays (checked by the caller for shadow rays).
+            secondary: chunk.min(n).saturating_mul(secondary),
+        };
         let params = Params {
             eye: v4(frame.camera.eye),
             fwd: v4(f.forward),
@@ -257,94 +292,98 @@ impl GpuRenderer {
             gamma8: crate::spawn::gamma(8),
             width,
             height,
-            count: n,
             samples,
             base: 0,
-            chunk: chunk.min(n),
             // The seed's two words.
             seed_lo: settings.seed as u32,
             seed_hi: (settings.seed >> 32) as u32,
-            tasks: table.len() as u32,
-            pad: [0; 3],
+            pad: [0; 2],
+            count: header.count,
+            chunk: header.chunk,
+            tasks: header.tasks,
+            pad1: 0,
         };
         let storage = |label: &'static str, size: u64, usage| self.scratch(label, size, usage);
         let none = wgpu::BufferUsages::empty();
         let copy = wgpu::BufferUsages::COPY_SRC;
         let ray_bytes = size_of::<GpuRay>() as u64;
-        let table_bytes: &[u8] = bytemuck::cast_slice(&table);
-        traffic.host_to_device_bytes += table_bytes.len() as u64;
+        let resident = &self.resident;
         let stage = Stage {
             n,
             chunk,
             params,
+            header: resident.upload(
+                ctx,
+                "cobalt launch header",
+                bytemuck::bytes_of(&header),
+                traffic,
+            ),
+            uniform: resident.uniform(
+                ctx,
+                ("cobalt path parameters", 0),
+                bytemuck::bytes_of(&params.frame_part()),
+                traffic,
+            ),
             primary: storage("cobalt primary rays", u64::from(n) * ray_bytes, copy),
             ranks: storage("cobalt path ranks", u64::from(n) * 4, copy),
             hits: storage("cobalt primary hits", u64::from(n) * RESULT_BYTES, none),
             probes: storage("cobalt AO probes", probe_slots * ray_bytes, none),
             probe_hits: storage("cobalt AO probe hits", probe_slots * RESULT_BYTES, none),
             film: storage("cobalt path values", u64::from(n) * 4, copy),
-            tasks: if table.is_empty() {
-                storage("cobalt launch tasks", 16, none)
-            } else {
-                init(
-                    device,
-                    "cobalt launch tasks",
-                    table_bytes,
-                    wgpu::BufferUsages::STORAGE,
-                )
-            },
+            tasks: resident.upload(
+                ctx,
+                "cobalt launch tasks",
+                bytemuck::cast_slice(&table),
+                traffic,
+            ),
         };
-        let group = self.bind(&stage, &params, traffic);
+        let group = self.bind(&stage, &stage.uniform);
         Ok((stage, group))
     }
 
-    /// A launch's recorder on this device (see [`Recorder`]).
-    pub(super) fn recorder(&self, checked: bool) -> Recorder<'_> {
-        Recorder::new(&self.ctx, &self.kernels, &self.scene, self.threads, checked)
+    /// A launch's recorder on this device (see [`Recorder`]), its first commands copying the
+    /// launch's counts from `stage`'s header into the frame's parameters.
+    pub(super) fn recorder(&self, stage: &Stage, checked: bool) -> Recorder<'_> {
+        let mut launch = Recorder::new(
+            &self.ctx,
+            &self.kernels,
+            &self.scene,
+            &self.verdict,
+            self.threads,
+            checked,
+        );
+        launch.copy(
+            &stage.header,
+            Header::COUNT,
+            &stage.uniform,
+            Params::COUNTS,
+            12,
+        );
+        #[cfg(test)]
+        {
+            launch.starved = self.starved;
+        }
+        launch
     }
 
-    /// A storage buffer of at least `size` bytes (and of one element of any array), also
-    /// usable as `usage`.
-    ///
-    /// Buffers live across launches and frames: each label keeps its largest buffer, and a
-    /// launch that fits in it reuses it (every launch waits for its read-back before the
-    /// next one is recorded, so no two launches share a buffer at once). The kernels bound
-    /// their loops by the launch's counts, never by a buffer's length.
+    /// A storage buffer of at least `size` bytes kept for later launches (see
+    /// [`Resident::scratch`]).
     pub(super) fn scratch(
         &self,
         label: &'static str,
         size: u64,
         usage: wgpu::BufferUsages,
     ) -> wgpu::Buffer {
-        // A binding holds at least one element of its array (the largest, a ray, is 32 bytes),
-        // even for a launch with none: a scene without lights has no shadow rays.
-        let size = size.max(64);
-        let wanted = wgpu::BufferUsages::STORAGE | usage;
-        // A poisoned lock only means another launch panicked; the buffers are still valid.
-        let mut kept = self
-            .scratch
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        if let Some(b) = kept
-            .get(label)
-            .filter(|b| b.size() >= size && b.usage() == wanted)
-        {
-            return b.clone();
-        }
-        let b = storage(&self.ctx.device, label, size, usage);
-        kept.insert(label, b.clone());
-        b
+        self.resident.scratch(&self.ctx.device, label, size, usage)
     }
 
-    /// A bind group of `stage`'s buffers with `params` (uploaded).
-    fn bind(&self, stage: &Stage, params: &Params, traffic: &mut Traffic) -> wgpu::BindGroup {
-        let device = &self.ctx.device;
-        traffic.host_to_device_bytes += size_of::<Params>() as u64;
-        self.program.bind_params(
-            device,
-            "render",
-            bytemuck::bytes_of(params),
+    /// A bind group of `stage`'s buffers with the parameters `uniform`.
+    fn bind(&self, stage: &Stage, uniform: &wgpu::Buffer) -> wgpu::BindGroup {
+        self.program.bind(
+            &self.ctx.device,
+            "cobalt render bind group",
             &[
+                uniform,
                 &stage.primary,
                 &stage.ranks,
                 &stage.hits,
@@ -394,7 +433,7 @@ impl GpuRenderer {
         checked: bool,
     ) -> Result<Option<PathValues>, GpuError> {
         let mut traffic = Traffic::default();
-        let (stage, first) = self.begin(frame, tasks, settings, &mut traffic)?;
+        let (stage, first) = self.begin(frame, tasks, settings, settings.samples, &mut traffic)?;
         let n = stage.n;
         let samples = settings.samples;
         if self.scene.empty {
@@ -402,18 +441,20 @@ impl GpuRenderer {
             return Ok(Some(PathValues {
                 values: vec![Vec3::ONE; n as usize],
                 rays: n as usize,
-                trace_gpu_seconds: None,
+                kernel_seconds: None,
                 traffic,
                 film_bytes: 0,
             }));
         }
-        let mut launch = self.recorder(checked);
+        let mut launch = self.recorder(&stage, checked);
         launch.pass_over(&self.raygen, &first, n);
+        let header = &stage.header;
         launch.trace(
             &stage.primary,
             &stage.hits,
             n,
             GpuMode::Closest,
+            Some((header, Header::COUNT)),
             &mut traffic,
         )?;
         let mut base = 0;
@@ -424,8 +465,18 @@ impl GpuRenderer {
                 chunk: len,
                 ..stage.params
             };
-            // The first chunk's parameters are the launch's: no second upload.
-            let other = (base > 0).then(|| self.bind(&stage, &params, &mut traffic));
+            // The first chunk's parameters are the launch's; a later chunk (of a launch whose
+            // probes do not fit one binding) uploads its own.
+            let other = (base > 0).then(|| {
+                traffic.host_to_device_bytes += size_of::<Params>() as u64;
+                let uniform = init(
+                    &self.ctx.device,
+                    "cobalt path chunk parameters",
+                    bytemuck::bytes_of(&params),
+                    wgpu::BufferUsages::UNIFORM,
+                );
+                self.bind(&stage, &uniform)
+            });
             let group = other.as_ref().unwrap_or(&first);
             if samples > 0 {
                 launch.pass_over(&self.shade_ao, group, len);
@@ -434,6 +485,7 @@ impl GpuRenderer {
                     &stage.probe_hits,
                     len * samples,
                     GpuMode::Any,
+                    (base == 0).then_some((header, Header::SECONDARY)),
                     &mut traffic,
                 )?;
             }
@@ -449,7 +501,7 @@ impl GpuRenderer {
         Ok(Some(PathValues {
             values: values.into_iter().map(Vec3::splat).collect(),
             rays: n as usize * (1 + samples as usize),
-            trace_gpu_seconds: done.trace_seconds,
+            kernel_seconds: done.kernel_seconds,
             traffic,
             film_bytes,
         }))
@@ -466,8 +518,8 @@ impl GpuRenderer {
         tasks: &[&Range<usize>],
     ) -> Result<(Vec<GpuRay>, Vec<u32>), GpuError> {
         let mut traffic = Traffic::default();
-        let (stage, group) = self.begin(frame, tasks, &AoSettings::default(), &mut traffic)?;
-        let mut launch = self.recorder(false);
+        let (stage, group) = self.begin(frame, tasks, &AoSettings::default(), 0, &mut traffic)?;
+        let mut launch = self.recorder(&stage, false);
         launch.pass_over(&self.raygen, &group, stage.n);
         launch.finish(&stage.film, 0, &mut traffic)?;
         let n = u64::from(stage.n);
@@ -487,6 +539,10 @@ pub(super) struct Stage {
     /// Primaries whose probes are traced together.
     pub(super) chunk: u32,
     pub(super) params: Params,
+    /// The launch's counts ([`Header`]).
+    pub(super) header: wgpu::Buffer,
+    /// The frame's parameters, kept across launches, with the launch's counts.
+    pub(super) uniform: wgpu::Buffer,
     pub(super) primary: wgpu::Buffer,
     pub(super) ranks: wgpu::Buffer,
     pub(super) hits: wgpu::Buffer,

@@ -26,20 +26,22 @@ struct Params {
     gamma8: f32,
     width: u32,
     height: u32,
-    // Slots of the launch: one path each.
-    count: u32,
     // Probes per primary hit.
     samples: u32,
-    // First primary ray of this chunk, and primaries in it (shade and accumulate).
+    // First primary ray of this chunk (shade and accumulate).
     base: u32,
-    chunk: u32,
     // The AO seed's low and high words.
     seed_lo: u32,
     seed_hi: u32,
-    // Tasks of the launch (entries of `tasks`).
-    tasks: u32,
     pad0: u32,
     pad1: u32,
+    // The launch's counts, copied in on the device from its header. Slots of the launch: one
+    // path each.
+    count: u32,
+    // Primaries of this chunk (shade and accumulate).
+    chunk: u32,
+    // Tasks of the launch (entries of `tasks`).
+    tasks: u32,
     pad2: u32,
 }
 

@@ -893,3 +893,96 @@ fn launches_and_frames_of_every_size_share_one_device() {
         assert_eq!(frame.film, kernels, "{w}x{h} {}", shader.name());
     }
 }
+
+/// A launch sends its counts and its task list; the frame's parameters cross once, with its
+/// first launch, and only when they change. With one task a launch (a queue policy), a second
+/// frame of the same camera and shader moves exactly 28 bytes a task (a 16-byte header, an
+/// 8-byte task, a 4-byte verdict; 16 bytes of timestamps more where the adapter has them),
+/// and the first frame at most the blocks of parameters more.
+#[test]
+fn one_task_launches_move_their_counts_only() {
+    use crate::paths::{GpuPaths, PathDevice, PathRenderer};
+    use crate::scheduled::{Mode, Settings};
+    let Some(ctx) = gpu() else { return };
+    let (scene, bvh) = testkit::builtin_with_bvh("builtin:cornell:0.2").expect("scene");
+    let camera = Camera::thesis(&scene.bounds(), 1);
+    let whitted = WhittedSettings::default();
+    let shaders = [
+        Shader::Ao(AoSettings {
+            samples: 4,
+            ..AoSettings::default()
+        }),
+        Shader::Whitted(whitted),
+    ];
+    let per_launch = 28 + if ctx.timestamps { 16 } else { 0 };
+    // The path kernels' block, and for Whitted one more block per bounce.
+    let blocks = 128 + 48 * u64::from(whitted.bounces + 1);
+    for shader in shaders {
+        let device: Box<dyn PathDevice> =
+            Box::new(GpuPaths::new(ctx.clone(), &scene, &bvh).expect("device"));
+        let mut r = PathRenderer::new(
+            vec![device],
+            Settings {
+                policy: sched::Policy::QueueFifo,
+                mode: Mode::Cost,
+                task_size: std::num::NonZeroUsize::new(64).expect("positive"),
+                ..Settings::default()
+            },
+        )
+        .expect("renderer");
+        let options = RenderOptions::new(64, 48, camera, shader);
+        let first = r.render(&scene, &bvh, &options).expect("frame").stats;
+        let second = r.render(&scene, &bvh, &options).expect("frame");
+        let stats = &second.stats;
+        let (traffic, launches) = (stats.traffic(), stats.launches());
+        eprintln!(
+            "{}: {} tasks, {launches} launches; first frame {:?}, second {traffic:?}",
+            shader.name(),
+            stats.tasks,
+            first.traffic()
+        );
+        assert_eq!(launches, stats.tasks as u64, "one task a launch");
+        assert_eq!(traffic.bytes(), per_launch * launches, "{traffic:?}");
+        assert_eq!(traffic.host_waits, launches, "{traffic:?}");
+        let once = first.traffic().bytes();
+        assert!(once <= per_launch * first.launches() + blocks, "{once}");
+        assert!(once <= 64 * first.tasks as u64, "{once} bytes");
+        let (kernels, _) = gpu_film(
+            &GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer"),
+            &options,
+        )
+        .expect("kernels");
+        assert_eq!(second.film, kernels, "{}", shader.name());
+    }
+}
+
+/// A launch whose traces leave their queues undrained (here: recorded with no dispatch) is
+/// caught by its verdict and run again with the host checking every trace: the values are
+/// those of a launch that drained, for both shaders.
+#[test]
+fn an_undrained_launch_is_run_again_checked() {
+    let Some(ctx) = gpu() else { return };
+    let (scene, bvh) = testkit::builtin_with_bvh("builtin:cornell:0.2").expect("scene");
+    let camera = Camera::thesis(&scene.bounds(), 2);
+    for shader in [
+        Shader::Ao(AoSettings {
+            samples: 3,
+            ..AoSettings::default()
+        }),
+        Shader::Whitted(WhittedSettings::default()),
+    ] {
+        let options = RenderOptions::new(40, 24, camera, shader);
+        let whole = GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer");
+        let (film, out) = gpu_film(&whole, &options).expect("drained");
+        assert_eq!(out.traffic.host_waits, 1, "one wait: {:?}", out.traffic);
+        let mut starved = GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer");
+        starved.starved = true;
+        let (again, out) = gpu_film(&starved, &options).expect("checked");
+        assert_eq!(again, film, "{}", shader.name());
+        assert!(
+            out.traffic.host_waits > 2,
+            "checked traces: {:?}",
+            out.traffic
+        );
+    }
+}

@@ -17,6 +17,7 @@ use super::buffers::{GpuRay, RESULT_BYTES, check_size, init};
 use super::pipeline::GpuMode;
 use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
 use super::render::{FrameParams, GpuRenderer, PathValues};
+use super::resident::Header;
 use super::{GpuContext, GpuError};
 use crate::paths::Traffic;
 use crate::shade::{AMBIENT, AoSettings, SKY, WhittedSettings};
@@ -38,6 +39,9 @@ struct Params {
 }
 
 const _: () = assert!(size_of::<Params>() == 48);
+
+/// Byte offset of `count` in [`Params`], copied in from the launch's header.
+const COUNT_AT: u64 = 16;
 
 /// `struct PrimShading`: material and vertex normals of one primitive.
 #[repr(C)]
@@ -175,14 +179,15 @@ impl GpuRenderer {
             ..AoSettings::default()
         };
         let mut traffic = Traffic::default();
-        let (stage, raygen) = self.begin(frame, tasks, &no_probes, &mut traffic)?;
+        let lights = self.whitted.light_count;
+        let (stage, raygen) = self.begin(frame, tasks, &no_probes, lights, &mut traffic)?;
         let n = stage.n;
         if self.scene.empty {
             // Every primary misses and sees the sky.
             return Ok(Some(PathValues {
                 values: vec![SKY; n as usize],
                 rays: n as usize,
-                trace_gpu_seconds: None,
+                kernel_seconds: None,
                 traffic,
                 film_bytes: 0,
             }));
@@ -191,7 +196,6 @@ impl GpuRenderer {
         let device = &ctx.device;
         let w = &self.whitted;
         let prims = w.prims.as_ref().map_err(Clone::clone)?;
-        let lights = w.light_count;
         let slots = u64::from(n) * u64::from(lights);
         let ray_bytes = size_of::<GpuRay>() as u64;
         check_size(ctx, "shadow rays", slots * ray_bytes)?;
@@ -207,9 +211,10 @@ impl GpuRenderer {
         let shadow_rays = storage("cobalt shadow rays", slots * ray_bytes, none);
         let shadow_light = storage("cobalt shadow light", slots * 16, none);
         let shadow_hits = storage("cobalt shadow hits", slots * RESULT_BYTES, none);
+        // The launch's count is copied in on the device: these blocks stay across launches.
         let base = Params {
             sky: SKY.extend(0.0).to_array(),
-            count: n,
+            count: 0,
             lights,
             bounce: 0,
             bounces: settings.bounces,
@@ -218,13 +223,18 @@ impl GpuRenderer {
             shadow_tmax: 1.0 - 1e-4,
             has_normals: u32::from(w.has_normals),
         };
+        let mut uniforms = Vec::new();
         let mut bind = |params: &Params, rays: &wgpu::Buffer, next: &wgpu::Buffer| {
-            traffic.host_to_device_bytes += size_of::<Params>() as u64;
-            w.program.bind_params(
+            let key = ("cobalt Whitted parameters", params.bounce);
+            let uniform = self
+                .resident
+                .uniform(ctx, key, bytemuck::bytes_of(params), &mut traffic);
+            uniforms.push(uniform.clone());
+            w.program.bind(
                 device,
-                "Whitted",
-                bytemuck::bytes_of(params),
+                "cobalt Whitted bind group",
                 &[
+                    &uniform,
                     rays,
                     &stage.hits,
                     &self.tris,
@@ -246,14 +256,19 @@ impl GpuRenderer {
             groups.push(bind(&Params { bounce, ..base }, rays, next));
             std::mem::swap(&mut rays, &mut next);
         }
-        let mut launch = self.recorder(checked);
+        let mut launch = self.recorder(&stage, checked);
+        let header = &stage.header;
+        for uniform in &uniforms {
+            launch.copy(header, Header::COUNT, uniform, COUNT_AT, 4);
+        }
         launch.pass_over(&self.raygen, &raygen, n);
         // Bounce 0's group starts the paths: the same buffers and parameters.
         launch.pass_over(&w.start, &groups[0], n);
         let mut traced = 0usize;
         let (mut rays, mut next) = (&stage.primary, &stage.probes);
         for group in &groups {
-            launch.trace(rays, &stage.hits, n, GpuMode::Closest, &mut traffic)?;
+            let count = Some((header, Header::COUNT));
+            launch.trace(rays, &stage.hits, n, GpuMode::Closest, count, &mut traffic)?;
             launch.pass_over(&w.shade, group, n);
             if lights > 0 {
                 // `slots` fits one binding, so far below 2^32.
@@ -262,6 +277,7 @@ impl GpuRenderer {
                     &shadow_hits,
                     slots as u32,
                     GpuMode::Any,
+                    Some((header, Header::SECONDARY)),
                     &mut traffic,
                 )?;
                 launch.pass_over(&w.shadows, group, n);
@@ -278,7 +294,7 @@ impl GpuRenderer {
         Ok(Some(PathValues {
             values: values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect(),
             rays: traced,
-            trace_gpu_seconds: done.trace_seconds,
+            kernel_seconds: done.kernel_seconds,
             traffic,
             film_bytes,
         }))

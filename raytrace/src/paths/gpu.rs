@@ -58,7 +58,7 @@ impl PathDevice for GpuPaths {
             rays: out.rays,
             traffic: out.traffic,
             film_bytes: out.film_bytes,
-            device_seconds: out.trace_gpu_seconds,
+            device_seconds: out.kernel_seconds,
         })
     }
 
