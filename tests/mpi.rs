@@ -206,9 +206,17 @@ fn a_scene_missing_on_one_rank_ends_every_rank() {
     assert!(!here.join("never.png").exists());
 }
 
+/// Both pipelines over two ranks: each policy's run, its balance and MPI time, and the
+/// simulated clusters replaying a single-node render.
 #[test]
 fn bench_over_mpi_reports_balance_communication_and_simulated_clusters() {
-    let dir = temp_dir("mpi-bench");
+    for pipeline in ["paths", "generations"] {
+        bench_over_mpi(pipeline);
+    }
+}
+
+fn bench_over_mpi(pipeline: &str) {
+    let dir = temp_dir(&format!("mpi-bench-{pipeline}"));
     let launch = [
         "-np",
         "2",
@@ -225,6 +233,8 @@ fn bench_over_mpi_reports_balance_communication_and_simulated_clusters() {
         "256",
         "--devices",
         "cpu:1",
+        "--pipeline",
+        pipeline,
         "--json",
         "bench.json",
     ];
@@ -235,7 +245,10 @@ fn bench_over_mpi_reports_balance_communication_and_simulated_clusters() {
         "{stdout}\n{}",
         String::from_utf8_lossy(&run.stderr)
     );
-    assert!(stdout.contains("Over MPI: 2 rank(s)"), "{stdout}");
+    assert!(
+        stdout.contains(&format!("Over MPI by {pipeline}: 2 rank(s)")),
+        "{stdout}"
+    );
     let records: Vec<serde_json::Value> = serde_json::from_slice(
         &std::fs::read(dir.join("bench.json")).expect("rank 0 wrote the records"),
     )
@@ -247,13 +260,14 @@ fn bench_over_mpi_reports_balance_communication_and_simulated_clusters() {
         ["static-lpt", "queue-fifo", "queue-sorted", "hybrid"]
     );
     for r in &measured {
+        assert_eq!(r["pipeline"], pipeline, "{r}");
         let balance = r["balance_efficiency"].as_f64().expect("balance");
         assert!(balance > 0.0 && balance <= 1.0 + 1e-9, "{r}");
         assert!(r["comm_seconds"].as_f64().expect("comm") > 0.0, "{r}");
         assert!(r["mrays_per_s"].as_f64().expect("rate") > 0.0, "{r}");
     }
-    // A static plan sends rank 1 its share, one batch per generation. A queue sends a batch
-    // per task rank 1 takes: on a render this small, rank 0 (which starts first) may drain
+    // A static plan sends rank 1 its share, one batch per frame or generation. A queue sends
+    // a batch per task rank 1 takes: on a render this small, rank 0 (which starts first) may drain
     // the queue before rank 1 asks, so a queue may send none.
     let batches = |p: &str| {
         measured.iter().find(|r| r["policy"] == p).expect("run")["batches"]

@@ -64,6 +64,16 @@ pub enum Pipeline {
     Generations,
 }
 
+impl Pipeline {
+    /// The name records and tables use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Paths => "paths",
+            Self::Generations => "generations",
+        }
+    }
+}
+
 /// One run of the matrix: the fields `cobalt bench --json` promises, plus context.
 #[derive(Clone, Debug, Serialize)]
 pub struct Record {

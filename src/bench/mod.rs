@@ -64,7 +64,8 @@ pub struct Args {
     sample_rate: f64,
     /// How each cell renders: `paths` (frames of whole paths on path-resident devices; the
     /// default) or `generations` (each generation of rays scheduled on its own, made and
-    /// shaded on the host, as the thesis measures them; the only one under `--mpi`).
+    /// shaded on the host, as the thesis measures them). Under `--mpi` too: by paths every
+    /// other rank is a path device of rank 0's renderer.
     #[arg(long, value_enum)]
     pipeline: Option<Pipeline>,
     /// Where cost mode's estimate runs: `cpu` (the host's cores; the default) or `gpu` (the
@@ -193,22 +194,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     } else {
         args.scenes.clone()
     };
-    #[cfg(feature = "mpi")]
-    let under_mpi = args.mpi;
-    #[cfg(not(feature = "mpi"))]
-    let under_mpi = false;
-    let pipeline = match (args.pipeline, under_mpi) {
-        (Some(Pipeline::Paths), true) => {
-            return Err(bad(
-                "pipeline",
-                "paths",
-                "not available with --mpi, which benches the generations pipeline over ranks",
-            ));
-        }
-        (Some(p), _) => p,
-        (None, true) => Pipeline::Generations,
-        (None, false) => Pipeline::Paths,
-    };
+    let pipeline = args.pipeline.unwrap_or(Pipeline::Paths);
     if pipeline == Pipeline::Paths {
         if let Some(p) = args.probe {
             return Err(bad(
@@ -253,6 +239,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             rate,
             probe,
             preset,
+            pipeline,
         };
         return run_mpi(&args, &scenes, needs, settings, started);
     }
@@ -316,10 +303,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         height,
         cameras,
         args.devices,
-        match pipeline {
-            Pipeline::Paths => "paths",
-            Pipeline::Generations => "generations",
-        },
+        pipeline.name(),
         rate.get(),
         if args.repeats > 1 {
             format!(
@@ -387,6 +371,7 @@ struct MpiSettings<'a> {
     rate: SampleRate,
     probe: raytrace::Probe,
     preset: BuildPreset,
+    pipeline: Pipeline,
 }
 
 /// `cobalt bench --mpi` on every rank: every rank loads every scene (and all agree that it
@@ -426,6 +411,7 @@ fn run_mpi(
             ao_samples: args.ao_samples,
             sample_rate: s.rate,
             probe: s.probe,
+            pipeline: s.pipeline,
         })
         .collect();
     let Some((mut text, json)) = mpi::bench(&cluster, &plans)? else {

@@ -1,16 +1,20 @@
 //! `mpirun -np N cobalt bench --mpi`: the thesis's comparison where dispatch latency is
 //! highest, between nodes. Every rank is a node with the `--devices` of its own. For each
-//! workload, task size and policy, the ranks render together ([`ClusterTracer`]) and rank 0
-//! reports the rendering rate, the balance over nodes and the time it spent in MPI calls.
-//! Then rank 0 measures the tasks of a single-node render and replays them in `sched`'s
-//! simulator on 16 and 64 nodes behind the ping-pong latency measured between the ranks.
+//! workload, task size and policy, the ranks render together and rank 0 reports the rendering
+//! rate, the balance and the time it spent in MPI calls. By paths (the default), every other
+//! rank is a path device of rank 0's renderer ([`RankPaths`]) and keeps its paths: task ranges
+//! go out, values come back. By generations, the ranks trace each generation's rays together
+//! ([`ClusterTracer`]). Then rank 0 measures the tasks of a single-node render and replays
+//! them in `sched`'s simulator on 16 and 64 nodes behind the latencies measured between the
+//! ranks.
 
 use std::num::NonZeroUsize;
 use std::time::Instant;
 
 use raytrace::cost::SampleRate;
 use raytrace::devices::DeviceSpec;
-use raytrace::distributed::ClusterTracer;
+use raytrace::distributed::{ClusterTracer, RankPaths, serve_paths};
+use raytrace::paths::{Frame, PathDevice, PathRenderer, build_path_devices};
 use raytrace::scheduled::{Mode, ScheduledTracer, Settings, build_devices};
 use raytrace::shade::{AoSettings, RenderOptions, Shader, WhittedSettings, render};
 use raytrace::{Bvh, Camera, Scene};
@@ -18,7 +22,8 @@ use sched::mpi::Cluster;
 use sched::{Costs, Policy, Simulation, Speeds};
 use serde::Serialize;
 
-use super::matrix::{Workload, replay};
+use super::matrix::{Pipeline, Replay, Workload, replay};
+use super::paths::replay_frame;
 use crate::error::CliError;
 
 /// Node counts of the simulated clusters.
@@ -41,8 +46,9 @@ pub struct Plan<'a> {
     pub height: u32,
     pub ao_samples: u32,
     pub sample_rate: SampleRate,
-    /// Cost mode's probe of closest-hit rays.
+    /// Cost mode's probe of closest-hit rays (generations).
     pub probe: raytrace::Probe,
+    pub pipeline: Pipeline,
 }
 
 /// One render over the ranks.
@@ -52,15 +58,18 @@ pub struct MpiRecord {
     pub source: &'static str,
     pub scene: String,
     pub shader: &'static str,
+    /// `paths` or `generations`.
+    pub pipeline: &'static str,
     pub policy: &'static str,
     pub task_size: usize,
     pub ranks: usize,
     pub devices_per_rank: String,
     pub rays: usize,
-    /// Wall time of the render (every generation): estimate, plan, run, broadcast.
+    /// Wall time of the render: estimate, plan, run, and (generations) the broadcasts.
     pub seconds: f64,
     pub mrays_per_s: f64,
-    /// Σ node busy time / Σ (makespan × nodes) over the generations.
+    /// Σ busy time / Σ (makespan × executors): by paths over rank 0's devices and the other
+    /// ranks, by generations over the nodes, summed over the generations.
     pub balance_efficiency: f64,
     /// Seconds rank 0 spent inside MPI calls, and their share of `seconds`.
     pub comm_seconds: f64,
@@ -121,6 +130,26 @@ impl Plan<'_> {
         RenderOptions::new(self.width, self.height, camera, self.shader(w))
     }
 
+    /// The tasks of a render on this rank's devices alone, by the plan's pipeline: one
+    /// replay per generation, or one for the frame by paths.
+    fn single_node(&self, w: Workload, settings: Settings) -> Result<Vec<Replay>, CliError> {
+        let options = self.options(w);
+        Ok(match self.pipeline {
+            Pipeline::Paths => {
+                let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
+                let frame =
+                    PathRenderer::new(devices, settings)?.render(self.scene, self.bvh, &options)?;
+                vec![replay_frame(&frame.stats)]
+            }
+            Pipeline::Generations => {
+                let devices = build_devices(self.bvh, self.devices, &[])?;
+                let mut tracer = ScheduledTracer::new(self.bvh, devices, settings)?;
+                render(self.scene, &mut tracer, &options);
+                tracer.stats().iter().map(replay).collect()
+            }
+        })
+    }
+
     /// Every rank: renders each (workload, task size, policy) together; rank 0 gets the
     /// records, the others an empty list.
     pub fn run(&self, cluster: &Cluster) -> Result<Vec<MpiRecord>, CliError> {
@@ -150,6 +179,7 @@ impl Plan<'_> {
                         source: "mpi",
                         scene: self.scene_name.to_string(),
                         shader: w.name(),
+                        pipeline: self.pipeline.name(),
                         policy: policy.name(),
                         task_size,
                         ranks: cluster.size(),
@@ -170,8 +200,58 @@ impl Plan<'_> {
     }
 
     /// Every rank renders once over the cluster; returns rays, wall seconds and the balance
-    /// over nodes (meaningful on rank 0).
+    /// (meaningful on rank 0).
     fn render_once(
+        &self,
+        cluster: &Cluster,
+        w: Workload,
+        settings: Settings,
+    ) -> Result<(usize, f64, f64), CliError> {
+        match self.pipeline {
+            Pipeline::Paths => self.render_paths_once(cluster, w, settings),
+            Pipeline::Generations => self.render_generations_once(cluster, w, settings),
+        }
+    }
+
+    /// [`Plan::render_once`] by paths: on rank 0 the other ranks are path devices beside its
+    /// own; they render the task ranges they are sent until rank 0 ends the frame.
+    fn render_paths_once(
+        &self,
+        cluster: &Cluster,
+        w: Workload,
+        settings: Settings,
+    ) -> Result<(usize, f64, f64), CliError> {
+        let local = build_path_devices(self.scene, self.bvh, self.devices, &[]);
+        // Also the start line: every rank begins the render together.
+        let mut devices = cluster.agree("opening this rank's devices", local)?;
+        let options = self.options(w);
+        if !cluster.is_root() {
+            let frame = Frame {
+                scene: self.scene,
+                bvh: self.bvh,
+                options: &options,
+            };
+            serve_paths(cluster, &mut PathRenderer::new(devices, settings)?, &frame);
+            return Ok((0, 0.0, 1.0));
+        }
+        for rank in 1..cluster.size() {
+            devices.push(Box::new(RankPaths::new(cluster, rank)) as Box<dyn PathDevice + '_>);
+        }
+        let start = Instant::now();
+        let rendered = PathRenderer::new(devices, settings)
+            .and_then(|mut r| r.render(self.scene, self.bvh, &options));
+        // Every other rank serves until told the frame is done, whatever happened here.
+        cluster.finish();
+        let stats = rendered?.stats;
+        Ok((
+            stats.rays,
+            start.elapsed().as_secs_f64(),
+            stats.balance_efficiency,
+        ))
+    }
+
+    /// [`Plan::render_once`] by generations: the ranks trace each generation together.
+    fn render_generations_once(
         &self,
         cluster: &Cluster,
         w: Workload,
@@ -204,10 +284,7 @@ impl Plan<'_> {
         for &w in self.workloads {
             for &task_size in self.task_sizes {
                 let settings = self.settings(Policy::StaticLpt, task_size);
-                let devices = build_devices(self.bvh, self.devices, &[])?;
-                let mut tracer = ScheduledTracer::new(self.bvh, devices, settings)?;
-                render(self.scene, &mut tracer, &self.options(w));
-                let gens: Vec<_> = tracer.stats().iter().map(replay).collect();
+                let gens = self.single_node(w, settings)?;
                 for (nodes, &(link, latency)) in SIMULATED_NODES
                     .into_iter()
                     .flat_map(|n| links.iter().map(move |l| (n, l)))
@@ -288,12 +365,13 @@ pub fn bench(
         return Ok(None);
     }
     let mut text = format!(
-        "Over MPI: {} rank(s), devices per rank {}, one-way latency {:.1} µs (median of {PINGS} ping-pongs, slowest rank)\n\n",
+        "Over MPI by {}: {} rank(s), devices per rank {}, one-way latency {:.1} µs (median of {PINGS} ping-pongs, slowest rank)\n\n",
+        plans.first().map_or("paths", |p| p.pipeline.name()),
         cluster.size(),
         plans.first().map_or("", |p| p.device_list),
         latency * 1e6,
     );
-    text += "| scene | shader | task size | policy | MRays/s | balance over nodes | MPI s | MPI share | dispatch overhead s | batches |\n";
+    text += "| scene | shader | task size | policy | MRays/s | balance | MPI s | MPI share | dispatch overhead s | batches |\n";
     text += "|---|---|---:|---|---:|---:|---:|---:|---:|---:|\n";
     for r in &records {
         text += &format!(

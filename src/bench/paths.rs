@@ -54,7 +54,7 @@ impl Plan<'_> {
         let error = probe.then(|| sums.ratio());
         Ok(CellRun {
             record: self.frames_record(w, settings, &frames),
-            replay: frames.iter().map(replay).collect(),
+            replay: frames.iter().map(replay_frame).collect(),
             error,
         })
     }
@@ -123,7 +123,7 @@ fn frame_error(
 }
 
 /// A frame's tasks for the simulator: each one's planned cost and measured time.
-fn replay(f: &FrameStats) -> Replay {
+pub(super) fn replay_frame(f: &FrameStats) -> Replay {
     Replay {
         rays: f.rays,
         estimate_seconds: f.estimate_seconds,
