@@ -486,6 +486,20 @@ pub fn closest_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts
     counted_at(rays, rays.len(), |i| i, |r| bvh.closest_hit_counted(r))
 }
 
+/// Closest hits (or, with `any`, any hits) and per-ray counts on the tree `layout` names, in
+/// parallel.
+///
+/// # Panics
+/// Panics if the batch's columns have different lengths.
+pub fn hits_counted_in(
+    bvh: &Bvh,
+    rays: &RayBatch,
+    any: bool,
+    layout: Layout,
+) -> (HitBatch, Vec<Counts>) {
+    counted_at(rays, rays.len(), |i| i, |r| bvh.counted_in(r, any, layout))
+}
+
 /// Any hits and per-ray counts (up to the first hit found), in parallel.
 ///
 /// # Panics

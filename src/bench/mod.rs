@@ -207,7 +207,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             return Err(bad(
                 "estimate-on",
                 on.name(),
-                "applies to --pipeline generations; the path pipeline estimates on the host",
+                "applies to --pipeline generations; the path pipeline estimates on its devices",
             ));
         }
     }

@@ -50,8 +50,10 @@ impl SampledCounts {
 /// The compiled `sum` kernel of `estimate.wgsl`.
 #[derive(Debug)]
 pub(crate) struct EstimateKernels {
-    program: Program,
-    sum: wgpu::ComputePipeline,
+    pub(super) program: Program,
+    pub(super) sum: wgpu::ComputePipeline,
+    /// `sum` over a launch of paths' own task list.
+    pub(super) sum_launch: wgpu::ComputePipeline,
 }
 
 impl EstimateKernels {
@@ -64,6 +66,7 @@ impl EstimateKernels {
         );
         Self {
             sum: program.pipeline(device, "sum", "cobalt sample sums pipeline"),
+            sum_launch: program.pipeline(device, "sum_launch", "cobalt path sample sums pipeline"),
             program,
         }
     }

@@ -40,6 +40,21 @@ impl Verdict {
     }
 }
 
+/// Where a recorded trace gets its ray count, and whether it counts its rays' work.
+#[derive(Clone, Copy)]
+pub(super) enum Count<'b> {
+    /// Copied on the device from the 4 bytes at an offset of a buffer (a launch's header).
+    Copied(&'b wgpu::Buffer, u64),
+    /// Uploaded with the trace.
+    Uploaded,
+    /// Uploaded with the trace, which adds each ray's `B` and `T` to its path's entry of
+    /// `counts` (two words a path; `per_path` consecutive rays a path).
+    Counted {
+        counts: &'b wgpu::Buffer,
+        per_path: u32,
+    },
+}
+
 /// The verdict's bits (`verdict.wgsl`).
 const LOOP_CUT: u32 = 1;
 const NOT_DRAINED: u32 = 2;
@@ -184,9 +199,9 @@ impl<'a> Recorder<'a> {
         pass.dispatch_workgroups(grid.0, grid.1, 1);
     }
 
-    /// Records the trace of the first `n` rays of `rays` into `out` (checked: runs it). The
-    /// trace's ray count is copied from the 4 bytes of `count` (a buffer and an offset) on
-    /// the device, or uploaded when `None`.
+    /// Records the trace of the first `n` rays of `rays` into `out` (checked: runs it), its
+    /// ray count and what it counts as `count` says. A checked trace counts nothing: a launch
+    /// with counted traces is not run checked.
     ///
     /// # Errors
     /// Those of [`trace_resident`] when checked.
@@ -196,7 +211,7 @@ impl<'a> Recorder<'a> {
         out: &wgpu::Buffer,
         n: u32,
         mode: GpuMode,
-        count: Option<(&wgpu::Buffer, u64)>,
+        count: Count<'_>,
         traffic: &mut Traffic,
     ) -> Result<(), GpuError> {
         if n == 0 {
@@ -229,8 +244,13 @@ impl<'a> Recorder<'a> {
             mapped_at_creation: false,
         });
         let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_SRC;
+        let (words, counts) = match count {
+            Count::Copied(..) => ([0; 4], None),
+            Count::Uploaded => ([n, 0, 0, 0], None),
+            Count::Counted { counts, per_path } => ([n, per_path.max(1), 1, 0], Some(counts)),
+        };
         let params = match count {
-            Some((from, at)) => {
+            Count::Copied(from, at) => {
                 let params = device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("cobalt trace parameters"),
                     size: 16,
@@ -240,9 +260,8 @@ impl<'a> Recorder<'a> {
                 self.copy(from, at, &params, 0, 4);
                 params
             }
-            None => {
+            _ => {
                 traffic.host_to_device_bytes += 16;
-                let words = [n, 0, 0, 0];
                 init(
                     device,
                     "cobalt trace parameters",
@@ -262,6 +281,7 @@ impl<'a> Recorder<'a> {
             self.threads,
             queue,
             params.clone(),
+            counts,
         );
         // A launch that starts with a trace starts its time there.
         let timing = self.timing.as_ref().filter(|_| self.passes == 0);

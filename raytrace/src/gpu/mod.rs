@@ -29,6 +29,7 @@ pub mod pipeline;
 mod program;
 mod render;
 mod resident;
+mod sample;
 mod staging;
 #[cfg(test)]
 pub(crate) mod tests;
@@ -39,6 +40,7 @@ pub use device::GpuDevice;
 pub use estimate::{GpuReducedTraversal, SampledCounts};
 pub use pipeline::{GpuMode, Kernels, Threads};
 pub use render::{FrameParams, GpuRenderer, PathValues};
+pub use sample::{PathSums, SampledPaths};
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or
 /// the limit that was hit.

@@ -101,6 +101,8 @@ pub struct Kernels {
     /// By [`Threads::index`], then [`GpuMode::index`].
     pipelines: [[wgpu::ComputePipeline; 4]; 2],
     stack: usize,
+    /// Bound as the per-path counts of a trace that counts nothing.
+    no_counts: wgpu::Buffer,
 }
 
 impl Kernels {
@@ -125,7 +127,7 @@ impl Kernels {
             device,
             "traverse",
             source,
-            &[READ, READ, READ, WRITE, WRITE, UNIFORM],
+            &[READ, READ, READ, WRITE, WRITE, UNIFORM, WRITE],
         );
         let far_scale = f64::from(crate::slab::far_scale());
         let make = |mode: u32, entry: &str, label: &str| {
@@ -138,6 +140,7 @@ impl Kernels {
                         ("MODE", f64::from(mode)),
                         ("BATCHES", f64::from(BATCHES)),
                         ("FAR_SCALE", far_scale),
+                        ("CULL", f64::from(16.0 * crate::spawn::gamma(3))),
                     ],
                     zero_initialize_workgroup_memory: true,
                 },
@@ -172,6 +175,12 @@ impl Kernels {
             ],
             program,
             stack,
+            no_counts: storage(
+                device,
+                "cobalt no path counts",
+                16,
+                wgpu::BufferUsages::empty(),
+            ),
         })
     }
 
@@ -341,12 +350,13 @@ impl TraceRound {
         // The queue's two words and the parameters.
         traffic.host_to_device_bytes += 8 + 16;
         Self::bound(
-            ctx, kernels, scene, rays, out, n, mode, threads, queue, params,
+            ctx, kernels, scene, rays, out, n, mode, threads, queue, params, None,
         )
     }
 
     /// As [`TraceRound::new`] with the queue (two words, zero) and the parameters (the ray
-    /// count first) already on the device: nothing is uploaded.
+    /// count first) already on the device: nothing is uploaded. `counts` holds the per-path
+    /// counts of a trace whose parameters ask for them.
     #[allow(clippy::too_many_arguments)] // the buffers and the two choices of a trace
     pub(crate) fn bound(
         ctx: &GpuContext,
@@ -359,6 +369,7 @@ impl TraceRound {
         threads: Threads,
         queue: wgpu::Buffer,
         params: wgpu::Buffer,
+        counts: Option<&wgpu::Buffer>,
     ) -> Self {
         let device = &ctx.device;
         // Only the launch's rays and results are bound: a device's reused buffers are larger,
@@ -379,6 +390,7 @@ impl TraceRound {
                 first(out, u64::from(n) * RESULT_BYTES),
                 whole(&queue),
                 whole(&params),
+                whole(counts.unwrap_or(&kernels.no_counts)),
             ],
         );
         let batches = n.div_ceil(64);

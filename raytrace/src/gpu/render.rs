@@ -19,7 +19,7 @@ use glam::Vec3;
 use super::buffers::{
     GpuRay, RESULT_BYTES, SceneBuffers, check_size, fetch, init, rays_per_launch,
 };
-use super::launch::{Recorder, Verdict};
+use super::launch::{Count, Recorder, Verdict};
 use super::pipeline::{GpuMode, Kernels, Threads};
 use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
 use super::resident::{Header, Resident};
@@ -46,7 +46,8 @@ pub(super) struct Params {
     base: u32,
     seed_lo: u32,
     seed_hi: u32,
-    pad: [u32; 2],
+    stride: u32,
+    pad: u32,
     // The launch's counts, copied in on the device from its header (see `resident.rs`).
     count: u32,
     chunk: u32,
@@ -125,6 +126,8 @@ pub struct GpuRenderer {
     /// Buffers and parameters kept across launches and frames.
     pub(super) resident: Resident,
     verdict: Verdict,
+    /// The per-task sums of an estimate's sample.
+    pub(super) sums: super::estimate::EstimateKernels,
     /// Launches record no dispatch of their traces, as an implementation that cut every loop
     /// short would: the verdict must see it.
     #[cfg(test)]
@@ -168,6 +171,7 @@ impl GpuRenderer {
         let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
         let whitted = super::whitted::WhittedKernels::new(&ctx, scene);
         let verdict = Verdict::new(device);
+        let sums = super::estimate::EstimateKernels::new(device);
         Ok(Self {
             whitted,
             raygen: make("raygen", "cobalt raygen pipeline"),
@@ -182,6 +186,7 @@ impl GpuRenderer {
             threads: Threads::default(),
             resident: Resident::default(),
             verdict,
+            sums,
             #[cfg(test)]
             starved: false,
         })
@@ -200,13 +205,15 @@ impl GpuRenderer {
     /// Checks the image and the launch, uploads its task list and header (`secondary`
     /// secondary rays per path of the first chunk: AO probes, or shadow rays), keeps the
     /// frame's parameters, and binds the launch's buffers with them (its first chunk of
-    /// probes): `raygen` over that group makes the primary rays.
+    /// probes): `raygen` over that group makes the primary rays. A launch holds every
+    /// `stride`-th path of each task, from its first (1 to render; the sample to estimate).
     pub(super) fn begin(
         &self,
         frame: &FrameParams<'_>,
         tasks: &[&Range<usize>],
         settings: &AoSettings,
         secondary: u32,
+        stride: u32,
         traffic: &mut Traffic,
     ) -> Result<(Stage, wgpu::BindGroup), GpuError> {
         let ctx = &self.ctx;
@@ -229,7 +236,9 @@ impl GpuRenderer {
             ));
         }
         let pixels = u64::from(width) * u64::from(height);
-        let n: u64 = tasks.iter().map(|t| t.len() as u64).sum();
+        let stride = stride.max(1);
+        let slots = |t: &Range<usize>| t.len().div_ceil(stride as usize) as u64;
+        let n: u64 = tasks.iter().map(|t| slots(t)).sum();
         let per_launch = rays_per_launch(&ctx.limits) as u64;
         if n > per_launch {
             return Err(too_large(
@@ -255,7 +264,7 @@ impl GpuRenderer {
             .iter()
             .scan(0u64, |slot, t| {
                 let first = *slot;
-                *slot += t.len() as u64;
+                *slot += slots(t);
                 Some([t.start as u32, first as u32])
             })
             .collect();
@@ -297,7 +306,8 @@ impl GpuRenderer {
             // The seed's two words.
             seed_lo: settings.seed as u32,
             seed_hi: (settings.seed >> 32) as u32,
-            pad: [0; 2],
+            stride,
+            pad: 0,
             count: header.count,
             chunk: header.chunk,
             tasks: header.tasks,
@@ -320,7 +330,8 @@ impl GpuRenderer {
             ),
             uniform: resident.uniform(
                 ctx,
-                ("cobalt path parameters", 0),
+                // A sample's block (its stride) and the render's are kept side by side.
+                ("cobalt path parameters", stride),
                 bytemuck::bytes_of(&params.frame_part()),
                 traffic,
             ),
@@ -433,7 +444,8 @@ impl GpuRenderer {
         checked: bool,
     ) -> Result<Option<PathValues>, GpuError> {
         let mut traffic = Traffic::default();
-        let (stage, first) = self.begin(frame, tasks, settings, settings.samples, &mut traffic)?;
+        let (stage, first) =
+            self.begin(frame, tasks, settings, settings.samples, 1, &mut traffic)?;
         let n = stage.n;
         let samples = settings.samples;
         if self.scene.empty {
@@ -447,15 +459,51 @@ impl GpuRenderer {
             }));
         }
         let mut launch = self.recorder(&stage, checked);
-        launch.pass_over(&self.raygen, &first, n);
+        self.record_ao(&mut launch, &stage, &first, samples, None, &mut traffic)?;
+        let film_bytes = u64::from(n) * 4;
+        let done = launch.finish(&stage.film, film_bytes, &mut traffic)?;
+        if !done.drained {
+            return Ok(None);
+        }
+        let values: Vec<f32> = bytemuck::pod_collect_to_vec(&done.values);
+        Ok(Some(PathValues {
+            values: values.into_iter().map(Vec3::splat).collect(),
+            rays: n as usize * (1 + samples as usize),
+            kernel_seconds: done.kernel_seconds,
+            traffic,
+            film_bytes,
+        }))
+    }
+
+    /// Records an AO launch of `stage` (`first`: its first chunk's bind group) into `launch`:
+    /// raygen, the primaries' trace, and per chunk the probes, their trace and the paths'
+    /// values. With `tally`, every trace adds its rays' counts to their paths' entries and
+    /// no value is made (an estimate's launch, whose probes fit one chunk).
+    pub(super) fn record_ao(
+        &self,
+        launch: &mut Recorder<'_>,
+        stage: &Stage,
+        first: &wgpu::BindGroup,
+        samples: u32,
+        tally: Option<&Tally>,
+        traffic: &mut Traffic,
+    ) -> Result<(), GpuError> {
+        let n = stage.n;
+        launch.pass_over(&self.raygen, first, n);
         let header = &stage.header;
         launch.trace(
             &stage.primary,
             &stage.hits,
             n,
             GpuMode::Closest,
-            Some((header, Header::COUNT)),
-            &mut traffic,
+            match tally {
+                Some(t) => Count::Counted {
+                    counts: &t.paths,
+                    per_path: 1,
+                },
+                None => Count::Copied(header, Header::COUNT),
+            },
+            traffic,
         )?;
         let mut base = 0;
         while base < n {
@@ -475,9 +523,9 @@ impl GpuRenderer {
                     bytemuck::bytes_of(&params),
                     wgpu::BufferUsages::UNIFORM,
                 );
-                self.bind(&stage, &uniform)
+                self.bind(stage, &uniform)
             });
-            let group = other.as_ref().unwrap_or(&first);
+            let group = other.as_ref().unwrap_or(first);
             if samples > 0 {
                 launch.pass_over(&self.shade_ao, group, len);
                 launch.trace(
@@ -485,26 +533,23 @@ impl GpuRenderer {
                     &stage.probe_hits,
                     len * samples,
                     GpuMode::Any,
-                    (base == 0).then_some((header, Header::SECONDARY)),
-                    &mut traffic,
+                    match tally {
+                        Some(t) => Count::Counted {
+                            counts: &t.probes,
+                            per_path: samples,
+                        },
+                        None if base == 0 => Count::Copied(header, Header::SECONDARY),
+                        None => Count::Uploaded,
+                    },
+                    traffic,
                 )?;
             }
-            launch.pass_over(&self.accumulate, group, len);
+            if tally.is_none() {
+                launch.pass_over(&self.accumulate, group, len);
+            }
             base += len;
         }
-        let film_bytes = u64::from(n) * 4;
-        let done = launch.finish(&stage.film, film_bytes, &mut traffic)?;
-        if !done.drained {
-            return Ok(None);
-        }
-        let values: Vec<f32> = bytemuck::pod_collect_to_vec(&done.values);
-        Ok(Some(PathValues {
-            values: values.into_iter().map(Vec3::splat).collect(),
-            rays: n as usize * (1 + samples as usize),
-            kernel_seconds: done.kernel_seconds,
-            traffic,
-            film_bytes,
-        }))
+        Ok(())
     }
 
     /// The primary rays a launch of `tasks` generates on the device, read back (the CPU's
@@ -518,7 +563,8 @@ impl GpuRenderer {
         tasks: &[&Range<usize>],
     ) -> Result<(Vec<GpuRay>, Vec<u32>), GpuError> {
         let mut traffic = Traffic::default();
-        let (stage, group) = self.begin(frame, tasks, &AoSettings::default(), 0, &mut traffic)?;
+        let (stage, group) =
+            self.begin(frame, tasks, &AoSettings::default(), 0, 1, &mut traffic)?;
         let mut launch = self.recorder(&stage, false);
         launch.pass_over(&self.raygen, &group, stage.n);
         launch.finish(&stage.film, 0, &mut traffic)?;
@@ -530,6 +576,13 @@ impl GpuRenderer {
             bytemuck::pod_collect_to_vec(&ranks),
         ))
     }
+}
+
+/// Where an estimate's launch adds its rays' counts `B` and `T`: two words a path slot, the
+/// primary, mirror and shadow rays' in `paths`, the AO probes' in `probes`.
+pub(super) struct Tally {
+    pub(super) paths: wgpu::Buffer,
+    pub(super) probes: wgpu::Buffer,
 }
 
 /// The buffers of one launch, on the device.

@@ -33,7 +33,8 @@ struct Params {
     // The AO seed's low and high words.
     seed_lo: u32,
     seed_hi: u32,
-    pad0: u32,
+    // Paths between a task's slots: 1 to render, the sample's stride to estimate.
+    stride: u32,
     pad1: u32,
     // The launch's counts, copied in on the device from its header. Slots of the launch: one
     // path each.
@@ -56,7 +57,8 @@ struct Params {
 @group(0) @binding(6) var<storage, read> probe_hits: array<vec2<u32>>;
 // Per slot: the path's grey value.
 @group(0) @binding(7) var<storage, read_write> film: array<f32>;
-// Per task of the launch: its first path's rank, and its first slot.
+// Per task of the launch: its first path's rank, and its first slot (slot `s` of the task's
+// slots holds its path `s * stride`).
 @group(0) @binding(8) var<storage, read> tasks: array<vec2<u32>>;
 
 // ---- raygen ----
@@ -118,7 +120,7 @@ fn raygen(inv: Invocation) {
         return;
     }
     let task = tasks[task_of(s)];
-    let rank = task.x + (s - task.y);
+    let rank = task.x + (s - task.y) * params.stride;
     let p = morton_pixel(rank);
     let x = p % params.width;
     let y = p / params.width;

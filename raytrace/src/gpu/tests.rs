@@ -822,9 +822,10 @@ fn a_scheduled_gpu_frame_moves_bytes_by_task_not_by_ray() {
             stats.film_bytes()
         );
         assert_eq!(stats.launches(), 1);
+        // The estimate on the device and the render, together.
         assert!(traffic.bytes() <= 64 * stats.tasks as u64, "{traffic:?}");
-        // One submission per launch: the host waits once, for the values and queue states.
-        assert_eq!(traffic.host_waits, stats.launches(), "{traffic:?}");
+        // One submission per launch, the estimate's included: the host waits once for each.
+        assert_eq!(traffic.host_waits, stats.launches() + 1, "{traffic:?}");
         assert_eq!(stats.film_bytes(), u64::from(w * h) * 4);
         let cpu = render(&scene, &mut CpuTracer::new(&bvh), &options).film;
         let (kernels, _) = gpu_film(
@@ -897,8 +898,10 @@ fn launches_and_frames_of_every_size_share_one_device() {
 /// A launch sends its counts and its task list; the frame's parameters cross once, with its
 /// first launch, and only when they change. With one task a launch (a queue policy), a second
 /// frame of the same camera and shader moves exactly 28 bytes a task (a 16-byte header, an
-/// 8-byte task, a 4-byte verdict; 16 bytes of timestamps more where the adapter has them),
-/// and the first frame at most the blocks of parameters more.
+/// 8-byte task, a 4-byte verdict; 16 bytes of timestamps more where the adapter has them)
+/// plus its estimate's launch (40 bytes a task: its task list and sums; 16 bytes a trace),
+/// and the first
+/// frame at most the blocks of parameters more.
 #[test]
 fn one_task_launches_move_their_counts_only() {
     use crate::paths::{GpuPaths, PathDevice, PathRenderer};
@@ -942,11 +945,29 @@ fn one_task_launches_move_their_counts_only() {
             first.traffic()
         );
         assert_eq!(launches, stats.tasks as u64, "one task a launch");
-        assert_eq!(traffic.bytes(), per_launch * launches, "{traffic:?}");
-        assert_eq!(traffic.host_waits, launches, "{traffic:?}");
+        // Its header, verdict and timestamps, each counted trace's parameters, and per task
+        // two task lists and the sums.
+        let traces = match shader {
+            Shader::Ao(_) => 2,
+            // A closest-hit trace a bounce, and a shadow trace where there are lights.
+            Shader::Whitted(_) => {
+                u64::from(whitted.bounces + 1) * (1 + u64::from(!scene.lights.is_empty()))
+            }
+        };
+        let estimate = (per_launch - 8) + 16 * traces + 40 * stats.tasks as u64;
+        assert_eq!(
+            traffic.bytes(),
+            per_launch * launches + estimate,
+            "{traffic:?}"
+        );
+        assert_eq!(traffic.host_waits, launches + 1, "{traffic:?}");
         let once = first.traffic().bytes();
-        assert!(once <= per_launch * first.launches() + blocks, "{once}");
-        assert!(once <= 64 * first.tasks as u64, "{once} bytes");
+        // Both strides' path blocks and the sums' task count.
+        let blocks = blocks + 128 + 16;
+        assert!(
+            once <= per_launch * first.launches() + estimate + blocks,
+            "{once}"
+        );
         let (kernels, _) = gpu_film(
             &GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer"),
             &options,
@@ -984,5 +1005,94 @@ fn an_undrained_launch_is_run_again_checked() {
             "checked traces: {:?}",
             out.traffic
         );
+    }
+}
+
+/// A GPU estimates the tasks it holds with its own kernels: every sampled path made, traced
+/// and shaded there, its rays' counts summed per task on the device. The work equals the
+/// host's estimate of the same sample on the binary tree bit for bit (the kernels walk it as
+/// the CPU does and find the CPU's hits), for both
+/// shaders, several rates and tasks of every size, and only the task lists and the sums
+/// cross: 40 bytes a task beyond a launch's fixed bytes.
+#[test]
+fn a_gpu_estimates_its_paths_as_the_host_does() {
+    use crate::paths::{GpuPaths, PathDevice, estimate_paths_in};
+    let Some(ctx) = gpu() else { return };
+    for name in ["builtin:cornell:0.2", "builtin:forest:0.05"] {
+        let (scene, bvh) = testkit::builtin_with_bvh(name).expect("scene");
+        let mut device = GpuPaths::new(ctx.clone(), &scene, &bvh).expect("device");
+        let camera = Camera::thesis(&scene.bounds(), 1);
+        let shaders = [
+            Shader::Ao(AoSettings {
+                samples: 6,
+                ..AoSettings::default()
+            }),
+            Shader::Whitted(WhittedSettings::default()),
+        ];
+        for shader in shaders {
+            let options = RenderOptions::new(48, 40, camera, shader);
+            let frame = crate::paths::Frame {
+                scene: &scene,
+                bvh: &bvh,
+                options: &options,
+            };
+            let tasks = [0..1, 1..1, 1..700, 700..1300, 1300..1920];
+            let refs: Vec<&std::ops::Range<usize>> = tasks.iter().collect();
+            for rate in [1.0, 0.125, 0.01] {
+                let rate = sched::SampleRate::new(rate).expect("rate");
+                let on_gpu = device.estimate(&frame, &refs, rate).expect("estimate");
+                let on_host = estimate_paths_in(&frame, &tasks, rate, crate::Layout::Binary);
+                assert_eq!(on_gpu.work, on_host, "{name} {} {rate:?}", shader.name());
+                assert!(on_gpu.work[2].nodes > 0.0, "{name}: {:?}", on_gpu.work);
+                let t = &on_gpu.traffic;
+                assert_eq!(t.host_waits, 1, "{t:?}");
+                // A task list and the sums; then the fixed part: header, verdict, timestamps,
+                // the traces' parameters, and the first time the frame's blocks.
+                assert!(t.bytes() <= 40 * tasks.len() as u64 + 400, "{t:?}");
+            }
+        }
+    }
+}
+
+/// In a frame of CPU and GPU devices, the first device's kind estimates every task (the two
+/// kinds count on different trees): a GPU listed first estimates on the device, in one more
+/// launch; listed after a CPU, it only renders. The image is the CPU's either way.
+#[test]
+fn the_first_devices_kind_estimates_a_mixed_frame() {
+    use crate::paths::{CpuPaths, GpuPaths, PathDevice, PathRenderer};
+    use crate::scheduled::{Mode, Settings};
+    let Some(ctx) = gpu() else { return };
+    let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
+    let options = RenderOptions::new(
+        40,
+        32,
+        Camera::thesis(&scene.bounds(), 0),
+        Shader::Ao(AoSettings {
+            samples: 4,
+            ..AoSettings::default()
+        }),
+    );
+    let cpu = render(&scene, &mut CpuTracer::new(&bvh), &options).film;
+    for gpu_first in [true, false] {
+        let g: Box<dyn PathDevice> =
+            Box::new(GpuPaths::new(ctx.clone(), &scene, &bvh).expect("device"));
+        let c: Box<dyn PathDevice> = Box::new(CpuPaths::new(0, 1).expect("cpu"));
+        let devices = if gpu_first { vec![g, c] } else { vec![c, g] };
+        let settings = Settings {
+            policy: sched::Policy::StaticLpt,
+            mode: Mode::Cost,
+            task_size: std::num::NonZeroUsize::new(128).expect("positive"),
+            ..Settings::default()
+        };
+        let mut r = PathRenderer::new(devices, settings).expect("renderer");
+        let frame = r.render(&scene, &bvh, &options).expect("frame");
+        let on_gpu = &frame.stats.devices[usize::from(!gpu_first)];
+        let waits = on_gpu.traffic.host_waits;
+        assert_eq!(
+            waits,
+            on_gpu.launches + u64::from(gpu_first),
+            "gpu first: {gpu_first}, {on_gpu:?}"
+        );
+        assert_eq!(frame.film, cpu, "gpu first: {gpu_first}");
     }
 }

@@ -8,7 +8,9 @@
 // - the watertight test of Woop, Benthin and Wald in f32 only: where the CPU re-evaluates an
 //   edge function that is exactly 0 in f64, this kernel keeps the f32 value, so rays through a
 //   shared edge or vertex may pick the other triangle of the pair (same distance);
-// - ties between triangles keep the first found.
+// - the hit queries test triangles against the ray's own range and keep the nearer hit, the
+//   smaller primitive id on a tie (`better`), and enter nodes up to `cull_bound` of it, so
+//   that the hit and the counts do not depend on the walk's order.
 //
 // Persistent threads (`main`): each workgroup of 64 invocations takes batches of 64 rays from a
 // global queue head (`atomicAdd`), at most `BATCHES` per dispatch; the host re-dispatches until
@@ -24,6 +26,8 @@ override MODE: u32 = 0u;
 override BATCHES: u32 = 8u;
 // Ize's far-distance scale, passed by the host.
 override FAR_SCALE: f32 = 1.0;
+// `cull_bound`'s factor, 16 gamma(3), passed by the host.
+override CULL: f32 = 0.0;
 
 // Traversal stack entries; the host replaces this line with the tree's need (>= depth - 1).
 const STACK: u32 = 64u;
@@ -55,9 +59,12 @@ struct GpuRay {
 struct Params {
     // Rays in this launch.
     count: u32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
+    // With `counted`: rays per path (ray `r` belongs to path `r / per_path`).
+    per_path: u32,
+    // Nonzero: add each ray's counts B and T (closest and any hit included) to its path's
+    // entry of `path_counts`.
+    counted: u32,
+    pad: u32,
 }
 
 // `queue[0]`: the queue head; `queue[1]`: nonzero when a traversal loop was cut short.
@@ -67,6 +74,8 @@ struct Params {
 @group(0) @binding(3) var<storage, read_write> out: array<vec2<u32>>;
 @group(0) @binding(4) var<storage, read_write> queue: array<atomic<u32>, 2>;
 @group(0) @binding(5) var<uniform> params: Params;
+// Per path: B and T summed over its rays (with `params.counted`).
+@group(0) @binding(6) var<storage, read_write> path_counts: array<atomic<u32>>;
 
 var<workgroup> wg_base: u32;
 
@@ -96,6 +105,11 @@ struct BoxRay {
 }
 
 // Entry distance in `.x`, and `.y > 0` when the ray meets the box within [tmin, tmax].
+// How far past the nearest hit so far nodes are still entered (traverse.rs `cull_bound`).
+fn cull_bound(t: f32) -> f32 {
+    return t + abs(t) * CULL;
+}
+
 fn box_hit(b: BoxRay, n: Node, tmin: f32, tmax: f32) -> vec2<f32> {
     let near = select(n.min, n.max, b.neg);
     let t_near = (near - b.org) * b.inv;
@@ -174,13 +188,19 @@ fn tri_hit(sh: Shear, o: vec3<f32>, t: Tri, tmin: f32, tmax: f32) -> vec2<f32> {
     return vec2<f32>(t_scaled / det_abs + 0.0, 1.0);
 }
 
-// Traces ray `r` and writes its result: (t bits, prim) for hits, (B, T) for MODEs 2 and 3.
+// Traces ray `r` and writes its result: (t bits, prim) for hits, (B, T) for MODEs 2 and 3;
+// B counts the nodes entered, T the triangles tested (up to the first hit for any hit), as
+// `traverse.rs` counts them.
 fn trace(r: u32) {
     let ray = rays[r];
     let o = ray.org.xyz;
     let d = ray.dir.xyz;
     let tmin = ray.org.w;
-    var best_t = ray.dir.w;
+    let tmax = ray.dir.w;
+    // Boxes are entered up to `best_t`: the range's end for the reduced traversals, and
+    // `cull_bound` of the nearest hit so far (`hit_t`) for the hit queries.
+    var best_t = select(cull_bound(tmax), tmax, MODE >= 2u);
+    var hit_t = tmax;
     var best_prim = MISS;
     var count_b = 0u;
     var count_t = 0u;
@@ -197,7 +217,7 @@ fn trace(r: u32) {
         kz = 1u;
     }
     let dz = d[kz];
-    valid = valid && dz != 0.0 && tmin <= best_t;
+    valid = valid && dz != 0.0 && tmin <= tmax;
     var kx = select(kz + 1u, 0u, kz == 2u);
     var ky = select(kx + 1u, 0u, kx == 2u);
     if dz < 0.0 {
@@ -227,10 +247,13 @@ fn trace(r: u32) {
                 } else {
                     var found = false;
                     for (var k = node.index; k < node.index + node.count; k++) {
+                        count_t += 1u;
                         let tri = tris[k];
-                        let h = tri_hit(sh, o, tri, tmin, best_t);
-                        if h.y > 0.0 && (best_prim == MISS || h.x < best_t) {
-                            best_t = h.x;
+                        let h = tri_hit(sh, o, tri, tmin, tmax);
+                        let nearer = h.x < hit_t || (h.x == hit_t && tri.prim < best_prim);
+                        if h.y > 0.0 && (best_prim == MISS || nearer) {
+                            hit_t = h.x;
+                            best_t = cull_bound(h.x);
                             best_prim = tri.prim;
                             if MODE == 1u {
                                 found = true;
@@ -296,12 +319,17 @@ fn trace(r: u32) {
         // Only reachable when the implementation cut the loop short (see the header).
         atomicOr(&queue[1], 1u);
     }
+    if params.counted != 0u {
+        let p = 2u * (r / params.per_path);
+        atomicAdd(&path_counts[p], count_b);
+        atomicAdd(&path_counts[p + 1u], count_t);
+    }
     if MODE >= 2u {
         out[r] = vec2<u32>(count_b, count_t);
     } else if best_prim == MISS {
         out[r] = vec2<u32>(bitcast<u32>(inf()), MISS);
     } else {
-        out[r] = vec2<u32>(bitcast<u32>(best_t), best_prim);
+        out[r] = vec2<u32>(bitcast<u32>(hit_t), best_prim);
     }
 }
 

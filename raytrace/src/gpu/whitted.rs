@@ -14,9 +14,10 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::buffers::{GpuRay, RESULT_BYTES, check_size, init};
+use super::launch::{Count, Recorder};
 use super::pipeline::GpuMode;
 use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
-use super::render::{FrameParams, GpuRenderer, PathValues};
+use super::render::{FrameParams, GpuRenderer, PathValues, Stage, Tally};
 use super::resident::Header;
 use super::{GpuContext, GpuError};
 use crate::paths::Traffic;
@@ -63,7 +64,7 @@ pub(crate) struct WhittedKernels {
     /// does not need them, so only a Whitted render fails).
     prims: Result<wgpu::Buffer, GpuError>,
     lights: wgpu::Buffer,
-    light_count: u32,
+    pub(super) light_count: u32,
     has_normals: bool,
 }
 
@@ -180,7 +181,7 @@ impl GpuRenderer {
         };
         let mut traffic = Traffic::default();
         let lights = self.whitted.light_count;
-        let (stage, raygen) = self.begin(frame, tasks, &no_probes, lights, &mut traffic)?;
+        let (stage, raygen) = self.begin(frame, tasks, &no_probes, lights, 1, &mut traffic)?;
         let n = stage.n;
         if self.scene.empty {
             // Every primary misses and sees the sky.
@@ -192,6 +193,40 @@ impl GpuRenderer {
                 film_bytes: 0,
             }));
         }
+        let mut launch = self.recorder(&stage, checked);
+        let (film, traced) =
+            self.record_whitted(&mut launch, &stage, &raygen, settings, None, &mut traffic)?;
+        let film_bytes = u64::from(n) * 16;
+        let done = launch.finish(&film, film_bytes, &mut traffic)?;
+        if !done.drained {
+            return Ok(None);
+        }
+        let values: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&done.values);
+        Ok(Some(PathValues {
+            values: values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect(),
+            rays: traced,
+            kernel_seconds: done.kernel_seconds,
+            traffic,
+            film_bytes,
+        }))
+    }
+
+    /// Records a Whitted launch of `stage` (`raygen`: the bind group of its primaries) into
+    /// `launch`: raygen, then per bounce the trace, shading, shadow rays and their light.
+    /// Returns the buffer of the paths' values and the rays traced. With `tally`, every
+    /// trace adds its rays' counts to their paths' entries of `tally.paths` (an estimate's
+    /// launch).
+    pub(super) fn record_whitted(
+        &self,
+        launch: &mut Recorder<'_>,
+        stage: &Stage,
+        raygen: &wgpu::BindGroup,
+        settings: &WhittedSettings,
+        tally: Option<&Tally>,
+        traffic: &mut Traffic,
+    ) -> Result<(wgpu::Buffer, usize), GpuError> {
+        let n = stage.n;
+        let lights = self.whitted.light_count;
         let ctx = &self.ctx;
         let device = &ctx.device;
         let w = &self.whitted;
@@ -228,7 +263,7 @@ impl GpuRenderer {
             let key = ("cobalt Whitted parameters", params.bounce);
             let uniform = self
                 .resident
-                .uniform(ctx, key, bytemuck::bytes_of(params), &mut traffic);
+                .uniform(ctx, key, bytemuck::bytes_of(params), traffic);
             uniforms.push(uniform.clone());
             w.program.bind(
                 device,
@@ -256,19 +291,24 @@ impl GpuRenderer {
             groups.push(bind(&Params { bounce, ..base }, rays, next));
             std::mem::swap(&mut rays, &mut next);
         }
-        let mut launch = self.recorder(&stage, checked);
         let header = &stage.header;
         for uniform in &uniforms {
             launch.copy(header, Header::COUNT, uniform, COUNT_AT, 4);
         }
-        launch.pass_over(&self.raygen, &raygen, n);
+        launch.pass_over(&self.raygen, raygen, n);
         // Bounce 0's group starts the paths: the same buffers and parameters.
         launch.pass_over(&w.start, &groups[0], n);
         let mut traced = 0usize;
         let (mut rays, mut next) = (&stage.primary, &stage.probes);
         for group in &groups {
-            let count = Some((header, Header::COUNT));
-            launch.trace(rays, &stage.hits, n, GpuMode::Closest, count, &mut traffic)?;
+            let count = match tally {
+                Some(t) => Count::Counted {
+                    counts: &t.paths,
+                    per_path: 1,
+                },
+                None => Count::Copied(header, Header::COUNT),
+            };
+            launch.trace(rays, &stage.hits, n, GpuMode::Closest, count, traffic)?;
             launch.pass_over(&w.shade, group, n);
             if lights > 0 {
                 // `slots` fits one binding, so far below 2^32.
@@ -277,26 +317,20 @@ impl GpuRenderer {
                     &shadow_hits,
                     slots as u32,
                     GpuMode::Any,
-                    Some((header, Header::SECONDARY)),
-                    &mut traffic,
+                    match tally {
+                        Some(t) => Count::Counted {
+                            counts: &t.paths,
+                            per_path: lights,
+                        },
+                        None => Count::Copied(header, Header::SECONDARY),
+                    },
+                    traffic,
                 )?;
                 launch.pass_over(&w.shadows, group, n);
             }
             traced += n as usize + slots as usize;
             std::mem::swap(&mut rays, &mut next);
         }
-        let film_bytes = u64::from(n) * 16;
-        let done = launch.finish(&film, film_bytes, &mut traffic)?;
-        if !done.drained {
-            return Ok(None);
-        }
-        let values: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&done.values);
-        Ok(Some(PathValues {
-            values: values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect(),
-            rays: traced,
-            kernel_seconds: done.kernel_seconds,
-            traffic,
-            film_bytes,
-        }))
+        Ok((film, traced))
     }
 }

@@ -4,9 +4,9 @@
 
 use std::ops::Range;
 
-use sched::DeviceError;
+use sched::{DeviceError, SampleRate};
 
-use super::{Frame, Launch, PathDevice};
+use super::{Estimate, Frame, Launch, PathDevice, Traffic, estimate_paths};
 use crate::Result;
 use crate::shade::{CpuTracer, render_paths};
 
@@ -83,6 +83,19 @@ impl PathDevice for CpuPaths {
             values: rendered.values,
             rays: rendered.generations.iter().map(|g| g.rays).sum(),
             ..Launch::default()
+        })
+    }
+
+    /// On the device's own threads.
+    fn estimate(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[&Range<usize>],
+        rate: SampleRate,
+    ) -> std::result::Result<Estimate, DeviceError> {
+        Ok(Estimate {
+            work: self.pool.install(|| estimate_paths(frame, tasks, rate)),
+            traffic: Traffic::default(),
         })
     }
 

@@ -8,9 +8,10 @@
 use std::ops::Range;
 
 use glam::Vec3;
-use sched::{DeviceError, Executor, Sink};
+use sched::{DeviceError, Executor, SampleRate, Sink};
 
-use super::Traffic;
+use super::{Traffic, estimate_paths};
+use crate::cost::Work;
 use crate::shade::RenderOptions;
 use crate::{Bvh, Scene};
 
@@ -48,6 +49,15 @@ pub struct Launch {
     pub device_seconds: Option<f64>,
 }
 
+/// What a device's estimate of some tasks gave.
+#[derive(Clone, Debug, Default)]
+pub struct Estimate {
+    /// Each task's estimated work, in order.
+    pub work: Vec<Work>,
+    /// What crossed between the host and the device to estimate them.
+    pub traffic: Traffic,
+}
+
 /// A device that renders whole paths. There are two required methods.
 ///
 /// ## Contract
@@ -66,6 +76,34 @@ pub trait PathDevice: Send {
     /// of its own.
     fn class(&self) -> String {
         self.name()
+    }
+
+    /// The estimated work of `tasks` of `frame`, from every path of each at `rate`'s stride
+    /// traced for real with its counts ([`estimate_paths`]'s sample and scaling), where the
+    /// device renders: a device estimates the tasks it holds. By default traced on the host,
+    /// in the caller's rayon pool.
+    ///
+    /// # Errors
+    /// A [`DeviceError`] when the device cannot estimate them; the renderer then estimates
+    /// them on the host.
+    fn estimate(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[&Range<usize>],
+        rate: SampleRate,
+    ) -> Result<Estimate, DeviceError> {
+        Ok(Estimate {
+            work: estimate_paths(frame, tasks, rate),
+            traffic: Traffic::default(),
+        })
+    }
+
+    /// What [`PathDevice::estimate`]'s counts are counted on: devices of one kind give the
+    /// same work for the same tasks, devices of different kinds do not (the host's traces
+    /// walk the 4-wide tree, the GPU kernels the binary one), so a frame's tasks are all
+    /// estimated by devices of one kind. `"host"` by default.
+    fn estimate_kind(&self) -> &'static str {
+        "host"
     }
 
     /// Seconds a launch costs beyond its tasks, where known: see

@@ -8,6 +8,7 @@
 //! sampled path. The sample is made on the host from the camera: no ray of a device crosses
 //! a link to be estimated.
 
+use std::borrow::Borrow;
 use std::ops::Range;
 
 use rayon::prelude::*;
@@ -16,13 +17,14 @@ use sched::SampleRate;
 use super::Frame;
 use crate::cost::Work;
 use crate::shade::{RenderOptions, Shader, Tracer, render_paths};
-use crate::traverse::{any_hits_counted, closest_hits_counted};
-use crate::{Bvh, HitBatch, RayBatch, RayKind};
+use crate::traverse::hits_counted_in;
+use crate::{Bvh, HitBatch, Layout, RayBatch, RayKind};
 
 /// A tracer that traces for real and sums the counts of every ray ([`Work::sum`], exact in
 /// integers per generation), keeping AO probes apart (they are scaled by the probes left out).
 struct Counting<'a> {
     bvh: &'a Bvh,
+    layout: Layout,
     paths: Work,
     probes: Work,
 }
@@ -37,11 +39,7 @@ fn plus(a: Work, b: Work) -> Work {
 
 impl Tracer for Counting<'_> {
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
-        let (hits, counts) = if kind.is_occlusion() {
-            any_hits_counted(self.bvh, rays)
-        } else {
-            closest_hits_counted(self.bvh, rays)
-        };
+        let (hits, counts) = hits_counted_in(self.bvh, rays, kind.is_occlusion(), self.layout);
         let work = Work::sum(&counts);
         match kind {
             RayKind::Ao => self.probes = plus(self.probes, work),
@@ -51,45 +49,83 @@ impl Tracer for Counting<'_> {
     }
 }
 
-/// The estimated work of each of `tasks` (ranges of `frame`'s paths), sampling at `rate`.
-/// Tasks are estimated in parallel in the caller's rayon pool.
-pub fn estimate_paths(frame: &Frame<'_>, tasks: &[Range<usize>], rate: SampleRate) -> Vec<Work> {
-    let stride = rate.stride();
-    // AO: the rate's share of each sampled path's probes, at least one.
-    let (options, probe_scale) = match frame.options.shader {
+/// What a sample at `rate` renders: `options`, an AO shader keeping the rate's share of each
+/// path's probes (at least one); and the factor that scales the kept probes' work to all.
+pub fn sampled_options(options: &RenderOptions, rate: SampleRate) -> (RenderOptions, f64) {
+    match options.shader {
         Shader::Ao(s) if s.samples > 0 => {
             let kept = ((f64::from(s.samples) * rate.get()).ceil() as u32).clamp(1, s.samples);
             let mut ao = s;
             ao.samples = kept;
             let options = RenderOptions {
                 shader: Shader::Ao(ao),
-                ..*frame.options
+                ..*options
             };
             (options, f64::from(s.samples) / f64::from(kept))
         }
-        _ => (*frame.options, 1.0),
-    };
+        _ => (*options, 1.0),
+    }
+}
+
+/// A task of `len` paths' work from its `sampled` paths' counts: those of their paths'
+/// rays, and of their kept AO probes (scaled by `probe_scale` to every probe).
+pub fn task_work(paths: Work, probes: Work, len: usize, sampled: usize, probe_scale: f64) -> Work {
+    if sampled == 0 {
+        return Work::default();
+    }
+    let probes = probes.scaled(len, sampled);
+    plus(
+        paths.scaled(len, sampled),
+        Work {
+            nodes: probes.nodes * probe_scale,
+            tris: probes.tris * probe_scale,
+        },
+    )
+}
+
+/// The estimated work of each of `tasks` (ranges of `frame`'s paths), sampling at `rate`,
+/// traced on the host on the 4-wide tree its hit queries walk. Tasks are estimated in
+/// parallel in the caller's rayon pool.
+pub fn estimate_paths<T>(frame: &Frame<'_>, tasks: &[T], rate: SampleRate) -> Vec<Work>
+where
+    T: Borrow<Range<usize>> + Sync,
+{
+    estimate_paths_in(frame, tasks, rate, Layout::Wide)
+}
+
+/// [`estimate_paths`] counted on the tree `layout` names (the binary one is the GPU's).
+pub fn estimate_paths_in<T>(
+    frame: &Frame<'_>,
+    tasks: &[T],
+    rate: SampleRate,
+    layout: Layout,
+) -> Vec<Work>
+where
+    T: Borrow<Range<usize>> + Sync,
+{
+    let stride = rate.stride();
+    let (options, probe_scale) = sampled_options(frame.options, rate);
     tasks
         .par_iter()
         .map(|task| {
+            let task: &Range<usize> = task.borrow();
             let ranks: Vec<u32> = task.clone().step_by(stride).map(|r| r as u32).collect();
             if ranks.is_empty() {
                 return Work::default();
             }
             let mut tracer = Counting {
                 bvh: frame.bvh,
+                layout,
                 paths: Work::default(),
                 probes: Work::default(),
             };
             render_paths(frame.scene, &mut tracer, &options, &ranks);
-            let paths = tracer.paths.scaled(task.len(), ranks.len());
-            let probes = tracer.probes.scaled(task.len(), ranks.len());
-            plus(
-                paths,
-                Work {
-                    nodes: probes.nodes * probe_scale,
-                    tris: probes.tris * probe_scale,
-                },
+            task_work(
+                tracer.paths,
+                tracer.probes,
+                task.len(),
+                ranks.len(),
+                probe_scale,
             )
         })
         .collect()

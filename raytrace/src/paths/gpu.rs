@@ -4,9 +4,11 @@
 
 use std::ops::Range;
 
-use sched::DeviceError;
+use sched::{DeviceError, SampleRate};
 
-use super::{Frame, Launch, PathDevice};
+use super::estimate::{sampled_options, task_work};
+use super::{Estimate, Frame, Launch, PathDevice};
+use crate::cost::Work;
 use crate::gpu::{FrameParams, GpuContext, GpuError, GpuRenderer};
 use crate::shade::Shader;
 use crate::{Bvh, Scene};
@@ -60,6 +62,51 @@ impl PathDevice for GpuPaths {
             film_bytes: out.film_bytes,
             device_seconds: out.kernel_seconds,
         })
+    }
+
+    /// On the GPU: the sample is made, traced and summed by the path kernels
+    /// ([`GpuRenderer::sample_paths`]); one pair of sums per task and kind comes back.
+    fn estimate(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[&Range<usize>],
+        rate: SampleRate,
+    ) -> Result<Estimate, DeviceError> {
+        let (options, probe_scale) = sampled_options(frame.options, rate);
+        let params = FrameParams {
+            width: options.width,
+            height: options.height,
+            camera: &options.camera,
+        };
+        let stride = u32::try_from(rate.stride()).unwrap_or(u32::MAX);
+        let sampled = self
+            .renderer
+            .sample_paths(&params, tasks, &options.shader, stride)?;
+        let work = |[nodes, tris]: [u64; 2]| Work {
+            nodes: nodes as f64,
+            tris: tris as f64,
+        };
+        Ok(Estimate {
+            work: tasks
+                .iter()
+                .zip(&sampled.tasks)
+                .map(|(t, s)| {
+                    task_work(
+                        work(s.paths),
+                        work(s.probes),
+                        t.len(),
+                        s.sampled,
+                        probe_scale,
+                    )
+                })
+                .collect(),
+            traffic: sampled.traffic,
+        })
+    }
+
+    /// The kernels count on the binary tree.
+    fn estimate_kind(&self) -> &'static str {
+        "gpu"
     }
 
     fn name(&self) -> String {

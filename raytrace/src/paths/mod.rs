@@ -49,8 +49,8 @@ mod traffic;
 
 pub use build::build_path_devices;
 pub use cpu::CpuPaths;
-pub use device::{BoundPaths, Frame, Launch, PathDevice, TaskValues};
-pub use estimate::estimate_paths;
+pub use device::{BoundPaths, Estimate, Frame, Launch, PathDevice, TaskValues};
+pub use estimate::{estimate_paths, estimate_paths_in, sampled_options, task_work};
 pub use fault::FailingPaths;
 #[cfg(feature = "gpu")]
 pub use gpu::GpuPaths;

@@ -9,8 +9,10 @@ use glam::Vec3;
 
 use sched::{Costs, Runtime, SchedError, split_ranges};
 
-use super::{BoundPaths, Frame, FrameStats, PathDevice, PathDeviceStats, estimate_paths};
-use crate::cost::CostModel;
+use super::{
+    BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, Traffic, estimate_paths,
+};
+use crate::cost::{CostModel, Work};
 use crate::scheduled::{Mode, Settings, TaskStats};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene};
@@ -161,14 +163,19 @@ impl<'a> PathRenderer<'a> {
             return Err(SchedError::NoDevices);
         }
 
+        let speeds: Vec<f64> = active.iter().map(|&d| self.speed(d)).collect();
         let estimating = Instant::now();
-        let costs = match self.settings.mode {
-            Mode::Regular => Costs::uniform(tasks.len()),
+        let (costs, estimate_traffic) = match self.settings.mode {
+            Mode::Regular => (
+                Costs::uniform(tasks.len()),
+                vec![Traffic::default(); active.len()],
+            ),
             Mode::Cost => {
-                let work = estimate_paths(frame, tasks, self.settings.sample_rate);
+                let (work, traffic) = self.estimate(frame, tasks, &active, &speeds);
                 // Counts are finite and non-negative, so only an empty frame could fail.
-                Costs::new(CostModel::default().costs(&work))
-                    .unwrap_or_else(|_| Costs::uniform(tasks.len()))
+                let costs = Costs::new(CostModel::default().costs(&work))
+                    .unwrap_or_else(|_| Costs::uniform(tasks.len()));
+                (costs, traffic)
             }
         };
         let estimate_seconds = match self.settings.mode {
@@ -176,7 +183,6 @@ impl<'a> PathRenderer<'a> {
             Mode::Cost => estimating.elapsed().as_secs_f64(),
         };
 
-        let speeds: Vec<f64> = active.iter().map(|&d| self.speed(d)).collect();
         let retired = &self.retired;
         let mut bound: Vec<BoundPaths<'_, 'a>> = self
             .devices
@@ -215,7 +221,7 @@ impl<'a> PathRenderer<'a> {
                 launches: report.launches.get(k).copied().unwrap_or(0),
                 busy: report.metrics.busy.get(k).copied().unwrap_or(0.0),
                 rays: 0,
-                traffic: Default::default(),
+                traffic: estimate_traffic[k],
                 film_bytes: 0,
                 device_seconds: None,
             })
@@ -279,6 +285,80 @@ impl<'a> PathRenderer<'a> {
         Ok((outputs, stats))
     }
 
+    /// Each task's estimated work, and what crossed to each of the `active` devices (planned
+    /// at `speeds`) to estimate it. The devices of the first one's estimate kind estimate
+    /// the frame (counts of different kinds are not comparable): the tasks are cut into one
+    /// contiguous share per such device, in proportion to its speed, and each estimates its
+    /// share where it renders, all at once. A share whose device cannot estimate it is
+    /// estimated on the host.
+    fn estimate(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[Range<usize>],
+        active: &[usize],
+        speeds: &[f64],
+    ) -> (Vec<Work>, Vec<Traffic>) {
+        let rate = self.settings.sample_rate;
+        let kind = self.devices[active[0]].estimate_kind();
+        let estimating: Vec<f64> = active
+            .iter()
+            .zip(speeds)
+            .map(|(&d, &s)| {
+                if self.devices[d].estimate_kind() == kind {
+                    s
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let shares = shares(tasks.len(), &estimating);
+        let retired = &self.retired;
+        let mine: Vec<&mut Box<dyn PathDevice + 'a>> = self
+            .devices
+            .iter_mut()
+            .enumerate()
+            .filter(|(d, _)| !retired[*d])
+            .map(|(_, device)| device)
+            .collect();
+        debug_assert_eq!(mine.len(), active.len());
+        let estimates: Vec<Estimate> = std::thread::scope(|scope| {
+            let running: Vec<_> = mine
+                .into_iter()
+                .zip(&shares)
+                .map(|(device, share)| {
+                    let held: Vec<&Range<usize>> = tasks[share.clone()].iter().collect();
+                    scope.spawn(move || {
+                        if held.is_empty() {
+                            return Estimate::default();
+                        }
+                        device
+                            .estimate(frame, &held, rate)
+                            .unwrap_or_else(|_| Estimate {
+                                work: estimate_paths(frame, &held, rate),
+                                traffic: Traffic::default(),
+                            })
+                    })
+                })
+                .collect();
+            running
+                .into_iter()
+                .map(|h| h.join().unwrap_or_default())
+                .collect()
+        });
+        let mut work = Vec::with_capacity(tasks.len());
+        let mut traffic = Vec::with_capacity(estimates.len());
+        for (e, share) in estimates.into_iter().zip(&shares) {
+            if e.work.len() == share.len() {
+                work.extend(e.work);
+            } else {
+                // A device that answered for other tasks than it was given (or panicked).
+                work.extend(estimate_paths(frame, &tasks[share.clone()], rate));
+            }
+            traffic.push(e.traffic);
+        }
+        (work, traffic)
+    }
+
     /// Measures each device class's speed on this frame (planned cost per busy second,
     /// relative to the fastest class) for the next frame's plan. A class that did no work
     /// keeps its speed.
@@ -305,5 +385,54 @@ impl<'a> PathRenderer<'a> {
         for (class, rate) in rates {
             self.speeds.insert(class, rate / fastest);
         }
+    }
+}
+
+/// `n` tasks cut into one contiguous share per device, in proportion to `speeds` (a device
+/// of speed 0 gets none; a speed that is not finite and positive counts as 1 unless 0).
+fn shares(n: usize, speeds: &[f64]) -> Vec<Range<usize>> {
+    let weight = |s: f64| {
+        if s == 0.0 {
+            0.0
+        } else if s.is_finite() && s > 0.0 {
+            s
+        } else {
+            1.0
+        }
+    };
+    let total: f64 = speeds.iter().map(|&s| weight(s)).sum();
+    let last = speeds.iter().rposition(|&s| weight(s) > 0.0);
+    let mut at = 0.0;
+    let mut start = 0;
+    (0..speeds.len())
+        .map(|d| {
+            at += weight(speeds[d]);
+            let end = if Some(d) == last {
+                n
+            } else if total > 0.0 {
+                ((at / total * n as f64).round() as usize).clamp(start, n)
+            } else {
+                start
+            };
+            let share = start..end;
+            start = end;
+            share
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shares;
+
+    #[test]
+    fn shares_cover_every_task_once_in_proportion() {
+        assert_eq!(shares(10, &[1.0, 1.0]), [0..5, 5..10]);
+        assert_eq!(shares(10, &[3.0, 1.0]), [0..8, 8..10]);
+        assert_eq!(shares(3, &[1.0, 1.0, 1.0, 1.0]), [0..1, 1..2, 2..2, 2..3]);
+        assert_eq!(shares(4, &[f64::NAN, 1.0]), [0..2, 2..4]);
+        assert_eq!(shares(9, &[2.0, 0.0, 1.0, 0.0]), [0..6, 6..6, 6..9, 9..9]);
+        assert_eq!(shares(0, &[1.0]), vec![0..0; 1]);
+        assert_eq!(shares(7, &[]), Vec::<std::ops::Range<usize>>::new());
     }
 }
