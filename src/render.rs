@@ -538,7 +538,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             ))
         };
         if let Some(on) = args.estimate_on {
-            let why = "the path pipeline estimates its sampled paths on the host";
+            let why = "the path pipeline estimates on the devices of the first one's kind";
             return refuse("estimate-on", Some(on.name()), why);
         }
         if let Some(probe) = args.probe {
