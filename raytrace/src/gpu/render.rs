@@ -422,15 +422,24 @@ impl GpuRenderer {
         tasks: &[&Range<usize>],
         settings: &AoSettings,
     ) -> Result<PathValues, GpuError> {
-        match self.launch_ao(frame, tasks, settings, false)? {
-            Some(values) => Ok(values),
-            // A queue was not drained in one submission: again, checking every trace.
-            None => self
-                .launch_ao(frame, tasks, settings, true)?
-                .ok_or_else(|| GpuError::LoopCut {
-                    adapter: self.ctx.info.name.clone(),
-                    batches: super::pipeline::BATCHES,
-                }),
+        self.drained(|checked| self.launch_ao(frame, tasks, settings, checked))
+    }
+
+    /// What `launch(false)` gives, one submission; should a queue not be drained (`None`),
+    /// what `launch(true)` gives, the host checking every trace.
+    ///
+    /// # Errors
+    /// Those of `launch`, and [`GpuError::LoopCut`] when even the checked launch says `None`.
+    pub(super) fn drained<T>(
+        &self,
+        launch: impl Fn(bool) -> Result<Option<T>, GpuError>,
+    ) -> Result<T, GpuError> {
+        match launch(false)? {
+            Some(out) => Ok(out),
+            None => launch(true)?.ok_or_else(|| GpuError::LoopCut {
+                adapter: self.ctx.info.name.clone(),
+                batches: super::pipeline::BATCHES,
+            }),
         }
     }
 

@@ -52,15 +52,7 @@ impl GpuRenderer {
         shader: &Shader,
         stride: u32,
     ) -> Result<SampledPaths, GpuError> {
-        match self.sample_launch(frame, tasks, shader, stride, false)? {
-            Some(sampled) => Ok(sampled),
-            None => self
-                .sample_launch(frame, tasks, shader, stride, true)?
-                .ok_or_else(|| GpuError::LoopCut {
-                    adapter: self.ctx.info.name.clone(),
-                    batches: super::pipeline::BATCHES,
-                }),
-        }
+        self.drained(|checked| self.sample_launch(frame, tasks, shader, stride, checked))
     }
 
     /// One launch of [`GpuRenderer::sample_paths`]; `None` when a queue was not drained.

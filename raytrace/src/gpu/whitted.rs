@@ -153,16 +153,7 @@ impl GpuRenderer {
         tasks: &[&Range<usize>],
         settings: &WhittedSettings,
     ) -> Result<PathValues, GpuError> {
-        match self.launch_whitted(frame, tasks, settings, false)? {
-            Some(values) => Ok(values),
-            // A queue was not drained in one submission: again, checking every trace.
-            None => self
-                .launch_whitted(frame, tasks, settings, true)?
-                .ok_or_else(|| GpuError::LoopCut {
-                    adapter: self.ctx.info.name.clone(),
-                    batches: super::pipeline::BATCHES,
-                }),
-        }
+        self.drained(|checked| self.launch_whitted(frame, tasks, settings, checked))
     }
 
     /// One launch of [`GpuRenderer::render_whitted`], recorded as one submission (`checked`:
