@@ -1,11 +1,12 @@
-//! `cobalt estimate`: how well the reduced traversal of a sample predicts each task's cost,
-//! and what it costs (see `raytrace::cost::metrics`).
+//! `cobalt estimate`: how well an estimate of each task's cost predicts its measured time,
+//! and what estimating costs a render (see `raytrace::cost::metrics`).
 //!
-//! For one generation of rays cut into tasks it reports the thesis's prediction error
-//! (against the full reduced traversal) and overhead (estimation time over the full trace
-//! time, both on all cores), and, beyond the thesis, the error and rank correlation of the
-//! estimates against each task's measured single-thread trace time after a least-squares
-//! calibration of `kB`, `kT`.
+//! For one generation of rays cut into tasks it leads with the error and rank correlation of
+//! the calibrated estimates against each task's measured single-thread trace time, beside
+//! their bound (the real trace's own counts) and the net overhead; the thesis's prediction
+//! error (against the probe's full count) and overhead (estimation time over the full trace
+//! time, both on all cores) follow. On the CPU every probe is timed in the same rounds, so the
+//! report holds the whole trade.
 
 use std::path::Path;
 use std::time::Instant;
