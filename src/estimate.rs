@@ -401,7 +401,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         return Err(arg(
             "probe",
             &"trace",
-            "the trace probe runs on the CPU only; use thesis or first-leaf with --device gpu"
+            "the `trace` probe runs on the CPU only; use thesis or first-leaf with --device gpu"
                 .into(),
         ));
     }
