@@ -1,11 +1,12 @@
-//! `cobalt estimate`: how well the reduced traversal of a sample predicts each task's cost,
-//! and what it costs (see `raytrace::cost::metrics`).
+//! `cobalt estimate`: how well an estimate of each task's cost predicts its measured time,
+//! and what estimating costs a render (see `raytrace::cost::metrics`).
 //!
-//! For one generation of rays cut into tasks it reports the thesis's prediction error
-//! (against the full reduced traversal) and overhead (estimation time over the full trace
-//! time, both on all cores), and, beyond the thesis, the error and rank correlation of the
-//! estimates against each task's measured single-thread trace time after a least-squares
-//! calibration of `kB`, `kT`.
+//! For one generation of rays cut into tasks it leads with the error and rank correlation of
+//! the calibrated estimates against each task's measured single-thread trace time, beside
+//! their bound (the real trace's own counts) and the net overhead; the thesis's prediction
+//! error (against the probe's full count) and overhead (estimation time over the full trace
+//! time, both on all cores) follow. On the CPU every probe is timed in the same rounds, so the
+//! report holds the whole trade.
 
 use std::path::Path;
 use std::time::Instant;
@@ -74,13 +75,14 @@ pub struct Args {
     /// the CPU's. Measured task times (the calibration) stay single-thread CPU times.
     #[arg(long, value_enum, default_value = "cpu")]
     device: DeviceArg,
-    /// How the sample is traced: `thesis` (the reduced traversal of the whole range of every
-    /// ray), `first-leaf` (closest-hit rays end at the exit of the first leaf they reach;
-    /// shadow and AO rays keep the thesis's probe), `trace` (the real trace, closest or any
-    /// hit, counted as traced: dearer, better in rooms; CPU only), or `auto`: the reduced
-    /// traversal whose full counts, calibrated, err least against the measured task times.
-    #[arg(long, default_value = "thesis")]
-    probe: ProbeArg,
+    /// How the sample is traced: `trace` (the real trace, closest or any hit, counted as
+    /// traced, its hits kept for the render; the default on the CPU), `thesis` (the reduced
+    /// traversal of the whole range of every ray; the default, and the only one, on the
+    /// GPU), `first-leaf` (closest-hit rays end at the exit of the first leaf they reach;
+    /// shadow and AO rays keep the thesis's probe), or `auto`: the reduced traversal whose
+    /// full counts, calibrated, err least against the measured task times.
+    #[arg(long)]
+    probe: Option<ProbeArg>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -122,6 +124,22 @@ struct ProbeFit {
     spearman_vs_time: Option<f64>,
 }
 
+/// One estimator's trade on the CPU: what its sample predicts of the measured times, and what
+/// it costs a render.
+#[derive(Debug, Serialize)]
+struct ProbeFigures {
+    probe: &'static str,
+    /// Its sampled estimates, calibrated, against the measured task times.
+    error_vs_time: Option<f64>,
+    spearman_vs_time: Option<f64>,
+    /// The thesis's, against the probe's own full count.
+    prediction_error: Option<f64>,
+    estimate_seconds: f64,
+    overhead: f64,
+    /// Overhead less the sample's trace where the render reuses its hits (the trace probe).
+    net_overhead: f64,
+}
+
 /// Where the estimate runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum DeviceArg {
@@ -161,6 +179,19 @@ impl From<Fit> for Calibration {
 /// (one task, all rays missing the scene) is `null`.
 #[derive(Debug, Serialize)]
 struct Report {
+    /// The estimator judged by time: its calibrated estimates against each task's measured
+    /// single-thread trace time.
+    error_vs_time: Option<f64>,
+    spearman_vs_time: Option<f64>,
+    /// The same with each task's exact counts of the real trace (closest or any hit, as
+    /// traced): what no estimate of `B` and `T` can beat, whatever its probe and rate. What
+    /// is left is time the counts do not see (caches, branches, the machine).
+    error_vs_time_trace: Option<f64>,
+    spearman_trace_vs_time: Option<f64>,
+    /// `(estimate + rest − full trace) / full trace`, where `rest` is the full trace less
+    /// the sampled rays when the probe traces them for real (a render takes their hits from
+    /// the estimate), else the full trace: what estimating costs a render.
+    net_overhead: f64,
     scene: String,
     triangles: usize,
     preset: String,
@@ -170,11 +201,14 @@ struct Report {
     task_size: usize,
     tasks: usize,
     sample_rate: f64,
-    /// `thesis` or `first-leaf` (applied to closest-hit generations only): the one asked for,
-    /// or the better fit with `--probe auto`.
+    /// `trace`, `thesis` or `first-leaf` (applied to closest-hit generations only): the one
+    /// asked for, or the better fit with `--probe auto`.
     probe: &'static str,
     /// With `--probe auto`: how each probe fitted the measured times.
     probe_fits: Option<Vec<ProbeFit>>,
+    /// On the CPU: every probe's trade at this sample rate, timed in the same rounds.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    probes: Vec<ProbeFigures>,
     sampled_rays: usize,
     threads: usize,
     repeats: usize,
@@ -183,7 +217,8 @@ struct Report {
     /// The GPU adapter's name with `--device gpu`.
     #[serde(skip_serializing_if = "Option::is_none")]
     adapter: Option<String>,
-    /// The thesis's: Σ|est − full| / Σ full of `C` under the default model.
+    /// The thesis's (secondary: it judges the sample against its own probe's full count, not
+    /// against time): Σ|est − full| / Σ full of `C` under the default model.
     prediction_error: Option<f64>,
     /// The same for `B` and for `T` alone.
     prediction_error_nodes: Option<f64>,
@@ -199,21 +234,9 @@ struct Report {
     /// takes from the estimate instead of tracing them again.
     #[serde(skip_serializing_if = "Option::is_none")]
     rest_seconds: Option<f64>,
-    /// `(estimate + rest − full trace) / full trace`: what estimating costs a render once the
-    /// sample's hits are used (`overhead` counts the sample's trace as if it were wasted).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    net_overhead: Option<f64>,
-    /// Calibrated estimates against measured single-thread task times.
-    error_vs_time: Option<f64>,
-    spearman_vs_time: Option<f64>,
-    /// The same with full counts: the best any sample rate could do.
+    /// The error against time with full counts: the best any sample rate could do.
     error_vs_time_full: Option<f64>,
     spearman_full_vs_time: Option<f64>,
-    /// The same with each task's exact counts of the real trace (closest or any hit, as
-    /// traced): what no estimate of `B` and `T` can beat, whatever its probe and rate. What
-    /// is left is time the counts do not see (caches, branches, the machine).
-    error_vs_time_trace: Option<f64>,
-    spearman_trace_vs_time: Option<f64>,
     /// Σ measured task times (one thread).
     measured_seconds: f64,
     /// Mean `B`, `T` per ray of the reduced traversal and of the real trace (an any-hit
@@ -368,7 +391,21 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
         Ok(full)
     };
-    let (probe, full, probe_fits) = match args.probe {
+    // The real trace where it can run: its hits are the render's, so it costs little more
+    // than counting, and it stops where the trace stops, which the reduced traversals do not.
+    let asked = args.probe.unwrap_or(match args.device {
+        DeviceArg::Cpu => ProbeArg::Fixed(Probe::Trace { any: false }),
+        DeviceArg::Gpu => ProbeArg::Fixed(Probe::Thesis),
+    });
+    if let (ProbeArg::Fixed(Probe::Trace { .. }), DeviceArg::Gpu) = (asked, args.device) {
+        return Err(arg(
+            "probe",
+            &"trace",
+            "the `trace` probe runs on the CPU only; use thesis or first-leaf with --device gpu"
+                .into(),
+        ));
+    }
+    let (probe, full, probe_fits) = match asked {
         ProbeArg::Fixed(p) => (p, full_of(p)?, None),
         ProbeArg::Auto => {
             let mut fits = Vec::new();
@@ -391,35 +428,50 @@ pub fn run(args: Args) -> Result<(), CliError> {
     };
 
     // Each generation's tasks and the probe that estimates them.
-    let jobs: Vec<(&[std::ops::Range<usize>], Probe)> = parts
-        .iter()
-        .map(|(range, kind)| (&tasks[range.clone()], probe.for_kind(*kind)))
-        .collect();
-    // With the trace probe a render does not trace the sampled rays again (their hits are the
-    // estimate's), so what is left of the trace is timed too: per generation, its sample.
-    let known: Option<Vec<Vec<usize>>> = match (probe, args.device) {
-        (Probe::Trace { .. }, DeviceArg::Cpu) => Some(
-            segments
+    let jobs_of = |probe: Probe| -> Vec<(&[std::ops::Range<usize>], Probe)> {
+        parts
+            .iter()
+            .map(|(range, kind)| (&tasks[range.clone()], probe.for_kind(*kind)))
+            .collect()
+    };
+    let jobs = jobs_of(probe);
+    let (estimate_seconds, est, trace_seconds, rest_seconds, adapter, probes) = match args.device {
+        DeviceArg::Cpu => {
+            // Every probe is timed, the asked one among them, so that the trade is one table.
+            let mut candidates = vec![Probe::Trace { any: false }, Probe::Thesis, Probe::FirstLeaf];
+            let chosen = candidates
+                .iter()
+                .position(|p| p.name() == probe.name())
+                .unwrap_or_else(|| {
+                    candidates.push(probe);
+                    candidates.len() - 1
+                });
+            // A render does not trace the trace probe's sampled rays again (their hits are
+            // the estimate's), so what is left of the trace is timed too: per generation, its
+            // sample.
+            let known: Vec<Vec<usize>> = segments
                 .iter()
                 .map(|(batch, _)| {
                     let own = sched::split_ranges(batch.len(), args.task_size);
                     Compacted::gather(batch, &own, rate).map(|c| c.index)
                 })
-                .collect::<Result<_, _>>()?,
-        ),
-        _ => None,
-    };
-    let (estimate_seconds, est, trace_seconds, rest_seconds, adapter) = match args.device {
-        DeviceArg::Cpu => {
+                .collect::<Result<_, _>>()?;
             let estimator = ReducedTraversal::new(&bvh, &rays, rate);
-            let mut est = Vec::new();
-            let mut estimate = || -> Result<(), CliError> {
-                est.clear();
-                for &(own, p) in &jobs {
-                    est.extend(estimator.with_probe(p).try_work(own)?);
-                }
-                Ok(())
-            };
+            let mut ests: Vec<Vec<Work>> = vec![Vec::new(); candidates.len()];
+            let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CliError> + '_>> = ests
+                .iter_mut()
+                .zip(&candidates)
+                .map(|(est, &p)| {
+                    let jobs = jobs_of(p);
+                    Box::new(move || -> Result<(), CliError> {
+                        est.clear();
+                        for &(own, p) in &jobs {
+                            est.extend(estimator.with_probe(p).try_work(own)?);
+                        }
+                        Ok(())
+                    }) as Box<dyn FnMut() -> Result<(), CliError> + '_>
+                })
+                .collect();
             let mut trace = || -> Result<(), CliError> {
                 for (batch, kind) in &segments {
                     let hits = if kind.is_occlusion() {
@@ -432,7 +484,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 Ok(())
             };
             let mut rest = || -> Result<(), CliError> {
-                for ((batch, kind), known) in segments.iter().zip(known.iter().flatten()) {
+                for ((batch, kind), known) in segments.iter().zip(&known) {
                     let any = kind.is_occlusion();
                     std::hint::black_box(traverse::hits_skipping(&bvh, batch, any, known));
                 }
@@ -441,19 +493,45 @@ pub fn run(args: Args) -> Result<(), CliError> {
             // Taken in turns, so that a noisy moment of this shared machine falls on all of
             // them alike rather than on one.
             let mut steps: Vec<&mut dyn FnMut() -> Result<(), CliError>> =
-                vec![&mut estimate, &mut trace];
-            if known.is_some() {
-                steps.push(&mut rest);
+                vec![&mut trace, &mut rest];
+            for e in &mut estimates {
+                steps.push(e.as_mut());
             }
             let best = min_times(args.repeats, &mut steps)?;
             drop(steps);
-            let rest_seconds = known.is_some().then(|| best[2]);
-            (best[0], est, best[1], rest_seconds, None)
+            drop(estimates);
+            let (trace_seconds, rest_seconds) = (best[0], best[1]);
+            let figures: Vec<ProbeFigures> = candidates
+                .iter()
+                .zip(&ests)
+                .zip(&best[2..])
+                .map(|((&p, est), &seconds)| {
+                    let reused = matches!(p, Probe::Trace { .. });
+                    let rest = if reused { rest_seconds } else { trace_seconds };
+                    let (error, rho) = vs_time(calibrate(est, &measured).ok(), est);
+                    let full = full_of(p).ok();
+                    let model = CostModel::default();
+                    ProbeFigures {
+                        probe: p.name(),
+                        error_vs_time: error,
+                        spearman_vs_time: rho,
+                        prediction_error: full.and_then(|f| {
+                            prediction_error(&model.costs(est), &model.costs(&f)).ok()
+                        }),
+                        estimate_seconds: seconds,
+                        overhead: seconds / trace_seconds.max(1e-12),
+                        net_overhead: (seconds + rest - trace_seconds) / trace_seconds.max(1e-12),
+                    }
+                })
+                .collect();
+            let est = std::mem::take(&mut ests[chosen]);
+            let rest = matches!(probe, Probe::Trace { .. }).then_some(rest_seconds);
+            (best[2 + chosen], est, trace_seconds, rest, None, figures)
         }
         DeviceArg::Gpu => {
             let (e, est, t, name) =
                 gpu_estimate(&bvh, &rays, &segments, &jobs, rate, args.repeats)?;
-            (e, est, t, None, Some(name))
+            (e, est, t, None, Some(name), Vec::new())
         }
     };
 
@@ -498,6 +576,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         sample_rate: rate.get(),
         probe: probe.name(),
         probe_fits,
+        probes,
         sampled_rays: tasks.iter().map(|t| rate.samples(t.len())).sum(),
         threads: rayon::current_num_threads(),
         repeats: args.repeats,
@@ -513,8 +592,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
         trace_seconds,
         overhead: estimate_seconds / trace_seconds.max(1e-12),
         rest_seconds,
-        net_overhead: rest_seconds
-            .map(|rest| (estimate_seconds + rest - trace_seconds) / trace_seconds.max(1e-12)),
+        net_overhead: (estimate_seconds + rest_seconds.unwrap_or(trace_seconds) - trace_seconds)
+            / trace_seconds.max(1e-12),
         error_vs_time,
         spearman_vs_time,
         error_vs_time_full,
@@ -682,6 +761,35 @@ fn table(r: &Report) -> String {
     });
     let rows = [
         (
+            "error vs time",
+            format!(
+                "{} (bound, the trace's own counts: {}; full counts of this probe: {})",
+                pct(r.error_vs_time),
+                pct(r.error_vs_time_trace),
+                pct(r.error_vs_time_full)
+            ),
+        ),
+        (
+            "spearman vs time",
+            format!(
+                "{} (bound: {}; full counts: {})",
+                num(r.spearman_vs_time),
+                num(r.spearman_trace_vs_time),
+                num(r.spearman_full_vs_time)
+            ),
+        ),
+        (
+            "net overhead",
+            match r.rest_seconds {
+                Some(_) => format!(
+                    "{} (the sampled rays' hits are reused; {} counting their trace as waste)",
+                    pct(Some(r.net_overhead)),
+                    pct(Some(r.overhead))
+                ),
+                None => pct(Some(r.net_overhead)),
+            },
+        ),
+        (
             "scene",
             format!("{} ({} triangles, BVH {})", r.scene, r.triangles, r.preset),
         ),
@@ -705,15 +813,6 @@ fn table(r: &Report) -> String {
             ),
         ),
         (
-            "prediction error",
-            format!(
-                "{} (B {}, T {})",
-                pct(r.prediction_error),
-                pct(r.prediction_error_nodes),
-                pct(r.prediction_error_tris)
-            ),
-        ),
-        (
             "estimate",
             format!("{:.4} s on {}", r.estimate_seconds, ran_on(r)),
         ),
@@ -722,15 +821,13 @@ fn table(r: &Report) -> String {
             format!("{:.4} s on {}", r.trace_seconds, ran_on(r)),
         ),
         (
-            "overhead",
-            match r.net_overhead {
-                Some(net) => format!(
-                    "{} (net of the sampled rays' trace, which a render reuses: {})",
-                    pct(Some(r.overhead)),
-                    pct(Some(net))
-                ),
-                None => pct(Some(r.overhead)),
-            },
+            "prediction error",
+            format!(
+                "{} against the probe's full count (B {}, T {})",
+                pct(r.prediction_error),
+                pct(r.prediction_error_nodes),
+                pct(r.prediction_error_tris)
+            ),
         ),
         (
             "nodes per ray",
@@ -740,24 +837,6 @@ fn table(r: &Report) -> String {
                 r.trace_nodes_per_ray,
                 r.reduced_tris_per_ray,
                 r.trace_tris_per_ray,
-            ),
-        ),
-        (
-            "error vs time",
-            format!(
-                "{} (full counts: {}; the trace's own counts: {})",
-                pct(r.error_vs_time),
-                pct(r.error_vs_time_full),
-                pct(r.error_vs_time_trace)
-            ),
-        ),
-        (
-            "spearman vs time",
-            format!(
-                "{} (full counts: {}; the trace's own counts: {})",
-                num(r.spearman_vs_time),
-                num(r.spearman_full_vs_time),
-                num(r.spearman_trace_vs_time)
             ),
         ),
         ("calibration", cal),
@@ -770,6 +849,20 @@ fn table(r: &Report) -> String {
             pct(f.error_vs_time),
             num(f.spearman_vs_time)
         );
+    }
+    if !r.probes.is_empty() {
+        text += "\n| probe | error vs time | spearman | net overhead | overhead | prediction error |\n|---|---:|---:|---:|---:|---:|\n";
+        for f in &r.probes {
+            text += &format!(
+                "| {} | {} | {} | {} | {} | {} |\n",
+                f.probe,
+                pct(f.error_vs_time),
+                num(f.spearman_vs_time),
+                pct(Some(f.net_overhead)),
+                pct(Some(f.overhead)),
+                pct(f.prediction_error)
+            );
+        }
     }
     text
 }

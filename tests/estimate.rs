@@ -164,7 +164,7 @@ fn whitted_rays_are_every_generation_of_a_render() {
 /// for Whitted's mix of generations (its shadow rays keep the thesis's probe).
 #[test]
 fn the_first_leaf_probe_is_reported_and_enters_fewer_nodes() {
-    let thesis = json(&["--rays", "primary"]);
+    let thesis = json(&["--rays", "primary", "--probe", "thesis"]);
     let first = json(&["--rays", "primary", "--probe", "first-leaf"]);
     assert_eq!(thesis["probe"], "thesis");
     assert_eq!(first["probe"], "first-leaf");
@@ -355,6 +355,45 @@ fn the_trace_probe_reports_its_net_overhead() {
             "the full trace probe is the trace's own counts"
         );
     }
-    let thesis = json(&["--rays", "primary"]);
-    assert!(thesis.get("net_overhead").is_none(), "{thesis}");
+    // A reduced probe's sample is wasted: its net overhead is its overhead.
+    let thesis = json(&["--rays", "primary", "--probe", "thesis"]);
+    assert!(thesis.get("rest_seconds").is_none(), "{thesis}");
+    assert_eq!(thesis["net_overhead"], thesis["overhead"]);
+}
+
+/// On the CPU the trace probe is the default, the report leads with the figures judged by
+/// time, and every probe's trade is timed beside the chosen one's.
+#[test]
+fn estimates_are_judged_by_time_with_every_probe_beside() {
+    let out = cobalt(&[
+        "--scene",
+        SCENE,
+        "--size",
+        "64x64",
+        "--task-size",
+        "512",
+        "--rays",
+        "primary",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let at = |key: &str| text.find(&format!("\"{key}\"")).unwrap_or(usize::MAX);
+    let order = [
+        "error_vs_time",
+        "spearman_vs_time",
+        "error_vs_time_trace",
+        "spearman_trace_vs_time",
+        "net_overhead",
+        "scene",
+    ];
+    assert!(order.windows(2).all(|w| at(w[0]) < at(w[1])), "{text}");
+    let v: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    assert_eq!(v["probe"], "trace");
+    let probes = v["probes"].as_array().expect("every probe's trade");
+    let names: Vec<&str> = probes.iter().filter_map(|p| p["probe"].as_str()).collect();
+    assert_eq!(names, ["trace", "thesis", "first-leaf"]);
+    let trace = &probes[0];
+    assert_eq!(trace["error_vs_time"], v["error_vs_time"]);
+    assert_eq!(trace["net_overhead"], v["net_overhead"]);
 }

@@ -1,5 +1,7 @@
 use proptest::prelude::*;
-use sched::bounds::{LPT_UNIFORM_FACTOR, list_factor, lower_bound, lpt_identical_factor};
+use sched::bounds::{
+    LPT_UNIFORM_FACTOR, fractional_bound, list_factor, lower_bound, lpt_identical_factor,
+};
 use sched::exact::optimal_makespan;
 use sched::{Costs, Fault, Policy, SchedError, Simulation, Speeds};
 
@@ -77,6 +79,24 @@ proptest! {
         let lpt = makespan(Policy::StaticLpt, &costs, &speeds);
         prop_assert!(within(lpt, LPT_UNIFORM_FACTOR, opt), "LPT {lpt} vs OPT {opt} on {speeds:?}");
         prop_assert!(opt >= lower_bound(&costs, &speeds) * (1.0 - EPS));
+    }
+
+    /// The integral bound is at least the fractional one and the largest task on the fastest
+    /// device, and no plan (the exact optimum included) beats it.
+    #[test]
+    fn the_integral_bound_is_fair_and_sound(c in costs(9), s in speeds(4)) {
+        let (costs, speeds) = (Costs::new(c.clone()).unwrap(), Speeds::new(s.clone()).unwrap());
+        let bound = lower_bound(&costs, &speeds);
+        prop_assert!(bound >= fractional_bound(&costs, &speeds) * (1.0 - EPS));
+        let largest = c.iter().copied().fold(0.0, f64::max);
+        let fastest = s.iter().copied().fold(0.0, f64::max);
+        prop_assert!(bound >= largest / fastest * (1.0 - EPS));
+        let opt = optimal_makespan(&costs, &speeds);
+        prop_assert!(opt >= bound * (1.0 - EPS), "OPT {opt} below the bound {bound}");
+        for policy in Policy::ALL {
+            let got = makespan(policy, &costs, &speeds);
+            prop_assert!(got >= bound * (1.0 - EPS), "{policy} {got} below the bound {bound}");
+        }
     }
 
     #[test]

@@ -6,6 +6,10 @@ use crate::{Costs, Load, Speeds};
 /// Sethi 1977): the `k` largest tasks need at least the `k` fastest devices, for every
 /// `k < m`, and all work needs all speed. On identical devices it is
 /// `max(largest cost, total / m)`.
+///
+/// It is integral: tasks are not split, so no plan beats the largest task on the fastest
+/// device. A generation of fewer or coarser tasks than devices can do nothing about is judged
+/// by it, where [`fractional_bound`] would blame the plan for the tasks' size.
 pub fn lower_bound(costs: &Costs, speeds: &Speeds) -> f64 {
     let mut c = costs.as_slice().to_vec();
     c.sort_by(|a, b| b.total_cmp(a));
@@ -19,6 +23,12 @@ pub fn lower_bound(costs: &Costs, speeds: &Speeds) -> f64 {
         bound = bound.max(work.value() / speed.value());
     }
     bound.max(costs.total().value() / speeds.total())
+}
+
+/// The bound of perfectly divisible work: total work over total speed. It is what balance
+/// efficiency measures against, and no more than [`lower_bound`].
+pub fn fractional_bound(costs: &Costs, speeds: &Speeds) -> f64 {
+    costs.total().value() / speeds.total()
 }
 
 /// Graham (1969): LPT on `m` identical devices is within this factor of optimal.
@@ -62,5 +72,7 @@ mod tests {
         assert_eq!(lower_bound(&costs, &speeds), 5.0);
         assert_eq!(lower_bound(&Costs::default(), &speeds), 0.0);
         assert!((LPT_UNIFORM_FACTOR - (1.0 + 3f64.sqrt() / 3.0)).abs() < 1e-15);
+        // Divisible, the same work would need (10 + 1 + 1) / 3 = 4.
+        assert_eq!(fractional_bound(&costs, &speeds), 4.0);
     }
 }

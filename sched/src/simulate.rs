@@ -31,6 +31,10 @@ pub struct Simulation {
     policy: Policy,
     speeds: Speeds,
     latency: f64,
+    /// Per-device latencies, where they differ (a replay of a measured run).
+    latencies: Option<Vec<f64>>,
+    /// What the policy is told each launch costs, where that is not the latency itself.
+    told: Option<Vec<Option<f64>>>,
     faults: Vec<Fault>,
     record: bool,
 }
@@ -66,9 +70,28 @@ impl Simulation {
             policy,
             speeds,
             latency: 0.0,
+            latencies: None,
+            told: None,
             faults: Vec::new(),
             record: false,
         }
+    }
+
+    /// Each device's launches wait its own latency (one per device, in order) instead of
+    /// [`Simulation::latency`]: a replay of a run whose devices were measured apart.
+    #[must_use]
+    pub fn device_latencies(mut self, latencies: Vec<f64>) -> Self {
+        self.latencies = Some(latencies);
+        self
+    }
+
+    /// What the policy plans with as each device's launch overhead (as
+    /// [`crate::Executor::launch_overhead`] tells the runtime), where it is not the simulated
+    /// latency: a replay plans as the real run did, and pays what that run measured.
+    #[must_use]
+    pub fn planned_overheads(mut self, overheads: Vec<Option<f64>>) -> Self {
+        self.told = Some(overheads);
+        self
     }
 
     /// Each launch waits this long before its first task starts.
@@ -106,12 +129,44 @@ impl Simulation {
                 got: actual.len(),
             });
         }
-        if !(self.latency.is_finite() && self.latency >= 0.0) {
-            return Err(SchedError::BadLatency {
-                value: self.latency,
+        let speeds = &self.speeds;
+        self.run_timed(estimated, &|t, d| actual[t] / speeds[d])
+    }
+
+    /// Plans with `estimated` costs; task `t` takes `seconds(t, d)` on device `d`. A replay
+    /// of a measured run gives each task its measured time on the device it ran on (see
+    /// [`crate::MeasuredRun`]).
+    pub fn run_timed(
+        &self,
+        estimated: &Costs,
+        seconds: &dyn Fn(usize, usize) -> f64,
+    ) -> Result<SimReport, SchedError> {
+        let m = self.speeds.len();
+        let latencies = self
+            .latencies
+            .clone()
+            .unwrap_or_else(|| vec![self.latency; m]);
+        if latencies.len() != m {
+            return Err(SchedError::LengthMismatch {
+                what: "one latency per device",
+                expected: m,
+                got: latencies.len(),
             });
         }
-        let m = self.speeds.len();
+        if let Some(&value) = latencies.iter().find(|l| !(l.is_finite() && **l >= 0.0)) {
+            return Err(SchedError::BadLatency { value });
+        }
+        let told = self
+            .told
+            .clone()
+            .unwrap_or_else(|| latencies.iter().map(|&l| Some(l)).collect());
+        if told.len() != m {
+            return Err(SchedError::LengthMismatch {
+                what: "one planned overhead per device",
+                expected: m,
+                got: told.len(),
+            });
+        }
         let n = estimated.len();
         let mut fault_at = vec![f64::INFINITY; m];
         for f in &self.faults {
@@ -125,11 +180,9 @@ impl Simulation {
         }
 
         let planning = std::time::Instant::now();
-        let mut dispatch = self.policy.dispatcher_with_overheads(
-            estimated,
-            &self.speeds,
-            &vec![Some(self.latency); m],
-        );
+        let mut dispatch = self
+            .policy
+            .dispatcher_with_overheads(estimated, &self.speeds, &told);
         let plan_seconds = planning.elapsed().as_secs_f64();
         let mut events: BinaryHeap<Reverse<(Load, Kind, u32)>> = (0..m as u32)
             .map(|d| Reverse((Load::ZERO, Kind::Ready, d)))
@@ -183,10 +236,10 @@ impl Simulation {
                 continue;
             }
             launches[du] += 1;
-            let speed = self.speeds[du];
-            let mut clock = now.plus(self.latency);
+            let mut clock = now.plus(latencies[du]);
             for (k, &t) in launch.iter().enumerate() {
-                let end = clock.plus(actual[t as usize] / speed);
+                let took = seconds(t as usize, du);
+                let end = clock.plus(took);
                 if end.value() > fault_at[du] {
                     // Cut short: work up to the fault was spent, the rest waits for the fault
                     // event, which releases it at the right moment.
@@ -194,7 +247,7 @@ impl Simulation {
                     undone[du] = launch[k..].to_vec();
                     break;
                 }
-                busy[du] = busy[du].plus(actual[t as usize] / speed);
+                busy[du] = busy[du].plus(took);
                 assignment[t as usize] = d;
                 delivered += 1;
                 if self.record {

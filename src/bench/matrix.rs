@@ -19,6 +19,7 @@ use serde::Serialize;
 
 use super::probe::{ErrorSums, Probe};
 use super::repeats;
+use super::replay::{Replayed, RunDevice};
 use crate::error::CliError;
 
 /// The two workloads of the thesis.
@@ -127,6 +128,22 @@ pub struct Record {
     /// Bytes of the paths' values sent to the host (path pipeline only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub film_bytes: Option<u64>,
+    /// `seconds` with the run's makespans replaced by their replays in `sched`'s simulator,
+    /// from the run's own task times, speeds and launch delays (the median over the runs);
+    /// `None` where a generation could not be replayed (a device failed).
+    pub simulated_seconds: Option<f64>,
+    /// Every run's simulated over measured seconds, in the order they ran.
+    pub run_simulated_over_measured: Vec<f64>,
+    /// Σ makespans of the measured generations or frames, and of their replays.
+    pub makespan_seconds: f64,
+    pub simulated_makespan_seconds: Option<f64>,
+    /// Σ of their lower bounds: integral (no plan beats the largest task on the fastest
+    /// device), and fractional (all work over all speed, what balance efficiency is measured
+    /// against).
+    pub lower_bound_seconds: Option<f64>,
+    pub fractional_bound_seconds: Option<f64>,
+    /// `makespan_seconds / lower_bound_seconds`: 1 is an optimal plan.
+    pub makespan_over_bound: Option<f64>,
 }
 
 impl Record {
@@ -164,6 +181,13 @@ impl Record {
             device_to_host_bytes: None,
             host_waits: None,
             film_bytes: None,
+            simulated_seconds: None,
+            run_simulated_over_measured: Vec::new(),
+            makespan_seconds: 0.0,
+            simulated_makespan_seconds: None,
+            lower_bound_seconds: None,
+            fractional_bound_seconds: None,
+            makespan_over_bound: None,
         }
     }
 }
@@ -402,6 +426,7 @@ impl Plan<'_> {
                 capacity: g.makespan * g.devices.len() as f64,
                 launches: g.launches(),
                 reruns: g.reruns,
+                replayed: replayed_generation(g),
             });
         }
         let devices = gens.first().map_or(0, |g| g.devices.len());
@@ -410,7 +435,7 @@ impl Plan<'_> {
 }
 
 /// What a run's measured generations or frames add up to.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub struct Totals {
     pub rays: usize,
     /// Wall seconds: estimation, planning and the run.
@@ -422,6 +447,24 @@ pub struct Totals {
     pub capacity: f64,
     pub launches: u64,
     pub reruns: u64,
+    /// The replays and bounds, where every part could be replayed.
+    pub replayed: Option<Replayed>,
+}
+
+impl Default for Totals {
+    fn default() -> Self {
+        Self {
+            rays: 0,
+            seconds: 0.0,
+            estimate: 0.0,
+            plan: 0.0,
+            busy: 0.0,
+            capacity: 0.0,
+            launches: 0,
+            reruns: 0,
+            replayed: Some(Replayed::default()),
+        }
+    }
 }
 
 impl Totals {
@@ -434,6 +477,13 @@ impl Totals {
         self.capacity += o.capacity;
         self.launches += o.launches;
         self.reruns += o.reruns;
+        self.replayed = match (self.replayed, o.replayed) {
+            (Some(mut a), Some(b)) => {
+                a += b;
+                Some(a)
+            }
+            _ => None,
+        };
     }
 
     /// `r` with these figures, as the record of a single run.
@@ -453,8 +503,34 @@ impl Totals {
         r.reruns = self.reruns;
         r.run_mrays_per_s = vec![r.mrays_per_s];
         r.run_balance_efficiency = vec![balance];
+        if let Some(p) = self.replayed {
+            r.makespan_seconds = p.makespan;
+            r.simulated_makespan_seconds = Some(p.simulated_makespan);
+            // Only the makespan is simulated: estimating, planning, starting the devices'
+            // threads and writing the film are taken as measured.
+            let simulated = self.seconds - p.makespan + p.simulated_makespan;
+            r.simulated_seconds = Some(simulated);
+            r.run_simulated_over_measured = vec![simulated / self.seconds.max(1e-12)];
+            r.lower_bound_seconds = Some(p.lower_bound);
+            r.fractional_bound_seconds = Some(p.fractional_bound);
+            r.makespan_over_bound = Some(p.makespan / p.lower_bound.max(1e-300));
+        }
         r
     }
+}
+
+/// A generation's replay in the simulator and its bounds.
+fn replayed_generation(g: &GenerationStats) -> Option<Replayed> {
+    let devices: Vec<RunDevice> = g
+        .devices
+        .iter()
+        .map(|d| RunDevice {
+            index: d.index,
+            speed: d.speed,
+            launch_overhead: d.launch_overhead,
+        })
+        .collect();
+    super::replay::replay(g.policy, g.makespan, &g.task_stats, &devices)
 }
 
 pub fn replay(g: &GenerationStats) -> Replay {

@@ -14,6 +14,7 @@ mod paths;
 mod plots;
 mod probe;
 mod repeats;
+mod replay;
 mod simulate;
 mod table;
 mod trade;
@@ -288,7 +289,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
             bar.inc(1);
         })?;
         bar.finish_and_clear();
-        sims.extend(simulate::simulate(name, &replays, &simulate)?);
+        let error_bar = table::replay_error(&recs).map(|(median, _, _)| median);
+        sims.extend(simulate::simulate(name, &replays, &simulate, error_bar)?);
         points.extend(trade::sampling_trade(&plan)?);
         if args.plots.is_some() && cost_png.is_none() {
             cost_png = Some(cost_image(scene, &bvh, width, height)?);
@@ -315,6 +317,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
     );
     out += &table::runs(&records);
+    out += "\n";
+    out += &table::replays(&records);
     out += "\nTargets on these devices:\n\n";
     out += &table::targets(&records);
     out += "\nSampling rate (thesis Table 4.1):\n\n";
@@ -325,8 +329,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
             .copied()
             .find(|&t| t == 4096)
             .unwrap_or(task_sizes[0]);
+        let bar = table::replay_error(&records).map_or(String::new(), |(median, _, _)| {
+            format!(
+                "; each figure within about ±{:.1} %, the median error of the simulator's replays of the measured runs",
+                100.0 * median
+            )
+        });
         out += &format!(
-            "\nSimulated machines from the measured tasks (PCIe link, task size {shown}; every link and size is in --json):\n\n"
+            "\nSimulated machines from the measured tasks (PCIe link, task size {shown}; every link and size is in --json{bar}):\n\n"
         );
         out += &table::simulated(&sims, shown);
     }

@@ -11,6 +11,7 @@ use raytrace::{Bvh, Scene};
 
 use super::matrix::{CellRun, Plan, Record, Replay, Totals, Workload};
 use super::probe::ErrorSums;
+use super::replay::{Replayed, RunDevice};
 use crate::error::CliError;
 
 impl Plan<'_> {
@@ -73,6 +74,7 @@ impl Plan<'_> {
                 capacity: f.makespan * f.devices.len() as f64,
                 launches: f.launches(),
                 reruns: f.reruns,
+                replayed: replayed_frame(f),
             });
             traffic += f.traffic();
             film_bytes += f.film_bytes();
@@ -120,6 +122,20 @@ fn frame_error(
         diff: estimated.zip(&full).map(|(e, f)| (e - f).abs()).sum(),
         full: full.iter().sum(),
     })
+}
+
+/// A frame's replay in the simulator and its bounds.
+fn replayed_frame(f: &FrameStats) -> Option<Replayed> {
+    let devices: Vec<RunDevice> = f
+        .devices
+        .iter()
+        .map(|d| RunDevice {
+            index: d.index,
+            speed: d.speed,
+            launch_overhead: d.launch_overhead,
+        })
+        .collect();
+    super::replay::replay(f.policy, f.makespan, &f.task_stats, &devices)
 }
 
 /// A frame's tasks for the simulator: each one's planned cost and measured time.

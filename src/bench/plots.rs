@@ -1,7 +1,8 @@
 //! `cobalt bench --plots DIR`: charts in the manner of the thesis: Figure 4.1 (rendering
 //! efficiency, MRays/s) and Figure 4.2 (balance efficiency) as bars of regular and cost-based
-//! runs per policy and task size, the sampling-rate trade of Table 4.1 (prediction error
-//! against overhead), and the cost image of Figure 3.2.
+//! runs per policy and task size, the estimators' trade of Table 4.1 judged by time (error
+//! against measured task times over net overhead, per probe and sampling rate), and the cost
+//! image of Figure 3.2.
 //!
 //! Text is drawn from a TrueType font read at run time (`$COBALT_FONT`, else DejaVu Sans from
 //! Debian's `fonts-dejavu-core`), so no font library is linked; without one, `--plots` says
@@ -182,8 +183,9 @@ fn bars(
     save(path, rgb, W, h)
 }
 
-/// Prediction error against overhead, one line per ray kind, points labelled by sampling rate:
-/// the first scene's, at tasks of 4096 rays if measured (else the first size).
+/// The estimators' trade: error against measured time over net overhead, one line per ray kind
+/// and probe, points labelled by sampling rate: the first scene's, at tasks of 4096 rays if
+/// measured (else the first size).
 fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
     let Some(first) = points.first() else {
         return Ok(());
@@ -202,22 +204,30 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
     {
         let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(draw_err)?;
+        // Net overheads can be negative (a sample traced for real can cost less than the
+        // rays it saves): the axis starts below the least.
+        let xmin = points
+            .iter()
+            .map(|p| 100.0 * p.net_overhead)
+            .fold(0.0, f64::min)
+            * 1.15;
         let xmax = points
             .iter()
-            .map(|p| 100.0 * p.overhead)
+            .map(|p| 100.0 * p.net_overhead)
             .fold(0.0, f64::max)
             * 1.15
             + 1e-9;
         let ymax = points
             .iter()
-            .map(|p| 100.0 * p.prediction_error)
+            .filter_map(|p| p.error_vs_time)
+            .map(|e| 100.0 * e)
             .fold(0.0, f64::max)
             * 1.25
             + 0.5;
         let mut chart = ChartBuilder::on(&root)
             .caption(
                 format!(
-                    "Sampling rate: prediction error vs overhead ({}, tasks of {size} rays)",
+                    "Estimators: error vs time over net overhead ({}, tasks of {size} rays)",
                     first.scene
                 ),
                 ("sans-serif", 20),
@@ -225,37 +235,52 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
             .margin(14)
             .x_label_area_size(44)
             .y_label_area_size(60)
-            .build_cartesian_2d(0.0..xmax, 0.0..ymax)
+            .build_cartesian_2d(xmin..xmax, 0.0..ymax)
             .map_err(draw_err)?;
         chart
             .configure_mesh()
-            .x_desc("estimation overhead, % of the full trace")
-            .y_desc("prediction error, %")
+            .x_desc("net estimation overhead, % of the full trace")
+            .y_desc("error vs measured task time, %")
             .label_style(("sans-serif", 13))
             .draw()
             .map_err(draw_err)?;
-        for (kind, colour) in [
+        let mut probes: Vec<&str> = points.iter().map(|p| p.probe).collect();
+        probes.sort_unstable();
+        probes.dedup();
+        let lines = [
             ("coherent", RGBColor(40, 90, 200)),
             ("diffuse", RGBColor(210, 90, 30)),
-        ] {
+        ]
+        .into_iter()
+        .flat_map(|k| probes.iter().map(move |&probe| (k, probe)));
+        for ((kind, base), probe) in lines {
+            // The real trace's probe drawn darker than the reduced traversals.
+            let colour = if probe == "trace" {
+                RGBColor(base.0 / 2, base.1 / 2, base.2 / 2)
+            } else {
+                base
+            };
             let pts: Vec<(f64, f64, f64)> = points
                 .iter()
-                .filter(|p| p.ray_kind == kind)
-                .map(|p| {
-                    (
-                        100.0 * p.overhead,
-                        100.0 * p.prediction_error,
+                .filter(|p| p.ray_kind == kind && p.probe == probe)
+                .filter_map(|p| {
+                    Some((
+                        100.0 * p.net_overhead,
+                        100.0 * p.error_vs_time?,
                         p.sample_rate,
-                    )
+                    ))
                 })
                 .collect();
+            if pts.is_empty() {
+                continue;
+            }
             chart
                 .draw_series(LineSeries::new(
                     pts.iter().map(|&(x, y, _)| (x, y)),
                     colour.stroke_width(2),
                 ))
                 .map_err(draw_err)?
-                .label(kind)
+                .label(format!("{kind}, {probe}"))
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
                 });

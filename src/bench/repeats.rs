@@ -47,6 +47,13 @@ pub fn combine(runs: &[Record]) -> Option<Record> {
     out.repeats = runs.len();
     out.run_mrays_per_s = runs.iter().map(|r| r.mrays_per_s).collect();
     out.run_balance_efficiency = runs.iter().map(|r| r.balance_efficiency).collect();
+    out.run_simulated_over_measured = runs
+        .iter()
+        .flat_map(|r| r.run_simulated_over_measured.iter().copied())
+        .collect();
+    // Only when every run was replayed: a median of some runs would not be the cell's.
+    let simulated: Option<Vec<f64>> = runs.iter().map(|r| r.simulated_seconds).collect();
+    out.simulated_seconds = simulated.and_then(|s| median(&s));
     Some(out)
 }
 
@@ -86,6 +93,13 @@ mod tests {
             device_to_host_bytes: None,
             host_waits: None,
             film_bytes: None,
+            simulated_seconds: Some(seconds),
+            run_simulated_over_measured: vec![1.0],
+            makespan_seconds: seconds,
+            simulated_makespan_seconds: Some(seconds),
+            lower_bound_seconds: Some(0.5 * seconds),
+            fractional_bound_seconds: Some(0.4 * seconds),
+            makespan_over_bound: Some(2.0),
         }
     }
 

@@ -50,6 +50,9 @@ pub struct SimRecord {
     /// fastest devices): 1 is an optimal plan with free launches.
     pub makespan_over_bound: f64,
     pub launches: u64,
+    /// The simulator's error bar: the median `|simulated / measured − 1|` of its replays of
+    /// this scene's measured runs.
+    pub replay_error: Option<f64>,
 }
 
 /// Replays every (workload, task size) on every device count, link, policy and mode.
@@ -57,6 +60,7 @@ pub fn simulate(
     scene: &str,
     replays: &[Replays],
     counts: &[usize],
+    replay_error: Option<f64>,
 ) -> Result<Vec<SimRecord>, CliError> {
     let mut out = Vec::new();
     for rep in replays {
@@ -115,6 +119,7 @@ pub fn simulate(
                             },
                             makespan_over_bound: seconds / bound.max(1e-300),
                             launches,
+                            replay_error,
                         });
                     }
                 }

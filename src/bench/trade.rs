@@ -7,7 +7,10 @@
 
 use std::time::Instant;
 
-use raytrace::cost::{CostModel, ReducedTraversal, SampleRate, full_work, prediction_error};
+use raytrace::cost::{
+    Compacted, CostModel, ReducedTraversal, SampleRate, Work, calibrate, error_vs_time, full_work,
+    measure_seconds, prediction_error, spearman,
+};
 use raytrace::{Bvh, Probe, RayBatch, RayKind, traverse, workload};
 use serde::Serialize;
 
@@ -71,11 +74,23 @@ pub struct TradePoint {
     pub task_size: usize,
     pub rays: usize,
     pub sample_rate: f64,
-    /// The reduced traversal traced: `thesis` or `first-leaf`.
+    /// How the sample was traced: `thesis`, `first-leaf` or `trace` (the real trace).
     pub probe: &'static str,
+    /// The estimates, calibrated (`kB`, `kT`), against each task's measured single-thread
+    /// trace time: what a plan needs of them.
+    pub error_vs_time: Option<f64>,
+    pub spearman_vs_time: Option<f64>,
+    /// The same with each task's exact counts of the real trace: what no estimate of `B` and
+    /// `T` can beat.
+    pub error_vs_time_trace: Option<f64>,
+    pub spearman_trace_vs_time: Option<f64>,
+    /// The thesis's, against the probe's own full count (secondary: it does not see time).
     pub prediction_error: f64,
     /// Estimation time over the full trace's time, both on all cores, best of three.
     pub overhead: f64,
+    /// What estimating costs a render: the overhead less the sample's trace, where the probe
+    /// traced it for real and the render reuses its hits; else the overhead.
+    pub net_overhead: f64,
     /// The thesis's error and overhead at this rate and ray kind, where Table 4.1 has them.
     pub thesis_prediction_error: Option<f64>,
     pub thesis_overhead: Option<f64>,
@@ -91,6 +106,33 @@ fn best_of_3(mut f: impl FnMut()) -> f64 {
             t.elapsed().as_secs_f64()
         })
         .fold(f64::MAX, f64::min)
+}
+
+/// The rates the trace probe is measured at: its net overhead is what matters, and above
+/// these the sample costs what the trace it saves does.
+const TRACE_RATES: [f64; 4] = [0.03125, 0.0625, 0.125, 0.25];
+
+/// Greatest common divisor, for the finest task size every size is made of.
+fn gcd(a: usize, b: usize) -> usize {
+    if b == 0 { a } else { gcd(b, a % b) }
+}
+
+/// Sums `per` (values of consecutive chunks of `unit` rays) into tasks of `size` rays, a
+/// multiple of `unit`.
+fn regroup(per: &[f64], unit: usize, size: usize) -> Vec<f64> {
+    per.chunks(size / unit).map(|c| c.iter().sum()).collect()
+}
+
+/// Calibrated `work` against `seconds`: error and rank correlation.
+fn vs_time(work: &[Work], seconds: &[f64]) -> (Option<f64>, Option<f64>) {
+    let Ok(fit) = calibrate(work, seconds) else {
+        return (None, None);
+    };
+    let costs = fit.model.costs(work);
+    (
+        error_vs_time(&costs, seconds).ok(),
+        spearman(&costs, seconds).ok(),
+    )
 }
 
 fn points(
@@ -112,19 +154,77 @@ fn points(
         };
         std::hint::black_box(hits);
     });
+    // Each task's measured time and real-trace counts, from chunks of the finest size that
+    // all task sizes are made of, so the rays are timed once.
+    let unit = task_sizes.iter().copied().fold(0, gcd).max(1);
+    let chunks = sched::split_ranges(rays.len(), unit);
+    let ray_kind = if occlusion {
+        RayKind::Ao
+    } else {
+        RayKind::Primary
+    };
+    let chunk_seconds = measure_seconds(bvh, rays, &chunks, ray_kind, 3).map_err(cost_err)?;
+    let counts = if occlusion {
+        traverse::any_hits_counted(bvh, rays).1
+    } else {
+        traverse::closest_hits_counted(bvh, rays).1
+    };
+    let chunk_work: Vec<Work> = chunks
+        .iter()
+        .map(|r| Work::sum(&counts[r.clone()]))
+        .collect();
     let thesis = THESIS.iter().find(|(k, _)| *k == kind).map(|(_, t)| t);
     let mut out = Vec::new();
     for &task_size in task_sizes {
         let tasks = sched::split_ranges(rays.len(), task_size);
-        let full = model.costs(&full_work(bvh, rays, &tasks, probe).map_err(cost_err)?);
-        for rate in RATES {
+        let seconds = regroup(&chunk_seconds, unit, task_size);
+        let trace_work: Vec<Work> = chunk_work
+            .chunks(task_size / unit)
+            .map(|c| {
+                c.iter().fold(Work::default(), |a, w| Work {
+                    nodes: a.nodes + w.nodes,
+                    tris: a.tris + w.tris,
+                })
+            })
+            .collect();
+        let (error_vs_time_trace, spearman_trace_vs_time) = vs_time(&trace_work, &seconds);
+        let traced = Probe::Trace { any: occlusion };
+        let runs = RATES
+            .iter()
+            .map(|&r| (probe, r))
+            .chain(TRACE_RATES.iter().map(|&r| (traced, r)));
+        let mut fulls: Vec<(&'static str, Vec<f64>)> = Vec::new();
+        for (p, rate) in runs {
+            let full = match fulls.iter().find(|(name, _)| *name == p.name()) {
+                Some((_, f)) => f.clone(),
+                None => {
+                    let f = model.costs(&full_work(bvh, rays, &tasks, p).map_err(cost_err)?);
+                    fulls.push((p.name(), f.clone()));
+                    f
+                }
+            };
             let rate = SampleRate::new(rate).map_err(|e| cost_err(e.into()))?;
-            let estimator = ReducedTraversal::new(bvh, rays, rate).with_probe(probe);
-            let mut est = Vec::new();
-            let seconds = best_of_3(|| est = estimator.try_estimate(&tasks).unwrap_or_default());
+            let estimator = ReducedTraversal::new(bvh, rays, rate).with_probe(p);
+            let mut work = Vec::new();
+            let est_seconds = best_of_3(|| work = estimator.try_work(&tasks).unwrap_or_default());
+            let est = model.costs(&work);
             let prediction_error = prediction_error(&est, &full).map_err(cost_err)?;
-            let overhead = seconds / trace.max(1e-12);
-            let thesis_at = thesis.and_then(|t| t.iter().find(|p| p.rate == rate.get()));
+            let overhead = est_seconds / trace.max(1e-12);
+            let net_overhead = if p == traced {
+                let known = Compacted::gather(rays, &tasks, rate)
+                    .map_err(cost_err)?
+                    .index;
+                let rest = best_of_3(|| {
+                    std::hint::black_box(traverse::hits_skipping(bvh, rays, occlusion, &known));
+                });
+                (est_seconds + rest - trace) / trace.max(1e-12)
+            } else {
+                overhead
+            };
+            let (error_vs_time, spearman_vs_time) = vs_time(&work, &seconds);
+            let thesis_at = thesis
+                .filter(|_| p != traced)
+                .and_then(|t| t.iter().find(|x| x.rate == rate.get()));
             out.push(TradePoint {
                 source: "sampling_trade",
                 scene: scene.to_string(),
@@ -132,11 +232,16 @@ fn points(
                 task_size,
                 rays: rays.len(),
                 sample_rate: rate.get(),
-                probe: probe.name(),
+                probe: p.name(),
+                error_vs_time,
+                spearman_vs_time,
+                error_vs_time_trace,
+                spearman_trace_vs_time,
                 prediction_error,
                 overhead,
-                thesis_prediction_error: thesis_at.map(|p| p.error),
-                thesis_overhead: thesis_at.map(|p| p.overhead),
+                net_overhead,
+                thesis_prediction_error: thesis_at.map(|x| x.error),
+                thesis_overhead: thesis_at.map(|x| x.overhead),
                 meets_target: meets_target(kind, prediction_error, overhead),
             });
         }

@@ -224,11 +224,13 @@ impl<'a> PathRenderer<'a> {
                 traffic: estimate_traffic[k],
                 film_bytes: 0,
                 device_seconds: None,
+                launch_overhead: self.devices[d].launch_overhead(),
             })
             .collect();
         let mut cost_done = vec![0.0; active.len()];
         let undelivered = TaskStats {
             cost: 0.0,
+            start: 0.0,
             seconds: 0.0,
             device: usize::MAX,
             device_seconds: None,
@@ -240,6 +242,7 @@ impl<'a> PathRenderer<'a> {
             cost_done[k] += costs.as_slice()[t];
             task_stats[t] = TaskStats {
                 cost: costs.as_slice()[t],
+                start: span.start,
                 seconds: span.end - span.start,
                 device: active[k],
                 device_seconds: span.device_seconds,

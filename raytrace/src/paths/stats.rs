@@ -28,6 +28,8 @@ pub struct PathDeviceStats {
     pub film_bytes: u64,
     /// Kernel seconds it measured itself, where it can.
     pub device_seconds: Option<f64>,
+    /// The launch overhead it declared to the policy, if any.
+    pub launch_overhead: Option<f64>,
 }
 
 /// One rendered frame.

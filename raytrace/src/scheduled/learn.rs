@@ -1,14 +1,51 @@
 //! What a run teaches the next plan: each device's speed, and `kB`, `kT` per device and ray
-//! kind, both from the measured timeline.
+//! kind, both from the measured timeline. A task whose time is far off its prediction (a
+//! timing spike, see [`sched::outliers`]) teaches nothing: it is counted and left out of both.
 
 use crate::RayKind;
 use crate::cost::{Work, calibrate};
 
 use super::DeviceFit;
+use sched::outliers::{SPIKE_FACTOR, inliers};
 use sched::{Costs, Timeline};
 
+/// Which spans of `timeline` are learnt from: per device, those whose time is within
+/// [`SPIKE_FACTOR`] of the device's median time per planned cost.
+pub(crate) fn learnable(costs: &Costs, timeline: &Timeline) -> Vec<bool> {
+    let devices = timeline.devices.max(
+        timeline
+            .spans
+            .iter()
+            .map(|s| s.device as usize + 1)
+            .max()
+            .unwrap_or(0),
+    );
+    let mut per: Vec<Vec<usize>> = vec![Vec::new(); devices];
+    for (k, s) in timeline.spans.iter().enumerate() {
+        per[s.device as usize].push(k);
+    }
+    let mut keep = vec![false; timeline.spans.len()];
+    for spans in per {
+        let predicted: Vec<f64> = spans
+            .iter()
+            .map(|&k| costs[timeline.spans[k].task as usize])
+            .collect();
+        let seconds: Vec<f64> = spans
+            .iter()
+            .map(|&k| (timeline.spans[k].end - timeline.spans[k].start).max(0.0))
+            .collect();
+        for (&k, ok) in spans
+            .iter()
+            .zip(inliers(&predicted, &seconds, SPIKE_FACTOR))
+        {
+            keep[k] = ok;
+        }
+    }
+    keep
+}
+
 /// Relative speeds after a run: each device that did measurable work gets `work / busy` (in
-/// the run's cost units) of its class (`class[d]`: devices of one class are pooled, see
+/// the run's cost units, over the spans `keep` admits) of its class (`class[d]`: devices of one class are pooled, see
 /// [`super::RayDevice::class`]), rescaled so that those devices keep the total speed they had
 /// (`old`); a device that ran nothing keeps its old speed. Units cancel, so a generation
 /// costed in node visits can inform one costed in seconds.
@@ -19,17 +56,15 @@ pub(crate) fn measured_speeds(
     class: &[usize],
     costs: &Costs,
     timeline: &Timeline,
-    busy: &[f64],
+    keep: &[bool],
 ) -> (Vec<f64>, Vec<Option<f64>>) {
     let classes = class.iter().max().map_or(0, |&c| c + 1);
     let (mut work, mut time) = (vec![0.0; classes], vec![0.0; classes]);
     let mut ran = vec![false; old.len()];
-    for s in &timeline.spans {
+    for (s, _) in timeline.spans.iter().zip(keep).filter(|(_, k)| **k) {
         work[class[s.device as usize]] += costs[s.task as usize];
+        time[class[s.device as usize]] += (s.end - s.start).max(0.0);
         ran[s.device as usize] = true;
-    }
-    for (d, &b) in busy.iter().enumerate() {
-        time[class[d]] += b;
     }
     let raw: Vec<Option<f64>> = (0..old.len())
         .map(|d| {
@@ -57,15 +92,17 @@ pub(crate) fn measured_speeds(
 }
 
 /// Least-squares `kB`, `kT` of every device that ran tasks, from their estimated work and
-/// measured times. Fits that cannot plan (no positive weight, not finite) are left out.
+/// measured times (the spans `keep` admits). Fits that cannot plan (no positive weight, not
+/// finite) are left out.
 pub(crate) fn fit_devices(
     kind: RayKind,
     names: &[String],
     work: &[Work],
     timeline: &Timeline,
+    keep: &[bool],
 ) -> Vec<DeviceFit> {
     let mut per_device: Vec<(Vec<Work>, Vec<f64>)> = vec![Default::default(); names.len()];
-    for s in &timeline.spans {
+    for (s, _) in timeline.spans.iter().zip(keep).filter(|(_, k)| **k) {
         let (w, y) = &mut per_device[s.device as usize];
         w.push(work[s.task as usize]);
         y.push((s.end - s.start).max(0.0));
@@ -113,25 +150,69 @@ mod tests {
             ],
         };
         // Device 0: 4 units in 2 s; device 1: 6 units in 1.5 s; device 2 ran nothing.
-        let (speeds, measured) =
-            measured_speeds(&[1.0, 1.0, 1.0], &[0, 1, 2], &costs, &t, &[2.0, 1.5, 0.0]);
+        let all = vec![true; t.spans.len()];
+        let (speeds, measured) = measured_speeds(&[1.0, 1.0, 1.0], &[0, 1, 2], &costs, &t, &all);
         assert_eq!(measured[2], None);
         assert!((speeds[0] - 2.0 / 3.0).abs() < 1e-12, "{speeds:?}");
         assert!((speeds[1] - 4.0 / 3.0).abs() < 1e-12, "{speeds:?}");
         assert_eq!(speeds[2], 1.0);
         // Nothing measurable: speeds unchanged.
-        let (same, _) = measured_speeds(
-            &[1.0, 3.0],
-            &[0, 1],
-            &costs,
-            &Timeline::default(),
-            &[0.0, 0.0],
-        );
+        let (same, _) = measured_speeds(&[1.0, 3.0], &[0, 1], &costs, &Timeline::default(), &[]);
         assert_eq!(same, vec![1.0, 3.0]);
         // Devices 0 and 1 of one class share their measurement: 10 units in 3.5 s.
-        let (pooled, _) =
-            measured_speeds(&[1.0, 1.0, 1.0], &[0, 0, 1], &costs, &t, &[2.0, 1.5, 0.0]);
+        let (pooled, _) = measured_speeds(&[1.0, 1.0, 1.0], &[0, 0, 1], &costs, &t, &all);
         assert_eq!(pooled[0], pooled[1]);
         assert_eq!(pooled[2], 1.0);
+    }
+
+    /// A task a hundred times slower than its prediction is left out of the speeds, so the
+    /// next plan is the one the run without the spike would have made; learnt from, it
+    /// would have moved work off the device it hit.
+    #[test]
+    fn a_timing_spike_leaves_the_next_plan_unchanged() {
+        let mut rng = sched::Rng::new(11);
+        let costs: Vec<f64> = (0..48).map(|_| 1.0 + 9.0 * rng.f64()).collect();
+        let costs = Costs::new(costs).unwrap();
+        // Two devices, the second twice as fast, each task's time its cost over the speed
+        // with ±5 % noise; tasks alternate between them.
+        let timeline = |spike: Option<usize>| {
+            let mut clock = [0.0f64; 2];
+            let mut spans = Vec::new();
+            for t in 0..costs.len() {
+                let d = t % 2;
+                let noise = 1.0 + 0.05 * (t as f64 * 2.399).sin();
+                let mut secs = costs[t] / [1.0, 2.0][d] * noise;
+                if spike == Some(t) {
+                    secs *= 100.0;
+                }
+                spans.push(span(d as u32, t as u32, clock[d], clock[d] + secs));
+                clock[d] += secs;
+            }
+            Timeline { devices: 2, spans }
+        };
+        let next = Costs::new((1..=40).map(f64::from).collect()).unwrap();
+        let plan = |t: &Timeline, keep: &[bool]| {
+            let (speeds, _) = measured_speeds(&[1.0, 1.0], &[0, 1], &costs, t, keep);
+            sched::plan_lpt(&next, &sched::Speeds::new(speeds).unwrap())
+        };
+        let clean = timeline(None);
+        let clean_plan = plan(&clean, &learnable(&costs, &clean));
+        for spiked_task in [0, 7, 30] {
+            let spiked = timeline(Some(spiked_task));
+            let keep = learnable(&costs, &spiked);
+            assert_eq!(
+                keep.iter().filter(|k| !**k).count(),
+                1,
+                "only the spike is left out"
+            );
+            assert!(!keep[spiked_task]);
+            assert_eq!(
+                plan(&spiked, &keep),
+                clean_plan,
+                "spike on task {spiked_task}"
+            );
+            // Learnt from, the spike would have changed the plan.
+            assert_ne!(plan(&spiked, &vec![true; keep.len()]), clean_plan);
+        }
     }
 }

@@ -42,6 +42,9 @@ pub struct GenerationStats {
     pub task_stats: Vec<TaskStats>,
     /// `kB`, `kT` fitted to this generation's tasks, per device (cost mode only).
     pub calibrations: Vec<DeviceFit>,
+    /// Tasks whose time was too far off their prediction to learn speeds or `kB`, `kT` from
+    /// (see `sched::outliers`).
+    pub outliers: usize,
     /// Why the estimate failed and uniform costs were used instead, if it did.
     pub estimate_error: Option<String>,
     /// Where the estimate ran (cost mode): a device's name, or `host` (with why not on a
@@ -79,6 +82,8 @@ pub struct DeviceStats {
     /// Kernel time the device measured itself during the generation (a GPU's timestamp
     /// queries, summed over its launches); `None` where it cannot.
     pub device_seconds: Option<f64>,
+    /// The launch overhead it declared to the policy, if any.
+    pub launch_overhead: Option<f64>,
 }
 
 /// One task of a generation.
@@ -86,6 +91,9 @@ pub struct DeviceStats {
 pub struct TaskStats {
     /// Its cost as planned (1 in regular mode).
     pub cost: f64,
+    /// When its span started, in seconds from the run's start (the first task of a launch
+    /// starts when the launch does).
+    pub start: f64,
     /// Measured time, from the timeline.
     pub seconds: f64,
     /// The device (index in the tracer's list) that delivered it.

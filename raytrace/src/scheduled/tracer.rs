@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use sched::{Costs, DeviceFailure, RunReport, Runtime, SchedError, split_ranges};
 
-use super::learn::{fit_devices, measured_speeds};
+use super::learn::{fit_devices, learnable, measured_speeds};
 use super::speeds::SpeedBook;
 use super::{
     Bound, DeviceStats, EstimateOn, GenerationStats, Mode, RayDevice, Settings, TaskStats,
@@ -265,6 +265,7 @@ impl<'a> ScheduledTracer<'a> {
             failures: Vec::new(),
             task_stats: Vec::new(),
             calibrations: Vec::new(),
+            outliers: 0,
             estimate_error,
             estimated_on,
             host_fallback: false,
@@ -376,12 +377,18 @@ impl ScheduledTracer<'_> {
         let planned = self.speeds.for_kind(stats.kind);
         let old: Vec<f64> = active.iter().map(|&d| planned[d]).collect();
         let class = class_indices(active.iter().map(|&d| self.devices[d].class()));
-        let (new, measured) =
-            measured_speeds(&old, &class, costs, &report.timeline, &report.metrics.busy);
+        // Equal costs (regular mode) predict no task's time, so there is nothing to be far off.
+        let keep = match work {
+            Some(_) => learnable(costs, &report.timeline),
+            None => vec![true; report.timeline.spans.len()],
+        };
+        stats.outliers = keep.iter().filter(|k| !**k).count();
+        let (new, measured) = measured_speeds(&old, &class, costs, &report.timeline, &keep);
 
         let mut task_stats = vec![
             TaskStats {
                 cost: 0.0,
+                start: 0.0,
                 seconds: 0.0,
                 device: usize::MAX,
                 device_seconds: None,
@@ -394,6 +401,7 @@ impl ScheduledTracer<'_> {
             delivered[d] += 1;
             task_stats[s.task as usize] = TaskStats {
                 cost: costs[s.task as usize],
+                start: s.start,
                 seconds: s.end - s.start,
                 device: active[d],
                 device_seconds: s.device_seconds,
@@ -413,6 +421,7 @@ impl ScheduledTracer<'_> {
                 tasks: delivered[i],
                 busy: report.metrics.busy[i],
                 device_seconds: device_seconds[i],
+                launch_overhead: self.devices[active[i]].launch_overhead(),
             })
             .collect();
         stats.plan_seconds = report.plan_seconds;
@@ -422,12 +431,20 @@ impl ScheduledTracer<'_> {
         stats.task_stats = task_stats;
 
         if let Some(work) = work {
-            stats.calibrations = fit_devices(stats.kind, &names, work, &report.timeline);
+            stats.calibrations = fit_devices(stats.kind, &names, work, &report.timeline, &keep);
             for f in &stats.calibrations {
                 self.calibrations.insert(&f.device, f.kind, f.fit.model);
             }
         }
-        let weight: f64 = report.metrics.busy.iter().sum();
+        // Blended by the busy time learnt from: a spike left out adds no evidence.
+        let weight: f64 = report
+            .timeline
+            .spans
+            .iter()
+            .zip(&keep)
+            .filter(|(_, k)| **k)
+            .map(|(s, _)| (s.end - s.start).max(0.0))
+            .sum();
         self.speeds.learn(stats.kind, active, &new, weight);
         // Devices that failed are not planned for again; their speed is left as it was.
         for f in &report.failures {
