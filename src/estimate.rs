@@ -592,8 +592,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
         trace_seconds,
         overhead: estimate_seconds / trace_seconds.max(1e-12),
         rest_seconds,
-        net_overhead: (estimate_seconds + rest_seconds.unwrap_or(trace_seconds) - trace_seconds)
-            / trace_seconds.max(1e-12),
+        // A reduced probe's sample is wasted: its net overhead is its overhead, exactly.
+        net_overhead: match rest_seconds {
+            Some(rest) => (estimate_seconds + rest - trace_seconds) / trace_seconds.max(1e-12),
+            None => estimate_seconds / trace_seconds.max(1e-12),
+        },
         error_vs_time,
         spearman_vs_time,
         error_vs_time_full,

@@ -315,6 +315,8 @@ fn gpu_estimates_equal_cpu_estimates() {
         "256x256",
         "--task-size",
         "50000",
+        "--probe",
+        "thesis",
     ];
     let (c, g) = (run(&long), run(&[&long[..], &["--device", "gpu"]].concat()));
     assert!(g.status.success(), "{}", String::from_utf8_lossy(&g.stderr));
