@@ -48,6 +48,8 @@ pub struct PathRun {
     /// Paths (pixels) and tasks of the frame.
     pub paths: usize,
     pub tasks: usize,
+    /// False in regular mode, and in cost mode on one device (its plan needs no costs).
+    pub estimated: bool,
     pub estimate_seconds: f64,
     pub plan_seconds: f64,
     pub balance_efficiency: f64,
@@ -106,6 +108,7 @@ impl PathRun {
             mrays_per_s: s.mrays_per_s(),
             paths: s.paths,
             tasks: s.tasks,
+            estimated: s.estimated,
             estimate_seconds: s.estimate_seconds,
             plan_seconds: s.plan_seconds,
             balance_efficiency: s.balance_efficiency,

@@ -47,7 +47,8 @@ impl Plan<'_> {
                     settings.mode.name(),
                 );
             }
-            if probe {
+            // A frame on one device is not estimated: there is no estimate to judge.
+            if probe && frame.stats.estimated {
                 sums += frame_error(self.scene, self.bvh, &options, &frame.stats)?;
             }
             frames.push(frame.stats);

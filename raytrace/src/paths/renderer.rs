@@ -165,22 +165,24 @@ impl<'a> PathRenderer<'a> {
 
         let speeds: Vec<f64> = active.iter().map(|&d| self.speed(d)).collect();
         let estimating = Instant::now();
-        let (costs, estimate_traffic) = match self.settings.mode {
-            Mode::Regular => (
+        // One device runs every task whatever their costs: its estimate would change nothing.
+        let estimated = self.settings.mode == Mode::Cost && active.len() > 1;
+        let (costs, estimate_traffic) = if estimated {
+            let (work, traffic) = self.estimate(frame, tasks, &active, &speeds);
+            // Counts are finite and non-negative, so only an empty frame could fail.
+            let costs = Costs::new(CostModel::default().costs(&work))
+                .unwrap_or_else(|_| Costs::uniform(tasks.len()));
+            (costs, traffic)
+        } else {
+            (
                 Costs::uniform(tasks.len()),
                 vec![Traffic::default(); active.len()],
-            ),
-            Mode::Cost => {
-                let (work, traffic) = self.estimate(frame, tasks, &active, &speeds);
-                // Counts are finite and non-negative, so only an empty frame could fail.
-                let costs = Costs::new(CostModel::default().costs(&work))
-                    .unwrap_or_else(|_| Costs::uniform(tasks.len()));
-                (costs, traffic)
-            }
+            )
         };
-        let estimate_seconds = match self.settings.mode {
-            Mode::Regular => 0.0,
-            Mode::Cost => estimating.elapsed().as_secs_f64(),
+        let estimate_seconds = if estimated {
+            estimating.elapsed().as_secs_f64()
+        } else {
+            0.0
         };
 
         let retired = &self.retired;
@@ -265,6 +267,7 @@ impl<'a> PathRenderer<'a> {
             task_size: tasks.iter().map(|t| t.len()).max().unwrap_or(0),
             policy: self.settings.policy,
             mode: self.settings.mode,
+            estimated,
             rays: devices.iter().map(|d| d.rays).sum(),
             estimate_seconds,
             plan_seconds: report.plan_seconds,

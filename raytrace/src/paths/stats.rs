@@ -47,7 +47,10 @@ pub struct FrameStats {
     pub mode: Mode,
     /// Rays traced over all generations and devices.
     pub rays: usize,
-    /// Seconds spent estimating the tasks' costs (0 in regular mode).
+    /// Whether the tasks were estimated: in cost mode, unless one device rendered the frame
+    /// (any plan then takes as long, so the tasks cost alike).
+    pub estimated: bool,
+    /// Seconds spent estimating the tasks' costs (0 when not estimated).
     pub estimate_seconds: f64,
     /// Seconds the policy spent planning.
     pub plan_seconds: f64,
