@@ -43,7 +43,7 @@ pub struct Args {
     /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
     #[arg(long, default_value = "medium")]
     preset: String,
-    /// The CPU's tree: `wide` (4-wide, the default) or `binary` (the tree the GPU walks).
+    /// The CPU's tree: `wide` (8-wide, the default) or `binary` (the tree the GPU walks).
     /// Both give the same closest hits.
     #[arg(long, default_value = "wide")]
     layout: String,

@@ -48,7 +48,7 @@ mod ray;
 mod scene;
 pub mod scheduled;
 pub mod shade;
-mod simd4;
+mod simd;
 mod slab;
 pub mod spawn;
 pub mod testkit;

@@ -61,7 +61,7 @@ pub(crate) const ANY_COUNTED: u8 = 5;
 pub enum Layout {
     /// The binary tree, two boxes and one triangle at a time: what the GPU walks.
     Binary,
-    /// The 4-wide tree collapsed from it ([`crate::bvh::wide`]), four boxes and four
+    /// The 8-wide tree collapsed from it ([`crate::bvh::wide`]), eight boxes and four
     /// triangles at a time: what the CPU queries walk.
     #[default]
     Wide,
@@ -449,12 +449,24 @@ where
     out
 }
 
+/// [`hits_of`] on the wide tree, a chunk of rays per call ([`Bvh::wide_hits`]).
+fn wide_hits_of<const MODE: u8>(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
+    check(rays);
+    let mut out = HitBatch::misses(rays.len());
+    out.t
+        .par_chunks_mut(CHUNK)
+        .zip(out.prim.par_chunks_mut(CHUNK))
+        .enumerate()
+        .for_each(|(c, (ts, ps))| bvh.wide_hits::<MODE>(rays, c * CHUNK, ts, ps));
+    out
+}
+
 /// Closest hits of all rays, in parallel.
 ///
 /// # Panics
 /// Panics if the batch's columns have different lengths.
 pub fn closest_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
-    hits_of(rays, |r| bvh.closest_hit(r))
+    wide_hits_of::<CLOSEST>(bvh, rays)
 }
 
 /// Any hits of all rays, in parallel (`t` is the distance of the hit found).
@@ -462,7 +474,7 @@ pub fn closest_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
 /// # Panics
 /// Panics if the batch's columns have different lengths.
 pub fn any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
-    hits_of(rays, |r| bvh.any_hit(r))
+    wide_hits_of::<ANY>(bvh, rays)
 }
 
 /// [`closest_hits`] or, with `any`, [`any_hits`], on the tree `layout` names: for comparing
@@ -471,6 +483,13 @@ pub fn any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
 /// # Panics
 /// Panics if the batch's columns have different lengths.
 pub fn hits_in(bvh: &Bvh, rays: &RayBatch, any: bool, layout: Layout) -> HitBatch {
+    if layout == Layout::Wide {
+        return if any {
+            wide_hits_of::<ANY>(bvh, rays)
+        } else {
+            wide_hits_of::<CLOSEST>(bvh, rays)
+        };
+    }
     if any {
         hits_of(rays, |r| bvh.any_hit_in(r, layout))
     } else {

@@ -1,12 +1,14 @@
-//! Traversal of the 4-wide tree ([`crate::bvh::wide`]): the closest-hit, any-hit and counted
-//! queries of [`crate::traverse`], four child boxes and four triangles per step.
+//! Traversal of the 8-wide tree ([`crate::bvh::wide`]): the closest-hit, any-hit and counted
+//! queries of [`crate::traverse`], eight child boxes and four triangles per step.
 //!
 //! The closest hit is the smallest `(t, primitive id)` among the triangles the watertight test
 //! accepts in `[tmin, tmax]`; neither the tree's shape nor the order the nodes are visited in
 //! changes it, so the wide and the binary traversal return the same hit, bit for bit.
 //!
 //! Children hit are visited nearest first; the others wait on a stack with their entry
-//! distance and are dropped when the nearest hit so far is closer.
+//! distance and are dropped when the nearest hit so far is closer. Any-hit queries keep the
+//! order too: taking children in slot order instead measured no faster (slower inside rooms,
+//! where the nearest wall is the likeliest occluder).
 //!
 //! `B` counts nodes entered as in the binary traversal: the root, if one of its children's
 //! boxes is hit, and every child (inner or leaf) taken from the stack, whose boxes are the
@@ -16,27 +18,92 @@
 use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
-use crate::simd4::{Box4Ray, Shear4};
+use crate::bvh::wide::WIDTH;
+use crate::simd::{self, Box8Ray, Shear4};
 use crate::traverse::{ANY, ANY_COUNTED, COUNTED, Counts, better, cull_bound};
 use crate::triangle::RayShear;
-use crate::{Hit, Ray};
+use crate::{Hit, Ray, RayBatch};
+
+/// Wide levels the common traversal's stack is sized for (under 4 KiB of entries); deeper
+/// trees take [`Bvh::run_wide_deep`] and its larger stack.
+const SHALLOW: usize = 32;
+
+/// Stack entries for a wide tree of `levels` levels: each node on the path leaves at most
+/// `WIDTH - 1` children on the stack, and holds one more briefly.
+const fn stack_for(levels: usize) -> usize {
+    (WIDTH - 1) * levels + 1
+}
 
 impl Bvh {
     /// The wide tree's answer to a closest-hit, any-hit or counted query (`MODE` as in
-    /// [`crate::traverse`]).
+    /// [`crate::traverse`]), with the SSE box test, inlined into the caller.
+    ///
+    /// One ray at a time takes no AVX2: that needs a call into a function compiled for it
+    /// per ray, which measured slower than the SSE test inlined. Batches take it a chunk of
+    /// rays per call ([`Bvh::wide_hits`]).
     #[inline(always)]
     pub(crate) fn run_wide<const MODE: u8>(&self, ray: &Ray) -> (Option<Hit>, Counts) {
-        // Each wide node on the path pushes at most three children, and the wide tree is no
-        // deeper than the binary one.
-        if self.depth <= 64 {
-            self.traverse_wide::<MODE, { 3 * 64 }>(ray)
+        if self.wide.depth > SHALLOW {
+            return self.run_wide_deep::<MODE>(ray);
+        }
+        // SAFETY: the SSE kernels need nothing beyond the x86_64 baseline.
+        unsafe { self.traverse_wide::<MODE, false, { stack_for(SHALLOW) }>(ray) }
+    }
+
+    /// [`Bvh::run_wide`] on a tree deeper than [`SHALLOW`], kept out of line so that its
+    /// larger stack does not grow the common case's frame.
+    #[inline(never)]
+    fn run_wide_deep<const MODE: u8>(&self, ray: &Ray) -> (Option<Hit>, Counts) {
+        // SAFETY: the SSE kernels need nothing beyond the x86_64 baseline.
+        unsafe { self.traverse_wide::<MODE, false, { stack_for(crate::bvh::MAX_DEPTH) }>(ray) }
+    }
+
+    /// The hits of rays `first ..` of `rays` (as many as `t` has room for) into `t` and
+    /// `prim`, left as they are on a miss. Where the CPU has AVX2, the whole run is one call
+    /// into a loop compiled for it, so the eight-box test is one AVX2 pass, inlined.
+    pub(crate) fn wide_hits<const MODE: u8>(
+        &self,
+        rays: &RayBatch,
+        first: usize,
+        t: &mut [f32],
+        prim: &mut [u32],
+    ) {
+        if self.wide.depth <= SHALLOW && simd::avx2() {
+            // SAFETY: the CPU has AVX2, just checked, and the tree is shallow.
+            unsafe { self.wide_hits_avx2::<MODE>(rays, first, t, prim) }
         } else {
-            self.traverse_wide::<MODE, { 3 * crate::bvh::MAX_DEPTH }>(ray)
+            for (k, (t, p)) in t.iter_mut().zip(prim.iter_mut()).enumerate() {
+                if let Some(h) = self.run_wide::<MODE>(&rays.get(first + k)).0 {
+                    (*t, *p) = (h.t, h.prim);
+                }
+            }
         }
     }
 
+    /// # Safety
+    /// The CPU must have AVX2, and the tree be no deeper than [`SHALLOW`].
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2"))]
+    unsafe fn wide_hits_avx2<const MODE: u8>(
+        &self,
+        rays: &RayBatch,
+        first: usize,
+        t: &mut [f32],
+        prim: &mut [u32],
+    ) {
+        for (k, (t, p)) in t.iter_mut().zip(prim.iter_mut()).enumerate() {
+            let r = rays.get(first + k);
+            // SAFETY: as the caller states (see `# Safety`).
+            let hit = unsafe { self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&r) };
+            if let Some(h) = hit.0 {
+                (*t, *p) = (h.t, h.prim);
+            }
+        }
+    }
+
+    /// # Safety
+    /// With `AVX2`, the CPU must have AVX2.
     #[inline(always)]
-    fn traverse_wide<const MODE: u8, const STACK: usize>(
+    unsafe fn traverse_wide<const MODE: u8, const AVX2: bool, const STACK: usize>(
         &self,
         ray: &Ray,
     ) -> (Option<Hit>, Counts) {
@@ -57,7 +124,7 @@ impl Bvh {
         let (tmin, tmax) = (ray.tmin, ray.tmax);
         let mut best: Option<Hit> = None;
         let mut cull = cull_bound(tmax);
-        let boxes = Box4Ray::new(ray);
+        let boxes = Box8Ray::new(ray);
         let shear = Shear4::new(shear);
         let nodes = &wide.nodes[..];
         let groups = &wide.groups[..];
@@ -75,7 +142,8 @@ impl Bvh {
                 // SAFETY: `child` is 0 or an inner child index written by `WideBvh::collapse`,
                 // which only writes indices of nodes it pushed.
                 let node = unsafe { nodes.get_unchecked(child as usize) };
-                let (mask, near) = boxes.hit4(node, tmin, cull);
+                // SAFETY: as the caller states (see `# Safety`).
+                let (mask, near) = unsafe { boxes.hit8::<AVX2>(node, tmin, cull) };
                 if mask == 0 && child == 0 {
                     // The root's own box is not tested (its children's are, at once): a ray
                     // that meets none of them has entered nothing.
@@ -87,9 +155,9 @@ impl Bvh {
                         (child, count) = (node.child[first], node.count[first]);
                         continue;
                     }
-                    // Two to four children: order them nearest first (ties by slot, so the
+                    // Two to eight children: order them nearest first (ties by slot, so the
                     // walk is deterministic), push all but the nearest, farthest first.
-                    let mut hit = [(0usize, 0f32); 4];
+                    let mut hit = [(0usize, 0f32); WIDTH];
                     let mut n = 0;
                     for (k, &t) in near.iter().enumerate() {
                         if mask & (1 << k) != 0 {
@@ -103,7 +171,7 @@ impl Bvh {
                         }
                     }
                     for &(k, t) in hit[1..n].iter().rev() {
-                        // The stack never holds more than 3 entries per wide level (see above).
+                        // The stack holds at most `WIDTH - 1` entries per wide level.
                         stack[sp].write((node.child[k], node.count[k], t));
                         sp += 1;
                     }

@@ -105,7 +105,7 @@ pub struct BuildReport {
     pub degenerate_skipped: usize,
     /// Whether large triangles were split (a triangle may then sit in several leaves).
     pub spatial_splits: bool,
-    /// Collapsing the binary tree into the CPU's 4-wide one, seconds (part of the total).
+    /// Collapsing the binary tree into the CPU's 8-wide one, seconds (part of the total).
     pub collapse_seconds: f64,
 }
 

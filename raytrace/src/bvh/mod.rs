@@ -16,7 +16,7 @@ pub use wide::WideBvh;
 /// it by rebuilding deeper subtrees by object median.
 pub const MAX_DEPTH: usize = 256;
 
-/// A flattened binary BVH over a scene's non-degenerate triangles, and the 4-wide tree
+/// A flattened binary BVH over a scene's non-degenerate triangles, and the 8-wide tree
 /// collapsed from it.
 ///
 /// The node array and the triangle array are the binary tree: a GPU uploads them unchanged and
@@ -45,7 +45,7 @@ impl Bvh {
         &self.tris
     }
 
-    /// The 4-wide tree the CPU's hit queries walk.
+    /// The 8-wide tree the CPU's hit queries walk.
     pub fn wide(&self) -> &WideBvh {
         &self.wide
     }

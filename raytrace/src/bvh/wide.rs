@@ -1,45 +1,51 @@
-//! The 4-wide BVH the CPU traces: the binary tree collapsed so that each node holds up to four
-//! children's boxes side by side (one SIMD lane each), and each leaf's triangles packed four to
-//! a group, coordinates by lane (see `simd4.rs`).
+//! The 8-wide BVH the CPU traces: the binary tree collapsed so that each node holds up to eight
+//! children's boxes side by side (one SIMD lane each: one AVX2 register, or two SSE ones), and
+//! each leaf's triangles packed four to a group, coordinates by lane (see `simd.rs`).
 //!
 //! Collapsing keeps the binary tree's leaves and boxes as they are: a wide node's children are
-//! binary nodes, chosen by opening the largest-area inner child until there are four. A ray
+//! binary nodes, chosen by opening the largest-area inner child until there are eight. A ray
 //! therefore tests exactly the boxes the binary traversal would, only fewer of them one by one.
+//! Eight, not four, as Embree's trees on AVX2 CPUs: half as many levels, so half as many
+//! dependent node fetches on the way down, which is what an incoherent ray waits on.
 
 use bytemuck::{Pod, Zeroable};
 
 use super::{BvhTriangle, Node};
 
-/// Four child boxes and their references, 128 bytes (two cache lines), `Pod`.
+/// Children per wide node.
+pub const WIDTH: usize = 8;
+
+/// Eight child boxes and their references, 256 bytes (four cache lines), `Pod`.
 ///
 /// Child `k` is an inner node (`count[k] == 0`) at `child[k]` of [`WideBvh::nodes`], or a
 /// leaf of `count[k]` triangles in groups `child[k] ..` of [`WideBvh::groups`]. An unused slot
 /// has an empty box (min `f32::MAX`, max `f32::MIN`) that no ray enters, as [`Node::PAD`].
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct Node4 {
-    /// Box planes by lane: min x, min y, min z, max x, max y, max z.
-    pub planes: [[f32; 4]; 6],
+pub struct Node8 {
+    /// Box planes by lane: min x, min y, min z, max x, max y, max z. Each row is 32-byte
+    /// aligned, as AVX's aligned loads want.
+    pub planes: [[f32; WIDTH]; 6],
     /// Inner node index or first triangle group.
-    pub child: [u32; 4],
+    pub child: [u32; WIDTH],
     /// Triangles of a leaf child; zero for an inner child.
-    pub count: [u32; 4],
+    pub count: [u32; WIDTH],
 }
 
-const _: () = assert!(size_of::<Node4>() == 128);
+const _: () = assert!(size_of::<Node8>() == 256);
 
-impl Node4 {
+impl Node8 {
     const EMPTY: Self = Self {
         planes: [
-            [f32::MAX; 4],
-            [f32::MAX; 4],
-            [f32::MAX; 4],
-            [f32::MIN; 4],
-            [f32::MIN; 4],
-            [f32::MIN; 4],
+            [f32::MAX; WIDTH],
+            [f32::MAX; WIDTH],
+            [f32::MAX; WIDTH],
+            [f32::MIN; WIDTH],
+            [f32::MIN; WIDTH],
+            [f32::MIN; WIDTH],
         ],
-        child: [0; 4],
-        count: [0; 4],
+        child: [0; WIDTH],
+        count: [0; WIDTH],
     };
 
     fn set(&mut self, k: usize, n: &Node, child: u32, count: u32) {
@@ -70,14 +76,21 @@ const _: () = assert!(size_of::<Tri4>() == 160);
 /// The collapsed tree; empty when the binary tree has no triangles.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct WideBvh {
-    pub(crate) nodes: Vec<Node4>,
+    pub(crate) nodes: Vec<Node8>,
     pub(crate) groups: Vec<Tri4>,
+    /// Levels of wide nodes (a lone root has depth 1); no more than the binary tree's.
+    pub(crate) depth: usize,
 }
 
 impl WideBvh {
     /// Wide nodes; node 0 is the root, whose children are the binary root's.
-    pub fn nodes(&self) -> &[Node4] {
+    pub fn nodes(&self) -> &[Node8] {
         &self.nodes
+    }
+
+    /// Levels of wide nodes.
+    pub fn depth(&self) -> usize {
+        self.depth
     }
 
     /// Triangle groups, leaf by leaf.
@@ -101,11 +114,13 @@ impl WideBvh {
             }
             spans[i].filter(|&(_, c)| c <= 4)
         };
-        out.nodes.push(Node4::EMPTY);
+        out.nodes.push(Node8::EMPTY);
         // (wide node to fill, binary node whose children it gets). A lone root leaf becomes
         // the only child of the wide root.
-        let mut todo: Vec<(usize, Option<usize>)> = vec![(0, (!nodes[0].is_leaf()).then_some(0))];
-        while let Some((w, b)) = todo.pop() {
+        let mut todo: Vec<(usize, Option<usize>, usize)> =
+            vec![(0, (!nodes[0].is_leaf()).then_some(0), 1)];
+        while let Some((w, b, level)) = todo.pop() {
+            out.depth = out.depth.max(level);
             let mut kids: Vec<usize> = match b {
                 Some(b) => {
                     let l = nodes[b].index as usize;
@@ -113,9 +128,9 @@ impl WideBvh {
                 }
                 None => vec![0],
             };
-            // Open the largest inner child until four: the big boxes are the ones rays enter
+            // Open the largest inner child until eight: the big boxes are the ones rays enter
             // most often, so they are the ones worth testing alongside their siblings.
-            while kids.len() < 4 {
+            while kids.len() < WIDTH {
                 let widest = kids
                     .iter()
                     .enumerate()
@@ -141,9 +156,9 @@ impl WideBvh {
                     out.nodes[w].set(k, n, first, count);
                 } else {
                     let c = out.nodes.len();
-                    out.nodes.push(Node4::EMPTY);
+                    out.nodes.push(Node8::EMPTY);
                     out.nodes[w].set(k, n, c as u32, 0);
-                    inner.push((c, Some(i)));
+                    inner.push((c, Some(i), level + 1));
                 }
             }
             // Depth first, first child next, so a subtree's nodes lie together.

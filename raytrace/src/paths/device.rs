@@ -100,7 +100,7 @@ pub trait PathDevice: Send {
 
     /// What [`PathDevice::estimate`]'s counts are counted on: devices of one kind give the
     /// same work for the same tasks, devices of different kinds do not (the host's traces
-    /// walk the 4-wide tree, the GPU kernels the binary one), so a frame's tasks are all
+    /// walk the 8-wide tree, the GPU kernels the binary one), so a frame's tasks are all
     /// estimated by devices of one kind. `"host"` by default.
     fn estimate_kind(&self) -> &'static str {
         "host"

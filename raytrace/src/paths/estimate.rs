@@ -84,7 +84,7 @@ pub fn task_work(paths: Work, probes: Work, len: usize, sampled: usize, probe_sc
 }
 
 /// The estimated work of each of `tasks` (ranges of `frame`'s paths), sampling at `rate`,
-/// traced on the host on the 4-wide tree its hit queries walk. Tasks are estimated in
+/// traced on the host on the 8-wide tree its hit queries walk. Tasks are estimated in
 /// parallel in the caller's rayon pool.
 pub fn estimate_paths<T>(frame: &Frame<'_>, tasks: &[T], rate: SampleRate) -> Vec<Work>
 where

@@ -1,29 +1,47 @@
-//! Four-lane kernels of the wide traversal: the conservative box test of four children
-//! ([`Box4Ray::hit4`]) and the watertight test of four triangles ([`Shear4::intersect4`]).
+//! Lane kernels of the wide traversal: the conservative box test of a node's eight children
+//! ([`Box8Ray::hit8`]) and the watertight test of four triangles ([`Shear4::intersect4`]).
 //!
 //! Each lane does exactly what the scalar tests do ([`crate::slab`] and
 //! [`crate::intersect_watertight`]): the same IEEE operations in the same order, with no fused
 //! multiply-add, so every lane's result equals the scalar one bit for bit (tests below check
-//! it). On x86_64 the lanes are SSE2 registers (SSE2 is part of the x86_64 baseline, so no
-//! detection is needed); elsewhere they are loops over `[f32; 4]`.
+//! it). On x86_64 the box test is one AVX2 pass where the CPU has AVX2 (the caller detects it,
+//! see [`avx2`]) and two SSE2 passes otherwise; the triangle test is SSE2 (part of the x86_64
+//! baseline, so it needs no detection). Elsewhere both are loops over arrays.
 
 use crate::Ray;
-use crate::bvh::wide::{Node4, Tri4};
+use crate::bvh::wide::{Node8, Tri4, WIDTH};
 use crate::slab::far_scale;
 use crate::triangle::RayShear;
 
-/// The per-ray part of the four-box test.
+/// Whether this CPU runs the AVX2 box test; detected once (std caches the answer).
+#[inline(always)]
+pub(crate) fn avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// The per-ray part of the eight-box test.
 #[derive(Clone, Copy)]
-pub(crate) struct Box4Ray {
+pub(crate) struct Box8Ray {
     org: [f32; 3],
     inv: [f32; 3],
-    /// Plane row of the near side per axis ([`Node4::planes`]); the far side is `near ^ ..`.
+    /// Plane row of the near side per axis ([`Node8::planes`]).
     near: [usize; 3],
     far: [usize; 3],
     scale: f32,
 }
 
-impl Box4Ray {
+/// The box test's answer: a bit per child whose box the ray meets, and each child's entry
+/// distance (meaningful where the bit is set).
+pub(crate) type Hits8 = (u32, [f32; WIDTH]);
+
+impl Box8Ray {
     #[inline(always)]
     pub(crate) fn new(r: &Ray) -> Self {
         let d = r.dir.to_array();
@@ -37,26 +55,40 @@ impl Box4Ray {
         }
     }
 
-    /// A bit per child whose box the ray meets within `[tmin, tmax]`, and each child's entry
-    /// distance (meaningful where the bit is set).
+    /// The children whose boxes the ray meets within `[tmin, tmax]`. `AVX2` picks the AVX2
+    /// kernel, which the caller must have detected ([`avx2`]) and must run in a function
+    /// compiled with `#[target_feature(enable = "avx2")]` for the kernel to be inlined.
+    ///
+    /// # Safety
+    /// With `AVX2`, the CPU must have AVX2.
     #[inline(always)]
-    pub(crate) fn hit4(&self, node: &Node4, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
+    pub(crate) unsafe fn hit8<const AVX2: bool>(
+        &self,
+        node: &Node8,
+        tmin: f32,
+        tmax: f32,
+    ) -> Hits8 {
         #[cfg(target_arch = "x86_64")]
         {
-            sse::hit4(self, node, tmin, tmax)
+            if AVX2 {
+                // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
+                unsafe { x86::hit8_avx2(self, node, tmin, tmax) }
+            } else {
+                x86::hit8_sse(self, node, tmin, tmax)
+            }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            self.hit4_scalar(node, tmin, tmax)
+            self.hit8_scalar(node, tmin, tmax)
         }
     }
 
-    /// [`Box4Ray::hit4`] lane by lane, as [`crate::slab`]'s scalar test does it.
+    /// [`Box8Ray::hit8`] lane by lane, as [`crate::slab`]'s scalar test does it.
     #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
-    pub(crate) fn hit4_scalar(&self, node: &Node4, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
+    pub(crate) fn hit8_scalar(&self, node: &Node8, tmin: f32, tmax: f32) -> Hits8 {
         let p = &node.planes;
-        let (mut mask, mut near) = (0, [0f32; 4]);
-        for k in 0..4 {
+        let (mut mask, mut near) = (0, [0f32; WIDTH]);
+        for k in 0..WIDTH {
             let mut t0 = tmin;
             let mut t1 = f32::INFINITY;
             for a in 0..3 {
@@ -115,7 +147,7 @@ impl Shear4 {
     pub(crate) fn intersect4(&self, g: &Tri4, tmin: f32, tmax: f32) -> Hits4 {
         #[cfg(target_arch = "x86_64")]
         {
-            sse::intersect4(self, g, tmin, tmax)
+            x86::intersect4(self, g, tmin, tmax)
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
@@ -147,16 +179,18 @@ impl Shear4 {
 }
 
 #[cfg(target_arch = "x86_64")]
-mod sse {
+mod x86 {
     use std::arch::x86_64::{
-        __m128, _mm_add_ps, _mm_and_ps, _mm_andnot_ps, _mm_castsi128_ps, _mm_cmpeq_ps,
+        __m128, _CMP_LE_OQ, _mm_add_ps, _mm_and_ps, _mm_andnot_ps, _mm_castsi128_ps, _mm_cmpeq_ps,
         _mm_cmpgt_ps, _mm_cmple_ps, _mm_cmplt_ps, _mm_div_ps, _mm_load_ps, _mm_loadu_ps,
         _mm_max_ps, _mm_min_ps, _mm_movemask_ps, _mm_mul_ps, _mm_or_ps, _mm_set1_epi32,
-        _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps, _mm_sub_ps, _mm_xor_ps,
+        _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps, _mm_sub_ps, _mm_xor_ps, _mm256_cmp_ps,
+        _mm256_load_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps,
+        _mm256_set1_ps, _mm256_storeu_ps, _mm256_sub_ps,
     };
 
-    use super::{Box4Ray, Hits4, Shear4};
-    use crate::bvh::wide::{Node4, Tri4};
+    use super::{Box8Ray, Hits4, Hits8, Shear4, WIDTH};
+    use crate::bvh::wide::{Node8, Tri4};
 
     #[inline(always)]
     fn load(a: &[f32; 4]) -> __m128 {
@@ -172,38 +206,74 @@ mod sse {
         a
     }
 
+    /// The eight boxes as two four-lane halves.
     #[inline(always)]
-    pub(super) fn hit4(r: &Box4Ray, node: &Node4, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
-        // SAFETY: SSE2 is part of the x86_64 baseline; `Node4` is 64-byte aligned and its
-        // rows are 16 bytes each, so every row is a 16-byte aligned `[f32; 4]` for the loads.
-        unsafe { hit4_sse(r, node, tmin, tmax) }
+    pub(super) fn hit8_sse(r: &Box8Ray, node: &Node8, tmin: f32, tmax: f32) -> Hits8 {
+        let p = &node.planes;
+        let (mut mask, mut near) = (0, [0f32; WIDTH]);
+        for half in 0..2 {
+            let lanes = 4 * half..4 * half + 4;
+            // SAFETY: SSE2 is part of the x86_64 baseline. `Node8` is 64-byte aligned and its
+            // rows are 32 bytes each, so each half row is a 16-byte aligned run of four floats
+            // for `_mm_load_ps`; `% 6` keeps the row indices in bounds (they already are).
+            let (m, t0) = unsafe {
+                let mut t0 = _mm_set1_ps(tmin);
+                let mut t1 = _mm_set1_ps(f32::INFINITY);
+                for a in 0..3 {
+                    let (o, inv) = (_mm_set1_ps(r.org[a]), _mm_set1_ps(r.inv[a]));
+                    let n = _mm_load_ps(p[r.near[a] % 6][lanes.clone()].as_ptr());
+                    let f = _mm_load_ps(p[r.far[a] % 6][lanes.clone()].as_ptr());
+                    let n = _mm_mul_ps(_mm_sub_ps(n, o), inv);
+                    let f = _mm_mul_ps(_mm_sub_ps(f, o), inv);
+                    // `max_ps(x, acc)` returns `acc` where `x` is NaN: NaN slabs are ignored.
+                    t0 = _mm_max_ps(n, t0);
+                    t1 = _mm_min_ps(f, t1);
+                }
+                let t1 = _mm_min_ps(_mm_mul_ps(t1, _mm_set1_ps(r.scale)), _mm_set1_ps(tmax));
+                (_mm_movemask_ps(_mm_cmple_ps(t0, t1)) as u32, store(t0))
+            };
+            mask |= m << (4 * half);
+            near[lanes].copy_from_slice(&t0);
+        }
+        (mask, near)
     }
 
-    #[inline(always)]
+    /// The eight boxes in one pass of 256-bit registers.
+    ///
     /// # Safety
-    /// SSE2 must be available (it is on every x86_64 CPU).
-    unsafe fn hit4_sse(r: &Box4Ray, node: &Node4, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
-        // SAFETY: as the caller states (see `# Safety`).
-        unsafe {
-            let p = &node.planes;
-            let mut t0 = _mm_set1_ps(tmin);
-            let mut t1 = _mm_set1_ps(f32::INFINITY);
-            for a in 0..3 {
-                let (o, inv) = (_mm_set1_ps(r.org[a]), _mm_set1_ps(r.inv[a]));
-                let (n, f) = (
-                    _mm_load_ps(p[r.near[a] % 6].as_ptr()),
-                    _mm_load_ps(p[r.far[a] % 6].as_ptr()),
-                );
-                let n = _mm_mul_ps(_mm_sub_ps(n, o), inv);
-                let f = _mm_mul_ps(_mm_sub_ps(f, o), inv);
-                // `max_ps(x, acc)` returns `acc` where `x` is NaN: NaN slabs are ignored.
-                t0 = _mm_max_ps(n, t0);
-                t1 = _mm_min_ps(f, t1);
-            }
-            let t1 = _mm_min_ps(_mm_mul_ps(t1, _mm_set1_ps(r.scale)), _mm_set1_ps(tmax));
-            let mask = _mm_movemask_ps(_mm_cmple_ps(t0, t1)) as u32;
-            (mask, store(t0))
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn hit8_avx2(r: &Box8Ray, node: &Node8, tmin: f32, tmax: f32) -> Hits8 {
+        let p = &node.planes;
+        let mut t0 = _mm256_set1_ps(tmin);
+        let mut t1 = _mm256_set1_ps(f32::INFINITY);
+        for a in 0..3 {
+            let (o, inv) = (_mm256_set1_ps(r.org[a]), _mm256_set1_ps(r.inv[a]));
+            // SAFETY: `Node8` is 64-byte aligned and its rows are 32 bytes each, so every row
+            // is a 32-byte aligned run of eight floats for `_mm256_load_ps`; `% 6` keeps the
+            // row indices in bounds (they already are).
+            let (n, f) = unsafe {
+                (
+                    _mm256_load_ps(p[r.near[a] % 6].as_ptr()),
+                    _mm256_load_ps(p[r.far[a] % 6].as_ptr()),
+                )
+            };
+            let n = _mm256_mul_ps(_mm256_sub_ps(n, o), inv);
+            let f = _mm256_mul_ps(_mm256_sub_ps(f, o), inv);
+            // As in the SSE test: NaN slabs leave the accumulators as they are.
+            t0 = _mm256_max_ps(n, t0);
+            t1 = _mm256_min_ps(f, t1);
         }
+        let t1 = _mm256_min_ps(
+            _mm256_mul_ps(t1, _mm256_set1_ps(r.scale)),
+            _mm256_set1_ps(tmax),
+        );
+        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
+        let mut near = [0f32; WIDTH];
+        // SAFETY: `near` is eight writable floats.
+        unsafe { _mm256_storeu_ps(near.as_mut_ptr(), t0) };
+        (mask, near)
     }
 
     #[inline(always)]
@@ -351,8 +421,8 @@ mod tests {
         };
         let (mut box_hits, mut tri_hits) = (0, 0);
         for _ in 0..20_000 {
-            let mut node = Node4::zeroed();
-            for k in 0..4 {
+            let mut node = Node8::zeroed();
+            for k in 0..WIDTH {
                 for a in 0..3 {
                     let (x, y) = (c(4), c(4));
                     node.planes[a][k] = x.min(y);
@@ -373,16 +443,23 @@ mod tests {
                 c(2).abs(),
                 if c(1) == 0.0 { 3.0 } else { f32::INFINITY },
             );
-            let br = Box4Ray::new(&ray);
-            let (m, t) = br.hit4(&node, ray.tmin, ray.tmax);
-            let (ms, ts) = br.hit4_scalar(&node, ray.tmin, ray.tmax);
-            assert_eq!(m, ms, "{ray:?} {node:?} (COBALT_SEED={seed})");
-            for k in 0..4 {
-                if m & (1 << k) != 0 {
-                    assert_eq!(t[k].to_bits(), ts[k].to_bits(), "{ray:?} {node:?}");
+            let br = Box8Ray::new(&ray);
+            let (ms, ts) = br.hit8_scalar(&node, ray.tmin, ray.tmax);
+            // SAFETY: the SSE kernel needs nothing beyond the baseline.
+            let mut kernels = vec![unsafe { br.hit8::<false>(&node, ray.tmin, ray.tmax) }];
+            if avx2() {
+                // SAFETY: AVX2 was just detected.
+                kernels.push(unsafe { br.hit8::<true>(&node, ray.tmin, ray.tmax) });
+            }
+            for (m, t) in kernels {
+                assert_eq!(m, ms, "{ray:?} {node:?} (COBALT_SEED={seed})");
+                for k in 0..WIDTH {
+                    if m & (1 << k) != 0 {
+                        assert_eq!(t[k].to_bits(), ts[k].to_bits(), "{ray:?} {node:?}");
+                    }
                 }
             }
-            box_hits += m.count_ones();
+            box_hits += ms.count_ones();
             let Some(shear) = RayShear::new(ray.origin, ray.dir) else {
                 continue;
             };
@@ -400,7 +477,7 @@ mod tests {
         }
         // Both outcomes are exercised, not just misses.
         assert!(
-            box_hits > 5_000 && tri_hits > 2_000,
+            box_hits > 10_000 && tri_hits > 2_000,
             "{box_hits} {tri_hits}"
         );
     }
