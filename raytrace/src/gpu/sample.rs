@@ -43,8 +43,10 @@ impl GpuRenderer {
     /// sums its rays' counts per task (see the module docs).
     ///
     /// # Errors
-    /// [`GpuError::TooLarge`] when the sampled paths or their probes exceed one binding, and
-    /// the errors of [`GpuRenderer::render_ao`].
+    /// [`GpuError::TooLarge`] when the sampled paths or their probes exceed one binding,
+    /// [`GpuError::LoopCut`] when a trace's queue was not drained (a checked re-run, which
+    /// the renders have, would not count: the caller estimates elsewhere), and the errors of
+    /// [`GpuRenderer::render_ao`].
     pub fn sample_paths(
         &self,
         frame: &FrameParams<'_>,
@@ -52,17 +54,21 @@ impl GpuRenderer {
         shader: &Shader,
         stride: u32,
     ) -> Result<SampledPaths, GpuError> {
-        self.drained(|checked| self.sample_launch(frame, tasks, shader, stride, checked))
+        self.sample_launch(frame, tasks, shader, stride)?
+            .ok_or_else(|| GpuError::LoopCut {
+                adapter: self.ctx.info.name.clone(),
+                batches: super::pipeline::BATCHES,
+            })
     }
 
-    /// One launch of [`GpuRenderer::sample_paths`]; `None` when a queue was not drained.
+    /// One launch of [`GpuRenderer::sample_paths`], one submission; `None` when a queue was
+    /// not drained.
     fn sample_launch(
         &self,
         frame: &FrameParams<'_>,
         tasks: &[&Range<usize>],
         shader: &Shader,
         stride: u32,
-        checked: bool,
     ) -> Result<Option<SampledPaths>, GpuError> {
         let mut traffic = Traffic::default();
         let (ao, secondary) = match shader {
@@ -115,7 +121,7 @@ impl GpuRenderer {
             paths: zeroed("cobalt sampled path counts", n * 8, none),
             probes: zeroed("cobalt sampled probe counts", n * 8, none),
         };
-        let mut launch = self.recorder(&stage, checked);
+        let mut launch = self.recorder(&stage, false);
         match shader {
             Shader::Ao(s) => {
                 self.record_ao(

@@ -960,7 +960,8 @@ fn one_task_launches_move_their_counts_only() {
 
 /// A launch whose traces leave their queues undrained (here: recorded with no dispatch) is
 /// caught by its verdict and run again with the host checking every trace: the values are
-/// those of a launch that drained, for both shaders.
+/// those of a launch that drained, for both shaders. An estimate's launch, whose counting
+/// traces cannot be checked, fails instead (its caller estimates on the host).
 #[test]
 fn an_undrained_launch_is_run_again_checked() {
     let Some(ctx) = gpu() else { return };
@@ -985,6 +986,18 @@ fn an_undrained_launch_is_run_again_checked() {
             out.traffic.host_waits > 2,
             "checked traces: {:?}",
             out.traffic
+        );
+        // An estimate's traces would not count when checked: it says so instead.
+        let frame = FrameParams {
+            width: 40,
+            height: 24,
+            camera: &options.camera,
+        };
+        let all = 0..40 * 24;
+        let sampled = starved.sample_paths(&frame, &[&all], &shader, 4);
+        assert!(
+            matches!(sampled, Err(GpuError::LoopCut { .. })),
+            "{sampled:?}"
         );
     }
 }
