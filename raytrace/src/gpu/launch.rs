@@ -11,7 +11,7 @@
 //! Nothing of a trace is uploaded: its queue is a new (zeroed) buffer and its ray count is
 //! copied on the device from the launch's [`Header`](super::resident::Header).
 
-use super::buffers::{SceneBuffers, init, read_back};
+use super::buffers::{SceneBuffers, init, read_back, storage};
 use super::pipeline::{
     GpuMode, Kernels, Threads, TraceRound, grid, stamp_seconds, timestamps, trace_resident,
 };
@@ -237,19 +237,18 @@ impl<'a> Recorder<'a> {
         }
         let device = &self.ctx.device;
         // New buffers are zeroed by wgpu: the queue starts empty without an upload.
-        let queue = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("cobalt ray queue"),
-            size: 8,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
+        let queue = storage(device, "cobalt ray queue", 8, wgpu::BufferUsages::COPY_SRC);
         let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_SRC;
-        let (words, counts) = match count {
-            Count::Copied(..) => ([0; 4], None),
-            Count::Uploaded => ([n, 0, 0, 0], None),
-            Count::Counted { counts, per_path } => ([n, per_path.max(1), 1, 0], Some(counts)),
+        let mut upload = |words: [u32; 4]| {
+            traffic.host_to_device_bytes += 16;
+            init(
+                device,
+                "cobalt trace parameters",
+                bytemuck::cast_slice(&words),
+                usage,
+            )
         };
-        let params = match count {
+        let (params, counts) = match count {
             Count::Copied(from, at) => {
                 let params = device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("cobalt trace parameters"),
@@ -258,16 +257,11 @@ impl<'a> Recorder<'a> {
                     mapped_at_creation: false,
                 });
                 self.copy(from, at, &params, 0, 4);
-                params
+                (params, None)
             }
-            _ => {
-                traffic.host_to_device_bytes += 16;
-                init(
-                    device,
-                    "cobalt trace parameters",
-                    bytemuck::cast_slice(&words),
-                    usage,
-                )
+            Count::Uploaded => (upload([n, 0, 0, 0]), None),
+            Count::Counted { counts, per_path } => {
+                (upload([n, per_path.max(1), 1, 0]), Some(counts))
             }
         };
         let round = TraceRound::bound(
@@ -315,18 +309,18 @@ impl<'a> Recorder<'a> {
         let device = &self.ctx.device;
         // Each trace's queue (head, cut) and ray count, side by side for the verdict; one
         // empty state when there is no trace, so that the binding is not empty.
-        let states = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("cobalt launch queue states"),
-            size: 16 * self.traces.len().max(1) as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let word = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("cobalt launch verdict"),
-            size: 16,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
+        let states = storage(
+            device,
+            "cobalt launch queue states",
+            16 * self.traces.len().max(1) as u64,
+            wgpu::BufferUsages::COPY_DST,
+        );
+        let word = storage(
+            device,
+            "cobalt launch verdict",
+            16,
+            wgpu::BufferUsages::COPY_SRC,
+        );
         let traces = std::mem::take(&mut self.traces);
         for (k, t) in traces.iter().enumerate() {
             let at = 16 * k as u64;

@@ -12,7 +12,7 @@
 use std::ops::Range;
 
 use super::GpuError;
-use super::buffers::check_size;
+use super::buffers::{check_size, storage};
 use super::pipeline::grid;
 use super::render::{FrameParams, GpuRenderer, Tally};
 use crate::paths::Traffic;
@@ -106,15 +106,8 @@ impl GpuRenderer {
         }
         let n = u64::from(stage.n);
         let device = &self.ctx.device;
-        // New buffers are zeroed by wgpu: a re-run starts from nothing.
-        let zeroed = |label: &str, size: u64, usage: wgpu::BufferUsages| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: size.max(16),
-                usage: wgpu::BufferUsages::STORAGE | usage,
-                mapped_at_creation: false,
-            })
-        };
+        // New buffers are zeroed by wgpu: every launch counts from nothing.
+        let zeroed = |label: &str, size: u64, usage| storage(device, label, size.max(16), usage);
         check_size(&self.ctx, "per-path counts", n * 8)?;
         let none = wgpu::BufferUsages::empty();
         let tally = Tally {
