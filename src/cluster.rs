@@ -309,8 +309,8 @@ struct PathsReport {
 /// path device beside rank 0's own devices; the others render the tasks they are sent on
 /// their own devices and return the paths' values.
 pub(crate) fn render_paths(job: Job<'_>) -> Result<(), CliError> {
-    use raytrace::distributed::{RankPaths, serve_paths};
-    use raytrace::paths::{Frame, PathDevice, PathRenderer, build_path_devices};
+    use raytrace::distributed::render_over_ranks;
+    use raytrace::paths::{PathRenderer, build_path_devices};
 
     let Start {
         cluster,
@@ -319,30 +319,19 @@ pub(crate) fn render_paths(job: Job<'_>) -> Result<(), CliError> {
         bvh,
     } = start(&job)?;
     let local = build_path_devices(&scene, &bvh, job.specs, job.faults);
-    let mut devices = cluster.agree("opening this rank's devices", local)?;
+    let devices = cluster.agree("opening this rank's devices", local)?;
     let (camera, _) = job.camera.resolve(&scene.bounds());
     let options = RenderOptions::new(job.width, job.height, camera, job.shader);
-
+    let rendered = render_over_ranks(&cluster, devices, job.settings, &scene, &bvh, &options);
     let Some(outputs) = outputs else {
-        let mut renderer = PathRenderer::new(devices, job.settings)?;
-        let frame = Frame {
-            scene: &scene,
-            bvh: &bvh,
-            options: &options,
-        };
-        serve_paths(&cluster, &mut renderer, &frame);
-        return Ok(());
+        // Another rank: it rendered what rank 0 sent until the frame was done.
+        return rendered.map(drop).map_err(Into::into);
     };
-    for rank in 1..cluster.size() {
-        devices.push(Box::new(RankPaths::new(&cluster, rank)) as Box<dyn PathDevice + '_>);
-    }
-    let rendered =
-        PathRenderer::new(devices, job.settings).and_then(|mut r| r.render(&scene, &bvh, &options));
-    // Every other rank serves until told the frame is done, whatever happened here.
-    cluster.finish();
     let mut lost = Vec::new();
     let frame = match rendered {
-        Ok(frame) => frame,
+        Ok(Some(frame)) => frame,
+        // Only the other ranks get no frame, and they have no outputs.
+        Ok(None) => return Ok(()),
         Err(sched::SchedError::AllDevicesFailed { failures, .. }) => {
             if !job.host_fallback {
                 return Err(CliError::devices_failed(&device_list(job.specs), &failures));

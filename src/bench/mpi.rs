@@ -13,8 +13,8 @@ use std::time::Instant;
 
 use raytrace::cost::SampleRate;
 use raytrace::devices::DeviceSpec;
-use raytrace::distributed::{ClusterTracer, RankPaths, serve_paths};
-use raytrace::paths::{Frame, PathDevice, PathRenderer, build_path_devices};
+use raytrace::distributed::{ClusterTracer, render_over_ranks};
+use raytrace::paths::{PathRenderer, build_path_devices};
 use raytrace::scheduled::{Mode, ScheduledTracer, Settings, build_devices};
 use raytrace::shade::{AoSettings, RenderOptions, Shader, WhittedSettings, render};
 use raytrace::{Bvh, Camera, Scene};
@@ -223,31 +223,18 @@ impl Plan<'_> {
     ) -> Result<(usize, f64, f64), CliError> {
         let local = build_path_devices(self.scene, self.bvh, self.devices, &[]);
         // Also the start line: every rank begins the render together.
-        let mut devices = cluster.agree("opening this rank's devices", local)?;
+        let devices = cluster.agree("opening this rank's devices", local)?;
         let options = self.options(w);
-        if !cluster.is_root() {
-            let frame = Frame {
-                scene: self.scene,
-                bvh: self.bvh,
-                options: &options,
-            };
-            serve_paths(cluster, &mut PathRenderer::new(devices, settings)?, &frame);
-            return Ok((0, 0.0, 1.0));
-        }
-        for rank in 1..cluster.size() {
-            devices.push(Box::new(RankPaths::new(cluster, rank)) as Box<dyn PathDevice + '_>);
-        }
         let start = Instant::now();
-        let rendered = PathRenderer::new(devices, settings)
-            .and_then(|mut r| r.render(self.scene, self.bvh, &options));
-        // Every other rank serves until told the frame is done, whatever happened here.
-        cluster.finish();
-        let stats = rendered?.stats;
-        Ok((
-            stats.rays,
-            start.elapsed().as_secs_f64(),
-            stats.balance_efficiency,
-        ))
+        let rendered =
+            render_over_ranks(cluster, devices, settings, self.scene, self.bvh, &options)?;
+        Ok(rendered.map_or((0, 0.0, 1.0), |frame| {
+            (
+                frame.stats.rays,
+                start.elapsed().as_secs_f64(),
+                frame.stats.balance_efficiency,
+            )
+        }))
     }
 
     /// [`Plan::render_once`] by generations: the ranks trace each generation together.

@@ -25,6 +25,6 @@ mod stats;
 mod tracer;
 mod wire;
 
-pub use paths::{PathOutput, RankPaths, serve_paths};
+pub use paths::{PathOutput, RankPaths, render_over_ranks, serve_paths};
 pub use stats::{NodeGeneration, NodeRun};
 pub use tracer::ClusterTracer;

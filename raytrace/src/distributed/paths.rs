@@ -14,7 +14,12 @@ use glam::Vec3;
 use sched::mpi::{Cluster, RemoteNode, Wire, WireError, take};
 use sched::{DeviceError, Executor, Sink};
 
-use crate::paths::{Frame, Launch, PathDevice, PathRenderer, Traffic};
+use sched::SchedError;
+
+use crate::paths::{Frame, FrameRendering, Launch, PathDevice, PathRenderer, Traffic};
+use crate::scheduled::Settings;
+use crate::shade::RenderOptions;
+use crate::{Bvh, Scene};
 
 /// One task's paths rendered on a rank: their values (bit patterns travel) and the rays traced.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -121,6 +126,40 @@ pub fn serve_paths(cluster: &Cluster, renderer: &mut PathRenderer<'_>, frame: &F
             })
             .collect())
     })
+}
+
+/// Every rank renders the frame of `scene`, `bvh` and `options` by paths: on rank 0 the other
+/// ranks are path devices beside its own `devices`, and the frame is rendered and returned;
+/// every other rank renders the task ranges it is sent on its `devices` until rank 0 ends
+/// the frame, and gets `None`. Rank 0 ends the frame whatever happened to it, so that no
+/// rank is left waiting.
+///
+/// # Errors
+/// As [`PathRenderer::new`] and [`PathRenderer::render`].
+pub fn render_over_ranks<'a>(
+    cluster: &'a Cluster,
+    mut devices: Vec<Box<dyn PathDevice + 'a>>,
+    settings: Settings,
+    scene: &Scene,
+    bvh: &Bvh,
+    options: &RenderOptions,
+) -> Result<Option<FrameRendering>, SchedError> {
+    if !cluster.is_root() {
+        let frame = Frame {
+            scene,
+            bvh,
+            options,
+        };
+        serve_paths(cluster, &mut PathRenderer::new(devices, settings)?, &frame);
+        return Ok(None);
+    }
+    for rank in 1..cluster.size() {
+        devices.push(Box::new(RankPaths::new(cluster, rank)));
+    }
+    let rendered =
+        PathRenderer::new(devices, settings).and_then(|mut r| r.render(scene, bvh, options));
+    cluster.finish();
+    rendered.map(Some)
 }
 
 #[cfg(test)]
