@@ -52,8 +52,6 @@ impl SampledCounts {
 pub(crate) struct EstimateKernels {
     pub(super) program: Program,
     pub(super) sum: wgpu::ComputePipeline,
-    /// `sum` over a launch of paths' own task list.
-    pub(super) sum_launch: wgpu::ComputePipeline,
 }
 
 impl EstimateKernels {
@@ -66,7 +64,6 @@ impl EstimateKernels {
         );
         Self {
             sum: program.pipeline(device, "sum", "cobalt sample sums pipeline"),
-            sum_launch: program.pipeline(device, "sum_launch", "cobalt path sample sums pipeline"),
             program,
         }
     }

@@ -18,7 +18,7 @@ const LANES: u32 = 64u;
 @group(0) @binding(1) var<storage, read> counts: array<vec2<u32>>;
 // Per task: B low and high word, T low and high word.
 @group(0) @binding(2) var<storage, read_write> sums: array<vec4<u32>>;
-// `.x`: number of tasks; `.y`: slots of the launch (`sum_launch`).
+// `.x`: number of tasks.
 @group(0) @binding(3) var<uniform> params: vec4<u32>;
 
 var<workgroup> partial: array<vec4<u32>, LANES>;
@@ -54,27 +54,6 @@ fn sum(
         return;
     }
     sum_task(t, tasks[t].k, tasks[t].offset, lid);
-}
-
-// `sum` over a launch of paths' task list (`render.wgsl`'s `tasks`: each entry's first path
-// and first slot, read here as `k` and `offset`): a task's samples run to the next task's
-// first slot, the last one's to `params.y`, the launch's slots.
-@compute @workgroup_size(64)
-fn sum_launch(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let t = task_index(wid, nwg);
-    if t >= params.x {
-        return;
-    }
-    let first = tasks[t].offset;
-    var end = params.y;
-    if t + 1u < params.x {
-        end = tasks[t + 1u].offset;
-    }
-    sum_task(t, end - first, first, lid);
 }
 
 // Task `t`'s sums over its `k` samples from `offset`, by the 64 invocations `lid`.

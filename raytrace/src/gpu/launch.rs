@@ -9,7 +9,7 @@
 //! trace ([`trace_resident`](super::pipeline::trace_resident)): slower, but the same values.
 //!
 //! Nothing of a trace is uploaded: its queue is a new (zeroed) buffer and its ray count is
-//! copied on the device from the launch's [`Header`](super::resident::Header).
+//! copied on the device from the launch's [`Header`](super::header::Header).
 
 use super::buffers::{SceneBuffers, init, read_back, storage};
 use super::pipeline::{

@@ -24,6 +24,7 @@ pub mod buffers;
 pub mod context;
 mod device;
 mod estimate;
+mod header;
 mod launch;
 pub mod pipeline;
 mod program;
@@ -142,6 +143,14 @@ pub enum GpuError {
     ProbeUnsupported {
         /// The probe's name.
         probe: &'static str,
+    },
+    /// A task's sampled counts exceed the 32 bits the device sums them in.
+    #[error("{adapter}: the sampled counts of task {task} exceed 32 bits")]
+    CountOverflow {
+        /// The adapter's name.
+        adapter: String,
+        /// The task's index in the launch.
+        task: usize,
     },
     /// The implementation cut a traversal loop short (lavapipe's loop limit), so some results
     /// would be wrong.

@@ -19,10 +19,11 @@ use glam::Vec3;
 use super::buffers::{
     GpuRay, RESULT_BYTES, SceneBuffers, check_size, fetch, init, rays_per_launch,
 };
+use super::header::{Header, HeaderKernel, Setup, task_list};
 use super::launch::{Count, Recorder, Verdict};
 use super::pipeline::{GpuMode, Kernels, Threads};
 use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
-use super::resident::{Header, Resident};
+use super::resident::Resident;
 use super::{GpuContext, GpuError};
 use crate::paths::Traffic;
 use crate::shade::AoSettings;
@@ -126,8 +127,10 @@ pub struct GpuRenderer {
     /// Buffers and parameters kept across launches and frames.
     pub(super) resident: Resident,
     verdict: Verdict,
+    /// Makes each launch's counts from its task list.
+    header: HeaderKernel,
     /// The per-task sums of an estimate's sample.
-    pub(super) sums: super::estimate::EstimateKernels,
+    pub(super) path_sums: super::sample::SumKernel,
     /// Launches record no dispatch of their traces, as an implementation that cut every loop
     /// short would: the verdict must see it.
     #[cfg(test)]
@@ -171,7 +174,8 @@ impl GpuRenderer {
         let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
         let whitted = super::whitted::WhittedKernels::new(&ctx, scene);
         let verdict = Verdict::new(device);
-        let sums = super::estimate::EstimateKernels::new(device);
+        let path_sums = super::sample::SumKernel::new(device);
+        let header = HeaderKernel::new(device);
         Ok(Self {
             whitted,
             raygen: make("raygen", "cobalt raygen pipeline"),
@@ -186,7 +190,8 @@ impl GpuRenderer {
             threads: Threads::default(),
             resident: Resident::default(),
             verdict,
-            sums,
+            header,
+            path_sums,
             #[cfg(test)]
             starved: false,
         })
@@ -202,7 +207,7 @@ impl GpuRenderer {
         &self.ctx
     }
 
-    /// Checks the image and the launch, uploads its task list and header (`secondary`
+    /// Checks the image and the launch, uploads its task list and number of tasks (`secondary`
     /// secondary rays per path of the first chunk: AO probes, or shadow rays), keeps the
     /// frame's parameters, and binds the launch's buffers with them (its first chunk of
     /// probes): `raygen` over that group makes the primary rays. A launch holds every
@@ -259,35 +264,28 @@ impl GpuRenderer {
                 pixels,
             ));
         }
-        // Ranks are below the image's pixels (at most 2^32), slots below the binding limit.
-        let table: Vec<[u32; 2]> = tasks
-            .iter()
-            .scan(0u64, |slot, t| {
-                let first = *slot;
-                *slot += slots(t);
-                Some([t.start as u32, first as u32])
-            })
-            .collect();
-        let n = n as u32;
         let samples = settings.samples;
         // Primaries per probe chunk: their probes must fit one binding.
-        let chunk = if samples == 0 {
-            n
-        } else {
-            let fit = (per_launch / u64::from(samples)).max(1);
-            u32::try_from(fit.min(u64::from(n))).unwrap_or(n)
+        let fit = match samples {
+            0 => u32::MAX,
+            s => u32::try_from((per_launch / u64::from(s)).max(1)).unwrap_or(u32::MAX),
         };
+        let setup = Setup::new(stride, fit, secondary);
+        // Slots are below the binding limit (checked above), so only a list of more than
+        // 2^32 tasks, empty ones, could overflow.
+        let header = Header::of(tasks, &setup).ok_or_else(|| {
+            too_large(
+                "tasks of a launch",
+                tasks.len() as u64,
+                "2^32 tasks",
+                1 << 32,
+            )
+        })?;
+        let (n, chunk) = (header.count, header.chunk);
         let probe_slots = u64::from(chunk) * u64::from(samples.max(1));
         check_size(ctx, "AO probes", probe_slots * size_of::<GpuRay>() as u64)?;
         let f = frame.camera.frame(width, height);
         let v4 = |v: Vec3| v.extend(0.0).to_array();
-        let header = Header {
-            count: n,
-            chunk: chunk.min(n),
-            tasks: table.len() as u32,
-            // Below a binding's rays (checked by the caller for shadow rays).
-            secondary: chunk.min(n).saturating_mul(secondary),
-        };
         let params = Params {
             eye: v4(frame.camera.eye),
             fwd: v4(f.forward),
@@ -325,7 +323,14 @@ impl GpuRenderer {
             header: resident.upload(
                 ctx,
                 "cobalt launch header",
-                bytemuck::bytes_of(&header),
+                Header::TASKS,
+                bytemuck::bytes_of(&header.tasks),
+                traffic,
+            ),
+            setup: resident.uniform(
+                ctx,
+                ("cobalt launch setup", stride),
+                bytemuck::bytes_of(&setup),
                 traffic,
             ),
             uniform: resident.uniform(
@@ -344,7 +349,8 @@ impl GpuRenderer {
             tasks: resident.upload(
                 ctx,
                 "cobalt launch tasks",
-                bytemuck::cast_slice(&table),
+                0,
+                bytemuck::cast_slice(&task_list(tasks)),
                 traffic,
             ),
         };
@@ -352,8 +358,9 @@ impl GpuRenderer {
         Ok((stage, group))
     }
 
-    /// A launch's recorder on this device (see [`Recorder`]), its first commands copying the
-    /// launch's counts from `stage`'s header into the frame's parameters.
+    /// A launch's recorder on this device (see [`Recorder`]), its first commands making the
+    /// launch's counts from its task list (`header.wgsl`) and copying them into the frame's
+    /// parameters.
     pub(super) fn recorder(&self, stage: &Stage, checked: bool) -> Recorder<'_> {
         let mut launch = Recorder::new(
             &self.ctx,
@@ -362,6 +369,13 @@ impl GpuRenderer {
             &self.verdict,
             self.threads,
             checked,
+        );
+        self.header.record(
+            &mut launch,
+            &self.ctx.device,
+            &stage.header,
+            &stage.tasks,
+            &stage.setup,
         );
         launch.copy(
             &stage.header,
@@ -601,8 +615,10 @@ pub(super) struct Stage {
     /// Primaries whose probes are traced together.
     pub(super) chunk: u32,
     pub(super) params: Params,
-    /// The launch's counts ([`Header`]).
+    /// The launch's counts ([`Header`]), its third word sent, the others made on the device.
     pub(super) header: wgpu::Buffer,
+    /// The frame-constant inputs of the header's kernel ([`Setup`]).
+    pub(super) setup: wgpu::Buffer,
     /// The frame's parameters, kept across launches, with the launch's counts.
     pub(super) uniform: wgpu::Buffer,
     pub(super) primary: wgpu::Buffer,

@@ -1,5 +1,5 @@
 //! What a GPU keeps across launches and frames, so that a launch sends only what is new to
-//! it: its task list and a 16-byte [`Header`].
+//! it: its task list and its number of tasks (see `header.rs`).
 //!
 //! - Scratch buffers, by label: each label keeps its largest buffer, and a launch that fits in
 //!   it reuses it. Every launch waits for its read-back before the next one is recorded, so no
@@ -12,34 +12,9 @@
 use std::collections::HashMap;
 use std::sync::{Mutex, PoisonError};
 
-use bytemuck::{Pod, Zeroable};
-
 use super::GpuContext;
 use super::buffers::{init, storage};
 use crate::paths::Traffic;
-
-/// The counts of one launch, the only parameters it uploads (`struct Header` nowhere in
-/// WGSL: the words are copied on the device into the uniform blocks that use them).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
-pub(super) struct Header {
-    /// Paths of the launch (one slot each).
-    pub count: u32,
-    /// Paths whose secondary rays are traced together (all of them, unless AO probes must
-    /// be cut into chunks that fit one binding).
-    pub chunk: u32,
-    /// Tasks of the launch.
-    pub tasks: u32,
-    /// Secondary rays of the first chunk: AO probes, or one shadow ray per path and light.
-    pub secondary: u32,
-}
-
-impl Header {
-    /// Byte offset of [`Header::count`].
-    pub const COUNT: u64 = 0;
-    /// Byte offset of [`Header::secondary`].
-    pub const SECONDARY: u64 = 12;
-}
 
 /// A uniform block's name and index (a Whitted block per bounce).
 type UniformKey = (&'static str, u32);
@@ -105,19 +80,20 @@ impl Resident {
         b
     }
 
-    /// `bytes` written into the scratch buffer `label` (counted in `traffic`): a launch's
-    /// header and task list.
+    /// `bytes` written at `offset` into the scratch buffer `label` (counted in `traffic`): a
+    /// launch's number of tasks and its task list.
     pub(super) fn upload(
         &self,
         ctx: &GpuContext,
         label: &'static str,
+        offset: u64,
         bytes: &[u8],
         traffic: &mut Traffic,
     ) -> wgpu::Buffer {
         let usage = wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
-        let b = self.scratch(&ctx.device, label, bytes.len() as u64, usage);
+        let b = self.scratch(&ctx.device, label, offset + bytes.len() as u64, usage);
         if !bytes.is_empty() {
-            ctx.queue.write_buffer(&b, 0, bytes);
+            ctx.queue.write_buffer(&b, offset, bytes);
             traffic.host_to_device_bytes += bytes.len() as u64;
         }
         b

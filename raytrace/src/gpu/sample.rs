@@ -1,19 +1,21 @@
 //! The cost of tasks of paths, estimated on the GPU that would render them: every
 //! `stride`-th path of each task is made by `raygen`, traced and shaded through all of its
 //! generations by the path kernels, each trace adding its rays' counts `B` and `T` to their
-//! path's entry, and `estimate.wgsl`'s `sum_launch` adds each task's paths in 64-bit
-//! integers. Only the task list goes in and one pair of sums per task and kind comes back
-//! (8 and 32 bytes a task): no ray crosses.
+//! path's entry, and `sums.wgsl` adds each task's paths. Only the task list goes in and one
+//! pair of 32-bit sums per task and kind comes back (8 and 16 bytes a task): no ray crosses.
 //!
 //! The traces are the render's, counting as the CPU's counted traces count, so the sums equal
 //! [`crate::paths::estimate_paths`]'s sample bit for bit wherever the kernels find the CPU's
-//! hits (on lavapipe, always).
+//! hits (on lavapipe, always). A sum that would not fit 32 bits (billions of node visits in
+//! one task's sample) saturates, and the launch fails with [`GpuError::CountOverflow`]: the
+//! caller estimates on the host.
 
 use std::ops::Range;
 
 use super::GpuError;
 use super::buffers::{check_size, storage};
 use super::pipeline::grid;
+use super::program::{Program, READ, WRITE};
 use super::render::{FrameParams, GpuRenderer, Tally};
 use crate::paths::Traffic;
 use crate::shade::{AoSettings, Shader};
@@ -38,6 +40,26 @@ pub struct SampledPaths {
     pub traffic: Traffic,
 }
 
+/// The compiled `sums.wgsl`.
+#[derive(Debug)]
+pub(super) struct SumKernel {
+    program: Program,
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl SumKernel {
+    pub(super) fn new(device: &wgpu::Device) -> Self {
+        let program = Program::new(
+            device,
+            "sums",
+            include_str!("sums.wgsl").to_string(),
+            &[READ, READ, READ, WRITE, READ],
+        );
+        let pipeline = program.pipeline(device, "main", "cobalt path sample sums pipeline");
+        Self { program, pipeline }
+    }
+}
+
 impl GpuRenderer {
     /// Traces every `stride`-th path of each of `tasks` (from its first) with `shader` and
     /// sums its rays' counts per task (see the module docs).
@@ -45,7 +67,8 @@ impl GpuRenderer {
     /// # Errors
     /// [`GpuError::TooLarge`] when the sampled paths or their probes exceed one binding,
     /// [`GpuError::LoopCut`] when a trace's queue was not drained (a checked re-run, which
-    /// the renders have, would not count: the caller estimates elsewhere), and the errors of
+    /// the renders have, would not count: the caller estimates elsewhere),
+    /// [`GpuError::CountOverflow`] when a task's sums do not fit 32 bits, and the errors of
     /// [`GpuRenderer::render_ao`].
     pub fn sample_paths(
         &self,
@@ -130,49 +153,43 @@ impl GpuRenderer {
                 self.record_whitted(&mut launch, &stage, &first, s, Some(&tally), &mut traffic)?;
             }
         }
-        // `sum_launch` reads the launch's own task list: no second one crosses.
-        let n_tasks = tasks.len() as u32;
-        let params = self.resident.uniform(
-            &self.ctx,
-            ("cobalt sample sums parameters", 0),
-            bytemuck::cast_slice(&[n_tasks, stage.n, 0, 0]),
-            &mut traffic,
-        );
+        // The sums read the launch's own task list and header: no second one crosses.
         let t = tasks.len() as u64;
-        let copy = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-        let sums = zeroed("cobalt sample sums", 32 * t, copy);
-        let probe_sums = zeroed("cobalt sample probe sums", 16 * t, copy);
-        let cells = grid(&self.ctx.limits, n_tasks);
-        for (counts, out) in [(&tally.paths, &sums), (&tally.probes, &probe_sums)] {
-            let group = self.sums.program.bind(
-                device,
-                "cobalt sample sums bind group",
-                &[&stage.tasks, counts, out, &params],
-            );
-            launch.pass(&self.sums.sum_launch, &group, cells);
-        }
-        if t > 0 {
-            launch.copy(&probe_sums, 0, &sums, 16 * t, 16 * t);
-        }
-        let done = launch.finish(&sums, 32 * t, &mut traffic)?;
-        traffic.device_to_host_bytes += 32 * t;
+        let sums = zeroed("cobalt sample sums", 16 * t, wgpu::BufferUsages::COPY_SRC);
+        let group = self.path_sums.program.bind(
+            device,
+            "cobalt sample sums bind group",
+            &[
+                &stage.tasks,
+                &tally.paths,
+                &tally.probes,
+                &sums,
+                &stage.header,
+            ],
+        );
+        launch.pass(
+            &self.path_sums.pipeline,
+            &group,
+            grid(&self.ctx.limits, tasks.len() as u32),
+        );
+        let done = launch.finish(&sums, 16 * t, &mut traffic)?;
+        traffic.device_to_host_bytes += 16 * t;
         if !done.drained {
             return Ok(None);
         }
         let words: Vec<[u32; 4]> = bytemuck::pod_collect_to_vec(&done.values);
-        let pair = |w: [u32; 4]| {
-            [
-                u64::from(w[0]) | u64::from(w[1]) << 32,
-                u64::from(w[2]) | u64::from(w[3]) << 32,
-            ]
-        };
-        let (paths, probes) = words.split_at(tasks.len());
+        if let Some(task) = words.iter().position(|w| w.contains(&u32::MAX)) {
+            return Err(GpuError::CountOverflow {
+                adapter: self.ctx.info.name.clone(),
+                task,
+            });
+        }
         let tasks = sampled
             .iter()
-            .zip(paths.iter().zip(probes))
-            .map(|(&sampled, (&p, &q))| PathSums {
-                paths: pair(p),
-                probes: pair(q),
+            .zip(&words)
+            .map(|(&sampled, w)| PathSums {
+                paths: [w[0], w[1]].map(u64::from),
+                probes: [w[2], w[3]].map(u64::from),
                 sampled,
             })
             .collect();

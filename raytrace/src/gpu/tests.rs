@@ -897,8 +897,9 @@ fn launches_and_frames_of_every_size_share_one_device() {
 
 /// A launch sends its counts and its task list; the frame's parameters cross once, with its
 /// first launch, and only when they change. With one task a launch (a queue policy), a second
-/// frame of the same camera and shader moves exactly 28 bytes a task (a 16-byte header, an
-/// 8-byte task, a 4-byte verdict; 16 bytes of timestamps more where the adapter has them),
+/// frame of the same camera and shader moves exactly 16 bytes a task (a 4-byte number of
+/// tasks, an 8-byte task, a 4-byte verdict; 16 bytes of timestamps more where the adapter
+/// has them),
 /// and the first frame at most the blocks of parameters more. (One device renders without
 /// an estimate: see `a_gpu_estimates_its_paths_as_the_host_does` for an estimate's bytes.)
 #[test]
@@ -916,9 +917,10 @@ fn one_task_launches_move_their_counts_only() {
         }),
         Shader::Whitted(whitted),
     ];
-    let per_launch = 28 + if ctx.timestamps { 16 } else { 0 };
-    // The path kernels' block, and for Whitted one more block per bounce.
-    let blocks = 128 + 48 * u64::from(whitted.bounces + 1);
+    let per_launch = 16 + if ctx.timestamps { 16 } else { 0 };
+    // The path kernels' block and the header kernel's, and for Whitted one more block per
+    // bounce.
+    let blocks = 128 + 16 + 48 * u64::from(whitted.bounces + 1);
     for shader in shaders {
         let device: Box<dyn PathDevice> =
             Box::new(GpuPaths::new(ctx.clone(), &scene, &bvh).expect("device"));
@@ -956,6 +958,140 @@ fn one_task_launches_move_their_counts_only() {
         .expect("kernels");
         assert_eq!(second.film, kernels, "{}", shader.name());
     }
+}
+
+/// The header kernel makes a launch's counts and its tasks' first slots as the host's
+/// [`Header::of`](super::header::Header::of) does, which sized the launch's buffers: random
+/// task lists (empty tasks among them), strides from 1 to 4 and several shadow rays a path.
+#[test]
+fn the_header_kernel_counts_as_the_host_does() {
+    use super::buffers::fetch;
+    use super::header::{Header, Setup};
+    let Some(ctx) = gpu() else { return };
+    let (scene, bvh) = testkit::builtin_with_bvh("builtin:cornell:0.2").expect("scene");
+    let r = GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer");
+    let camera = Camera::thesis(&scene.bounds(), 0);
+    let (w, h) = (40u32, 30u32);
+    let frame = FrameParams {
+        width: w,
+        height: h,
+        camera: &camera,
+    };
+    let mut rng = Rng::new(11);
+    for case in 0..16 {
+        let mut cuts: Vec<usize> = (0..1 + rng.below(9))
+            .map(|_| rng.below(w * h + 1) as usize)
+            .collect();
+        cuts.sort_unstable();
+        let tasks: Vec<std::ops::Range<usize>> = cuts.windows(2).map(|c| c[0]..c[1]).collect();
+        let refs: Vec<&std::ops::Range<usize>> = tasks.iter().collect();
+        let (stride, lights) = (1 + rng.below(4), rng.below(3));
+        let mut traffic = crate::paths::Traffic::default();
+        let (stage, _) = r
+            .begin(
+                &frame,
+                &refs,
+                &AoSettings {
+                    samples: 0,
+                    ..AoSettings::default()
+                },
+                lights,
+                stride,
+                &mut traffic,
+            )
+            .expect("launch");
+        let launch = r.recorder(&stage, false);
+        let done = launch
+            .finish(&stage.header, 16, &mut traffic)
+            .expect("header");
+        let on_device: Header = bytemuck::pod_read_unaligned(&done.values);
+        let host = Header::of(&refs, &Setup::new(stride, u32::MAX, lights)).expect("header");
+        assert_eq!(on_device, host, "case {case}: {tasks:?}, stride {stride}");
+        let want: Vec<[u32; 2]> = tasks
+            .iter()
+            .scan(0u32, |slot, t| {
+                let first = *slot;
+                *slot += t.len().div_ceil(stride as usize) as u32;
+                Some([t.start as u32, first])
+            })
+            .collect();
+        if !tasks.is_empty() {
+            let table = fetch(&ctx, &stage.tasks, 8 * tasks.len() as u64).expect("tasks");
+            let table: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&table);
+            assert_eq!(table, want, "case {case}: {tasks:?}, stride {stride}");
+        }
+        // What crossed: the number of tasks and the list; the setup block at most once.
+        assert!(
+            traffic.host_to_device_bytes <= 4 + 8 * tasks.len() as u64 + 16 + 128,
+            "{traffic:?}"
+        );
+    }
+}
+
+/// Two GPUs that estimate and render a frame between them, one task a launch: a task's
+/// estimate (8 bytes of its list, 16 of sums) and its launch (4 + 8 bytes in, a 4-byte
+/// verdict and timestamps out) stay within 64 bytes, for 8 and 16 AO probes a path alike and
+/// for Whitted, and the image is the device kernels' own.
+#[test]
+fn estimating_gpus_move_at_most_64_bytes_a_task() {
+    use crate::paths::{GpuPaths, PathDevice, PathRenderer};
+    use crate::scheduled::{Mode, Settings};
+    let Some(ctx) = gpu() else { return };
+    let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
+    let camera = Camera::thesis(&scene.bounds(), 0);
+    let ao = |samples| {
+        Shader::Ao(AoSettings {
+            samples,
+            ..AoSettings::default()
+        })
+    };
+    let mut seen = Vec::new();
+    for shader in [ao(8), ao(16), Shader::Whitted(WhittedSettings::default())] {
+        let options = RenderOptions::new(64, 48, camera, shader);
+        let devices: Vec<Box<dyn PathDevice>> = (0..2)
+            .map(|_| {
+                Box::new(GpuPaths::new(ctx.clone(), &scene, &bvh).expect("device"))
+                    as Box<dyn PathDevice>
+            })
+            .collect();
+        let mut r = PathRenderer::new(
+            devices,
+            Settings {
+                policy: sched::Policy::QueueFifo,
+                mode: Mode::Cost,
+                task_size: std::num::NonZeroUsize::new(32).expect("positive"),
+                ..Settings::default()
+            },
+        )
+        .expect("renderer");
+        // The first frame uploads the frame's blocks; the second shows what a frame costs.
+        r.render(&scene, &bvh, &options).expect("frame");
+        let frame = r.render(&scene, &bvh, &options).expect("frame");
+        let stats = &frame.stats;
+        let traffic = stats.traffic();
+        eprintln!(
+            "{}: {} tasks, {} launches, {traffic:?}",
+            shader.name(),
+            stats.tasks,
+            stats.launches()
+        );
+        assert!(stats.estimated, "two devices estimate");
+        assert_eq!(stats.launches(), stats.tasks as u64, "a launch a task");
+        assert_eq!(
+            traffic.host_waits,
+            stats.tasks as u64 + 2,
+            "a wait a launch and one a device's estimate"
+        );
+        assert!(traffic.bytes() <= 64 * stats.tasks as u64, "{traffic:?}");
+        let (kernels, _) = gpu_film(
+            &GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer"),
+            &options,
+        )
+        .expect("kernels");
+        assert_eq!(frame.film, kernels, "{}", shader.name());
+        seen.push(traffic.bytes());
+    }
+    assert_eq!(seen[0], seen[1], "traffic does not grow with the probes");
 }
 
 /// A launch whose traces leave their queues undrained (here: recorded with no dispatch) is
@@ -1007,7 +1143,7 @@ fn an_undrained_launch_is_run_again_checked() {
 /// host's estimate of the same sample on the binary tree bit for bit (the kernels walk it as
 /// the CPU does and find the CPU's hits), for both
 /// shaders, several rates and tasks of every size, and only the task lists and the sums
-/// cross: 40 bytes a task beyond a launch's fixed bytes.
+/// cross: 24 bytes a task beyond a launch's fixed bytes.
 #[test]
 fn a_gpu_estimates_its_paths_as_the_host_does() {
     use crate::paths::{GpuPaths, PathDevice, estimate_paths_in};
@@ -1040,9 +1176,10 @@ fn a_gpu_estimates_its_paths_as_the_host_does() {
                 assert!(on_gpu.work[2].nodes > 0.0, "{name}: {:?}", on_gpu.work);
                 let t = &on_gpu.traffic;
                 assert_eq!(t.host_waits, 1, "{t:?}");
-                // A task list and the sums; then the fixed part: header, verdict, timestamps,
-                // the traces' parameters, and the first time the frame's blocks.
-                assert!(t.bytes() <= 40 * tasks.len() as u64 + 400, "{t:?}");
+                // A task list and the sums; then the fixed part: the number of tasks, the
+                // verdict, timestamps, the traces' parameters, and the first time the
+                // frame's blocks.
+                assert!(t.bytes() <= 24 * tasks.len() as u64 + 400, "{t:?}");
             }
         }
     }

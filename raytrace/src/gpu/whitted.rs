@@ -14,11 +14,11 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::buffers::{GpuRay, RESULT_BYTES, check_size, init};
+use super::header::Header;
 use super::launch::{Count, Recorder};
 use super::pipeline::GpuMode;
 use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
 use super::render::{FrameParams, GpuRenderer, PathValues, Stage, Tally};
-use super::resident::Header;
 use super::{GpuContext, GpuError};
 use crate::paths::Traffic;
 use crate::shade::{AMBIENT, AoSettings, SKY, WhittedSettings};
