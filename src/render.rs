@@ -201,6 +201,12 @@ struct ScheduleReport {
     reruns: u64,
     failures: Vec<String>,
     host_fallback: bool,
+    /// What crossed between the host and the devices: the generation's rays and hits, and
+    /// an estimate's samples and sums where a GPU estimated (0 for CPUs).
+    host_to_device_bytes: u64,
+    device_to_host_bytes: u64,
+    /// Times the host blocked on a device.
+    host_waits: u64,
     #[serde(skip_serializing_if = "Option::is_none")]
     estimate_error: Option<String>,
     /// Where the estimate ran (cost mode): a device's name or `host`.
@@ -747,6 +753,9 @@ fn schedule_report(g: &GenerationStats) -> ScheduleReport {
         reruns: g.reruns,
         failures: g.failures.iter().map(ToString::to_string).collect(),
         host_fallback: g.host_fallback,
+        host_to_device_bytes: g.traffic.host_to_device_bytes,
+        device_to_host_bytes: g.traffic.device_to_host_bytes,
+        host_waits: g.traffic.host_waits,
         estimate_error: g.estimate_error.clone(),
         estimated_on: g.estimated_on.clone(),
         calibration: g.calibrations.iter().map(fit_report).collect(),

@@ -371,6 +371,12 @@ fn cpu_and_gpu_render_the_cpu_image() {
             serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("JSON");
         for g in v["generations"].as_array().expect("generations") {
             assert_eq!(g["estimated_on"], "gpu0", "{policy}: {g}");
+            // Rays made on the host cross to the GPU: at least the estimate's sample of
+            // 32-byte rays goes up, its sums come back, and the host waits for them.
+            let bytes = |k: &str| g[k].as_u64().expect(k);
+            assert!(bytes("host_to_device_bytes") >= 32, "{policy}: {g}");
+            assert!(bytes("device_to_host_bytes") >= 16, "{policy}: {g}");
+            assert!(bytes("host_waits") >= 1, "{policy}: {g}");
         }
     }
 }

@@ -1,11 +1,12 @@
 //! One GPU adapter as a device of the scheduler.
 
 use std::ops::Range;
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, PoisonError};
 
 use sched::{DeviceError, Sink};
 
+use crate::paths::Traffic;
 use crate::scheduled::{BadRange, RayDevice};
 use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
@@ -32,6 +33,8 @@ pub struct GpuDevice {
     kernel_seconds: AtomicU64,
     /// The hit launches' buffers, kept from one launch to the next.
     staging: Mutex<Option<Staging>>,
+    /// What crossed since [`RayDevice::take_traffic`] last took it.
+    traffic: Mutex<Traffic>,
 }
 
 impl GpuDevice {
@@ -53,6 +56,7 @@ impl GpuDevice {
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
             kernel_seconds: AtomicU64::new(0f64.to_bits()),
             staging: Mutex::new(None),
+            traffic: Mutex::new(Traffic::default()),
         })
     }
 
@@ -107,7 +111,8 @@ impl GpuDevice {
             *s = None;
             s
         });
-        let (hits, seconds) = staged_hits(
+        let mut traffic = Traffic::default();
+        let staged = staged_hits(
             &mut staging,
             &self.ctx,
             &self.kernels,
@@ -116,7 +121,10 @@ impl GpuDevice {
             ranges,
             mode,
             self.threads,
-        )?;
+            &mut traffic,
+        );
+        self.count(traffic);
+        let (hits, seconds) = staged?;
         self.last_seconds
             .store(seconds.unwrap_or(f64::NAN).to_bits(), Ordering::Relaxed);
         if let Some(s) = seconds {
@@ -175,7 +183,8 @@ impl GpuDevice {
         rate: crate::cost::SampleRate,
         probe: crate::Probe,
     ) -> Result<Vec<SampledCounts>, GpuError> {
-        sampled_counts(
+        let mut traffic = Traffic::default();
+        let counts = sampled_counts(
             &self.ctx,
             &self.kernels,
             &self.estimate,
@@ -183,7 +192,16 @@ impl GpuDevice {
             rays,
             tasks,
             Sampling { rate, probe },
-        )
+            &mut traffic,
+        );
+        self.count(traffic);
+        counts
+    }
+
+    /// Adds `traffic` to what [`RayDevice::take_traffic`] will take.
+    fn count(&self, traffic: Traffic) {
+        // A poisoned lock only means another launch panicked; the counts are still valid.
+        *self.traffic.lock().unwrap_or_else(PoisonError::into_inner) += traffic;
     }
 }
 
@@ -246,6 +264,15 @@ impl RayDevice for GpuDevice {
     ) -> Option<Result<Vec<crate::cost::Work>, DeviceError>> {
         let estimator = super::GpuReducedTraversal::new(self, rays, rate).with_probe(probe);
         Some(estimator.try_work(tasks).map_err(DeviceError::from))
+    }
+
+    /// The rays uploaded and hits read back (and an estimate's samples and sums).
+    fn take_traffic(&mut self) -> Traffic {
+        std::mem::take(
+            self.traffic
+                .get_mut()
+                .unwrap_or_else(PoisonError::into_inner),
+        )
     }
 
     /// The kernels' time from timestamp queries, where the adapter has them.

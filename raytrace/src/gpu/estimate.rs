@@ -20,6 +20,7 @@ use super::pipeline::{GpuMode, Kernels, Threads, grid, trace_resident};
 use super::program::{Program, READ, UNIFORM, WRITE, dispatch};
 use super::{GpuContext, GpuDevice, GpuError};
 use crate::cost::{Compacted, CostError, CostModel, SampleRate, Work};
+use crate::paths::Traffic;
 use crate::{Probe, RayBatch};
 
 /// A task's sampled sums as the GPU computed them: exact integer sums of the reduced-traversal
@@ -89,6 +90,7 @@ pub(crate) fn sampled_counts(
     rays: &RayBatch,
     tasks: &[Range<usize>],
     sampling: Sampling,
+    traffic: &mut Traffic,
 ) -> Result<Vec<SampledCounts>, GpuError> {
     // Before the sample is gathered: a probe the GPU cannot run is refused at once.
     let mode = GpuMode::counts(sampling.probe)?;
@@ -113,6 +115,7 @@ pub(crate) fn sampled_counts(
             &sample,
             first..end,
             mode,
+            traffic,
         )?);
         first = end;
     }
@@ -130,6 +133,7 @@ fn group(
     sample: &Compacted,
     group: Range<usize>,
     mode: GpuMode,
+    traffic: &mut Traffic,
 ) -> Result<Vec<SampledCounts>, GpuError> {
     let base = sample.offsets[group.start];
     let index = &sample.index[base..sample.offsets[group.end]];
@@ -209,7 +213,7 @@ fn group(
         n_samples,
         mode,
         Threads::Persistent,
-        &mut crate::paths::Traffic::default(),
+        traffic,
     )?;
     let bind = estimate.program.bind(
         device,
@@ -225,6 +229,10 @@ fn group(
     );
     ctx.queue.submit([sum.finish()]);
     let bytes = fetch(ctx, &sums, sums_bytes)?;
+    traffic.host_to_device_bytes +=
+        (table.len() * 8 + packed.len() * size_of::<GpuRay>()) as u64 + 16;
+    traffic.device_to_host_bytes += sums_bytes;
+    traffic.host_waits += 1;
     Ok(result(&bytemuck::pod_collect_to_vec::<u8, [u32; 4]>(
         &bytes,
     )))

@@ -11,6 +11,7 @@
 
 use std::ops::Range;
 
+use crate::paths::Traffic;
 use crate::{HitBatch, RayBatch};
 
 use super::buffers::{
@@ -95,6 +96,7 @@ pub(crate) fn staged_hits(
     ranges: &[&Range<usize>],
     mode: GpuMode,
     threads: Threads,
+    traffic: &mut Traffic,
 ) -> Result<(HitBatch, Option<f64>), GpuError> {
     let total: usize = ranges.iter().map(|r| r.len()).sum();
     if scene.empty {
@@ -111,7 +113,7 @@ pub(crate) fn staged_hits(
         let n: usize = launch.iter().map(Range::len).sum();
         let s = Staging::fit(staging.take(), ctx, n as u64);
         let launched = run(
-            &s, ctx, kernels, scene, rays, &launch, mode, threads, &mut hits,
+            &s, ctx, kernels, scene, rays, &launch, mode, threads, &mut hits, traffic,
         );
         // A launch that failed may have left a buffer mapped: the next one starts afresh.
         if launched.is_ok() {
@@ -156,6 +158,7 @@ fn run(
     mode: GpuMode,
     threads: Threads,
     hits: &mut HitBatch,
+    traffic: &mut Traffic,
 ) -> Result<Option<f64>, GpuError> {
     let name = ctx.info.name.as_str();
     let n: u64 = chunk.iter().map(|r| r.len() as u64).sum();
@@ -186,15 +189,7 @@ fn run(
     // `n` is at most one binding of rays, far below 2^32.
     let count = u32::try_from(n).unwrap_or(u32::MAX);
     let seconds = trace_resident(
-        ctx,
-        kernels,
-        scene,
-        &s.rays,
-        &s.out,
-        count,
-        mode,
-        threads,
-        &mut crate::paths::Traffic::default(),
+        ctx, kernels, scene, &s.rays, &s.out, count, mode, threads, traffic,
     )?;
     copy(
         ctx,
@@ -219,6 +214,10 @@ fn run(
         hits.prim.extend(results.iter().map(|r| r[1]));
     }
     s.download.unmap();
+    // The rays went up and their hits came back, a wait each way.
+    traffic.host_to_device_bytes += n * RAY_BYTES;
+    traffic.device_to_host_bytes += n * RESULT_BYTES;
+    traffic.host_waits += 2;
     Ok(seconds)
 }
 

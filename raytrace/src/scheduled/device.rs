@@ -124,6 +124,13 @@ pub trait RayDevice: Send {
         None
     }
 
+    /// What crossed between the host and the device since the last call (rays up, hits
+    /// back, the waits in between), and resets the count. Nothing for a device that works
+    /// in host memory (the default).
+    fn take_traffic(&mut self) -> crate::paths::Traffic {
+        crate::paths::Traffic::default()
+    }
+
     /// Devices of one class are the same hardware doing the same work (the `N` devices of a
     /// `cpu:N/T` entry): their speed is measured together, because any difference between
     /// them is noise (the OS scheduling threads, errors of the cost model) that would

@@ -110,6 +110,10 @@ impl RayDevice for FailingAfter<'_> {
         self.inner.take_device_seconds()
     }
 
+    fn take_traffic(&mut self) -> crate::paths::Traffic {
+        self.inner.take_traffic()
+    }
+
     /// Estimating is not a task: it neither counts towards the fault nor is refused by it.
     fn estimate_work(
         &mut self,

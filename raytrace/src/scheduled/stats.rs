@@ -52,6 +52,9 @@ pub struct GenerationStats {
     pub estimated_on: Option<String>,
     /// True when no device was left and the caller's thread traced the generation.
     pub host_fallback: bool,
+    /// What crossed between the host and the devices, estimate included: the generation's
+    /// rays go up and their hits come back.
+    pub traffic: crate::paths::Traffic,
 }
 
 impl GenerationStats {

@@ -269,6 +269,13 @@ impl<'a> ScheduledTracer<'a> {
             estimate_error,
             estimated_on,
             host_fallback: false,
+            traffic: active.iter().map(|&d| self.devices[d].take_traffic()).fold(
+                Default::default(),
+                |mut all, t| {
+                    all += t;
+                    all
+                },
+            ),
         };
         let hits = match result {
             Ok(report) => self.learn(&mut stats, &active, &costs, work, report),
