@@ -22,6 +22,16 @@ pub enum SchedError {
         /// The rejected value.
         value: f64,
     },
+    /// A task's home is not one of the devices.
+    #[error("task {task} has its home on device {device}, but there are {devices} devices")]
+    BadHome {
+        /// Index of the task in the workload.
+        task: usize,
+        /// The home it was given.
+        device: u32,
+        /// Devices of the run.
+        devices: usize,
+    },
     /// The costs are each finite, but their sum is not.
     #[error(
         "cost of task {task} is {value:e}: the sum of the costs up to it overflows (exceeds {max:e})",

@@ -46,6 +46,33 @@ impl Homes {
         Self::new(vec![device; tasks], vec![seconds; tasks])
     }
 
+    /// `Ok` when there is a home for each of `tasks` tasks, each on one of `devices`.
+    ///
+    /// # Errors
+    /// [`SchedError::LengthMismatch`] and [`SchedError::BadHome`], naming the task.
+    pub fn check(&self, tasks: usize, devices: usize) -> Result<(), SchedError> {
+        if self.home.len() != tasks {
+            return Err(SchedError::LengthMismatch {
+                what: "homes",
+                expected: tasks,
+                got: self.home.len(),
+            });
+        }
+        if let Some((task, &device)) = self
+            .home
+            .iter()
+            .enumerate()
+            .find(|(_, h)| **h as usize >= devices)
+        {
+            return Err(SchedError::BadHome {
+                task,
+                device,
+                devices,
+            });
+        }
+        Ok(())
+    }
+
     /// Task `t`'s home device.
     pub fn home(&self, t: usize) -> u32 {
         self.home[t]
@@ -58,6 +85,11 @@ impl Homes {
         } else {
             self.moving[t]
         }
+    }
+
+    /// True when no move costs anything: then every policy plans as without homes.
+    pub fn is_free(&self) -> bool {
+        self.moving.iter().all(|&m| m == 0.0)
     }
 
     /// Tasks.
@@ -118,7 +150,7 @@ pub fn plan_lpt_homed(costs: &Costs, speeds: &Speeds, homes: &Homes) -> Result<P
             got: homes.len(),
         });
     }
-    if homes.moving.iter().all(|&m| m == 0.0) {
+    if homes.is_free() {
         return Ok(plan_lpt(costs, speeds));
     }
     let m = speeds.len();
@@ -218,5 +250,124 @@ mod tests {
         assert_eq!(homes.makespan(&plan, &costs, &speeds), 5.0);
         let bad = Homes::new(vec![0, 0], vec![1.0]).unwrap_err();
         assert!(bad.to_string().contains("move costs"), "{bad}");
+    }
+
+    fn simulated(
+        policy: crate::Policy,
+        costs: &Costs,
+        speeds: &Speeds,
+        homes: Option<&Homes>,
+    ) -> crate::SimReport {
+        let sim = crate::Simulation::new(policy, speeds.clone());
+        let sim = match homes {
+            Some(h) => sim.homes(h.clone()),
+            None => sim,
+        };
+        sim.run(costs).unwrap()
+    }
+
+    proptest! {
+        /// Under every policy, homes whose moves are free change nothing: the same tasks on
+        /// the same devices at the same times as without homes.
+        #[test]
+        fn free_homes_change_no_policy((c, s, h, _) in instance()) {
+            let costs = Costs::new(c).unwrap();
+            let speeds = Speeds::new(s).unwrap();
+            let homes = Homes::new(h.clone(), vec![0.0; h.len()]).unwrap();
+            for policy in crate::Policy::ALL {
+                let with = simulated(policy, &costs, &speeds, Some(&homes));
+                let without = simulated(policy, &costs, &speeds, None);
+                prop_assert_eq!(&with.assignment, &without.assignment, "{}", policy);
+                prop_assert_eq!(with.metrics.makespan, without.metrics.makespan);
+            }
+        }
+
+        /// With moves priced, static LPT and Hybrid (exact costs, no latency) finish no later
+        /// than every task left at home, the moves' time included; every policy delivers
+        /// every task once, also when a device fails halfway.
+        #[test]
+        fn priced_moves_never_lose_to_staying_home((c, s, h, mv) in instance()) {
+            let costs = Costs::new(c).unwrap();
+            let speeds = Speeds::new(s).unwrap();
+            let homes = Homes::new(h, mv).unwrap();
+            let home = homes.makespan(&homes.stay_home(speeds.len()), &costs, &speeds);
+            for policy in crate::Policy::ALL {
+                let run = simulated(policy, &costs, &speeds, Some(&homes));
+                prop_assert!(run.assignment.iter().all(|&d| (d as usize) < speeds.len()));
+                if matches!(policy, crate::Policy::StaticLpt | crate::Policy::Hybrid) {
+                    prop_assert!(
+                        run.metrics.makespan <= home * (1.0 + 1e-9) + 1e-9,
+                        "{}: {} against {} at home", policy, run.metrics.makespan, home
+                    );
+                }
+                if speeds.len() > 1 {
+                    let faulty = crate::Simulation::new(policy, speeds.clone())
+                        .homes(homes.clone())
+                        .fault(crate::Fault { device: 0, at: home / 2.0 })
+                        .run(&costs)
+                        .unwrap();
+                    prop_assert!(faulty.assignment.iter().all(|&d| d != u32::MAX));
+                }
+            }
+        }
+    }
+
+    /// A queue hands each device its own tasks first: with two devices each holding half the
+    /// tasks and dear moves, nothing moves; once a device's own run out it takes the other's.
+    #[test]
+    fn queues_prefer_home() {
+        let costs = Costs::new(vec![1.0; 8]).unwrap();
+        let speeds = Speeds::identical(2).unwrap();
+        let homes = Homes::new(vec![0, 1, 0, 1, 0, 1, 0, 1], vec![10.0; 8]).unwrap();
+        for policy in [crate::Policy::QueueFifo, crate::Policy::QueueSorted] {
+            let run = simulated(policy, &costs, &speeds, Some(&homes));
+            assert_eq!(run.assignment, [0, 1, 0, 1, 0, 1, 0, 1], "{policy}");
+            assert_eq!(run.metrics.makespan, 4.0);
+        }
+        let lopsided = Homes::new(vec![0, 0, 0, 0, 0, 0, 1, 0], vec![0.5; 8]).unwrap();
+        let run = simulated(crate::Policy::QueueFifo, &costs, &speeds, Some(&lopsided));
+        // Device 1 runs its own task 6 first, then takes from the front of the queue.
+        assert_eq!(run.assignment.iter().filter(|&&d| d == 1).count(), 3);
+        assert_eq!(run.assignment[6], 1);
+        let wrong = Homes::new(vec![0, 2], vec![1.0; 2]).unwrap();
+        let err = crate::Policy::QueueFifo
+            .dispatcher_homed(&Costs::new(vec![1.0; 2]).unwrap(), &speeds, &[], &wrong)
+            .err()
+            .expect("a home beyond the devices");
+        assert!(err.to_string().contains("task 1"), "{err}");
+    }
+
+    /// The runtime plans with homes too: a static LPT run puts every task where
+    /// `plan_lpt_homed` does, each exactly once.
+    #[test]
+    fn the_runtime_runs_the_homed_plan() {
+        struct Echo;
+        impl crate::Executor<std::ops::Range<usize>> for Echo {
+            type Output = usize;
+            fn run(&mut self, task: &std::ops::Range<usize>) -> Result<usize, crate::DeviceError> {
+                Ok(task.start)
+            }
+        }
+        let costs = Costs::new(vec![1.0; 8]).unwrap();
+        let speeds = Speeds::identical(2).unwrap();
+        let homes = Homes::all_on(0, 8, 0.5).unwrap();
+        let tasks = crate::split_ranges(8, 1);
+        let run = crate::Runtime::new(crate::Policy::StaticLpt)
+            .with_homes(homes.clone())
+            .run(&tasks, &costs, &mut [Echo, Echo])
+            .unwrap();
+        assert_eq!(run.outputs, (0..8).collect::<Vec<_>>());
+        let plan = plan_lpt_homed(&costs, &speeds, &homes).unwrap();
+        let mut on_1: Vec<u32> = run
+            .timeline
+            .spans
+            .iter()
+            .filter(|s| s.device == 1)
+            .map(|s| s.task)
+            .collect();
+        on_1.sort_unstable();
+        let mut planned = plan.tasks(1).to_vec();
+        planned.sort_unstable();
+        assert_eq!(on_1, planned);
     }
 }

@@ -3,8 +3,8 @@ use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::Instant;
 
 use crate::{
-    Costs, DeviceError, DeviceFailure, Dispatch, Executor, Metrics, Policy, SchedError, Sink, Span,
-    Speeds, Task, Timeline,
+    Costs, DeviceError, DeviceFailure, Dispatch, Executor, Homes, Metrics, Policy, SchedError,
+    Sink, Span, Speeds, Task, Timeline,
 };
 
 /// Runs a workload on real executors, one host thread per device.
@@ -27,9 +27,10 @@ use crate::{
 /// assert_eq!(run.outputs.iter().sum::<usize>(), (0..1000).sum());
 /// # Ok::<(), sched::SchedError>(())
 /// ```
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Runtime {
     policy: Policy,
+    homes: Option<Homes>,
 }
 
 /// What a real run produced and how it went.
@@ -84,7 +85,20 @@ impl<'a, O> Shared<'a, O> {
 impl Runtime {
     /// A runtime that schedules with `policy`.
     pub fn new(policy: Policy) -> Self {
-        Runtime { policy }
+        Runtime {
+            policy,
+            homes: None,
+        }
+    }
+
+    /// The same runtime for tasks whose data lives on one device each: the policy weighs
+    /// what moving a task costs (see [`Policy::dispatcher_homed`]). Only the plan changes:
+    /// an executor given a task away from home moves its data itself.
+    pub fn with_homes(self, homes: Homes) -> Self {
+        Runtime {
+            homes: Some(homes),
+            ..self
+        }
     }
 
     /// Starts (if not yet parked) the threads a run on `devices` devices uses, so that the
@@ -124,9 +138,14 @@ impl Runtime {
 
         let planning = Instant::now();
         let overheads: Vec<Option<f64>> = executors.iter().map(|e| e.launch_overhead()).collect();
-        let dispatch = self
-            .policy
-            .dispatcher_with_overheads(costs, &speeds, &overheads);
+        let dispatch = match &self.homes {
+            Some(homes) => self
+                .policy
+                .dispatcher_homed(costs, &speeds, &overheads, homes)?,
+            None => self
+                .policy
+                .dispatcher_with_overheads(costs, &speeds, &overheads),
+        };
         let plan_seconds = planning.elapsed().as_secs_f64();
 
         let shared = Shared {

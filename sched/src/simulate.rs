@@ -1,7 +1,9 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use crate::{Costs, DeviceFailure, Load, Metrics, Policy, SchedError, Span, Speeds, Timeline};
+use crate::{
+    Costs, DeviceFailure, Homes, Load, Metrics, Policy, SchedError, Span, Speeds, Timeline,
+};
 
 /// A device that stops at a given time: what it is running then is lost and re-run elsewhere.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,6 +39,7 @@ pub struct Simulation {
     told: Option<Vec<Option<f64>>>,
     faults: Vec<Fault>,
     record: bool,
+    homes: Option<Homes>,
 }
 
 /// What a simulation found.
@@ -74,6 +77,7 @@ impl Simulation {
             told: None,
             faults: Vec::new(),
             record: false,
+            homes: None,
         }
     }
 
@@ -120,6 +124,14 @@ impl Simulation {
         self.run_actual(costs, costs)
     }
 
+    /// Tasks that live on one device each: the policy weighs their moves (see
+    /// [`Policy::dispatcher_homed`]), and in [`Simulation::run`] and
+    /// [`Simulation::run_actual`] a task away from home takes its move's time more.
+    pub fn homes(mut self, homes: Homes) -> Self {
+        self.homes = Some(homes);
+        self
+    }
+
     /// Plans with `estimated` costs and advances time with `actual` ones.
     pub fn run_actual(&self, estimated: &Costs, actual: &Costs) -> Result<SimReport, SchedError> {
         if actual.len() != estimated.len() {
@@ -130,7 +142,10 @@ impl Simulation {
             });
         }
         let speeds = &self.speeds;
-        self.run_timed(estimated, &|t, d| actual[t] / speeds[d])
+        let homes = self.homes.as_ref();
+        self.run_timed(estimated, &|t, d| {
+            actual[t] / speeds[d] + homes.map_or(0.0, |h| h.extra(t, d))
+        })
     }
 
     /// Plans with `estimated` costs; task `t` takes `seconds(t, d)` on device `d`. A replay
@@ -180,9 +195,14 @@ impl Simulation {
         }
 
         let planning = std::time::Instant::now();
-        let mut dispatch = self
-            .policy
-            .dispatcher_with_overheads(estimated, &self.speeds, &told);
+        let mut dispatch = match &self.homes {
+            Some(homes) => self
+                .policy
+                .dispatcher_homed(estimated, &self.speeds, &told, homes)?,
+            None => self
+                .policy
+                .dispatcher_with_overheads(estimated, &self.speeds, &told),
+        };
         let plan_seconds = planning.elapsed().as_secs_f64();
         let mut events: BinaryHeap<Reverse<(Load, Kind, u32)>> = (0..m as u32)
             .map(|d| Reverse((Load::ZERO, Kind::Ready, d)))

@@ -2,7 +2,7 @@ use std::collections::VecDeque;
 
 use super::plan_lpt;
 use crate::dispatch::Orphans;
-use crate::{Costs, Dispatch, Load, Speeds};
+use crate::{Costs, Dispatch, Homes, Load, Plan, SchedError, Speeds, plan_lpt_homed};
 
 /// Share of its list's cost a device keeps back from its first launch when launches cost
 /// time: the tail that thieves can still rebalance.
@@ -38,6 +38,10 @@ const MIN_LAUNCH: f64 = 8.0;
 /// That rule is why stealing never makes the makespan worse than the LPT plan when
 /// estimates and paces are exact: the thief ends before the victim, and the victim ends
 /// earlier than planned. When estimates are wrong, the tail moves to whoever is idle.
+///
+/// With homes ([`HybridDispatch::homed`]) the start is [`plan_lpt_homed`]'s plan and a thief
+/// pays each stolen task's move: it steals only what it finishes, moves included, before the
+/// victim would, so the same argument holds with the moves counted.
 #[derive(Debug)]
 pub struct HybridDispatch<'a> {
     queues: Vec<VecDeque<u32>>,
@@ -54,6 +58,7 @@ pub struct HybridDispatch<'a> {
     done: Vec<(Load, f64)>,
     orphans: Orphans,
     costs: &'a Costs,
+    homes: Option<&'a Homes>,
 }
 
 impl<'a> HybridDispatch<'a> {
@@ -65,13 +70,47 @@ impl<'a> HybridDispatch<'a> {
     /// Plans `costs` by LPT on `speeds`, sizing each device's launches by its launch
     /// overhead in seconds (`None` where unknown; missing entries are unknown).
     pub fn with_overheads(costs: &'a Costs, speeds: &Speeds, overheads: &[Option<f64>]) -> Self {
-        let plan = plan_lpt(costs, speeds);
+        Self::from_plan(&plan_lpt(costs, speeds), costs, speeds, overheads, None)
+    }
+
+    /// [`HybridDispatch::with_overheads`] for tasks with `homes`: planned by
+    /// [`plan_lpt_homed`], stealing with each move paid (see the type's docs).
+    ///
+    /// # Errors
+    /// [`SchedError::LengthMismatch`] when `homes` and `costs` differ in length.
+    pub fn homed(
+        costs: &'a Costs,
+        speeds: &Speeds,
+        overheads: &[Option<f64>],
+        homes: &'a Homes,
+    ) -> Result<Self, SchedError> {
+        let plan = plan_lpt_homed(costs, speeds, homes)?;
+        Ok(Self::from_plan(
+            &plan,
+            costs,
+            speeds,
+            overheads,
+            Some(homes),
+        ))
+    }
+
+    fn from_plan(
+        plan: &Plan,
+        costs: &'a Costs,
+        speeds: &Speeds,
+        overheads: &[Option<f64>],
+        homes: Option<&'a Homes>,
+    ) -> Self {
         let queues: Vec<VecDeque<u32>> = (0..speeds.len())
             .map(|d| bulk_in_order(plan.tasks(d), costs).into())
             .collect();
+        let load = |t: u32, d: usize| {
+            costs[t as usize] + homes.map_or(0.0, |h| h.extra(t as usize, d) * speeds[d])
+        };
         let pending = queues
             .iter()
-            .map(|q| Load::sum(q.iter().map(|&t| costs[t as usize])))
+            .enumerate()
+            .map(|(d, q)| Load::sum(q.iter().map(|&t| load(t, d))))
             .collect();
         HybridDispatch {
             queues,
@@ -85,11 +124,18 @@ impl<'a> HybridDispatch<'a> {
             done: vec![(Load::ZERO, 0.0); speeds.len()],
             orphans: Orphans::default(),
             costs,
+            homes,
         }
     }
 
-    fn cost(&self, task: u32) -> f64 {
-        self.costs[task as usize]
+    /// What `task` weighs on `device`, in cost units: its cost, and its move away from home
+    /// as the work the device could have done meanwhile. Paces and finish times count moves
+    /// this way, so a device's measured pace is not inflated by the moves it made.
+    fn load(&self, task: u32, device: usize) -> f64 {
+        let moving = self.homes.map_or(0.0, |h| {
+            h.extra(task as usize, device) * self.speeds[device]
+        });
+        self.costs[task as usize] + moving
     }
 
     /// Seconds per unit of cost on `device`: measured on its own completed launches, else on
@@ -145,7 +191,7 @@ impl<'a> HybridDispatch<'a> {
         let reach = queue
             .iter()
             .position(|&t| {
-                taken = taken.plus(self.cost(t));
+                taken = taken.plus(self.load(t, device));
                 taken.value() >= work
             })
             .map_or(queue.len(), |k| k + 1);
@@ -164,7 +210,7 @@ impl<'a> HybridDispatch<'a> {
         } else {
             launch[first..]
                 .iter()
-                .fold(self.pending[device], |p, &t| p.plus(-self.cost(t)))
+                .fold(self.pending[device], |p, &t| p.plus(-self.load(t, device)))
         };
         take > 0
     }
@@ -205,14 +251,15 @@ impl<'a> HybridDispatch<'a> {
         let mut victim_ends = self.finish(victim, now, paces);
         let mut took = Vec::new();
         while let Some(&t) = self.queues[victim].back() {
-            let c = self.cost(t);
-            if stolen.plus(c).value() * pt > victim_ends - c * pv {
+            // With homes a task weighs differently on the two devices (see `load`).
+            let (on_thief, on_victim) = (self.load(t, thief), self.load(t, victim));
+            if stolen.plus(on_thief).value() * pt > victim_ends - on_victim * pv {
                 break;
             }
             self.queues[victim].pop_back();
-            stolen = stolen.plus(c);
-            victim_ends -= c * pv;
-            self.pending[victim] = self.pending[victim].plus(-c);
+            stolen = stolen.plus(on_thief);
+            victim_ends -= on_victim * pv;
+            self.pending[victim] = self.pending[victim].plus(-on_victim);
             took.push(t);
         }
         // Taken from the back, smallest first; the thief runs the largest first like
@@ -264,7 +311,7 @@ impl Dispatch for HybridDispatch<'_> {
             self.launch_own(device, launch);
         }
         if !launch.is_empty() {
-            let cost = launch.iter().map(|&t| self.cost(t)).sum();
+            let cost = launch.iter().map(|&t| self.load(t, device)).sum();
             self.in_flight[device] = Some((now, cost));
         }
     }

@@ -15,7 +15,7 @@ pub use lpt::plan_lpt;
 pub use static_dispatch::StaticDispatch;
 pub use static_equal::plan_equal;
 
-use crate::{Costs, Dispatch, Plan, SchedError, Speeds};
+use crate::{Costs, Dispatch, Homes, Plan, SchedError, Speeds, plan_lpt_homed};
 
 /// How tasks are assigned to devices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -101,6 +101,45 @@ impl Policy {
             Policy::QueueSorted => Box::new(QueueDispatch::sorted(costs)),
             Policy::Hybrid => Box::new(HybridDispatch::with_overheads(costs, speeds, overheads)),
         }
+    }
+
+    /// [`Policy::dispatcher_with_overheads`] for tasks that have a home (see [`Homes`]):
+    /// static LPT plans each task where it finishes earliest once its move is paid
+    /// ([`plan_lpt_homed`]), Hybrid starts from that plan and steals only what the thief
+    /// finishes, moves included, before the victim would, and the queues hand an idle device
+    /// the first task at home there before any other. `StaticEqual` ignores homes as it
+    /// ignores costs. Homes whose moves are all free change nothing: the dispatcher is
+    /// [`Policy::dispatcher_with_overheads`]'s.
+    ///
+    /// # Errors
+    /// [`SchedError::LengthMismatch`] when `homes` and `costs` differ in length, and
+    /// [`SchedError::BadHome`] for a home beyond the last device.
+    pub fn dispatcher_homed<'a>(
+        self,
+        costs: &'a Costs,
+        speeds: &Speeds,
+        overheads: &[Option<f64>],
+        homes: &'a Homes,
+    ) -> Result<Box<dyn Dispatch + 'a>, SchedError> {
+        homes.check(costs.len(), speeds.len())?;
+        if homes.is_free() {
+            return Ok(self.dispatcher_with_overheads(costs, speeds, overheads));
+        }
+        Ok(match self {
+            Policy::StaticEqual => self.dispatcher_with_overheads(costs, speeds, overheads),
+            Policy::StaticLpt => Box::new(StaticDispatch::new(
+                plan_lpt_homed(costs, speeds, homes)?,
+                costs,
+            )),
+            Policy::QueueFifo => Box::new(
+                QueueDispatch::in_order((0..costs.len() as u32).collect())
+                    .preferring_home(homes, speeds.len()),
+            ),
+            Policy::QueueSorted => {
+                Box::new(QueueDispatch::sorted(costs).preferring_home(homes, speeds.len()))
+            }
+            Policy::Hybrid => Box::new(HybridDispatch::homed(costs, speeds, overheads, homes)?),
+        })
     }
 }
 
