@@ -82,6 +82,7 @@ pub(crate) struct Sampling {
 /// # Errors
 /// [`GpuError::BadTasks`] for an empty task, one beyond the batch or an inconsistent batch
 /// (checked before anything is uploaded), and the errors of a launch.
+#[allow(clippy::too_many_arguments)] // the device's parts, the work, and what it moved
 pub(crate) fn sampled_counts(
     ctx: &GpuContext,
     kernels: &Kernels,
