@@ -3,7 +3,7 @@
 //! it. A record covers every ray of the frames (an AO record's primary rays included), and
 //! the simulator replays each frame's tasks.
 
-use raytrace::cost::{CostModel, SampleRate};
+use raytrace::cost::SampleRate;
 use raytrace::paths::{Frame, FrameStats, PathRenderer, build_path_devices, estimate_paths};
 use raytrace::scheduled::Settings;
 use raytrace::shade::RenderOptions;
@@ -117,7 +117,9 @@ fn frame_error(
     };
     let tasks = sched::split_ranges(stats.paths, stats.task_size.max(1));
     let full_rate = SampleRate::new(1.0).map_err(|e| CliError::Write(e.to_string()))?;
-    let full = CostModel::default().costs(&estimate_paths(&frame, &tasks, full_rate));
+    let full = stats
+        .cost_model
+        .costs(&estimate_paths(&frame, &tasks, full_rate));
     let estimated = stats.task_stats.iter().map(|t| t.cost);
     Ok(ErrorSums {
         diff: estimated.zip(&full).map(|(e, f)| (e - f).abs()).sum(),
