@@ -108,18 +108,14 @@ pub enum CalibrationError {
         found: u32,
     },
     /// An entry holds a value no plan can use (a speed of 0, a negative coefficient, …).
-    #[error("{path}: entry {entry} ({device} on {host}, {workload}): {field} = {value} {why}")]
+    #[error("{path}: entry {entry} ({key}): {field} = {value} {why}")]
     BadValue {
         /// The file.
         path: PathBuf,
         /// 0-based index of the entry in the file.
         entry: usize,
-        /// Its host.
-        host: String,
-        /// Its device.
-        device: String,
-        /// Its workload.
-        workload: String,
+        /// Its key: `DEVICE on HOST, WORKLOAD`.
+        key: String,
         /// The field.
         field: &'static str,
         /// The value found.
@@ -223,9 +219,7 @@ impl Calibration {
             let bad = |field, value, why| CalibrationError::BadValue {
                 path: path.to_owned(),
                 entry: i,
-                host: r.key.host.clone(),
-                device: r.key.device.clone(),
-                workload: r.key.workload.clone(),
+                key: format!("{} on {}, {}", r.key.device, r.key.host, r.key.workload),
                 field,
                 value,
                 why,
@@ -461,7 +455,7 @@ mod tests {
     }
 
     #[test]
-    fn a_failed_save_leaves_the_old_file() {
+    fn a_failed_save_removes_its_temporary() {
         let dir = scratch("failed-save");
         fs::create_dir_all(&dir).unwrap();
         // The target is a directory: the rename fails after the temporary was written.
