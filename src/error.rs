@@ -46,6 +46,9 @@ pub enum CliError {
         /// What is wrong with it.
         message: String,
     },
+    /// The calibration file named by `--calibration` could not be read.
+    #[error("--calibration {0}")]
+    Calibration(#[from] raytrace::calibration::CalibrationError),
     /// The scheduler rejected the input.
     #[error(transparent)]
     Sched(#[from] sched::SchedError),

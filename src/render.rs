@@ -160,6 +160,8 @@ pub struct Args {
     /// Print the report as one JSON object on standard output instead of a summary.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    calibration: crate::calibration::CalibrationArgs,
 }
 
 #[derive(Debug, Serialize)]
@@ -295,6 +297,8 @@ struct PathsReport {
     sample_rate: f64,
     #[serde(flatten)]
     run: crate::render_paths::PathRun,
+    /// The calibration file read before the first frame and written after the run.
+    calibration: crate::calibration::CalibrationReport,
 }
 
 /// What every render report opens with: the scene, the image, the camera and the shader.
@@ -551,6 +555,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
             let why = "the path pipeline renders its sampled paths for real";
             return refuse("probe", Some(probe.name()), why);
         }
+    } else if let Some(file) = &args.calibration.calibration {
+        return Err(arg(
+            "calibration",
+            &Some(file.display().to_string()),
+            "the generations pipeline learns within one render; it applies to --pipeline \
+             paths or gpu",
+        ));
     }
 
     let outputs = crate::output::Outputs::check(
@@ -561,6 +572,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ],
         &[("scene", std::path::Path::new(&args.scene))],
     )?;
+    // Read before the scene, so that a calibration file that cannot be used fails first.
+    let mut store = if by_paths {
+        crate::calibration::Store::open(&args.calibration)?
+    } else {
+        None
+    };
     let loading = Instant::now();
     let scene = SceneSource::parse(&args.scene)?.load(shader.needs())?;
     let load_seconds = loading.elapsed().as_secs_f64();
@@ -585,6 +602,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             _ => (args.devices.clone(), specs),
         };
         let pipeline = pipeline_name(pipeline);
+        let workload = crate::calibration::workload(&args.scene, &shader);
         let options = RenderOptions::new(width, height, camera, shader);
         let (film, run) = crate::render_paths::render(
             &scene,
@@ -598,7 +616,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 devices: &devices,
                 host_fallback: args.host_fallback,
             },
+            store.as_mut().map(|s| (s, workload.as_str())),
         )?;
+        let calibration = store.as_ref().map(|s| s.save()).unwrap_or_default();
         let image = film.png(ToneMap::Srgb)?;
         let cost_png = match &args.cost_image {
             Some(_) => {
@@ -616,6 +636,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             task_size: settings.task_size.get(),
             sample_rate: settings.sample_rate.get(),
             run,
+            calibration,
         };
         let json =
             serde_json::to_string_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;

@@ -13,6 +13,7 @@ use raytrace::shade::RenderOptions;
 use raytrace::{Bvh, Scene};
 use sched::{DeviceFailure, SchedError};
 
+use crate::calibration::Store;
 use crate::error::CliError;
 
 /// One device's part of the reported frame.
@@ -55,6 +56,9 @@ pub struct PathRun {
     pub balance_efficiency: f64,
     pub launches: u64,
     pub reruns: u64,
+    /// Launches of the reported frame whose time was far off their planned cost, left out of
+    /// the speeds learnt.
+    pub spikes: usize,
     /// Every device failed and the frames were rendered on the host (`--host-fallback`).
     pub host_fallback: bool,
     /// Devices that failed, with why.
@@ -114,6 +118,7 @@ impl PathRun {
             balance_efficiency: s.balance_efficiency,
             launches: s.launches(),
             reruns: s.reruns,
+            spikes: s.spikes,
             host_fallback: false,
             failures: s.failures.iter().map(ToString::to_string).collect(),
             host_to_device_bytes: t.host_to_device_bytes,
@@ -150,7 +155,9 @@ pub struct Fallback<'s> {
 }
 
 /// Renders `frames` frames of `options` through one path renderer over `specs`, keeping the
-/// fastest; a frame whose every device failed goes where `fallback` says.
+/// fastest; a frame whose every device failed goes where `fallback` says. With a
+/// `calibration` (and the workload's name), the first frame plans with what it holds and
+/// what the frames taught is kept in it.
 #[allow(clippy::too_many_arguments)]
 pub fn render(
     scene: &Scene,
@@ -161,9 +168,13 @@ pub fn render(
     settings: Settings,
     frames: u32,
     fallback: &Fallback<'_>,
+    mut calibration: Option<(&mut Store, &str)>,
 ) -> Result<(Film, PathRun), CliError> {
     let devices = build_path_devices(scene, bvh, specs, faults)?;
     let mut renderer = PathRenderer::new(devices, settings)?;
+    if let Some((store, workload)) = calibration.as_mut() {
+        store.recall(&mut renderer, workload);
+    }
     let mut host: Option<PathRenderer> = None;
     let mut lost: Vec<DeviceFailure> = Vec::new();
     let mut best: Option<FrameRendering> = None;
@@ -198,6 +209,10 @@ pub fn render(
         {
             best = Some(frame);
         }
+    }
+    // The host fallback's frames measured the host, not the devices asked for.
+    if let Some((store, workload)) = calibration {
+        store.remember(&renderer, workload);
     }
     let best = best.ok_or_else(|| CliError::Write("no frame was rendered".into()))?;
     let mut run = PathRun::new(frames.max(1), first_render_seconds, &best.stats);

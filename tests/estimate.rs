@@ -255,7 +255,7 @@ fn gpu_estimates_equal_cpu_estimates() {
                 ["--repeats", "1"],
             ],
         );
-        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"));
+        let mut cmd = crate::testkit::command();
         cmd.env("COBALT_GPU_SOFTWARE", "1")
             .arg("estimate")
             .args(all);

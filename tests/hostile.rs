@@ -73,7 +73,7 @@ fn rays(n: usize) -> Vec<u8> {
 }
 
 fn run_with_stdin(args: &[&str], input: &[u8], env: &[(&str, &str)]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_cobalt"));
+    let mut cmd = crate::testkit::command();
     cmd.args(args)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
@@ -597,7 +597,7 @@ proptest! {
         let dir = fresh("args");
         let mut args = vec!["render", "--scene", "builtin:cornell", "--size", "8x8"];
         args.extend(picks.iter().map(|&i| WORDS[i]));
-        let o = Command::new(env!("CARGO_BIN_EXE_cobalt"))
+        let o = crate::testkit::command()
             .args(&args)
             .current_dir(&dir)
             .stdin(Stdio::null())

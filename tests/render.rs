@@ -314,7 +314,7 @@ fn cpu_and_gpu_render_the_cpu_image() {
             extra.len()
         );
         let out = dir.join(format!("{tag}.png"));
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
+        let o = crate::testkit::command()
             .env("COBALT_GPU_SOFTWARE", "1")
             .args([
                 "render",
@@ -393,7 +393,7 @@ fn the_path_pipeline_renders_the_cpu_image() {
     let dir = crate::testkit::temp_dir("render-paths");
     let run = |shader: &str, extra: &[&str], name: &str| {
         let out = dir.join(name);
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
+        let o = crate::testkit::command()
             .env("COBALT_GPU_SOFTWARE", "1")
             .args(["render", "--scene", "builtin:cornell", "--shader", shader])
             .args(["--size", "40x24", "--ao-samples", "4", "--json", "--out"])
@@ -495,7 +495,7 @@ fn the_path_pipeline_renders_the_cpu_image() {
         (&["paths", "--estimate-on", "gpu"][..], "--estimate-on"),
         (&["generations", "--repeats", "2"][..], "--repeats"),
     ] {
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
+        let o = crate::testkit::command()
             .args(["render", "--scene", "builtin:cornell", "--size", "8x8"])
             .args(["--shader", "ao", "--pipeline"])
             .args(extra)
@@ -514,7 +514,7 @@ fn a_failing_gpu_is_reported_and_the_image_is_still_complete() {
     let dir = crate::testkit::temp_dir("render-gpu-fail");
     let run = |devices: &str, extra: &[&str], name: &str| {
         let out = dir.join(name);
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
+        let o = crate::testkit::command()
             .env("COBALT_GPU_SOFTWARE", "1")
             .args(["render", "--scene", "builtin:cornell", "--shader", "ao"])
             .args([

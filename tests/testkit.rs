@@ -44,9 +44,20 @@ pub(crate) fn temp_dir(tag: &str) -> std::path::PathBuf {
     dir
 }
 
-/// Runs the built `cobalt` binary with `args`.
+/// The built `cobalt` binary, to be given arguments. Its cache directory is one of its own,
+/// empty: a render neither reads the user's calibration (so every test starts from equal
+/// speeds, whatever ran before) nor writes into it.
+pub(crate) fn command() -> std::process::Command {
+    static SPAWNED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = SPAWNED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"));
+    cmd.env("XDG_CACHE_HOME", temp_dir("cache").join(n.to_string()));
+    cmd
+}
+
+/// Runs the built `cobalt` binary with `args` (see [`command`]).
 pub(crate) fn cobalt(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_cobalt"))
+    command()
         .args(args)
         .output()
         .expect("the cobalt binary runs")

@@ -44,3 +44,7 @@ mod hostile;
 // some ranks ends every rank with an error (feature `mpi`, needs Open MPI's `mpirun`).
 #[cfg(feature = "mpi")]
 mod mpi;
+
+// Calibration files: what one render learns plans the next one's first frame, and a damaged
+// file is named.
+mod calibration;

@@ -1,5 +1,4 @@
 use std::fmt::Write as _;
-use std::process::Command;
 
 use crate::testkit::Rng;
 
@@ -118,7 +117,7 @@ fn trace_matches_an_f64_reference_and_the_id_contract() {
     std::fs::write(&rays_path, &bytes).unwrap();
     let hits_path = dir.join("hits.bin");
 
-    let out = Command::new(env!("CARGO_BIN_EXE_cobalt"))
+    let out = crate::testkit::command()
         .args([
             "trace",
             "--scene",
@@ -204,7 +203,7 @@ fn trace_layouts_write_the_same_hits() {
     let rays = dir.join("rays.bin");
     std::fs::write(&rays, &bytes).unwrap();
     let trace = |layout: &str, out: &std::path::Path| {
-        Command::new(env!("CARGO_BIN_EXE_cobalt"))
+        crate::testkit::command()
             .args(["trace", "--scene", scene.to_str().unwrap()])
             .args([
                 "--rays",
@@ -258,7 +257,7 @@ fn trace_rejects_bad_rays_and_writes_nothing() {
         let rays = dir.join(format!("bad{k}.bin"));
         std::fs::write(&rays, bytes).unwrap();
         let hits = dir.join(format!("hits{k}.bin"));
-        let out = Command::new(env!("CARGO_BIN_EXE_cobalt"))
+        let out = crate::testkit::command()
             .args([
                 "trace",
                 "--scene",
@@ -330,7 +329,7 @@ fn trace_on_the_gpu_writes_the_cpu_hits() {
             if any {
                 args.push("--any-hit");
             }
-            let o = Command::new(env!("CARGO_BIN_EXE_cobalt"))
+            let o = crate::testkit::command()
                 .args(&args)
                 .env("COBALT_GPU_SOFTWARE", "1")
                 .output()

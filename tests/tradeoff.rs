@@ -1,9 +1,7 @@
-use std::process::Command;
-
 #[test]
 fn tradeoff_reports_both_tables_and_error_falls_with_samples() {
     let json = crate::testkit::temp_dir("tradeoff").join("t.json");
-    let o = Command::new(env!("CARGO_BIN_EXE_cobalt"))
+    let o = crate::testkit::command()
         .args([
             "tradeoff",
             "--scene",

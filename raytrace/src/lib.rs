@@ -30,6 +30,7 @@ pub mod ao;
 pub mod baseline;
 pub mod builtin;
 pub mod bvh;
+pub mod calibration;
 pub mod camera;
 pub mod cost;
 pub mod cost_image;

@@ -144,6 +144,10 @@ pub struct Record {
     pub fractional_bound_seconds: Option<f64>,
     /// `makespan_seconds / lower_bound_seconds`: 1 is an optimal plan.
     pub makespan_over_bound: Option<f64>,
+    /// The calibration file that planned the cell's first frame, the entries it used, and
+    /// the entries the bench wrote back (path pipeline, unless `--no-calibration`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<crate::calibration::CalibrationReport>,
 }
 
 impl Record {
@@ -188,6 +192,7 @@ impl Record {
             lower_bound_seconds: None,
             fractional_bound_seconds: None,
             makespan_over_bound: None,
+            calibration: None,
         }
     }
 }
@@ -244,6 +249,8 @@ pub struct Plan<'a> {
     pub repeats: usize,
     /// How each cell's frames are rendered.
     pub pipeline: Pipeline,
+    /// The calibration that plans each path cell's first frame and keeps what it learnt.
+    pub calibration: Option<&'a std::cell::RefCell<crate::calibration::Store>>,
 }
 
 impl Plan<'_> {

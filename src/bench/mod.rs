@@ -105,6 +105,10 @@ pub struct Args {
     #[cfg(feature = "mpi")]
     #[arg(long, conflicts_with_all = ["plots", "simulate", "full", "repeats"])]
     mpi: bool,
+    /// The path cells' calibration (as for `cobalt render`): every cell's first frame plans
+    /// with the file as it was read, and what the cells learnt is written back at the end.
+    #[command(flatten)]
+    calibration: crate::calibration::CalibrationArgs,
 }
 
 fn bad(flag: &'static str, value: &str, message: &str) -> CliError {
@@ -211,6 +215,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 "applies to --pipeline generations; the path pipeline estimates on its devices",
             ));
         }
+    } else if let Some(file) = &args.calibration.calibration {
+        return Err(bad(
+            "calibration",
+            &file.display().to_string(),
+            "the generations pipeline learns within one run; it applies to --pipeline paths",
+        ));
     }
     let probe = args.probe.unwrap_or(raytrace::Probe::Thesis);
     let estimate_on = args.estimate_on.unwrap_or_default();
@@ -245,6 +255,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
         return run_mpi(&args, &scenes, needs, settings, started);
     }
 
+    let store = match pipeline {
+        Pipeline::Paths => crate::calibration::Store::open(&args.calibration)?,
+        Pipeline::Generations => None,
+    }
+    .map(std::cell::RefCell::new);
+
     // Every scene is loaded before anything is measured, so a bad file fails the command at
     // once instead of after the first scene's runs.
     let loaded = scenes
@@ -276,6 +292,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             probe,
             repeats: args.repeats,
             pipeline,
+            calibration: store.as_ref(),
         };
         let bar = ProgressBar::new(plan.runs() as u64);
         bar.set_style(
@@ -296,6 +313,15 @@ pub fn run(args: Args) -> Result<(), CliError> {
             cost_png = Some(cost_image(scene, &bvh, width, height)?);
         }
         records.append(&mut recs);
+    }
+
+    if let Some(store) = &store {
+        let report = store.borrow().save();
+        for r in records.iter_mut() {
+            if let Some(c) = &mut r.calibration {
+                c.written_entries = report.written_entries;
+            }
+        }
     }
 
     let mut out = format!(

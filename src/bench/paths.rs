@@ -3,7 +3,7 @@
 //! it. A record covers every ray of the frames (an AO record's primary rays included), and
 //! the simulator replays each frame's tasks.
 
-use raytrace::cost::{CostModel, SampleRate};
+use raytrace::cost::SampleRate;
 use raytrace::paths::{Frame, FrameStats, PathRenderer, build_path_devices, estimate_paths};
 use raytrace::scheduled::Settings;
 use raytrace::shade::RenderOptions;
@@ -26,6 +26,16 @@ impl Plan<'_> {
     ) -> Result<CellRun, CliError> {
         let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
         let mut renderer = PathRenderer::new(devices, settings)?;
+        let workload = crate::calibration::workload(self.scene_name, &self.shader(w));
+        let recalled = self.calibration.map(|store| {
+            let mut store = store.borrow_mut();
+            let used = store.recall(&mut renderer, &workload);
+            crate::calibration::CalibrationReport {
+                file: Some(store.file()),
+                loaded_entries: used,
+                written_entries: 0,
+            }
+        });
         let mut frames = Vec::with_capacity(self.cameras);
         let mut sums = ErrorSums::default();
         for cam in 0..self.cameras {
@@ -53,9 +63,14 @@ impl Plan<'_> {
             }
             frames.push(frame.stats);
         }
+        if let Some(store) = self.calibration {
+            store.borrow_mut().remember(&renderer, &workload);
+        }
         let error = probe.then(|| sums.ratio());
+        let mut record = self.frames_record(w, settings, &frames);
+        record.calibration = recalled;
         Ok(CellRun {
-            record: self.frames_record(w, settings, &frames),
+            record,
             replay: frames.iter().map(replay_frame).collect(),
             error,
         })
@@ -117,7 +132,9 @@ fn frame_error(
     };
     let tasks = sched::split_ranges(stats.paths, stats.task_size.max(1));
     let full_rate = SampleRate::new(1.0).map_err(|e| CliError::Write(e.to_string()))?;
-    let full = CostModel::default().costs(&estimate_paths(&frame, &tasks, full_rate));
+    let full = stats
+        .cost_model
+        .costs(&estimate_paths(&frame, &tasks, full_rate));
     let estimated = stats.task_stats.iter().map(|t| t.cost);
     Ok(ErrorSums {
         diff: estimated.zip(&full).map(|(e, f)| (e - f).abs()).sum(),

@@ -100,6 +100,7 @@ mod tests {
             lower_bound_seconds: Some(0.5 * seconds),
             fractional_bound_seconds: Some(0.4 * seconds),
             makespan_over_bound: Some(2.0),
+            calibration: None,
         }
     }
 

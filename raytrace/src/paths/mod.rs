@@ -12,7 +12,10 @@
 //! - [`build_path_devices`]: a `--devices` list (with injected faults) made into devices;
 //! - [`estimate_paths`]: a task's cost from a sample of its paths traced for real;
 //! - [`PathRenderer`]: a frame cut into tasks, costed, planned and run; [`FrameStats`] says
-//!   what it did, [`Traffic`] what crossed between host and devices.
+//!   what it did, [`Traffic`] what crossed between host and devices;
+//! - [`PathRenderer::recall`] and [`PathRenderer::remember`]: the speeds and cost model of a
+//!   [`crate::calibration::Calibration`] plan the first frame, and what the frames measured
+//!   (timing spikes left out) goes back into it.
 //!
 //! ## Example
 //!
@@ -43,6 +46,8 @@ mod estimate;
 mod fault;
 #[cfg(feature = "gpu")]
 mod gpu;
+mod learn;
+mod memory;
 mod renderer;
 mod stats;
 mod traffic;

@@ -9,6 +9,8 @@ use glam::Vec3;
 
 use sched::{Costs, Runtime, SchedError, split_ranges};
 
+use super::learn::{Learnt, launches, learn, relative_speeds};
+use super::memory::History;
 use super::{
     BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, Traffic, estimate_paths,
 };
@@ -27,16 +29,21 @@ pub struct FrameRendering {
 }
 
 /// Renders frames over path devices. Device speeds are measured on each frame, per device
-/// class, and plan the next one, as a renderer drawing frames of one scene would.
+/// class, and plan the next one, as a renderer drawing frames of one scene would; a
+/// calibration from earlier runs ([`PathRenderer::recall`]) plans the first.
 ///
 /// Each path is rendered whole by whichever device gets its task, so the image is the same
 /// whatever the policy, mode, task size and devices.
 pub struct PathRenderer<'a> {
-    devices: Vec<Box<dyn PathDevice + 'a>>,
+    pub(super) devices: Vec<Box<dyn PathDevice + 'a>>,
     settings: Settings,
-    /// Relative speed per device class, from the frames rendered so far.
-    speeds: HashMap<String, f64>,
-    retired: Vec<bool>,
+    /// Relative speed per device class, from the frames rendered so far (or recalled).
+    pub(super) speeds: HashMap<String, f64>,
+    /// `kB`, `kT` per device class, recalled: the first device's class costs the frames.
+    pub(super) models: HashMap<String, CostModel>,
+    /// What the frames taught, per device class, for the next run's calibration.
+    pub(super) history: HashMap<String, History>,
+    pub(super) retired: Vec<bool>,
     log: Vec<FrameStats>,
 }
 
@@ -59,6 +66,8 @@ impl<'a> PathRenderer<'a> {
             devices,
             settings,
             speeds: HashMap::new(),
+            models: HashMap::new(),
+            history: HashMap::new(),
             retired: vec![false; m],
             log: Vec::new(),
         })
@@ -167,15 +176,18 @@ impl<'a> PathRenderer<'a> {
         let estimating = Instant::now();
         // One device runs every task whatever their costs: its estimate would change nothing.
         let estimated = self.settings.mode == Mode::Cost && active.len() > 1;
-        let (costs, estimate_traffic) = if estimated {
+        // Costs need one unit for all devices: the model of the class that estimates.
+        let model = self.cost_model(active[0]);
+        let (costs, work, estimate_traffic) = if estimated {
             let (work, traffic) = self.estimate(frame, tasks, &active, &speeds);
             // Counts are finite and non-negative, so only an empty frame could fail.
-            let costs = Costs::new(CostModel::default().costs(&work))
-                .unwrap_or_else(|_| Costs::uniform(tasks.len()));
-            (costs, traffic)
+            let costs =
+                Costs::new(model.costs(&work)).unwrap_or_else(|_| Costs::uniform(tasks.len()));
+            (costs, work, traffic)
         } else {
             (
                 Costs::uniform(tasks.len()),
+                Vec::new(),
                 vec![Traffic::default(); active.len()],
             )
         };
@@ -229,7 +241,6 @@ impl<'a> PathRenderer<'a> {
                 launch_overhead: self.devices[d].launch_overhead(),
             })
             .collect();
-        let mut cost_done = vec![0.0; active.len()];
         let undelivered = TaskStats {
             cost: 0.0,
             start: 0.0,
@@ -241,7 +252,6 @@ impl<'a> PathRenderer<'a> {
         for span in &report.timeline.spans {
             let (k, t) = (span.device as usize, span.task as usize);
             devices[k].tasks += 1;
-            cost_done[k] += costs.as_slice()[t];
             task_stats[t] = TaskStats {
                 cost: costs.as_slice()[t],
                 start: span.start,
@@ -259,7 +269,8 @@ impl<'a> PathRenderer<'a> {
                 }
             }
         }
-        self.learn(&active, &devices, &cost_done);
+        let opens: Vec<bool> = report.outputs.iter().map(|o| o.launch.is_some()).collect();
+        let spikes = self.learn(&active, &report.timeline, costs.as_slice(), &work, &opens);
 
         let stats = FrameStats {
             paths,
@@ -286,6 +297,8 @@ impl<'a> PathRenderer<'a> {
                     ..f
                 })
                 .collect(),
+            cost_model: model,
+            spikes,
         };
         let outputs = report.outputs.into_iter().map(|o| o.values).collect();
         Ok((outputs, stats))
@@ -365,32 +378,65 @@ impl<'a> PathRenderer<'a> {
         (work, traffic)
     }
 
-    /// Measures each device class's speed on this frame (planned cost per busy second,
-    /// relative to the fastest class) for the next frame's plan. A class that did no work
-    /// keeps its speed.
-    fn learn(&mut self, active: &[usize], devices: &[PathDeviceStats], cost_done: &[f64]) {
-        let mut by_class: HashMap<String, (f64, f64)> = HashMap::new();
-        for ((&d, stats), &cost) in active.iter().zip(devices).zip(cost_done) {
-            if stats.tasks == 0 || stats.busy <= 0.0 || self.retired[d] {
-                continue;
-            }
-            let e = by_class.entry(self.devices[d].class()).or_default();
-            e.0 += cost;
-            e.1 += stats.busy;
-        }
-        let rates: Vec<(String, f64)> = by_class
-            .into_iter()
-            .map(|(class, (cost, busy))| (class, cost / busy))
-            .filter(|(_, r)| r.is_finite() && *r > 0.0)
+    /// The model the frames are costed with when device `d` estimates: its class's
+    /// recalled one, else the default.
+    fn cost_model(&self, d: usize) -> CostModel {
+        self.devices
+            .get(d)
+            .and_then(|dev| self.models.get(&dev.class()))
+            .copied()
+            .unwrap_or_default()
+    }
+
+    /// Measures each device class's speed on this frame (planned cost per second of the
+    /// launches that were not timing spikes, relative to the fastest class) for the next
+    /// frame's plan, and keeps what the launches taught for [`PathRenderer::remember`]. A
+    /// class that did no work keeps its speed. `active[k]` is the renderer's index of the
+    /// timeline's device `k`; `costs` and `work` (empty when not estimated) are per task, and
+    /// `opens[t]` says whether task `t` opened a launch. Returns the spikes left out.
+    fn learn(
+        &mut self,
+        active: &[usize],
+        timeline: &sched::Timeline,
+        costs: &[f64],
+        work: &[Work],
+        opens: &[bool],
+    ) -> usize {
+        let mut names: Vec<String> = Vec::new();
+        let class: Vec<usize> = active
+            .iter()
+            .map(|&d| {
+                let name = self.devices[d].class();
+                match names.iter().position(|n| *n == name) {
+                    Some(c) => c,
+                    None => {
+                        names.push(name);
+                        names.len() - 1
+                    }
+                }
+            })
             .collect();
-        let Some(fastest) = rates.iter().map(|(_, r)| *r).reduce(f64::max) else {
-            return;
-        };
+        // A device retired during the frame measured its failure, not its speed.
+        let samples: Vec<_> = launches(timeline, costs, work, opens)
+            .into_iter()
+            .filter(|l| !self.retired[active[l.device]])
+            .collect();
+        let learnt: Vec<Learnt> = learn(&samples, &class, names.len());
+        let first_class = class.first().copied();
+        for (c, (name, l)) in names.iter().zip(&learnt).enumerate() {
+            let h = self.history.entry(name.clone()).or_default();
+            // Only the estimating class's fit can cost a later frame: work is counted in its
+            // kind of counts.
+            h.add(l, Some(c) == first_class && !work.is_empty());
+        }
         // Classes measured before but not on this frame keep their speed, rescaled with the
         // others only when they share a frame again.
-        for (class, rate) in rates {
-            self.speeds.insert(class, rate / fastest);
+        for (name, speed) in names.iter().zip(relative_speeds(&learnt)) {
+            if let Some(speed) = speed {
+                self.speeds.insert(name.clone(), speed);
+            }
         }
+        learnt.iter().map(|l| l.spikes).sum()
     }
 }
 

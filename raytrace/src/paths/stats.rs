@@ -3,6 +3,7 @@
 use sched::{DeviceFailure, Policy};
 
 use super::Traffic;
+use crate::cost::CostModel;
 use crate::scheduled::{Mode, TaskStats};
 
 /// One device's part of a frame.
@@ -71,6 +72,11 @@ pub struct FrameStats {
     pub reruns: u64,
     /// Devices that failed during the frame.
     pub failures: Vec<DeviceFailure>,
+    /// The model that turned the estimated work into the planned costs.
+    pub cost_model: CostModel,
+    /// Launches whose time was far off their planned cost (timing spikes), left out of what
+    /// the frame taught the next plan.
+    pub spikes: usize,
 }
 
 impl FrameStats {

@@ -1,0 +1,555 @@
+//! What a run learnt about the machine, kept for the next run: per host, device class and
+//! workload, the device's relative speed and its cost model's `kB`, `kT`, so that the first
+//! plan of a run is made with what the last one measured rather than with equal speeds.
+//!
+//! The file is JSON: `{"version": 1, "entries": [{"host", "device", "workload", "speed",
+//! "kb", "kt", "samples", "spikes"}, …]}`. By default it lives in the user's cache directory
+//! ([`default_path`]).
+//!
+//! A missing file is an empty calibration. A file that cannot be parsed, or holds a value no
+//! plan can use, is a [`CalibrationError`] naming the file and the line or entry: the caller
+//! decides whether that is fatal (a file the user named) or a warning and a fresh start (the
+//! default cache, which a crash or another program may have damaged). Writing goes through a
+//! temporary in the same directory renamed over the file, so a reader never sees half a file.
+
+use std::collections::BTreeMap;
+use std::ffi::OsString;
+use std::fs;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::cost::CostModel;
+
+/// The version of the file format this module reads and writes.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Larger files are refused unread: a calibration holds a few entries per device and scene,
+/// so anything this big is not one.
+const MAX_BYTES: u64 = 16 << 20;
+
+/// What an entry is about: which machine, which of its devices (the renderer's device class,
+/// e.g. `cpu/4`), and which workload (scene and shader).
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct Key {
+    /// The host name ([`host_name`]).
+    pub host: String,
+    /// The device class, as the renderer names it.
+    pub device: String,
+    /// The scene and shader, as the caller names them.
+    pub workload: String,
+}
+
+impl Key {
+    /// The key of `device` on `host` for `workload`.
+    pub fn new(host: &str, device: &str, workload: &str) -> Self {
+        Self {
+            host: host.to_owned(),
+            device: device.to_owned(),
+            workload: workload.to_owned(),
+        }
+    }
+}
+
+/// What was learnt about one device on one workload.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Entry {
+    /// Speed relative to the fastest device of the run that measured it (finite, > 0).
+    pub speed: f64,
+    /// `kB`, `kT` fitted to the device's measured launch times, if a fit was made.
+    pub model: Option<CostModel>,
+    /// Launches learnt from, over every run that updated the entry.
+    pub samples: u64,
+    /// Launches left out as timing spikes, over every run that updated the entry.
+    pub spikes: u64,
+}
+
+/// Why a calibration file could not be read or written. Every message names the file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CalibrationError {
+    /// The file exists but could not be read.
+    #[error("{path}: cannot read the calibration file: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The file is larger than any calibration.
+    #[error("{path}: larger than {limit} bytes; not a calibration file")]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// The limit, in bytes.
+        limit: u64,
+    },
+    /// The file is not JSON of the calibration's shape.
+    #[error("{path}:{line}:{column}: not a calibration file: {why}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line of the fault.
+        line: usize,
+        /// 1-based column of the fault.
+        column: usize,
+        /// What the parser expected.
+        why: String,
+    },
+    /// The file is a calibration of another format version.
+    #[error(
+        "{path}: calibration format version {found}, this build reads version {FORMAT_VERSION}"
+    )]
+    Version {
+        /// The file.
+        path: PathBuf,
+        /// The version the file says it is.
+        found: u32,
+    },
+    /// An entry holds a value no plan can use (a speed of 0, a negative coefficient, …).
+    #[error("{path}: entry {entry} ({key}): {field} = {value} {why}")]
+    BadValue {
+        /// The file.
+        path: PathBuf,
+        /// 0-based index of the entry in the file.
+        entry: usize,
+        /// Its key: `DEVICE on HOST, WORKLOAD`.
+        key: String,
+        /// The field.
+        field: &'static str,
+        /// The value found.
+        value: f64,
+        /// What it should have been.
+        why: &'static str,
+    },
+    /// The file (or its directory, or the temporary beside it) could not be written.
+    #[error("{path}: cannot write the calibration file: {source}")]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+}
+
+/// The entries of a calibration file, in memory.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Calibration {
+    entries: BTreeMap<Key, Entry>,
+}
+
+/// The file as written: a version, and the entries with their keys spelled out.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    version: u32,
+    entries: Vec<Record>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Record {
+    #[serde(flatten)]
+    key: Key,
+    speed: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    kb: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    kt: Option<f64>,
+    #[serde(default)]
+    samples: u64,
+    #[serde(default)]
+    spikes: u64,
+}
+
+impl Calibration {
+    /// An empty calibration.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Reads `path`; a file that does not exist is an empty calibration.
+    ///
+    /// # Errors
+    /// [`CalibrationError`] naming `path`: unreadable, too large, not JSON of this shape (with
+    /// the line and column), of another version, or holding a value no plan can use.
+    pub fn load(path: &Path) -> Result<Self, CalibrationError> {
+        let read = |source| CalibrationError::Read {
+            path: path.to_owned(),
+            source,
+        };
+        let file = match fs::File::open(path) {
+            Ok(file) => file,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Self::new()),
+            Err(e) => return Err(read(e)),
+        };
+        let mut text = String::new();
+        file.take(MAX_BYTES + 1)
+            .read_to_string(&mut text)
+            .map_err(read)?;
+        if text.len() as u64 > MAX_BYTES {
+            return Err(CalibrationError::TooLarge {
+                path: path.to_owned(),
+                limit: MAX_BYTES,
+            });
+        }
+        Self::parse(path, &text)
+    }
+
+    /// Parses the text of a calibration file; `path` only names it in errors.
+    ///
+    /// # Errors
+    /// As [`Calibration::load`], reading aside.
+    pub fn parse(path: &Path, text: &str) -> Result<Self, CalibrationError> {
+        let file: File = serde_json::from_str(text).map_err(|e| CalibrationError::Parse {
+            path: path.to_owned(),
+            line: e.line(),
+            column: e.column(),
+            why: e.to_string(),
+        })?;
+        if file.version != FORMAT_VERSION {
+            return Err(CalibrationError::Version {
+                path: path.to_owned(),
+                found: file.version,
+            });
+        }
+        let mut entries = BTreeMap::new();
+        for (i, r) in file.entries.into_iter().enumerate() {
+            let bad = |field, value, why| CalibrationError::BadValue {
+                path: path.to_owned(),
+                entry: i,
+                key: format!("{} on {}, {}", r.key.device, r.key.host, r.key.workload),
+                field,
+                value,
+                why,
+            };
+            if !(r.speed.is_finite() && r.speed > 0.0) {
+                return Err(bad("speed", r.speed, "is not a finite number > 0"));
+            }
+            let model = match (r.kb, r.kt) {
+                (None, None) => None,
+                (Some(kb), Some(kt)) => {
+                    for (field, v) in [("kb", kb), ("kt", kt)] {
+                        if !(v.is_finite() && v >= 0.0) {
+                            return Err(bad(field, v, "is not a finite number >= 0"));
+                        }
+                    }
+                    if kb + kt <= 0.0 {
+                        return Err(bad("kb + kt", kb + kt, "is not > 0"));
+                    }
+                    Some(CostModel { kb, kt })
+                }
+                (Some(v), None) => return Err(bad("kb", v, "comes without kt")),
+                (None, Some(v)) => return Err(bad("kt", v, "comes without kb")),
+            };
+            let entry = Entry {
+                speed: r.speed,
+                model,
+                samples: r.samples,
+                spikes: r.spikes,
+            };
+            entries.insert(r.key, entry);
+        }
+        Ok(Self { entries })
+    }
+
+    /// The file's text: entries in key order, so that equal calibrations write equal files.
+    pub fn to_json(&self) -> String {
+        let file = File {
+            version: FORMAT_VERSION,
+            entries: self
+                .entries
+                .iter()
+                .map(|(key, e)| Record {
+                    key: key.clone(),
+                    speed: e.speed,
+                    kb: e.model.map(|m| m.kb),
+                    kt: e.model.map(|m| m.kt),
+                    samples: e.samples,
+                    spikes: e.spikes,
+                })
+                .collect(),
+        };
+        // Only strings, integers and finite numbers (checked on insert and load): cannot fail.
+        let text = serde_json::to_string_pretty(&file).unwrap_or_default();
+        format!("{text}\n")
+    }
+
+    /// Writes the calibration to `path`, creating its directory if needed: to a new temporary
+    /// in that directory first, then renamed over `path`, so that a reader (or a run that
+    /// crashes midway) never sees half a file.
+    ///
+    /// # Errors
+    /// [`CalibrationError::Write`] naming the path that could not be written; the temporary
+    /// is removed and `path` is left as it was.
+    pub fn save(&self, path: &Path) -> Result<(), CalibrationError> {
+        let failed = |at: &Path, source| CalibrationError::Write {
+            path: at.to_owned(),
+            source,
+        };
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
+            _ => PathBuf::from("."),
+        };
+        fs::create_dir_all(&dir).map_err(|e| failed(&dir, e))?;
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "calibration".to_owned());
+        let (temp, mut file) = exclusive_temp(&dir, &name).map_err(|e| failed(path, e))?;
+        let written = file
+            .write_all(self.to_json().as_bytes())
+            .and_then(|()| file.sync_all())
+            .and_then(|()| {
+                drop(file);
+                fs::rename(&temp, path)
+            });
+        if let Err(e) = written {
+            // Best effort: the write already failed, and that is the error worth reporting.
+            let _ = fs::remove_file(&temp);
+            return Err(failed(path, e));
+        }
+        Ok(())
+    }
+
+    /// The entry of `key`, if there is one.
+    pub fn get(&self, key: &Key) -> Option<&Entry> {
+        self.entries.get(key)
+    }
+
+    /// Records (or replaces) the entry of `key`. An entry no plan could use (a speed that is
+    /// not finite and positive, or a model with a negative or non-finite coefficient) is not
+    /// recorded: returns whether it was.
+    pub fn insert(&mut self, key: Key, entry: Entry) -> bool {
+        let speed_ok = entry.speed.is_finite() && entry.speed > 0.0;
+        let model_ok = entry.model.is_none_or(|m| {
+            m.kb.is_finite() && m.kt.is_finite() && m.kb >= 0.0 && m.kt >= 0.0 && m.kb + m.kt > 0.0
+        });
+        if speed_ok && model_ok {
+            self.entries.insert(key, entry);
+        }
+        speed_ok && model_ok
+    }
+
+    /// Every entry, in key order.
+    pub fn iter(&self) -> impl Iterator<Item = (&Key, &Entry)> {
+        self.entries.iter()
+    }
+
+    /// Number of entries.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// True when there is no entry.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+}
+
+/// A new file in `dir` beside `name`, created exclusively (it cannot be a planted link or
+/// another run's temporary).
+fn exclusive_temp(dir: &Path, name: &str) -> std::io::Result<(PathBuf, fs::File)> {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let mut last = None;
+    for attempt in 0..16u32 {
+        let temp = dir.join(format!(
+            ".{name}.{}.{nanos:x}{attempt}.tmp",
+            std::process::id()
+        ));
+        match fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&temp)
+        {
+            Ok(file) => return Ok((temp, file)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => last = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    Err(last.unwrap_or_else(|| std::io::Error::other("no free temporary name")))
+}
+
+/// Where the calibration is kept by default: `$XDG_CACHE_HOME/cobalt/calibration.json`, else
+/// `$HOME/.cache/cobalt/calibration.json`; `None` when neither is set (to an absolute path,
+/// as the XDG base directory specification asks), and then nothing is kept.
+pub fn default_path() -> Option<PathBuf> {
+    default_path_from(std::env::var_os("XDG_CACHE_HOME"), std::env::var_os("HOME"))
+}
+
+/// [`default_path`] from the two variables' values.
+fn default_path_from(xdg_cache_home: Option<OsString>, home: Option<OsString>) -> Option<PathBuf> {
+    let absolute = |v: Option<OsString>| v.map(PathBuf::from).filter(|p| p.is_absolute());
+    let cache = absolute(xdg_cache_home).or_else(|| absolute(home).map(|h| h.join(".cache")))?;
+    Some(cache.join("cobalt").join("calibration.json"))
+}
+
+/// This machine's name, for the entries' keys: the kernel's host name, else `/etc/hostname`,
+/// else `$HOSTNAME`, else `unknown` (entries then still separate devices and workloads).
+pub fn host_name() -> String {
+    let from_file = |p: &str| fs::read_to_string(p).ok();
+    from_file("/proc/sys/kernel/hostname")
+        .or_else(|| from_file("/etc/hostname"))
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .map(|s| s.trim().to_owned())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "unknown".to_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Calibration {
+        let mut c = Calibration::new();
+        let entry = |speed, model, samples| Entry {
+            speed,
+            model,
+            samples,
+            spikes: 1,
+        };
+        assert!(c.insert(
+            Key::new("box", "cpu/1", "builtin:cornell whitted"),
+            entry(0.25, Some(CostModel { kb: 1e-8, kt: 3e-9 }), 12),
+        ));
+        assert!(c.insert(
+            Key::new("box", "gpu0 (lavapipe)", "builtin:cornell whitted"),
+            entry(1.0, None, 3),
+        ));
+        assert!(c.insert(
+            Key::new("other", "cpu/1", "scene.obj ao"),
+            entry(0.1 + 0.2, None, 0)
+        ));
+        c
+    }
+
+    fn scratch(tag: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("raytrace-calibration-{tag}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        dir
+    }
+
+    #[test]
+    fn a_calibration_reads_back_equal_and_leaves_no_temporary() {
+        let dir = scratch("round-trip");
+        // The directory is made on the first save, as the cache directory must be.
+        let path = dir.join("nested").join("calibration.json");
+        assert_eq!(Calibration::load(&path).unwrap(), Calibration::new());
+        let c = sample();
+        c.save(&path).unwrap();
+        assert_eq!(Calibration::load(&path).unwrap(), c);
+        // Saved again over itself: still equal, byte for byte.
+        let first = fs::read_to_string(&path).unwrap();
+        Calibration::load(&path).unwrap().save(&path).unwrap();
+        assert_eq!(fs::read_to_string(&path).unwrap(), first);
+        let names: Vec<String> = fs::read_dir(path.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, ["calibration.json"], "no temporary is left behind");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_failed_save_removes_its_temporary() {
+        let dir = scratch("failed-save");
+        fs::create_dir_all(&dir).unwrap();
+        // The target is a directory: the rename fails after the temporary was written.
+        let path = dir.join("calibration.json");
+        fs::create_dir_all(path.join("occupied")).unwrap();
+        let err = sample().save(&path).unwrap_err();
+        assert!(matches!(err, CalibrationError::Write { .. }), "{err}");
+        assert!(err.to_string().contains("calibration.json"), "{err}");
+        assert_eq!(
+            fs::read_dir(&dir).unwrap().count(),
+            1,
+            "the temporary is removed"
+        );
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_corrupt_file_is_an_error_naming_the_file_and_the_fault() {
+        let path = Path::new("/cache/cobalt/calibration.json");
+        let cut = sample().to_json();
+        let cut = &cut[..cut.len() / 2];
+        let err = Calibration::parse(path, cut).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            text.starts_with("/cache/cobalt/calibration.json:"),
+            "{text}"
+        );
+        assert!(
+            matches!(err, CalibrationError::Parse { line, .. } if line > 1),
+            "{text}"
+        );
+
+        let zero = sample()
+            .to_json()
+            .replacen("\"speed\": 0.25", "\"speed\": 0.0", 1);
+        let err = Calibration::parse(path, &zero).unwrap_err().to_string();
+        assert!(err.contains("entry 0 (cpu/1 on box"), "{err}");
+        assert!(err.contains("speed = 0"), "{err}");
+
+        let negative = sample()
+            .to_json()
+            .replacen("\"kt\": 3e-9", "\"kt\": -1.0", 1);
+        let err = Calibration::parse(path, &negative).unwrap_err().to_string();
+        assert!(err.contains("kt = -1"), "{err}");
+
+        let future = sample()
+            .to_json()
+            .replacen("\"version\": 1", "\"version\": 7", 1);
+        let err = Calibration::parse(path, &future).unwrap_err().to_string();
+        assert!(err.contains("version 7"), "{err}");
+
+        let err = Calibration::parse(path, "[1, 2]").unwrap_err().to_string();
+        assert!(err.contains("calibration.json:1:"), "{err}");
+    }
+
+    #[test]
+    fn unusable_entries_are_not_recorded() {
+        let mut c = Calibration::new();
+        let key = Key::new("h", "d", "w");
+        let entry = |speed, kb| Entry {
+            speed,
+            model: Some(CostModel { kb, kt: 0.0 }),
+            samples: 1,
+            spikes: 0,
+        };
+        assert!(!c.insert(key.clone(), entry(f64::NAN, 1.0)));
+        assert!(!c.insert(key.clone(), entry(1.0, -1.0)));
+        assert!(!c.insert(key.clone(), entry(1.0, 0.0)));
+        assert!(c.is_empty());
+        assert!(c.insert(key, entry(1.0, 1.0)));
+        assert_eq!(c.len(), 1);
+    }
+
+    #[test]
+    fn the_default_path_is_in_the_cache_directory() {
+        let p = |x: Option<&str>, h: Option<&str>| {
+            default_path_from(x.map(OsString::from), h.map(OsString::from))
+        };
+        let expected = |s: &str| Some(PathBuf::from(s));
+        assert_eq!(
+            p(Some("/c"), Some("/home/u")),
+            expected("/c/cobalt/calibration.json")
+        );
+        assert_eq!(
+            p(None, Some("/home/u")),
+            expected("/home/u/.cache/cobalt/calibration.json")
+        );
+        // A relative XDG_CACHE_HOME is ignored, as the specification says.
+        assert_eq!(
+            p(Some("rel"), Some("/home/u")),
+            expected("/home/u/.cache/cobalt/calibration.json")
+        );
+        assert_eq!(p(None, None), None);
+        assert_eq!(p(Some(""), Some("")), None);
+        assert!(!host_name().is_empty());
+    }
+}

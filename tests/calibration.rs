@@ -1,0 +1,127 @@
+use std::path::Path;
+
+use serde_json::Value;
+
+use crate::testkit::{command, temp_dir};
+
+/// `cobalt render` of a small AO image on two device classes, with `extra` flags, from a
+/// cache directory of `cache`: the image and the JSON report, or the failed run's output.
+fn render(dir: &Path, name: &str, cache: &Path, extra: &[&str]) -> std::process::Output {
+    let out = dir.join(format!("{name}.png"));
+    command()
+        .env("XDG_CACHE_HOME", cache)
+        .args(["render", "--scene", "builtin:cornell", "--shader", "ao"])
+        .args(["--ao-samples", "4", "--size", "48x32", "--task-size", "96"])
+        .args(["--devices", "cpu:2,cpu:1/2", "--json", "--out"])
+        .arg(&out)
+        .args(extra)
+        .output()
+        .expect("cobalt runs")
+}
+
+fn report(o: &std::process::Output) -> Value {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    serde_json::from_slice(&o.stdout).expect("a JSON report")
+}
+
+/// Two renders with one `--calibration` file: the first writes an entry per device class,
+/// the second plans its first frame with them, and the image does not change (where a task
+/// runs never changes what its paths render). The user's cache is left alone.
+#[test]
+fn a_second_render_plans_with_what_the_first_learnt() {
+    let dir = temp_dir("calibration");
+    let file = dir.join("learnt.json");
+    let cache = dir.join("cache");
+    let _ = std::fs::remove_file(&file);
+    let _ = std::fs::remove_dir_all(&cache);
+    let flag = ["--calibration", file.to_str().expect("a UTF-8 temp path")];
+
+    let first = report(&render(&dir, "first", &cache, &flag));
+    let c = &first["calibration"];
+    assert_eq!(c["file"].as_str(), file.to_str(), "{c}");
+    assert_eq!(c["loaded_entries"], 0, "{c}");
+    assert_eq!(c["written_entries"], 2, "one entry per device class: {c}");
+    let stored: Value = serde_json::from_slice(&std::fs::read(&file).expect("the file"))
+        .expect("the calibration is JSON");
+    assert_eq!(stored["version"], 1);
+    let devices: Vec<&str> = stored["entries"]
+        .as_array()
+        .expect("entries")
+        .iter()
+        .map(|e| e["device"].as_str().expect("a device"))
+        .collect();
+    assert_eq!(devices, ["cpu/1", "cpu/2"]);
+
+    let second = report(&render(&dir, "second", &cache, &flag));
+    assert_eq!(second["calibration"]["loaded_entries"], 2, "{second}");
+    assert_eq!(
+        std::fs::read(dir.join("first.png")).expect("the first image"),
+        std::fs::read(dir.join("second.png")).expect("the second image"),
+    );
+    assert!(!cache.exists(), "the default cache was not touched");
+
+    // Without a calibration, nothing is read or written.
+    let before = std::fs::read(&file).expect("the file");
+    let none = report(&render(&dir, "none", &cache, &["--no-calibration"]));
+    assert_eq!(none["calibration"]["file"], Value::Null, "{none}");
+    assert_eq!(none["calibration"]["loaded_entries"], 0);
+    assert_eq!(std::fs::read(&file).expect("the file"), before);
+    assert!(!cache.exists());
+}
+
+/// The default file is a cache: written where `XDG_CACHE_HOME` says, and when it is damaged,
+/// a warning naming it and a fresh start. A damaged file the user named fails the command
+/// before any work, naming the file and the line.
+#[test]
+fn a_damaged_calibration_is_named_and_only_the_cache_is_replaced() {
+    let dir = temp_dir("calibration-damaged");
+    let cache = dir.join("cache");
+    let _ = std::fs::remove_dir_all(&cache);
+    let default = cache.join("cobalt").join("calibration.json");
+
+    let fresh = report(&render(&dir, "fresh", &cache, &[]));
+    assert_eq!(
+        fresh["calibration"]["file"].as_str(),
+        default.to_str(),
+        "{fresh}"
+    );
+    assert!(default.is_file());
+
+    std::fs::write(&default, "{\"version\": 1,\n \"entries\": [{\"host\": ").expect("write");
+    let o = render(&dir, "damaged", &cache, &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    let v = report(&o);
+    assert!(
+        stderr.contains(&format!("{}:2:", default.display())),
+        "{stderr}"
+    );
+    assert!(stderr.contains("starting a fresh calibration"), "{stderr}");
+    assert_eq!(v["calibration"]["loaded_entries"], 0);
+    let text = std::fs::read_to_string(&default).expect("the cache");
+    assert!(
+        serde_json::from_str::<Value>(&text).is_ok(),
+        "replaced: {text}"
+    );
+
+    let named = dir.join("named.json");
+    std::fs::write(&named, "not json").expect("write");
+    let flag = ["--calibration", named.to_str().expect("a UTF-8 temp path")];
+    let o = render(&dir, "refused", &cache, &flag);
+    assert_eq!(o.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains(&format!("{}:1:", named.display())),
+        "{stderr}"
+    );
+    assert!(!dir.join("refused.png").exists(), "nothing was written");
+    assert_eq!(std::fs::read_to_string(&named).expect("kept"), "not json");
+
+    // The generations pipeline learns within one render: a file named for it is refused.
+    let o = render(&dir, "generations", &cache, &["--pipeline", "generations"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut extra = vec!["--pipeline", "generations"];
+    extra.extend(flag);
+    let o = render(&dir, "generations", &cache, &extra);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--calibration"));
+}
