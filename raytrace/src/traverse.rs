@@ -502,7 +502,7 @@ pub fn hits_in(bvh: &Bvh, rays: &RayBatch, any: bool, layout: Layout) -> HitBatc
 /// # Panics
 /// Panics if the batch's columns have different lengths.
 pub fn closest_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts>) {
-    counted_at(rays, rays.len(), |i| i, |r| bvh.closest_hit_counted(r))
+    counted_wide::<COUNTED>(bvh, rays, rays.len(), |i| i)
 }
 
 /// Closest hits (or, with `any`, any hits) and per-ray counts on the tree `layout` names, in
@@ -516,7 +516,12 @@ pub fn hits_counted_in(
     any: bool,
     layout: Layout,
 ) -> (HitBatch, Vec<Counts>) {
-    counted_at(rays, rays.len(), |i| i, |r| bvh.counted_in(r, any, layout))
+    counted_at(rays, rays.len(), |first, ts, ps, cs| {
+        for k in 0..ts.len() {
+            let (hit, counts) = bvh.counted_in(&rays.get(first + k), any, layout);
+            put(ts, ps, cs, k, hit, counts);
+        }
+    })
 }
 
 /// Any hits and per-ray counts (up to the first hit found), in parallel.
@@ -524,7 +529,7 @@ pub fn hits_counted_in(
 /// # Panics
 /// Panics if the batch's columns have different lengths.
 pub fn any_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts>) {
-    counted_at(rays, rays.len(), |i| i, |r| bvh.any_hit_counted(r))
+    counted_wide::<ANY_COUNTED>(bvh, rays, rays.len(), |i| i)
 }
 
 /// The real trace of rays `index[0], index[1], …` of `rays` (any hit with `any`, else the
@@ -540,27 +545,53 @@ pub fn traced_at(
 ) -> (HitBatch, Vec<Counts>) {
     // One loop per query, each with its traversal inlined (see `fill_skipping`).
     if any {
-        counted_at(rays, index.len(), |k| index[k], |r| bvh.any_hit_counted(r))
+        counted_wide::<ANY_COUNTED>(bvh, rays, index.len(), |k| index[k])
     } else {
-        counted_at(
-            rays,
-            index.len(),
-            |k| index[k],
-            |r| bvh.closest_hit_counted(r),
-        )
+        counted_wide::<COUNTED>(bvh, rays, index.len(), |k| index[k])
     }
 }
 
-/// `trace` of rays `at(0), …, at(n - 1)` of `rays`: their hits and counts, in parallel.
-fn counted_at<F>(
+/// The counted query `MODE` of rays `at(0), …, at(n - 1)` on the wide tree, in parallel: the
+/// batch loop of [`Bvh::wide_each`], as fast per ray as the uncounted trace's.
+fn counted_wide<const MODE: u8>(
+    bvh: &Bvh,
     rays: &RayBatch,
     n: usize,
     at: impl Fn(usize) -> usize + Sync,
-    trace: F,
-) -> (HitBatch, Vec<Counts>)
-where
-    F: Fn(&Ray) -> (Option<Hit>, Counts) + Sync,
-{
+) -> (HitBatch, Vec<Counts>) {
+    counted_at(rays, n, |first, ts, ps, cs| {
+        bvh.wide_each::<MODE>(
+            rays,
+            ts.len(),
+            |k| Some(at(first + k)),
+            |k, hit, counts| put(ts, ps, cs, k, hit, counts),
+        );
+    })
+}
+
+/// Query `k`'s answer into the output chunks.
+#[inline(always)]
+fn put(
+    ts: &mut [f32],
+    ps: &mut [u32],
+    cs: &mut [Counts],
+    k: usize,
+    hit: Option<Hit>,
+    counts: Counts,
+) {
+    cs[k] = counts;
+    if let Some(h) = hit {
+        (ts[k], ps[k]) = (h.t, h.prim);
+    }
+}
+
+/// Hits and counts of `n` queries, in parallel: `chunk(first, t, prim, counts)` answers
+/// queries `first ..` into its chunks of the outputs (`t`, `prim` given as misses).
+fn counted_at(
+    rays: &RayBatch,
+    n: usize,
+    chunk: impl Fn(usize, &mut [f32], &mut [u32], &mut [Counts]) + Sync,
+) -> (HitBatch, Vec<Counts>) {
     check(rays);
     let mut counts = vec![Counts::default(); n];
     let mut out = HitBatch::misses(n);
@@ -569,16 +600,7 @@ where
         .zip(out.prim.par_chunks_mut(CHUNK))
         .zip(counts.par_chunks_mut(CHUNK))
         .enumerate()
-        .for_each(|(c, ((ts, ps), cs))| {
-            for k in 0..ts.len() {
-                let (h, cnt) = trace(&rays.get(at(c * CHUNK + k)));
-                cs[k] = cnt;
-                if let Some(h) = h {
-                    ts[k] = h.t;
-                    ps[k] = h.prim;
-                }
-            }
-        });
+        .for_each(|(c, ((ts, ps), cs))| chunk(c * CHUNK, ts, ps, cs));
     (out, counts)
 }
 
@@ -598,34 +620,37 @@ pub fn fill_skipping(
     // the choice made per ray inside one loop, tracing all but the sample took as long as
     // tracing everything (Conference AO, 1.04-1.05 of the full trace in one run each).
     if any {
-        fill_with(rays, first, known, ts, ps, |r| bvh.any_hit(r));
+        fill_with::<ANY>(bvh, rays, first, known, ts, ps);
     } else {
-        fill_with(rays, first, known, ts, ps, |r| bvh.closest_hit(r));
+        fill_with::<CLOSEST>(bvh, rays, first, known, ts, ps);
     }
 }
 
 #[inline(always)]
-fn fill_with(
+fn fill_with<const MODE: u8>(
+    bvh: &Bvh,
     rays: &RayBatch,
     first: usize,
     known: &[usize],
     ts: &mut [f32],
     ps: &mut [u32],
-    trace: impl Fn(&Ray) -> Option<Hit>,
 ) {
     let mut skip = known[known.partition_point(|&k| k < first)..]
         .iter()
         .peekable();
-    for (k, (t, p)) in ts.iter_mut().zip(ps.iter_mut()).enumerate() {
-        let i = first + k;
-        if skip.next_if_eq(&&i).is_some() {
-            continue;
-        }
-        if let Some(h) = trace(&rays.get(i)) {
-            *t = h.t;
-            *p = h.prim;
-        }
-    }
+    bvh.wide_each::<MODE>(
+        rays,
+        ts.len(),
+        |k| {
+            let i = first + k;
+            skip.next_if_eq(&&i).is_none().then_some(i)
+        },
+        |k, hit, _| {
+            if let Some(h) = hit {
+                (ts[k], ps[k]) = (h.t, h.prim);
+            }
+        },
+    );
 }
 
 /// [`fill_skipping`] over the whole batch, in parallel: the trace that is left once the rays

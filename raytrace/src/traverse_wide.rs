@@ -59,8 +59,7 @@ impl Bvh {
     }
 
     /// The hits of rays `first ..` of `rays` (as many as `t` has room for) into `t` and
-    /// `prim`, left as they are on a miss. Where the CPU has AVX2, the whole run is one call
-    /// into a loop compiled for it, so the eight-box test is one AVX2 pass, inlined.
+    /// `prim`, left as they are on a miss.
     pub(crate) fn wide_hits<const MODE: u8>(
         &self,
         rays: &RayBatch,
@@ -68,36 +67,53 @@ impl Bvh {
         t: &mut [f32],
         prim: &mut [u32],
     ) {
+        self.wide_each::<MODE>(
+            rays,
+            t.len(),
+            |k| Some(first + k),
+            |k, hit, _| {
+                if let Some(h) = hit {
+                    (t[k], prim[k]) = (h.t, h.prim);
+                }
+            },
+        );
+    }
+
+    /// `MODE`'s query of rays `at(0), …, at(n - 1)` of `rays` (`None`: skipped), each answer
+    /// handed to `put(k, hit, counts)`. Where the CPU has AVX2, the whole run is one call into
+    /// a loop compiled for it, so the eight-box test is one AVX2 pass, inlined: every batch
+    /// query (hits, counted hits, hits of all but a sample) goes through here, so that none
+    /// pays the single-ray SSE test.
+    #[inline(always)]
+    pub(crate) fn wide_each<const MODE: u8>(
+        &self,
+        rays: &RayBatch,
+        n: usize,
+        at: impl FnMut(usize) -> Option<usize>,
+        put: impl FnMut(usize, Option<Hit>, Counts),
+    ) {
         if self.wide.depth <= SHALLOW && simd::avx2() {
             // SAFETY: the CPU has AVX2, just checked, and the tree is shallow.
-            unsafe { self.wide_hits_avx2::<MODE>(rays, first, t, prim) }
+            unsafe { self.wide_each_avx2::<MODE>(rays, n, at, put) }
         } else {
-            for (k, (t, p)) in t.iter_mut().zip(prim.iter_mut()).enumerate() {
-                if let Some(h) = self.run_wide::<MODE>(&rays.get(first + k)).0 {
-                    (*t, *p) = (h.t, h.prim);
-                }
-            }
+            each(n, at, put, |i| self.run_wide::<MODE>(&rays.get(i)));
         }
     }
 
     /// # Safety
     /// The CPU must have AVX2, and the tree be no deeper than [`SHALLOW`].
     #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2"))]
-    unsafe fn wide_hits_avx2<const MODE: u8>(
+    unsafe fn wide_each_avx2<const MODE: u8>(
         &self,
         rays: &RayBatch,
-        first: usize,
-        t: &mut [f32],
-        prim: &mut [u32],
+        n: usize,
+        at: impl FnMut(usize) -> Option<usize>,
+        put: impl FnMut(usize, Option<Hit>, Counts),
     ) {
-        for (k, (t, p)) in t.iter_mut().zip(prim.iter_mut()).enumerate() {
-            let r = rays.get(first + k);
+        each(n, at, put, |i| {
             // SAFETY: as the caller states (see `# Safety`).
-            let hit = unsafe { self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&r) };
-            if let Some(h) = hit.0 {
-                (*t, *p) = (h.t, h.prim);
-            }
-        }
+            unsafe { self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&rays.get(i)) }
+        });
     }
 
     /// # Safety
@@ -222,6 +238,23 @@ impl Bvh {
                     break;
                 }
             }
+        }
+    }
+}
+
+/// `put(k, query(at(k)))` for every `k < n` whose `at(k)` is a ray, inlined into the caller
+/// (so into a loop compiled for AVX2 where the caller is one).
+#[inline(always)]
+fn each(
+    n: usize,
+    mut at: impl FnMut(usize) -> Option<usize>,
+    mut put: impl FnMut(usize, Option<Hit>, Counts),
+    query: impl Fn(usize) -> (Option<Hit>, Counts),
+) {
+    for k in 0..n {
+        if let Some(i) = at(k) {
+            let (hit, counts) = query(i);
+            put(k, hit, counts);
         }
     }
 }
