@@ -11,8 +11,9 @@ use crate::scheduled::{BadRange, RayDevice};
 use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
 use super::buffers::{SceneBuffers, pack_rays};
-use super::estimate::{EstimateKernels, SampledCounts, Sampling, sampled_counts};
+use super::estimate::{SampledCounts, Sampling, estimate_kernel, sampled_counts};
 use super::pipeline::{GpuMode, Kernels, Threads, launch};
+use super::program::Kernel;
 use super::staging::{Staging, staged_hits};
 use super::{GpuContext, GpuError};
 
@@ -23,7 +24,7 @@ use super::{GpuContext, GpuError};
 pub struct GpuDevice {
     ctx: GpuContext,
     kernels: Kernels,
-    estimate: EstimateKernels,
+    estimate: Kernel,
     scene: SceneBuffers,
     threads: Threads,
     /// The last launch's GPU seconds as `f64` bits; NaN when unknown.
@@ -46,7 +47,7 @@ impl GpuDevice {
     pub fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
         let kernels = Kernels::new(&ctx.device, bvh.depth())?;
         let scene = SceneBuffers::upload(&ctx, bvh)?;
-        let estimate = EstimateKernels::new(&ctx.device);
+        let estimate = estimate_kernel(&ctx.device);
         Ok(Self {
             ctx,
             kernels,

@@ -17,7 +17,7 @@ use super::buffers::{
     GpuRay, SceneBuffers, check_size, fetch, init, pack_at, rays_per_launch, storage,
 };
 use super::pipeline::{GpuMode, Kernels, Threads, grid, trace_resident};
-use super::program::{Program, READ, UNIFORM, WRITE, dispatch};
+use super::program::{Kernel, READ, UNIFORM, WRITE, dispatch};
 use super::{GpuContext, GpuDevice, GpuError};
 use crate::cost::{Compacted, CostError, CostModel, SampleRate, Work};
 use crate::paths::Traffic;
@@ -48,26 +48,14 @@ impl SampledCounts {
     }
 }
 
-/// The compiled `sum` kernel of `estimate.wgsl`.
-#[derive(Debug)]
-pub(crate) struct EstimateKernels {
-    pub(super) program: Program,
-    pub(super) sum: wgpu::ComputePipeline,
-}
-
-impl EstimateKernels {
-    pub(crate) fn new(device: &wgpu::Device) -> Self {
-        let program = Program::new(
-            device,
-            "estimate",
-            include_str!("estimate.wgsl").to_string(),
-            &[READ, READ, WRITE, UNIFORM],
-        );
-        Self {
-            sum: program.pipeline(device, "sum", "cobalt sample sums pipeline"),
-            program,
-        }
-    }
+/// The compiled `estimate.wgsl`: each task's sums of its samples' counts.
+pub(crate) fn estimate_kernel(device: &wgpu::Device) -> Kernel {
+    Kernel::new(
+        device,
+        "estimate",
+        include_str!("estimate.wgsl"),
+        &[READ, READ, WRITE, UNIFORM],
+    )
 }
 
 /// What the estimator traces: each task's sample at `rate`, by `probe`'s reduced traversal.
@@ -86,7 +74,7 @@ pub(crate) struct Sampling {
 pub(crate) fn sampled_counts(
     ctx: &GpuContext,
     kernels: &Kernels,
-    estimate: &EstimateKernels,
+    estimate: &Kernel,
     scene: &SceneBuffers,
     rays: &RayBatch,
     tasks: &[Range<usize>],
@@ -128,7 +116,7 @@ pub(crate) fn sampled_counts(
 fn group(
     ctx: &GpuContext,
     kernels: &Kernels,
-    estimate: &EstimateKernels,
+    estimate: &Kernel,
     scene: &SceneBuffers,
     rays: &RayBatch,
     sample: &Compacted,
@@ -224,7 +212,7 @@ fn group(
     let sum = dispatch(
         device,
         "cobalt sample sums",
-        &estimate.sum,
+        &estimate.pipeline,
         &bind,
         grid(&ctx.limits, n_tasks),
     );

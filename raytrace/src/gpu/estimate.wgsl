@@ -1,7 +1,7 @@
 // The GPU estimator's per-task sums (thesis, section 3.3), after the reduced traversal of
 // `traverse.wgsl` (MODE 2, or 3 for the first-leaf probe) of the compacted sample: the host
 // samples every task as `raytrace/src/cost/sample.rs` does and uploads only the sample, task
-// after task; `sum` then gives one workgroup to each task and adds the reduced-traversal counts
+// after task; `main` then gives one workgroup to each task and adds the reduced-traversal counts
 // of its samples in 64-bit integers (two u32 words with a carry), so the sums are exact and
 // independent of the order of the additions.
 
@@ -42,7 +42,7 @@ fn add64(a: vec2<u32>, b: vec2<u32>) -> vec2<u32> {
 }
 
 @compute @workgroup_size(64)
-fn sum(
+fn main(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,

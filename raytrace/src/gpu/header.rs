@@ -10,7 +10,7 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 
 use super::launch::Recorder;
-use super::program::{Program, UNIFORM, WRITE};
+use super::program::{Kernel, UNIFORM, WRITE};
 
 /// A launch's counts (`header` in `header.wgsl`), copied on the device into the uniform
 /// blocks and trace parameters that use them.
@@ -88,38 +88,27 @@ pub(super) fn task_list(tasks: &[&Range<usize>]) -> Vec<[u32; 2]> {
 }
 
 /// The compiled `header.wgsl`.
-#[derive(Debug)]
-pub(super) struct HeaderKernel {
-    program: Program,
-    pipeline: wgpu::ComputePipeline,
+pub(super) fn header_kernel(device: &wgpu::Device) -> Kernel {
+    Kernel::new(
+        device,
+        "header",
+        include_str!("header.wgsl"),
+        &[WRITE, WRITE, UNIFORM],
+    )
 }
 
-impl HeaderKernel {
-    pub(super) fn new(device: &wgpu::Device) -> Self {
-        let program = Program::new(
-            device,
-            "header",
-            include_str!("header.wgsl").to_string(),
-            &[WRITE, WRITE, UNIFORM],
-        );
-        let pipeline = program.pipeline(device, "main", "cobalt launch header pipeline");
-        Self { program, pipeline }
-    }
-
-    /// Records the kernel filling `header` and rewriting `tasks` (see the module docs).
-    pub(super) fn record(
-        &self,
-        launch: &mut Recorder<'_>,
-        device: &wgpu::Device,
-        header: &wgpu::Buffer,
-        tasks: &wgpu::Buffer,
-        setup: &wgpu::Buffer,
-    ) {
-        let group = self.program.bind(
-            device,
-            "cobalt launch header bind group",
-            &[header, tasks, setup],
-        );
-        launch.pass(&self.pipeline, &group, (1, 1));
-    }
+/// Records `kernel` (from [`header_kernel`]) filling `header` and rewriting `tasks` (see the
+/// module docs).
+pub(super) fn record(
+    kernel: &Kernel,
+    launch: &mut Recorder<'_>,
+    device: &wgpu::Device,
+    [header, tasks, setup]: [&wgpu::Buffer; 3],
+) {
+    let group = kernel.program.bind(
+        device,
+        "cobalt launch header bind group",
+        &[header, tasks, setup],
+    );
+    launch.pass(&kernel.pipeline, &group, (1, 1));
 }

@@ -15,29 +15,18 @@ use super::buffers::{SceneBuffers, init, read_back, storage};
 use super::pipeline::{
     GpuMode, Kernels, Threads, TraceRound, grid, stamp_seconds, timestamps, trace_resident,
 };
-use super::program::{Program, READ, WRITE};
+use super::program::{Kernel, READ, WRITE};
 use super::{GpuContext, GpuError};
 use crate::paths::Traffic;
 
 /// The kernel folding a launch's queue states into one word (`verdict.wgsl`).
-#[derive(Debug)]
-pub(super) struct Verdict {
-    program: Program,
-    pipeline: wgpu::ComputePipeline,
-}
-
-impl Verdict {
-    /// Compiles the kernel.
-    pub(super) fn new(device: &wgpu::Device) -> Self {
-        let program = Program::new(
-            device,
-            "verdict",
-            include_str!("verdict.wgsl").to_string(),
-            &[READ, WRITE],
-        );
-        let pipeline = program.pipeline(device, "main", "cobalt launch verdict pipeline");
-        Self { program, pipeline }
-    }
+pub(super) fn verdict_kernel(device: &wgpu::Device) -> Kernel {
+    Kernel::new(
+        device,
+        "verdict",
+        include_str!("verdict.wgsl"),
+        &[READ, WRITE],
+    )
 }
 
 /// Where a recorded trace gets its ray count, and whether it counts its rays' work.
@@ -70,7 +59,7 @@ pub(super) struct Recorder<'a> {
     ctx: &'a GpuContext,
     kernels: &'a Kernels,
     scene: &'a SceneBuffers,
-    verdict: &'a Verdict,
+    verdict: &'a Kernel,
     threads: Threads,
     encoder: wgpu::CommandEncoder,
     traces: Vec<Recorded>,
@@ -113,7 +102,7 @@ impl<'a> Recorder<'a> {
         ctx: &'a GpuContext,
         kernels: &'a Kernels,
         scene: &'a SceneBuffers,
-        verdict: &'a Verdict,
+        verdict: &'a Kernel,
         threads: Threads,
         checked: bool,
     ) -> Self {

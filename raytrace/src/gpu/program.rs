@@ -135,6 +135,28 @@ impl Program {
     }
 }
 
+/// A shader module of one kernel, its entry point `main`: the small kernels a launch records
+/// besides the traces (its counts, an estimate's sums, the verdict).
+#[derive(Debug)]
+pub(crate) struct Kernel {
+    pub(crate) program: Program,
+    pub(crate) pipeline: wgpu::ComputePipeline,
+}
+
+impl Kernel {
+    /// Compiles `source` (the file `{name}.wgsl`) with bindings of `bindings`' types.
+    pub(crate) fn new(
+        device: &wgpu::Device,
+        name: &str,
+        source: &str,
+        bindings: &[BufferBindingType],
+    ) -> Self {
+        let program = Program::new(device, name, source.to_string(), bindings);
+        let pipeline = program.pipeline(device, "main", &format!("cobalt {name} pipeline"));
+        Self { program, pipeline }
+    }
+}
+
 /// Commands running `pipeline` with `group` over a `(x, y)` grid of workgroups, in one pass
 /// (more may be recorded on the encoder before it is submitted).
 pub(crate) fn dispatch(

@@ -19,10 +19,10 @@ use glam::Vec3;
 use super::buffers::{
     GpuRay, RESULT_BYTES, SceneBuffers, check_size, fetch, init, rays_per_launch,
 };
-use super::header::{Header, HeaderKernel, Setup, task_list};
-use super::launch::{Count, Recorder, Verdict};
+use super::header::{self, Header, Setup, task_list};
+use super::launch::{Count, Recorder, verdict_kernel};
 use super::pipeline::{GpuMode, Kernels, Threads};
-use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
+use super::program::{Kernel, Program, READ, UNIFORM, WRITE, with_shading};
 use super::resident::Resident;
 use super::{GpuContext, GpuError};
 use crate::paths::Traffic;
@@ -126,11 +126,11 @@ pub struct GpuRenderer {
     diagonal: f32,
     /// Buffers and parameters kept across launches and frames.
     pub(super) resident: Resident,
-    verdict: Verdict,
+    verdict: Kernel,
     /// Makes each launch's counts from its task list.
-    header: HeaderKernel,
+    header: Kernel,
     /// The per-task sums of an estimate's sample.
-    pub(super) path_sums: super::sample::SumKernel,
+    pub(super) path_sums: Kernel,
     /// Launches record no dispatch of their traces, as an implementation that cut every loop
     /// short would: the verdict must see it.
     #[cfg(test)]
@@ -173,9 +173,9 @@ impl GpuRenderer {
         );
         let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
         let whitted = super::whitted::WhittedKernels::new(&ctx, scene);
-        let verdict = Verdict::new(device);
-        let path_sums = super::sample::SumKernel::new(device);
-        let header = HeaderKernel::new(device);
+        let verdict = verdict_kernel(device);
+        let path_sums = super::sample::sums_kernel(device);
+        let header = header::header_kernel(device);
         Ok(Self {
             whitted,
             raygen: make("raygen", "cobalt raygen pipeline"),
@@ -370,12 +370,11 @@ impl GpuRenderer {
             self.threads,
             checked,
         );
-        self.header.record(
+        header::record(
+            &self.header,
             &mut launch,
             &self.ctx.device,
-            &stage.header,
-            &stage.tasks,
-            &stage.setup,
+            [&stage.header, &stage.tasks, &stage.setup],
         );
         launch.copy(
             &stage.header,

@@ -15,7 +15,7 @@ use std::ops::Range;
 use super::GpuError;
 use super::buffers::{check_size, storage};
 use super::pipeline::grid;
-use super::program::{Program, READ, WRITE};
+use super::program::{Kernel, READ, WRITE};
 use super::render::{FrameParams, GpuRenderer, Tally};
 use crate::paths::Traffic;
 use crate::shade::{AoSettings, Shader};
@@ -41,23 +41,13 @@ pub struct SampledPaths {
 }
 
 /// The compiled `sums.wgsl`.
-#[derive(Debug)]
-pub(super) struct SumKernel {
-    program: Program,
-    pipeline: wgpu::ComputePipeline,
-}
-
-impl SumKernel {
-    pub(super) fn new(device: &wgpu::Device) -> Self {
-        let program = Program::new(
-            device,
-            "sums",
-            include_str!("sums.wgsl").to_string(),
-            &[READ, READ, READ, WRITE, READ],
-        );
-        let pipeline = program.pipeline(device, "main", "cobalt path sample sums pipeline");
-        Self { program, pipeline }
-    }
+pub(super) fn sums_kernel(device: &wgpu::Device) -> Kernel {
+    Kernel::new(
+        device,
+        "sums",
+        include_str!("sums.wgsl"),
+        &[READ, READ, READ, WRITE, READ],
+    )
 }
 
 impl GpuRenderer {
