@@ -10,10 +10,10 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
-pub use crate::scheduled::{BadRange, InjectedFault};
+pub use crate::ray_device::{BadRange, InjectedFault};
 use sched::{DeviceError, Sink};
 
-use crate::scheduled::RayDevice;
+use crate::ray_device::RayDevice;
 use crate::{Bvh, Error, HitBatch, RayBatch, RayKind, Result, traverse};
 
 /// Rays per rayon job inside a pool: enough to amortise a steal, few enough that a 512-ray
@@ -198,7 +198,7 @@ mod tests {
     use std::sync::Mutex;
 
     use super::*;
-    use crate::scheduled::RayDevice;
+    use crate::ray_device::RayDevice;
     use crate::{Camera, testkit};
 
     /// Every fill of hits on a pool thread, from every test in this process: the thread's

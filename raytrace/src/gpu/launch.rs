@@ -17,7 +17,7 @@ use super::pipeline::{
 };
 use super::program::{Program, READ, WRITE};
 use super::{GpuContext, GpuError};
-use crate::paths::Traffic;
+use crate::Traffic;
 
 /// The kernel folding a launch's queue states into one word (`verdict.wgsl`).
 #[derive(Debug)]

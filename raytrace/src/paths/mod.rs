@@ -50,8 +50,8 @@ mod learn;
 mod memory;
 mod renderer;
 mod stats;
-mod traffic;
 
+pub use crate::traffic::Traffic;
 pub use build::build_path_devices;
 pub use cpu::CpuPaths;
 pub use device::{BoundPaths, Estimate, Frame, Launch, PathDevice, TaskValues};
@@ -61,4 +61,3 @@ pub use fault::FailingPaths;
 pub use gpu::GpuPaths;
 pub use renderer::{FrameRendering, PathRenderer};
 pub use stats::{FrameStats, PathDeviceStats};
-pub use traffic::Traffic;
