@@ -49,9 +49,9 @@ pub struct Args {
     sample_rate: f64,
     /// Image size `WxH` of the camera rays.
     #[arg(long, default_value = "512x512")]
-    size: String,
-    /// Thesis camera 0..3: above one quadrant of the scene, looking at its centre.
-    #[arg(long, default_value_t = 0)]
+    size: crate::args::Size,
+    /// Orbit camera 0..3: above one quadrant of the scene, looking at its centre.
+    #[arg(long, default_value = "0", value_parser = crate::args::camera_index)]
     camera: usize,
     /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
     #[arg(long, default_value = "medium")]
@@ -273,9 +273,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if args.task_size == 0 {
         return Err(arg("task-size", &0, "must be at least 1".into()));
     }
-    if args.camera > 3 {
-        return Err(arg("camera", &args.camera, "must be 0, 1, 2 or 3".into()));
-    }
     if args.repeats == 0 {
         return Err(arg("repeats", &0, "must be at least 1".into()));
     }
@@ -286,13 +283,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             "must be positive".into(),
         ));
     }
-    let (width, height) = parse_size(&args.size).ok_or_else(|| {
-        arg(
-            "size",
-            &args.size,
-            "expected WxH with sides from 1 to 65536, e.g. 512x512".into(),
-        )
-    })?;
+    let crate::args::Size { width, height } = args.size;
     let source = RaySource::parse(&args.rays, &args.ray_kind)?;
 
     let needs = if matches!(source, RaySource::Whitted) {
@@ -302,7 +293,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     };
     let scene = SceneSource::parse(&args.scene)?.load(needs)?;
     let bvh = Bvh::build(&scene, preset)?;
-    let camera = Camera::thesis(&scene.bounds(), args.camera);
+    let camera = Camera::orbit(&scene.bounds(), args.camera);
     // One segment per generation: tasks never straddle two generations, and each is traced
     // with its own query (closest or any hit).
     let (segments, kind_name, coherent): (Vec<(RayBatch, RayKind)>, &'static str, bool) =
@@ -704,13 +695,6 @@ impl RaySource {
 }
 
 /// `WxH`, both sides in 1..=65536 (the Morton order's limit).
-fn parse_size(s: &str) -> Option<(u32, u32)> {
-    let (w, h) = s.split_once('x')?;
-    let (w, h): (u32, u32) = (w.parse().ok()?, h.parse().ok()?);
-    let ok = |v: u32| (1..=1 << 16).contains(&v);
-    (ok(w) && ok(h)).then_some((w, h))
-}
-
 /// The least time of each step over `repeats` rounds, the steps taken in turn each round.
 fn min_times(
     repeats: usize,

@@ -111,7 +111,7 @@ impl Plan<'_> {
         RenderOptions::new(
             self.width,
             self.height,
-            raytrace::Camera::thesis(&self.scene.bounds(), cam),
+            raytrace::Camera::orbit(&self.scene.bounds(), cam),
             self.shader(w),
         )
     }

@@ -22,7 +22,7 @@
 //! let shader = Shader::Whitted(Default::default());
 //! let scene = SceneSource::parse("builtin:cornell:0.2")?.load(shader.needs())?;
 //! let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
-//! let options = RenderOptions::new(16, 16, Camera::thesis(&scene.bounds(), 0), shader);
+//! let options = RenderOptions::new(16, 16, Camera::orbit(&scene.bounds(), 0), shader);
 //!
 //! let devices = build_devices(&bvh, &parse_devices("cpu:2")?, &[])?;
 //! let mut tracer = ScheduledTracer::new(&bvh, devices, Settings::default())?;
