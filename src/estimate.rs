@@ -16,9 +16,7 @@ use raytrace::cost::{
     full_work, measure_seconds, prediction_error, spearman,
 };
 use raytrace::shade::{CpuTracer, Recorder, RenderOptions, Shader, WhittedSettings, render};
-use raytrace::{
-    BuildPreset, Bvh, Camera, Probe, RayBatch, RayKind, SceneNeeds, SceneSource, traverse,
-};
+use raytrace::{Bvh, Camera, Probe, RayBatch, RayKind, SceneNeeds, SceneSource, traverse};
 use serde::Serialize;
 
 use crate::error::CliError;
@@ -32,9 +30,8 @@ const DEVICE: &str = "cpu-thread";
 /// Arguments of `cobalt estimate`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// An OBJ file, or `builtin:forest|hairball|cornell[:detail]`.
-    #[arg(long)]
-    scene: String,
+    #[command(flatten)]
+    scene: crate::args::SceneArgs,
     /// `primary` (camera rays), `ao` (32 Halton AO rays per primary hit), `whitted` (every
     /// generation of a Whitted render: primary, shadow and two bounces of reflection rays,
     /// each cut into its own tasks) or a binary ray file (`f32 × 8` per ray, see
@@ -53,9 +50,6 @@ pub struct Args {
     /// Orbit camera 0..3: above one quadrant of the scene, looking at its centre.
     #[arg(long, default_value = "0", value_parser = crate::args::camera_index)]
     camera: usize,
-    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
-    #[arg(long, default_value = "medium")]
-    preset: String,
     /// AO rays per primary hit.
     #[arg(long, default_value_t = 32)]
     ao_samples: u32,
@@ -264,10 +258,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         value: value.to_string(),
         message,
     };
-    let preset: BuildPreset = args
-        .preset
-        .parse()
-        .map_err(|e: String| arg("preset", &args.preset, e))?;
+    let preset = args.scene.preset;
     let rate = SampleRate::new(args.sample_rate)
         .map_err(|e| arg("sample-rate", &args.sample_rate, e.to_string()))?;
     if args.task_size == 0 {
@@ -291,7 +282,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     } else {
         SceneNeeds::AO
     };
-    let scene = SceneSource::parse(&args.scene)?.load(needs)?;
+    let scene = SceneSource::parse(&args.scene.scene)?.load(needs)?;
     let bvh = Bvh::build(&scene, preset)?;
     let camera = Camera::orbit(&scene.bounds(), args.camera);
     // One segment per generation: tasks never straddle two generations, and each is traced
@@ -556,9 +547,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         vs_time(calibrate(&trace_work, &measured).ok(), &trace_work);
 
     let report = Report {
-        scene: args.scene.clone(),
+        scene: args.scene.scene.clone(),
         triangles: scene.len(),
-        preset: args.preset.clone(),
+        preset: preset.name().to_string(),
         ray_kind: kind_name,
         coherent,
         rays: rays.len(),

@@ -18,10 +18,12 @@ use std::time::Instant;
 
 use raytrace::devices::{DeviceSpec, GpuSelect};
 use raytrace::scheduled::{EstimateOn, FailAfter, Settings};
-use raytrace::shade::RenderOptions;
-use raytrace::{Bvh, Probe, SceneSource};
+use raytrace::shade::{RenderOptions, Shader};
+use raytrace::{Bvh, Camera, Probe, Scene, SceneSource};
 
-use crate::args::{CameraArgs, Faults, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs, Size};
+use crate::args::{
+    CameraArgs, CameraChoice, Faults, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs, Size,
+};
 use crate::error::CliError;
 use crate::output::Outputs;
 use header::{Drawn, Header};
@@ -148,22 +150,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             crate::calibration::Store::open(&args.calibration)?
         }
     };
-    let loading = Instant::now();
-    let scene = SceneSource::parse(&args.scene.scene)?.load(shader.needs())?;
-    let load_seconds = loading.elapsed().as_secs_f64();
-    let bvh = Bvh::build(&scene, args.scene.preset)?;
-    let (view, camera_index) = camera.resolve(&scene.bounds());
-    let header = Header::new(&Drawn {
-        source: &args.scene.scene,
-        scene: &scene,
-        bvh: &bvh,
-        preset: args.scene.preset,
-        load_seconds,
-        shader: &shader,
-        size: args.size,
-        camera: &view,
-        camera_index,
-    });
+    let (scene, bvh, view, header) = load(&args, &shader, camera)?;
     let workload = crate::calibration::workload(&args.scene.scene, &shader);
     let mut options = RenderOptions::new(args.size.width, args.size.height, view, shader);
     let json = args.output.json;
@@ -203,6 +190,31 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let rendered = paths::render_paths(&scene, &bvh, &options, &job, (store, &workload), header)?;
     let summary = rendered.report.summary();
     rendered.write(&outputs, json, &summary)
+}
+
+/// Loads the scene and builds its BVH, and the report's header of a render of it.
+fn load(
+    args: &Args,
+    shader: &Shader,
+    camera: CameraChoice,
+) -> Result<(Scene, Bvh, Camera, Header), CliError> {
+    let loading = Instant::now();
+    let scene = SceneSource::parse(&args.scene.scene)?.load(shader.needs())?;
+    let load_seconds = loading.elapsed().as_secs_f64();
+    let bvh = Bvh::build(&scene, args.scene.preset)?;
+    let (view, camera_index) = camera.resolve(&scene.bounds());
+    let header = Header::new(&Drawn {
+        source: &args.scene.scene,
+        scene: &scene,
+        bvh: &bvh,
+        preset: args.scene.preset,
+        load_seconds,
+        shader,
+        size: args.size,
+        camera: &view,
+        camera_index,
+    });
+    Ok((scene, bvh, view, header))
 }
 
 /// `--fail`, each device an index into `--devices`. GPU entries open however many adapters
@@ -266,7 +278,7 @@ fn check_pipeline_flags(args: &Args, pipeline: PipelineArg) -> Result<(), CliErr
 fn mpi(
     args: &Args,
     shader: raytrace::shade::Shader,
-    camera: crate::args::CameraChoice,
+    camera: CameraChoice,
     faults: &[FailAfter],
     settings: Settings,
 ) -> Result<(), CliError> {
