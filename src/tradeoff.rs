@@ -211,7 +211,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
 
 fn tables(r: &Report) -> String {
     let mut s = format!(
-        "{} at {}x{}, {} threads\n\nBVH preset: build time vs trace speed (primary: 4 thesis cameras, closest hit; AO: 32 probes per hit, any hit)\n\n| preset | build s | SAH | nodes | primary MRays/s | AO MRays/s |\n|---|---:|---:|---:|---:|---:|\n",
+        "{} at {}x{}, {} threads\n\nBVH preset: build time vs trace speed (primary: 4 orbit cameras, closest hit; AO: 32 rays per hit, any hit)\n\n| preset | build s | SAH | nodes | primary MRays/s | AO MRays/s |\n|---|---:|---:|---:|---:|---:|\n",
         r.scene, r.width, r.height, r.threads
     );
     for p in &r.presets {

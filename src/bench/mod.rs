@@ -12,7 +12,7 @@ mod matrix;
 mod mpi;
 mod paths;
 mod plots;
-mod probe;
+mod prediction;
 mod repeats;
 mod replay;
 mod simulate;
