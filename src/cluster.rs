@@ -17,9 +17,9 @@ use raytrace::{BuildPreset, Bvh, SceneSource};
 use sched::mpi::Cluster;
 use serde::Serialize;
 
+use crate::args::CameraChoice;
 use crate::error::CliError;
 use crate::output::Outputs;
-use crate::render::CameraChoice;
 
 /// A checked `cobalt render` command line, as every rank parsed it.
 pub(crate) struct Job<'a> {
@@ -302,7 +302,7 @@ struct PathsReport {
     mode: &'static str,
     task_size: usize,
     #[serde(flatten)]
-    run: crate::render_paths::PathRun,
+    run: crate::path_run::PathRun,
 }
 
 /// Renders `job` by paths on every rank of the MPI job: on rank 0, every other rank is one
@@ -344,7 +344,7 @@ pub(crate) fn render_paths(job: Job<'_>) -> Result<(), CliError> {
         }
         Err(e) => return Err(e.into()),
     };
-    let mut run = crate::render_paths::PathRun::new(1, frame.stats.seconds, &frame.stats);
+    let mut run = crate::path_run::PathRun::new(1, frame.stats.seconds, &frame.stats);
     run.host_fallback = !lost.is_empty();
     run.failures.extend(lost.iter().map(ToString::to_string));
     let image = frame.film.png(ToneMap::Srgb)?;

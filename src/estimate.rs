@@ -16,9 +16,7 @@ use raytrace::cost::{
     full_work, measure_seconds, prediction_error, spearman,
 };
 use raytrace::shade::{CpuTracer, Recorder, RenderOptions, Shader, WhittedSettings, render};
-use raytrace::{
-    BuildPreset, Bvh, Camera, Probe, RayBatch, RayKind, SceneNeeds, SceneSource, traverse,
-};
+use raytrace::{Bvh, Camera, Probe, RayBatch, RayKind, SceneNeeds, SceneSource, traverse};
 use serde::Serialize;
 
 use crate::error::CliError;
@@ -32,9 +30,8 @@ const DEVICE: &str = "cpu-thread";
 /// Arguments of `cobalt estimate`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// An OBJ file, or `builtin:forest|hairball|cornell[:detail]`.
-    #[arg(long)]
-    scene: String,
+    #[command(flatten)]
+    scene: crate::args::SceneArgs,
     /// `primary` (camera rays), `ao` (32 Halton AO rays per primary hit), `whitted` (every
     /// generation of a Whitted render: primary, shadow and two bounces of reflection rays,
     /// each cut into its own tasks) or a binary ray file (`f32 × 8` per ray, see
@@ -49,13 +46,10 @@ pub struct Args {
     sample_rate: f64,
     /// Image size `WxH` of the camera rays.
     #[arg(long, default_value = "512x512")]
-    size: String,
-    /// Thesis camera 0..3: above one quadrant of the scene, looking at its centre.
-    #[arg(long, default_value_t = 0)]
+    size: crate::args::Size,
+    /// Orbit camera 0..3: above one quadrant of the scene, looking at its centre.
+    #[arg(long, default_value = "0", value_parser = crate::args::camera_index)]
     camera: usize,
-    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
-    #[arg(long, default_value = "medium")]
-    preset: String,
     /// AO rays per primary hit.
     #[arg(long, default_value_t = 32)]
     ao_samples: u32,
@@ -264,17 +258,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
         value: value.to_string(),
         message,
     };
-    let preset: BuildPreset = args
-        .preset
-        .parse()
-        .map_err(|e: String| arg("preset", &args.preset, e))?;
+    let preset = args.scene.preset;
     let rate = SampleRate::new(args.sample_rate)
         .map_err(|e| arg("sample-rate", &args.sample_rate, e.to_string()))?;
     if args.task_size == 0 {
         return Err(arg("task-size", &0, "must be at least 1".into()));
-    }
-    if args.camera > 3 {
-        return Err(arg("camera", &args.camera, "must be 0, 1, 2 or 3".into()));
     }
     if args.repeats == 0 {
         return Err(arg("repeats", &0, "must be at least 1".into()));
@@ -286,13 +274,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             "must be positive".into(),
         ));
     }
-    let (width, height) = parse_size(&args.size).ok_or_else(|| {
-        arg(
-            "size",
-            &args.size,
-            "expected WxH with sides from 1 to 65536, e.g. 512x512".into(),
-        )
-    })?;
+    let crate::args::Size { width, height } = args.size;
     let source = RaySource::parse(&args.rays, &args.ray_kind)?;
 
     let needs = if matches!(source, RaySource::Whitted) {
@@ -300,9 +282,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
     } else {
         SceneNeeds::AO
     };
-    let scene = SceneSource::parse(&args.scene)?.load(needs)?;
+    let scene = SceneSource::parse(&args.scene.scene)?.load(needs)?;
     let bvh = Bvh::build(&scene, preset)?;
-    let camera = Camera::thesis(&scene.bounds(), args.camera);
+    let camera = Camera::orbit(&scene.bounds(), args.camera);
     // One segment per generation: tasks never straddle two generations, and each is traced
     // with its own query (closest or any hit).
     let (segments, kind_name, coherent): (Vec<(RayBatch, RayKind)>, &'static str, bool) =
@@ -565,9 +547,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         vs_time(calibrate(&trace_work, &measured).ok(), &trace_work);
 
     let report = Report {
-        scene: args.scene.clone(),
+        scene: args.scene.scene.clone(),
         triangles: scene.len(),
-        preset: args.preset.clone(),
+        preset: preset.name().to_string(),
         ray_kind: kind_name,
         coherent,
         rays: rays.len(),
@@ -704,13 +686,6 @@ impl RaySource {
 }
 
 /// `WxH`, both sides in 1..=65536 (the Morton order's limit).
-fn parse_size(s: &str) -> Option<(u32, u32)> {
-    let (w, h) = s.split_once('x')?;
-    let (w, h): (u32, u32) = (w.parse().ok()?, h.parse().ok()?);
-    let ok = |v: u32| (1..=1 << 16).contains(&v);
-    (ok(w) && ok(h)).then_some((w, h))
-}
-
 /// The least time of each step over `repeats` rounds, the steps taken in turn each round.
 fn min_times(
     repeats: usize,

@@ -13,6 +13,25 @@ use sched::{CostEstimator, Policy};
 use crate::error::CliError;
 use crate::spatial::{Workload, check_args, measure, tables};
 
+/// How a task's cost is estimated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Estimator {
+    /// Points of a density grid near the task's queries: no search.
+    Density,
+    /// The timed real search of a sample of the task's queries.
+    #[value(alias = "probe")]
+    Sampled,
+}
+
+impl Estimator {
+    fn name(self) -> &'static str {
+        match self {
+            Self::Density => "density",
+            Self::Sampled => "sampled",
+        }
+    }
+}
+
 /// Arguments of `cobalt knn`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -34,10 +53,11 @@ pub struct Args {
     /// Share of each task's queries the estimator looks at, in (0, 1].
     #[arg(long, default_value_t = 0.125)]
     sample_rate: f64,
-    /// `density` (a density grid, no search: cheap, deterministic, rough) or `probe` (times
-    /// the real search of sampled queries: better ranks, timing noise, costlier).
-    #[arg(long, default_value = "density")]
-    estimator: String,
+    /// `density` (a density grid, no search: cheap, deterministic, rough) or `sampled` (times
+    /// the real search of sampled queries: better ranks, timing noise, costlier; also
+    /// `probe`).
+    #[arg(long, value_enum, default_value = "density")]
+    estimator: Estimator,
     /// One policy instead of all five.
     #[arg(long)]
     policy: Option<Policy>,
@@ -81,17 +101,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         &args.queries.to_string(),
         &[(args.queries, per_query)],
     )?;
-    let density = match args.estimator.as_str() {
-        "probe" => false,
-        "density" => true,
-        other => {
-            return Err(CliError::Arg {
-                flag: "estimator",
-                value: other.into(),
-                message: "expected `density` or `probe`".into(),
-            });
-        }
-    };
+    let density = args.estimator == Estimator::Density;
     let knn_err = |flag: &'static str, value: String| {
         move |e: knn::KnnError| CliError::Arg {
             flag,
@@ -124,7 +134,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         name: format!(
             "knn {source} ({} points, k {k}, {} estimator)",
             index.points().len(),
-            args.estimator
+            args.estimator.name()
         ),
         items: batch.len(),
         task_size: args.task_size,

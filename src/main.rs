@@ -1,5 +1,6 @@
 //! `cobalt`: cost-balanced scheduling of irregular workloads, from the command line.
 
+mod args;
 mod bench;
 mod calibration;
 #[cfg(feature = "mpi")]
@@ -11,9 +12,9 @@ mod input;
 mod knn;
 mod limits;
 mod output;
+mod path_run;
 mod render;
 mod render_gpu;
-mod render_paths;
 mod schedule;
 mod spatial;
 mod trace;

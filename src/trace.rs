@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use raytrace::{BuildPreset, Bvh, HitBatch, Layout, RayBatch, SceneNeeds, SceneSource, traverse};
+use raytrace::{Bvh, HitBatch, Layout, RayBatch, SceneNeeds, SceneSource, traverse};
 use serde::Serialize;
 
 use crate::error::CliError;
@@ -25,9 +25,8 @@ pub enum Device {
 /// Arguments of `cobalt trace`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// An OBJ file, or `builtin:forest|hairball|cornell[:detail]`.
-    #[arg(long)]
-    scene: String,
+    #[command(flatten)]
+    scene: crate::args::SceneArgs,
     /// Rays: little-endian `f32 × 8` per ray (`ox oy oz dx dy dz tmin tmax`).
     #[arg(long)]
     rays: PathBuf,
@@ -40,13 +39,10 @@ pub struct Args {
     /// The device that traces.
     #[arg(long, value_enum, default_value = "cpu")]
     device: Device,
-    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
-    #[arg(long, default_value = "medium")]
-    preset: String,
     /// The CPU's tree: `wide` (8-wide, the default) or `binary` (the tree the GPU walks).
     /// Both give the same closest hits.
     #[arg(long, default_value = "wide")]
-    layout: String,
+    layout: Layout,
     /// Trace the rays this many times and report the fastest (the first pays for starting
     /// the threads and warming the caches).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
@@ -83,17 +79,8 @@ struct Report {
 
 /// Runs the command: every input is read and checked before anything is written.
 pub fn run(args: Args) -> Result<(), CliError> {
-    let preset: BuildPreset = args.preset.parse().map_err(|e: String| CliError::Arg {
-        flag: "preset",
-        value: args.preset.clone(),
-        message: e,
-    })?;
-    let layout: Layout = args.layout.parse().map_err(|e: String| CliError::Arg {
-        flag: "layout",
-        value: args.layout.clone(),
-        message: e,
-    })?;
-    if args.scene == "-" && args.rays == Path::new("-") {
+    let (preset, layout) = (args.scene.preset, args.layout);
+    if args.scene.scene == "-" && args.rays == Path::new("-") {
         return Err(CliError::Arg {
             flag: "rays",
             value: "-".into(),
@@ -102,10 +89,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
     let outputs = crate::output::Outputs::check(
         &[("out", Some(&args.out))],
-        &[("scene", Path::new(&args.scene)), ("rays", &args.rays)],
+        &[
+            ("scene", Path::new(&args.scene.scene)),
+            ("rays", &args.rays),
+        ],
     )?;
     let loading = Instant::now();
-    let scene = SceneSource::parse(&args.scene)?.load(SceneNeeds::AO)?;
+    let scene = SceneSource::parse(&args.scene.scene)?.load(SceneNeeds::AO)?;
     let load_seconds = loading.elapsed().as_secs_f64();
     let rays = read_rays(&args.rays)?;
     let bvh = Bvh::build(&scene, preset)?;
@@ -126,9 +116,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
     outputs.commit(&[("out", &encode_hits(&hits))])?;
 
     let report = Report {
-        scene: args.scene.clone(),
+        scene: args.scene.scene.clone(),
         triangles: scene.len(),
-        preset: args.preset.clone(),
+        preset: preset.name().to_string(),
         device: match args.device {
             Device::Cpu => "cpu",
             Device::Gpu => "gpu",

@@ -15,8 +15,8 @@ use raytrace::traverse::{any_hits, closest_hits};
 use raytrace::{BuildPreset, Bvh, Camera, SceneSource, workload};
 use serde::Serialize;
 
+use crate::args::{Size, camera_index};
 use crate::error::CliError;
-use crate::render::{parse_camera, parse_size};
 
 /// Arguments of `cobalt tradeoff`.
 #[derive(Debug, clap::Args)]
@@ -26,10 +26,10 @@ pub struct Args {
     scene: String,
     /// Image size for both tables, `WIDTHxHEIGHT`.
     #[arg(long, default_value = "128x128")]
-    size: String,
-    /// Thesis camera of the AO images, 0..3.
-    #[arg(long, default_value = "0")]
-    camera: String,
+    size: Size,
+    /// Orbit camera of the AO images, 0..3.
+    #[arg(long, default_value = "0", value_parser = camera_index)]
+    camera: usize,
     /// Presets to compare (comma-separated; default all six).
     #[arg(long)]
     presets: Option<String>,
@@ -99,8 +99,8 @@ fn list<T: std::str::FromStr>(
 
 /// Runs both measurements and prints the tables.
 pub fn run(args: Args) -> Result<(), CliError> {
-    let (width, height) = parse_size(&args.size)?;
-    let camera = parse_camera(&args.camera)?;
+    let Size { width, height } = args.size;
+    let camera = args.camera;
     let presets: Vec<BuildPreset> = match &args.presets {
         None => BuildPreset::ALL.to_vec(),
         Some(p) => list(
@@ -161,7 +161,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
 
     let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
-    let cam = Camera::thesis(&scene.bounds(), camera);
+    let cam = Camera::orbit(&scene.bounds(), camera);
     let ao_render = |samples: u32, seed: u64| {
         let shader = Shader::Ao(AoSettings {
             samples,
@@ -211,7 +211,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
 
 fn tables(r: &Report) -> String {
     let mut s = format!(
-        "{} at {}x{}, {} threads\n\nBVH preset: build time vs trace speed (primary: 4 thesis cameras, closest hit; AO: 32 probes per hit, any hit)\n\n| preset | build s | SAH | nodes | primary MRays/s | AO MRays/s |\n|---|---:|---:|---:|---:|---:|\n",
+        "{} at {}x{}, {} threads\n\nBVH preset: build time vs trace speed (primary: 4 orbit cameras, closest hit; AO: 32 rays per hit, any hit)\n\n| preset | build s | SAH | nodes | primary MRays/s | AO MRays/s |\n|---|---:|---:|---:|---:|---:|\n",
         r.scene, r.width, r.height, r.threads
     );
     for p in &r.presets {

@@ -196,7 +196,7 @@ mod tests {
     fn probes_are_the_same_on_any_number_of_threads() {
         use crate::{Camera, testkit, traverse};
         let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
-        let primary = Camera::thesis(&scene.bounds(), 0).primary_rays(64, 50).rays;
+        let primary = Camera::orbit(&scene.bounds(), 0).primary_rays(64, 50).rays;
         assert!(primary.len() > 2 * CHUNK);
         let hits = traverse::closest_hits(&bvh, &primary);
         let make = |threads| {
@@ -220,7 +220,7 @@ mod tests {
     fn probes_are_the_rays_spawned_one_by_one() {
         use crate::{Camera, testkit, traverse};
         let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
-        let primary = Camera::thesis(&scene.bounds(), 1).primary_rays(40, 30).rays;
+        let primary = Camera::orbit(&scene.bounds(), 1).primary_rays(40, 30).rays;
         let hits = traverse::closest_hits(&bvh, &primary);
         let (samples, length, seed) = (8, 1.5, 3);
         let got = ao_rays(&scene, &primary, &hits, samples, length, seed);

@@ -10,10 +10,10 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
-pub use crate::scheduled::{BadRange, InjectedFault};
+pub use crate::ray_device::{BadRange, InjectedFault};
 use sched::{DeviceError, Sink};
 
-use crate::scheduled::RayDevice;
+use crate::ray_device::RayDevice;
 use crate::{Bvh, Error, HitBatch, RayBatch, RayKind, Result, traverse};
 
 /// Rays per rayon job inside a pool: enough to amortise a steal, few enough that a 512-ray
@@ -198,7 +198,7 @@ mod tests {
     use std::sync::Mutex;
 
     use super::*;
-    use crate::scheduled::RayDevice;
+    use crate::ray_device::RayDevice;
     use crate::{Camera, testkit};
 
     /// Every fill of hits on a pool thread, from every test in this process: the thread's
@@ -219,7 +219,7 @@ mod tests {
     #[test]
     fn known_rays_are_left_as_misses_and_the_rest_traced_as_ever() {
         let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
-        let rays = Camera::thesis(&scene.bounds(), 0).primary_rays(64, 64).rays;
+        let rays = Camera::orbit(&scene.bounds(), 0).primary_rays(64, 64).rays;
         let range = 100..3000;
         let known = [5, 100, 101, 517, 2999, 4000];
         for kind in [RayKind::Primary, RayKind::Shadow] {
@@ -245,7 +245,7 @@ mod tests {
     #[test]
     fn a_device_of_two_threads_traces_in_parallel_chunks() {
         let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
-        let rays = Camera::thesis(&scene.bounds(), 0).primary_rays(64, 64).rays;
+        let rays = Camera::orbit(&scene.bounds(), 0).primary_rays(64, 64).rays;
         let all = 0..rays.len();
         // An index no other test uses, so the thread names are this device's alone.
         let mut two = CpuDevice::new(&bvh, 9001, 2).expect("pool");

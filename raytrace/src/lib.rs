@@ -46,7 +46,9 @@ mod obj;
 mod packet;
 pub mod paths;
 mod ray;
+pub mod ray_device;
 mod scene;
+mod scene_source;
 pub mod scheduled;
 pub mod shade;
 mod simd;
@@ -55,6 +57,7 @@ pub mod spawn;
 pub mod testkit;
 #[cfg(test)]
 mod tests;
+mod traffic;
 pub mod traverse;
 mod traverse_wide;
 mod triangle;
@@ -68,9 +71,11 @@ pub use film::Film;
 /// The math crate of the public API (points, directions, colours), so callers need not pin it.
 pub use glam;
 pub use ray::{Hit, HitBatch, Ray, RayBatch, RayKind};
-pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds, SceneSource};
+pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds};
+pub use scene_source::SceneSource;
 /// The seeded generator of the built-in scenes and the seeded tests.
 pub use sched::Rng;
+pub use traffic::Traffic;
 pub use traverse::{Counts, Layout, Probe};
 pub use triangle::{RayShear, intersect_watertight};
 

@@ -1,11 +1,10 @@
 //! Scenes: triangles (always), and normals, materials and lights only when the shader needs them.
 
 use std::path::PathBuf;
-use std::time::Instant;
 
 use glam::Vec3;
 
-use crate::{Aabb, Error, Result, builtin};
+use crate::{Aabb, Error, Result};
 
 /// Mirror reflectance of the default material, given to scenes without materials.
 pub const DEFAULT_REFLECTANCE: f32 = 0.3;
@@ -270,63 +269,5 @@ impl Scene {
     /// Replaces the lights (the override of the default light).
     pub fn set_lights(&mut self, lights: Vec<Light>) {
         self.lights = lights;
-    }
-}
-
-/// Where a scene comes from: `builtin:NAME[:detail]` or a path to an OBJ file.
-#[derive(Clone, Debug, PartialEq)]
-pub enum SceneSource {
-    /// A procedural scene; `detail` scales its triangle count roughly linearly (1.0 default).
-    Builtin {
-        /// Which generator.
-        kind: builtin::Builtin,
-        /// Detail multiplier (> 0).
-        detail: f32,
-    },
-    /// An OBJ file.
-    File(PathBuf),
-}
-
-impl SceneSource {
-    /// Parses the CLI's `--scene` argument.
-    pub fn parse(arg: &str) -> Result<Self> {
-        let Some(rest) = arg.strip_prefix("builtin:") else {
-            return Ok(Self::File(PathBuf::from(arg)));
-        };
-        let bad = |why: String| Error::SceneArg {
-            arg: arg.to_string(),
-            why,
-        };
-        let (name, detail) = match rest.split_once(':') {
-            Some((n, d)) => {
-                let detail: f32 = d
-                    .parse()
-                    .map_err(|_| bad(format!("detail `{d}` is not a number")))?;
-                (n, detail)
-            }
-            None => (rest, 1.0),
-        };
-        if !(detail.is_finite() && detail > 0.0 && detail <= 64.0) {
-            return Err(bad(format!("detail {detail} is not in (0, 64]")));
-        }
-        let kind = builtin::Builtin::from_name(name).ok_or_else(|| {
-            bad(format!(
-                "unknown built-in `{name}` (expected forest, hairball or cornell)"
-            ))
-        })?;
-        Ok(Self::Builtin { kind, detail })
-    }
-
-    /// Loads or generates the scene, keeping what `needs` asks for.
-    pub fn load(&self, needs: SceneNeeds) -> Result<Scene> {
-        match self {
-            Self::File(p) => crate::obj::load(p, needs),
-            Self::Builtin { kind, detail } => {
-                let start = Instant::now();
-                let mut s = kind.generate(*detail, needs)?;
-                s.report.seconds = start.elapsed().as_secs_f64();
-                Ok(s)
-            }
-        }
     }
 }

@@ -20,7 +20,7 @@ pub fn thesis_primary(
     let bounds = scene.bounds();
     let mut out = RayBatch::default();
     for cam in cameras {
-        let p = Camera::thesis(&bounds, cam).primary_rays(width, height);
+        let p = Camera::orbit(&bounds, cam).primary_rays(width, height);
         out.extend(&p.rays);
     }
     out
@@ -36,7 +36,7 @@ pub fn thesis_ao(
     camera: usize,
     samples: u32,
 ) -> ao::AoRays {
-    let primary = Camera::thesis(&scene.bounds(), camera).primary_rays(width, height);
+    let primary = Camera::orbit(&scene.bounds(), camera).primary_rays(width, height);
     let hits = traverse::closest_hits(bvh, &primary.rays);
     ao::ao_rays(scene, &primary.rays, &hits, samples, ao_radius(scene), 1)
 }

@@ -17,7 +17,7 @@ use raytrace::{Bvh, RayKind, Scene};
 use sched::Policy;
 use serde::Serialize;
 
-use super::probe::{ErrorSums, Probe};
+use super::prediction::{ErrorSums, PredictionTracer};
 use super::repeats;
 use super::replay::{Replayed, RunDevice};
 use crate::error::CliError;
@@ -198,7 +198,7 @@ impl Record {
 }
 
 /// What one run of a cell gave: its record, the tasks the simulator replays (one entry per
-/// measured generation, or per frame), and, when probed, the estimate's prediction error.
+/// measured generation, or per frame), and, when measured, the estimate's prediction error.
 pub struct CellRun {
     pub record: Record,
     pub replay: Vec<Replay>,
@@ -214,7 +214,7 @@ pub struct Replay {
     pub seconds: Vec<f64>,
 }
 
-/// The generations of a run's renders and, when probed, their prediction error sums.
+/// The generations of a run's renders and, when measured, their prediction error sums.
 type Rendered = (Vec<GenerationStats>, Vec<(RayKind, ErrorSums)>);
 
 /// The cost-based StaticLpt run of one (workload, task size), kept for the simulator.
@@ -275,16 +275,16 @@ impl Plan<'_> {
 
     /// Renders every camera once with `settings`, one after another through one tracer (as a
     /// renderer draws frames: each camera's plans use the device speeds measured so far, per
-    /// ray kind); the generations traced and, when `probe`, the prediction error sums of each.
+    /// ray kind); the generations traced and, when `measure_error`, the prediction error sums of each.
     fn render_all(
         &self,
         w: Workload,
         settings: Settings,
-        probe: bool,
+        measure_error: bool,
     ) -> Result<Rendered, CliError> {
         let devices = build_devices(self.bvh, self.devices, &[])?;
         let tracer = ScheduledTracer::new(self.bvh, devices, settings)?;
-        let mut p = Probe::new(tracer, self.bvh, &settings, probe);
+        let mut p = PredictionTracer::new(tracer, self.bvh, &settings, measure_error);
         let mut seen = 0;
         for cam in 0..self.cameras {
             render(self.scene, &mut p, &self.options(w, cam));
@@ -306,15 +306,15 @@ impl Plan<'_> {
     }
 
     /// One run of a cell through the generation pipeline: its measured generations' record
-    /// and replays, and when `probe`, the prediction error over them.
+    /// and replays, and when `measure_error`, the prediction error over them.
     fn run_generations(
         &self,
         w: Workload,
         settings: Settings,
-        probe: bool,
+        measure_error: bool,
     ) -> Result<CellRun, CliError> {
-        let (stats, sums) = self.render_all(w, settings, probe)?;
-        let error = probe.then(|| {
+        let (stats, sums) = self.render_all(w, settings, measure_error)?;
+        let error = measure_error.then(|| {
             let mut total = ErrorSums::default();
             for (_, s) in sums.iter().filter(|(k, _)| w.counts(*k)) {
                 total += *s;
@@ -329,10 +329,15 @@ impl Plan<'_> {
         })
     }
 
-    fn run_cell(&self, w: Workload, settings: Settings, probe: bool) -> Result<CellRun, CliError> {
+    fn run_cell(
+        &self,
+        w: Workload,
+        settings: Settings,
+        measure_error: bool,
+    ) -> Result<CellRun, CliError> {
         match self.pipeline {
-            Pipeline::Paths => self.run_paths(w, settings, probe),
-            Pipeline::Generations => self.run_generations(w, settings, probe),
+            Pipeline::Paths => self.run_paths(w, settings, measure_error),
+            Pipeline::Generations => self.run_generations(w, settings, measure_error),
         }
     }
 
@@ -378,8 +383,8 @@ impl Plan<'_> {
             for (cell, c) in cells.iter().enumerate() {
                 let ((w, settings), key) = (*c, block(c));
                 let known = errors.iter().any(|(k, _)| *k == key);
-                let probe = settings.mode == Mode::Cost && !known;
-                let run = self.run_cell(w, settings, probe)?;
+                let measure_error = settings.mode == Mode::Cost && !known;
+                let run = self.run_cell(w, settings, measure_error)?;
                 if let Some(e) = run.error {
                     errors.push((key, e));
                 }

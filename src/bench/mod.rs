@@ -12,7 +12,7 @@ mod matrix;
 mod mpi;
 mod paths;
 mod plots;
-mod probe;
+mod prediction;
 mod repeats;
 mod replay;
 mod simulate;
@@ -44,7 +44,7 @@ pub struct Args {
     full: bool,
     /// Image size `WxH` (overrides the default of quick or full).
     #[arg(long)]
-    size: Option<String>,
+    size: Option<crate::args::Size>,
     /// Thesis cameras per run, 1..=4 (overrides the default of quick or full).
     #[arg(long)]
     cameras: Option<usize>,
@@ -140,11 +140,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let started = Instant::now();
     // A bad --json path fails now rather than after the whole matrix has run.
     crate::output::Outputs::check(&[("json", args.json.as_deref())], &[])?;
-    let size_text = args
-        .size
-        .clone()
-        .unwrap_or_else(|| String::from(if args.full { "1024x1024" } else { "512x512" }));
-    let (width, height) = crate::render::parse_size(&size_text)?;
+    let crate::args::Size { width, height } =
+        args.size.unwrap_or(crate::args::Size::square(if args.full {
+            1024
+        } else {
+            512
+        }));
     let cameras = args.cameras.unwrap_or(if args.full { 4 } else { 1 });
     if !(1..=4).contains(&cameras) {
         return Err(bad(
@@ -482,7 +483,7 @@ fn cost_image(
     let mut options = RenderOptions::new(
         width,
         height,
-        Camera::thesis(&scene.bounds(), 0),
+        Camera::orbit(&scene.bounds(), 0),
         Shader::Ao(AoSettings {
             samples: 1,
             ..Default::default()

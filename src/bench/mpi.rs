@@ -126,7 +126,7 @@ impl Plan<'_> {
     }
 
     fn options(&self, w: Workload) -> RenderOptions {
-        let camera = Camera::thesis(&self.scene.bounds(), 0);
+        let camera = Camera::orbit(&self.scene.bounds(), 0);
         RenderOptions::new(self.width, self.height, camera, self.shader(w))
     }
 

@@ -10,19 +10,19 @@ use raytrace::shade::RenderOptions;
 use raytrace::{Bvh, Scene};
 
 use super::matrix::{CellRun, Plan, Record, Replay, Totals, Workload};
-use super::probe::ErrorSums;
+use super::prediction::ErrorSums;
 use super::replay::{Replayed, RunDevice};
 use crate::error::CliError;
 
 impl Plan<'_> {
     /// Renders every camera once with `settings` through one path renderer (each frame plans
-    /// with the device speeds measured on the frames before it); when `probe`, also the
+    /// with the device speeds measured on the frames before it); when `measure_error`, also the
     /// prediction error of each frame's estimate against every path counted.
     pub(super) fn run_paths(
         &self,
         w: Workload,
         settings: Settings,
-        probe: bool,
+        measure_error: bool,
     ) -> Result<CellRun, CliError> {
         let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
         let mut renderer = PathRenderer::new(devices, settings)?;
@@ -58,7 +58,7 @@ impl Plan<'_> {
                 );
             }
             // A frame on one device is not estimated: there is no estimate to judge.
-            if probe && frame.stats.estimated {
+            if measure_error && frame.stats.estimated {
                 sums += frame_error(self.scene, self.bvh, &options, &frame.stats)?;
             }
             frames.push(frame.stats);
@@ -66,7 +66,7 @@ impl Plan<'_> {
         if let Some(store) = self.calibration {
             store.borrow_mut().remember(&renderer, &workload);
         }
-        let error = probe.then(|| sums.ratio());
+        let error = measure_error.then(|| sums.ratio());
         let mut record = self.frames_record(w, settings, &frames);
         record.calibration = recalled;
         Ok(CellRun {
@@ -111,7 +111,7 @@ impl Plan<'_> {
         RenderOptions::new(
             self.width,
             self.height,
-            raytrace::Camera::thesis(&self.scene.bounds(), cam),
+            raytrace::Camera::orbit(&self.scene.bounds(), cam),
             self.shader(w),
         )
     }

@@ -195,7 +195,7 @@ mod tests {
             .and_then(|s| s.load(SceneNeeds::AO))
             .expect("builtin scene");
         let bvh = Bvh::build(&scene, BuildPreset::Fast).expect("bvh");
-        let rays = Camera::thesis(&scene.bounds(), 1).primary_rays(48, 48).rays;
+        let rays = Camera::orbit(&scene.bounds(), 1).primary_rays(48, 48).rays;
         (bvh, rays)
     }
 

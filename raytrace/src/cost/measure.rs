@@ -62,7 +62,7 @@ mod tests {
             .and_then(|s| s.load(SceneNeeds::AO))
             .expect("builtin scene");
         let bvh = Bvh::build(&scene, BuildPreset::Fast).expect("bvh");
-        let rays = Camera::thesis(&scene.bounds(), 0).primary_rays(64, 64).rays;
+        let rays = Camera::orbit(&scene.bounds(), 0).primary_rays(64, 64).rays;
         let t = measure_seconds(&bvh, &rays, &[0..64, 0..4096], RayKind::Primary, 3).unwrap();
         assert!(t[0] > 0.0 && t[1] > t[0], "{t:?}");
         let err = measure_seconds(&bvh, &rays, &[0..1, 0..0], RayKind::Ao, 1).unwrap_err();

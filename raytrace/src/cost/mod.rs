@@ -22,7 +22,7 @@
 //!
 //! let scene = SceneSource::parse("builtin:cornell:0.2")?.load(SceneNeeds::AO)?;
 //! let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
-//! let rays = Camera::thesis(&scene.bounds(), 0).primary_rays(32, 32).rays;
+//! let rays = Camera::orbit(&scene.bounds(), 0).primary_rays(32, 32).rays;
 //! let tasks = sched::split_ranges(rays.len(), 128);
 //!
 //! let estimator = ReducedTraversal::new(&bvh, &rays, SampleRate::new(0.125)?);

@@ -6,8 +6,8 @@ use std::sync::{Mutex, PoisonError};
 
 use sched::{DeviceError, Sink};
 
-use crate::paths::Traffic;
-use crate::scheduled::{BadRange, RayDevice};
+use crate::Traffic;
+use crate::ray_device::{BadRange, RayDevice};
 use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
 use super::buffers::{SceneBuffers, pack_rays};

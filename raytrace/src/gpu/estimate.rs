@@ -19,8 +19,8 @@ use super::buffers::{
 use super::pipeline::{GpuMode, Kernels, Threads, grid, trace_resident};
 use super::program::{Kernel, READ, UNIFORM, WRITE, dispatch};
 use super::{GpuContext, GpuDevice, GpuError};
+use crate::Traffic;
 use crate::cost::{Compacted, CostError, CostModel, SampleRate, Work};
-use crate::paths::Traffic;
 use crate::{Probe, RayBatch};
 
 /// A task's sampled sums as the GPU computed them: exact integer sums of the reduced-traversal

@@ -17,7 +17,7 @@ use super::pipeline::{
 };
 use super::program::{Kernel, READ, WRITE};
 use super::{GpuContext, GpuError};
-use crate::paths::Traffic;
+use crate::Traffic;
 
 /// The kernel folding a launch's queue states into one word (`verdict.wgsl`).
 pub(super) fn verdict_kernel(device: &wgpu::Device) -> Kernel {

@@ -14,7 +14,7 @@ use super::buffers::{
 };
 use super::program::{Program, READ, UNIFORM, WRITE};
 use super::{GpuContext, GpuError};
-use crate::paths::Traffic;
+use crate::Traffic;
 
 /// Batches of 64 rays a workgroup takes per dispatch: few enough that one invocation stays far
 /// below lavapipe's ~65 535 loop iterations (a ray rarely needs more than a few hundred).

@@ -25,7 +25,7 @@ use super::pipeline::{GpuMode, Kernels, Threads};
 use super::program::{Kernel, Program, READ, UNIFORM, WRITE, with_shading};
 use super::resident::Resident;
 use super::{GpuContext, GpuError};
-use crate::paths::Traffic;
+use crate::Traffic;
 use crate::shade::AoSettings;
 use crate::{Bvh, Camera, Scene};
 

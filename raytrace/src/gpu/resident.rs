@@ -14,7 +14,7 @@ use std::sync::{Mutex, PoisonError};
 
 use super::GpuContext;
 use super::buffers::{init, storage};
-use crate::paths::Traffic;
+use crate::Traffic;
 
 /// A uniform block's name and index (a Whitted block per bounce).
 type UniformKey = (&'static str, u32);

@@ -17,7 +17,7 @@ use super::buffers::{check_size, storage};
 use super::pipeline::grid;
 use super::program::{Kernel, READ, WRITE};
 use super::render::{FrameParams, GpuRenderer, Tally};
-use crate::paths::Traffic;
+use crate::Traffic;
 use crate::shade::{AoSettings, Shader};
 
 /// One task's sample as the GPU summed it.

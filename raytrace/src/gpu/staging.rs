@@ -11,7 +11,7 @@
 
 use std::ops::Range;
 
-use crate::paths::Traffic;
+use crate::Traffic;
 use crate::{HitBatch, RayBatch};
 
 use super::buffers::{

@@ -20,7 +20,7 @@ use super::pipeline::GpuMode;
 use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
 use super::render::{FrameParams, GpuRenderer, PathValues, Stage, Tally};
 use super::{GpuContext, GpuError};
-use crate::paths::Traffic;
+use crate::Traffic;
 use crate::shade::{AMBIENT, AoSettings, SKY, WhittedSettings};
 use crate::{Light, Scene};
 

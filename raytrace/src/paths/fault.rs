@@ -8,7 +8,7 @@ use std::ops::Range;
 use sched::DeviceError;
 
 use super::{Frame, Launch, PathDevice};
-use crate::scheduled::InjectedFault;
+use crate::ray_device::InjectedFault;
 
 /// `inner`, failing once it has completed `after` tasks.
 pub struct FailingPaths<'a> {

@@ -126,7 +126,7 @@ mod tests {
             .load(shader.needs())
             .unwrap();
         let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
-        let options = RenderOptions::new(32, 32, Camera::thesis(&scene.bounds(), 0), shader);
+        let options = RenderOptions::new(32, 32, Camera::orbit(&scene.bounds(), 0), shader);
         let specs = parse_devices("cpu:2,cpu:1/2").unwrap();
         let renderer = || {
             let devices = build_path_devices(&scene, &bvh, &specs, &[]).unwrap();

@@ -29,7 +29,7 @@
 //! let shader = Shader::Whitted(Default::default());
 //! let scene = SceneSource::parse("builtin:cornell:0.2")?.load(shader.needs())?;
 //! let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
-//! let options = RenderOptions::new(16, 16, Camera::thesis(&scene.bounds(), 0), shader);
+//! let options = RenderOptions::new(16, 16, Camera::orbit(&scene.bounds(), 0), shader);
 //!
 //! let devices = build_path_devices(&scene, &bvh, &parse_devices("cpu:2")?, &[])?;
 //! let mut renderer = PathRenderer::new(devices, Settings::default())?;
@@ -50,8 +50,8 @@ mod learn;
 mod memory;
 mod renderer;
 mod stats;
-mod traffic;
 
+pub use crate::traffic::Traffic;
 pub use build::build_path_devices;
 pub use cpu::CpuPaths;
 pub use device::{BoundPaths, Estimate, Frame, Launch, PathDevice, TaskValues};
@@ -61,4 +61,3 @@ pub use fault::FailingPaths;
 pub use gpu::GpuPaths;
 pub use renderer::{FrameRendering, PathRenderer};
 pub use stats::{FrameStats, PathDeviceStats};
-pub use traffic::Traffic;

@@ -22,7 +22,7 @@
 //! let shader = Shader::Whitted(Default::default());
 //! let scene = SceneSource::parse("builtin:cornell:0.2")?.load(shader.needs())?;
 //! let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
-//! let options = RenderOptions::new(16, 16, Camera::thesis(&scene.bounds(), 0), shader);
+//! let options = RenderOptions::new(16, 16, Camera::orbit(&scene.bounds(), 0), shader);
 //!
 //! let devices = build_devices(&bvh, &parse_devices("cpu:2")?, &[])?;
 //! let mut tracer = ScheduledTracer::new(&bvh, devices, Settings::default())?;
@@ -33,22 +33,19 @@
 //! ```
 
 mod build;
-mod device;
-mod fault;
 mod learn;
 mod settings;
 mod speeds;
 mod stats;
 mod tracer;
 
+pub use crate::ray_device::{BadRange, Bound, FailingAfter, InjectedFault, RayDevice};
 pub(crate) use build::assemble;
 #[cfg(not(feature = "gpu"))]
 pub(crate) use build::no_gpus;
 #[cfg(feature = "gpu")]
 pub(crate) use build::open_gpus;
 pub use build::{FailAfter, build_devices};
-pub use device::{BadRange, Bound, RayDevice};
-pub use fault::{FailingAfter, InjectedFault};
 pub use settings::{EstimateOn, Mode, Settings};
 pub use stats::{DeviceFit, DeviceStats, GenerationStats, TaskStats};
 pub use tracer::ScheduledTracer;

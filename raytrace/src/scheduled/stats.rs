@@ -54,7 +54,7 @@ pub struct GenerationStats {
     pub host_fallback: bool,
     /// What crossed between the host and the devices, estimate included: the generation's
     /// rays go up and their hits come back.
-    pub traffic: crate::paths::Traffic,
+    pub traffic: crate::Traffic,
 }
 
 impl GenerationStats {

@@ -10,7 +10,7 @@
 //! let shader = Shader::Whitted(Default::default());
 //! let scene = SceneSource::parse("builtin:cornell:0.2")?.load(shader.needs())?;
 //! let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
-//! let options = RenderOptions::new(16, 16, Camera::thesis(&scene.bounds(), 0), shader);
+//! let options = RenderOptions::new(16, 16, Camera::orbit(&scene.bounds(), 0), shader);
 //! let image = render(&scene, &mut CpuTracer::new(&bvh), &options);
 //! assert_eq!(image.generations[0].rays, 256);
 //! # Ok::<(), raytrace::Error>(())

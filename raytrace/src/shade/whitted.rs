@@ -202,7 +202,7 @@ mod tests {
         let options = RenderOptions::new(
             w,
             h,
-            Camera::thesis(&scene.bounds(), 2),
+            Camera::orbit(&scene.bounds(), 2),
             Shader::Whitted(WhittedSettings::default()),
         );
         let make = |threads| {

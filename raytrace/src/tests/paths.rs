@@ -56,7 +56,7 @@ const SHADERS: [Shader; 2] = [
 fn every_plan_renders_the_reference_image() {
     for shader in SHADERS {
         let (scene, bvh) = scene("builtin:cornell:0.2", &shader);
-        let options = RenderOptions::new(37, 29, Camera::thesis(&scene.bounds(), 1), shader);
+        let options = RenderOptions::new(37, 29, Camera::orbit(&scene.bounds(), 1), shader);
         let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
         for policy in Policy::ALL {
             for mode in Mode::ALL {
@@ -110,7 +110,7 @@ impl PathDevice for Slow {
 fn a_device_lost_mid_frame_changes_nothing() {
     for shader in SHADERS {
         let (scene, bvh) = scene("builtin:forest:0.05", &shader);
-        let options = RenderOptions::new(48, 40, Camera::thesis(&scene.bounds(), 0), shader);
+        let options = RenderOptions::new(48, 40, Camera::orbit(&scene.bounds(), 0), shader);
         let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
         for policy in [Policy::StaticLpt, Policy::QueueFifo, Policy::Hybrid] {
             let mut devices = cpus(2);
@@ -135,7 +135,7 @@ fn a_device_lost_mid_frame_changes_nothing() {
 fn a_frame_without_devices_left_is_an_error() {
     let shader = SHADERS[0];
     let (scene, bvh) = scene("builtin:cornell:0.2", &shader);
-    let options = RenderOptions::new(16, 16, Camera::thesis(&scene.bounds(), 0), shader);
+    let options = RenderOptions::new(16, 16, Camera::orbit(&scene.bounds(), 0), shader);
     let devices: Vec<Box<dyn PathDevice>> = cpus(2)
         .into_iter()
         .map(|d| Box::new(FailingPaths::new(d, 0)) as Box<dyn PathDevice>)
@@ -155,7 +155,7 @@ fn sampled_paths_rank_tasks_by_their_work() {
     use crate::paths::{Frame, estimate_paths};
     let shader = SHADERS[0];
     let (scene, bvh) = scene("builtin:forest:0.05", &shader);
-    let options = RenderOptions::new(64, 64, Camera::thesis(&scene.bounds(), 0), shader);
+    let options = RenderOptions::new(64, 64, Camera::orbit(&scene.bounds(), 0), shader);
     let frame = Frame {
         scene: &scene,
         bvh: &bvh,

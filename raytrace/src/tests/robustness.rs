@@ -463,7 +463,7 @@ fn ao_rays_leave_their_surface() {
         .load(SceneNeeds::AO)
         .unwrap();
     let bvh = build(&scene);
-    let primary = Camera::thesis(&scene.bounds(), 1).primary_rays(48, 48);
+    let primary = Camera::orbit(&scene.bounds(), 1).primary_rays(48, 48);
     let hits = closest_hits(&bvh, &primary.rays);
     let n_hits = (0..hits.len()).filter(|&i| hits.get(i).is_some()).count();
     assert!(n_hits > 48 * 24, "{n_hits}");

@@ -58,13 +58,13 @@ fn scheduled(
 ) -> (Rendering, Vec<GenerationStats>) {
     let devices = build_devices(bvh, &parse_devices(devices).unwrap(), faults).unwrap();
     let mut tracer = ScheduledTracer::new(bvh, devices, s).unwrap();
-    let options = RenderOptions::new(N, N, Camera::thesis(&scene.bounds(), 1), shader);
+    let options = RenderOptions::new(N, N, Camera::orbit(&scene.bounds(), 1), shader);
     let r = render(scene, &mut tracer, &options);
     (r, tracer.stats().to_vec())
 }
 
 fn reference(scene: &Scene, bvh: &Bvh, shader: Shader) -> Rendering {
-    let options = RenderOptions::new(N, N, Camera::thesis(&scene.bounds(), 1), shader);
+    let options = RenderOptions::new(N, N, Camera::orbit(&scene.bounds(), 1), shader);
     render(scene, &mut CpuTracer::new(bvh), &options)
 }
 
@@ -228,7 +228,7 @@ fn the_trace_probe_hands_its_samples_hits_down_and_leaves_the_image_alone() {
                 ..settings(Policy::Hybrid, Mode::Cost, 64)
             };
             let mut tracer = ScheduledTracer::new(&bvh, devices, settings).unwrap();
-            let options = RenderOptions::new(N, N, Camera::thesis(&scene.bounds(), 1), shader);
+            let options = RenderOptions::new(N, N, Camera::orbit(&scene.bounds(), 1), shader);
             let got = render(&scene, &mut tracer, &options);
             let case = format!("{source} {probe:?} second skips {second_skips} {faults:?}");
             assert_eq!(got.film, want.film, "{case}");
@@ -538,7 +538,7 @@ fn a_failing_or_lost_gpu_has_its_tasks_rerun_elsewhere() {
     let cpu = crate::cpu::CpuDevice::new(&bvh, 0, 1).expect("cpu");
     let devices: Vec<Box<dyn RayDevice + '_>> = vec![Box::new(cpu), Box::new(gpu)];
     let mut tracer = ScheduledTracer::new(&bvh, devices, s).expect("tracer");
-    let options = RenderOptions::new(N, N, Camera::thesis(&scene.bounds(), 1), shader);
+    let options = RenderOptions::new(N, N, Camera::orbit(&scene.bounds(), 1), shader);
     let got = render(&scene, &mut tracer, &options);
     assert_eq!(got.film, want.film, "lost device");
     let lost: Vec<_> = tracer

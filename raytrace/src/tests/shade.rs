@@ -50,7 +50,7 @@ fn renders_are_deterministic_whatever_the_thread_count() {
         Shader::Whitted(WhittedSettings::default()),
         Shader::Ao(AoSettings::default()),
     ] {
-        let options = RenderOptions::new(N, N, Camera::thesis(&scene.bounds(), 1), shader);
+        let options = RenderOptions::new(N, N, Camera::orbit(&scene.bounds(), 1), shader);
         let a = render(&scene, &mut CpuTracer::new(&bvh), &options);
         let b = render(
             &scene,

@@ -110,7 +110,7 @@ impl RayDevice for FailingAfter<'_> {
         self.inner.take_device_seconds()
     }
 
-    fn take_traffic(&mut self) -> crate::paths::Traffic {
+    fn take_traffic(&mut self) -> crate::Traffic {
         self.inner.take_traffic()
     }
 

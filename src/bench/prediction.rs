@@ -39,7 +39,7 @@ impl ErrorSums {
 }
 
 /// Wraps a tracer; when `enabled`, records the prediction error sums of each generation.
-pub struct Probe<'a, T> {
+pub struct PredictionTracer<'a, T> {
     pub inner: T,
     bvh: &'a Bvh,
     /// The scheduled tracer's: its task size, sampling rate and probe.
@@ -49,7 +49,7 @@ pub struct Probe<'a, T> {
     pub sums: Vec<(RayKind, ErrorSums)>,
 }
 
-impl<'a, T: Tracer> Probe<'a, T> {
+impl<'a, T: Tracer> PredictionTracer<'a, T> {
     /// `settings` gives the task size, sampling rate and probe the scheduled tracer uses.
     pub fn new(inner: T, bvh: &'a Bvh, settings: &Settings, enabled: bool) -> Self {
         Self {
@@ -84,7 +84,7 @@ impl<'a, T: Tracer> Probe<'a, T> {
     }
 }
 
-impl<T: Tracer> Tracer for Probe<'_, T> {
+impl<T: Tracer> Tracer for PredictionTracer<'_, T> {
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
         if self.enabled {
             let sums = self.error_sums(kind, rays);

@@ -127,8 +127,8 @@ pub trait RayDevice: Send {
     /// What crossed between the host and the device since the last call (rays up, hits
     /// back, the waits in between), and resets the count. Nothing for a device that works
     /// in host memory (the default).
-    fn take_traffic(&mut self) -> crate::paths::Traffic {
-        crate::paths::Traffic::default()
+    fn take_traffic(&mut self) -> crate::Traffic {
+        crate::Traffic::default()
     }
 
     /// Devices of one class are the same hardware doing the same work (the `N` devices of a

@@ -1,7 +1,7 @@
-//! `cobalt render --pipeline paths`: every frame through `sched` on path-resident devices
-//! ([`raytrace::paths`]): each task's paths are made, traced and shaded on the device that
-//! runs it, and only task lists, costs and the paths' values cross between host and device.
-//! `--pipeline gpu` is this pipeline on `--devices gpu:0`.
+//! The path pipeline's run, shared by `cobalt render --pipeline paths` and its `mpirun` form:
+//! frames rendered through one [`raytrace::paths::PathRenderer`] on path-resident devices
+//! (each task's paths made, traced and shaded on the device that runs it; only task lists,
+//! costs and the paths' values cross between host and device), and what the run reports.
 
 use serde::Serialize;
 

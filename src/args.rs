@@ -1,0 +1,438 @@
+//! The arguments several commands share, each defined once: typed values that clap parses
+//! (so a bad value is clap's error, naming the flag and the value), and groups of flags that a
+//! command takes whole with `#[command(flatten)]`.
+//!
+//! A value's limits are checked here, before any work; what depends on several flags at once
+//! (a `--fail` device index against the `--devices` list) is checked by the command.
+
+use std::fmt;
+use std::num::NonZeroUsize;
+use std::path::PathBuf;
+use std::str::FromStr;
+
+use raytrace::cost::SampleRate;
+use raytrace::devices::DeviceSpec;
+use raytrace::glam::Vec3;
+use raytrace::scheduled::{FailAfter, Mode};
+use raytrace::{BuildPreset, Camera};
+use sched::Policy;
+
+use crate::error::CliError;
+
+/// Largest image side: keeps a typo like `--size 1024000x1` from allocating gigabytes.
+pub const MAX_SIDE: u32 = 16384;
+
+/// Most devices, and most threads per device: a typo should not start a million threads.
+const MAX_DEVICES: usize = 1024;
+
+/// Largest task: a generation of a 16384² image with 32 AO probes fits `u32` task indices
+/// at any size above this, and no sensible task is larger.
+const MAX_TASK_SIZE: usize = 1 << 24;
+
+/// Most AO rays per primary hit.
+const MAX_AO_SAMPLES: u32 = 4096;
+
+/// An image size, `WIDTHxHEIGHT`, each side in `1..=MAX_SIDE`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Size {
+    /// Pixels per row.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+}
+
+impl Size {
+    /// A square image.
+    pub const fn square(side: u32) -> Self {
+        Self {
+            width: side,
+            height: side,
+        }
+    }
+
+    /// Pixels in all.
+    pub fn pixels(self) -> usize {
+        self.width as usize * self.height as usize
+    }
+}
+
+impl FromStr for Size {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        let (w, h) = text
+            .split_once(['x', 'X'])
+            .ok_or("expected WIDTHxHEIGHT, e.g. 1024x1024")?;
+        let side = |s: &str| match s.trim().parse::<u32>() {
+            Ok(n) if (1..=MAX_SIDE).contains(&n) => Ok(n),
+            _ => Err(format!("{s:?} is not a side length in 1..={MAX_SIDE}")),
+        };
+        Ok(Self {
+            width: side(w)?,
+            height: side(h)?,
+        })
+    }
+}
+
+impl fmt::Display for Size {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}x{}", self.width, self.height)
+    }
+}
+
+/// One of the four orbit cameras, `0..=3`.
+pub fn camera_index(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(i) if i < 4 => Ok(i),
+        _ => Err("expected one of the orbit cameras 0, 1, 2 or 3 (or --eye and --at)".into()),
+    }
+}
+
+/// A point `X,Y,Z`, every coordinate finite.
+pub fn point(text: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = text
+        .split(',')
+        .map(|c| c.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| "expected three finite numbers X,Y,Z")?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => Err("expected three finite numbers X,Y,Z".into()),
+    }
+}
+
+/// Rays (or paths) per task, in `1..=MAX_TASK_SIZE`.
+pub fn task_size(text: &str) -> Result<NonZeroUsize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if n <= MAX_TASK_SIZE => NonZeroUsize::new(n),
+        _ => None,
+    }
+    .ok_or_else(|| format!("expected a whole number of rays in 1..={MAX_TASK_SIZE}"))
+}
+
+/// The share of a task's rays an estimate traces, in `(0, 1]`.
+pub fn sample_rate(text: &str) -> Result<SampleRate, String> {
+    match text.trim().parse::<f64>().map(SampleRate::new) {
+        Ok(Ok(rate)) => Ok(rate),
+        _ => Err("expected a fraction in (0, 1], e.g. 0.125".into()),
+    }
+}
+
+/// A length: finite and above zero.
+pub fn positive_length(text: &str) -> Result<f32, String> {
+    match text.trim().parse::<f32>() {
+        Ok(d) if d.is_finite() && d > 0.0 => Ok(d),
+        _ => Err("expected a finite number > 0".into()),
+    }
+}
+
+/// A `--devices` list as typed, and the devices it names: the list of
+/// [`raytrace::devices::parse_devices`], plus `cpu` alone for one device with every core.
+/// GPU entries (`gpu:all`, `gpu:K`) open wgpu adapters when the devices are built.
+#[derive(Debug, Clone)]
+pub struct Devices {
+    text: String,
+    specs: Vec<DeviceSpec>,
+}
+
+impl Devices {
+    /// The list as the user typed it, for reports and errors.
+    pub fn as_str(&self) -> &str {
+        &self.text
+    }
+
+    /// Every entry, in order.
+    pub fn specs(&self) -> &[DeviceSpec] {
+        &self.specs
+    }
+
+    /// CPU threads over all devices.
+    pub fn threads(&self) -> usize {
+        self.cpu().map(|(count, threads)| count * threads).sum()
+    }
+
+    /// CPU devices in all.
+    pub fn cpu_devices(&self) -> usize {
+        self.cpu().map(|(count, _)| count).sum()
+    }
+
+    /// Whether a GPU entry is listed: how many devices it opens is known only once they are.
+    pub fn has_gpu(&self) -> bool {
+        self.specs.iter().any(|s| matches!(s, DeviceSpec::Gpu(_)))
+    }
+
+    fn cpu(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.specs.iter().filter_map(|s| match *s {
+            DeviceSpec::Cpu { count, threads } => Some((count, threads)),
+            DeviceSpec::Gpu(_) => None,
+        })
+    }
+}
+
+impl FromStr for Devices {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        let specs = if text.trim() == "cpu" {
+            let cores = std::thread::available_parallelism().map_or(1, usize::from);
+            vec![DeviceSpec::Cpu {
+                count: 1,
+                threads: cores,
+            }]
+        } else {
+            raytrace::devices::parse_devices(text).map_err(|e| e.to_string())?
+        };
+        let (mut devices, mut threads) = (0usize, 0usize);
+        for spec in &specs {
+            if let DeviceSpec::Cpu { count, threads: t } = *spec {
+                devices = devices.saturating_add(count);
+                threads = threads.max(t);
+            }
+        }
+        let total = specs.iter().try_fold(0usize, |sum, spec| match *spec {
+            DeviceSpec::Cpu { count, threads } => count.checked_mul(threads)?.checked_add(sum),
+            DeviceSpec::Gpu(_) => Some(sum),
+        });
+        let max_threads = crate::limits::MAX_THREADS;
+        if devices > MAX_DEVICES || threads > MAX_DEVICES || total.is_none_or(|t| t > max_threads) {
+            return Err(format!(
+                "at most {MAX_DEVICES} devices, {MAX_DEVICES} threads per device and \
+                 {max_threads} threads in all"
+            ));
+        }
+        Ok(Self {
+            text: text.to_string(),
+            specs,
+        })
+    }
+}
+
+/// `--fail DEVICE@TASKS[,…]` as typed, and the faults it injects. Whether each device exists
+/// depends on `--devices`: [`Faults::check`].
+#[derive(Debug, Clone)]
+pub struct Faults {
+    text: String,
+    faults: Vec<FailAfter>,
+}
+
+impl Faults {
+    /// The faults, each device an index below `devices` (`usize::MAX` where GPU entries make
+    /// the count known only once the devices are opened; they check it then).
+    pub fn check(&self, devices: usize) -> Result<Vec<FailAfter>, CliError> {
+        match self.faults.iter().find(|f| f.device >= devices) {
+            Some(f) => Err(CliError::Arg {
+                flag: "fail",
+                value: self.text.clone(),
+                message: format!(
+                    "no device {}: there are {devices} (numbered from 0)",
+                    f.device
+                ),
+            }),
+            None => Ok(self.faults.clone()),
+        }
+    }
+}
+
+impl FromStr for Faults {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        let faults = text
+            .split(',')
+            .map(|item| {
+                let (d, k) = item.trim().split_once('@').ok_or_else(|| {
+                    format!(
+                        "{item:?}: expected DEVICE@TASKS, e.g. 1@3 (device 1 fails after 3 tasks)"
+                    )
+                })?;
+                let device = d
+                    .trim()
+                    .parse::<usize>()
+                    .map_err(|_| format!("{d:?} is not a device index"))?;
+                let tasks = k
+                    .trim()
+                    .parse::<u64>()
+                    .map_err(|_| format!("{k:?} is not a task count"))?;
+                Ok(FailAfter { device, tasks })
+            })
+            .collect::<Result<_, String>>()?;
+        Ok(Self {
+            text: text.to_string(),
+            faults,
+        })
+    }
+}
+
+/// The scene and how its BVH is built.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SceneArgs {
+    /// An OBJ file, or `builtin:forest|hairball|cornell[:detail]`.
+    #[arg(long)]
+    pub scene: String,
+    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
+    #[arg(long, default_value = "medium")]
+    pub preset: BuildPreset,
+}
+
+/// Where the camera is: one of the four orbit cameras, or an eye and a point looked at.
+#[derive(Debug, Clone, clap::Args)]
+pub struct CameraArgs {
+    /// One of the four orbit cameras, 0..3 (at the top of the scene's bounding box, looking
+    /// at its centre); the default when no `--eye`/`--at` is given.
+    #[arg(long, conflicts_with_all = ["eye", "at"], allow_hyphen_values = true,
+          value_parser = camera_index)]
+    pub camera: Option<usize>,
+    /// Camera position `X,Y,Z` (with `--at`).
+    #[arg(long, requires = "at", allow_hyphen_values = true, value_parser = point)]
+    pub eye: Option<Vec3>,
+    /// Point looked at `X,Y,Z` (with `--eye`).
+    #[arg(long, requires = "eye", allow_hyphen_values = true, value_parser = point)]
+    pub at: Option<Vec3>,
+}
+
+/// Where the camera comes from, checked.
+#[derive(Debug, Clone, Copy)]
+pub enum CameraChoice {
+    /// One of the four orbit cameras around the scene.
+    Orbit(usize),
+    /// An eye and a different point it looks at.
+    LookAt(Vec3, Vec3),
+}
+
+impl CameraArgs {
+    /// The camera asked for: the eye must differ from the point it looks at.
+    pub fn choice(&self) -> Result<CameraChoice, CliError> {
+        match (self.camera, self.eye, self.at) {
+            (_, Some(eye), Some(at)) if eye == at => Err(CliError::Arg {
+                flag: "at",
+                value: format!("{},{},{}", at.x, at.y, at.z),
+                message: "the camera cannot look at its own position".into(),
+            }),
+            (_, Some(eye), Some(at)) => Ok(CameraChoice::LookAt(eye, at)),
+            (camera, _, _) => Ok(CameraChoice::Orbit(camera.unwrap_or(0))),
+        }
+    }
+}
+
+impl CameraChoice {
+    /// The camera for a scene with these bounds, and the orbit camera's index if it is one.
+    pub fn resolve(&self, bounds: &raytrace::Aabb) -> (Camera, Option<usize>) {
+        match *self {
+            CameraChoice::Orbit(i) => (Camera::orbit(bounds, i), Some(i)),
+            CameraChoice::LookAt(eye, at) => (Camera::look_at(eye, at), None),
+        }
+    }
+}
+
+/// Which shader.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ShaderKind {
+    /// Ambient occlusion: Halton rays per hit (the diffuse workload).
+    Ao,
+    /// Whitted: shadow rays and two mirror bounces (the coherent workload).
+    Whitted,
+}
+
+/// The shader and its settings.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ShaderArgs {
+    /// The shader.
+    #[arg(long, value_enum, default_value = "whitted")]
+    pub shader: ShaderKind,
+    /// AO rays per primary hit, 1..=4096.
+    #[arg(long, default_value = "32",
+          value_parser = clap::value_parser!(u32).range(1..=MAX_AO_SAMPLES as i64))]
+    pub ao_samples: u32,
+    /// AO ray length (default: 5 % of the scene's bounding-box diagonal).
+    #[arg(long, value_parser = positive_length)]
+    pub ao_distance: Option<f32>,
+}
+
+impl ShaderArgs {
+    /// The shader these settings make.
+    pub fn shader(&self) -> raytrace::shade::Shader {
+        use raytrace::shade::{AoSettings, Shader, WhittedSettings};
+        match self.shader {
+            ShaderKind::Ao => Shader::Ao(AoSettings {
+                samples: self.ao_samples,
+                max_distance: self.ao_distance,
+                ..Default::default()
+            }),
+            ShaderKind::Whitted => Shader::Whitted(WhittedSettings::default()),
+        }
+    }
+}
+
+/// The devices, and how tasks are cut, costed and planned over them.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ScheduleArgs {
+    /// Devices: `cpu:N` (N devices of one thread), `cpu:N/T` (T threads each), several
+    /// comma-separated, or `cpu` (one device with every core); `gpu:all` or `gpu:K` adds wgpu
+    /// adapters (software ones only with `COBALT_GPU_SOFTWARE=1`). At most 1024 CPU devices,
+    /// 1024 threads each and 4096 threads in all.
+    #[arg(long, default_value = "cpu:2")]
+    pub devices: Devices,
+    /// How tasks go to devices: static-equal, static-lpt (lpt), queue-fifo (fifo),
+    /// queue-sorted (sorted) or hybrid.
+    #[arg(long, default_value = "static-lpt")]
+    pub policy: Policy,
+    /// Task costs: `cost` (estimated from a sample of each task) or `regular` (all equal).
+    #[arg(long, default_value = "cost")]
+    pub mode: Mode,
+    /// Rays per task.
+    #[arg(long, default_value = "4096", value_parser = task_size)]
+    pub task_size: NonZeroUsize,
+    /// Fraction of each task's rays the cost estimate traces, in (0, 1].
+    #[arg(long, default_value = "0.125", value_parser = sample_rate)]
+    pub sample_rate: SampleRate,
+}
+
+/// Where the results go besides the summary.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ReportArgs {
+    /// A JSON report, written to this file.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Print the report as one JSON object on standard output instead of a summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_name_the_bad_side() {
+        assert_eq!(
+            "64x32".parse::<Size>(),
+            Ok(Size {
+                width: 64,
+                height: 32
+            })
+        );
+        assert_eq!(Size::square(8).to_string(), "8x8");
+        for bad in ["0x32", "32", "32xlots", "16385x1"] {
+            assert!(bad.parse::<Size>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn faults_are_checked_against_the_devices() {
+        let f: Faults = "1@3".parse().expect("valid");
+        assert!(f.check(2).is_ok());
+        let err = f.check(1).expect_err("no device 1").to_string();
+        assert!(
+            err.contains("--fail \"1@3\"") && err.contains("no device 1"),
+            "{err}"
+        );
+        for bad in ["1", "0@x", "x@1"] {
+            assert!(bad.parse::<Faults>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn devices_are_bounded() {
+        let d: Devices = "cpu:2/3,cpu:1".parse().expect("valid");
+        assert_eq!((d.cpu_devices(), d.threads(), d.has_gpu()), (3, 7, false));
+        assert!("cpu:1024/1024".parse::<Devices>().is_err());
+        assert!("tpu".parse::<Devices>().is_err());
+    }
+}
