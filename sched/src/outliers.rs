@@ -14,7 +14,10 @@ pub const SPIKE_FACTOR: f64 = 1.5;
 /// Which of the tasks (`predicted[i]` cost, `seconds[i]` measured, all on one device) are
 /// fit to learn from: within `factor` of their median `seconds / predicted`. Tasks without a
 /// positive, finite prediction and time are kept out too. With fewer than three usable tasks
-/// there is no median to trust, and every usable one is kept.
+/// there is no median to trust, and every usable one is kept. The median is the lower middle
+/// ratio itself, never a mean of two: so at least one task is always kept, even when the
+/// ratios fall into two groups far apart (a launch timed as a whole beside tasks timed at
+/// almost nothing), where the mean of the two middle ones lay beyond `factor` of both.
 pub fn inliers(predicted: &[f64], seconds: &[f64], factor: f64) -> Vec<bool> {
     let ratio = |i: usize| {
         let (p, s) = (predicted[i], seconds[i]);
@@ -27,12 +30,7 @@ pub fn inliers(predicted: &[f64], seconds: &[f64], factor: f64) -> Vec<bool> {
         return ratios.iter().map(Option::is_some).collect();
     }
     usable.sort_by(f64::total_cmp);
-    let k = usable.len();
-    let median = if k % 2 == 1 {
-        usable[k / 2]
-    } else {
-        0.5 * (usable[k / 2 - 1] + usable[k / 2])
-    };
+    let median = usable[(usable.len() - 1) / 2];
     ratios
         .iter()
         .map(|r| r.is_some_and(|r| r <= factor * median && r * factor >= median))
@@ -62,5 +60,10 @@ mod tests {
         );
         // Two tasks: no median to trust.
         assert_eq!(inliers(&[1.0, 1.0], &[1.0, 100.0], 1.5), vec![true, true]);
+        // Two groups far apart: the lower one is learnt from, never none.
+        assert_eq!(
+            inliers(&[1.0; 4], &[1.0, 1.0, 100.0, 100.0], 1.5),
+            vec![true, true, false, false]
+        );
     }
 }
