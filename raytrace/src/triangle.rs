@@ -79,6 +79,26 @@ pub fn intersect_watertight(
     tmin: f32,
     tmax: f32,
 ) -> Option<(f32, f32, f32)> {
+    let (t_scaled, det, v, w) = intersect_parts(s, v0, v1, v2, tmin, tmax)?;
+    let rcp = 1.0 / det;
+    // `abs` is the negation of a negative `det` (a hit's is never zero or NaN). `+ 0.0` turns a
+    // -0.0 distance (origin on the triangle) into +0.0.
+    let t = t_scaled / det.abs() + 0.0;
+    Some((t, v * rcp, w * rcp))
+}
+
+/// [`intersect_watertight`] up to its divisions: on a hit, the scaled distance (its sign
+/// flipped where `det < 0`), `det` and the edge functions `v`, `w`. The lane kernels
+/// (`simd.rs`) leave the divisions to the lanes that hit, and are checked against this.
+#[inline(always)]
+pub(crate) fn intersect_parts(
+    s: &RayShear,
+    v0: &[f32; 3],
+    v1: &[f32; 3],
+    v2: &[f32; 3],
+    tmin: f32,
+    tmax: f32,
+) -> Option<(f32, f32, f32, f32)> {
     let (kx, ky, kz) = (s.kx, s.ky, s.kz);
     let o = &s.org;
     // Four lanes so that `k & 3` indexing needs no bounds check (k < 3 by construction).
@@ -122,10 +142,7 @@ pub fn intersect_watertight(
     if t_scaled < tmin * det_abs || t_scaled > tmax * det_abs {
         return None;
     }
-    let rcp = 1.0 / det;
-    // `+ 0.0` turns a -0.0 distance (origin on the triangle) into +0.0.
-    let t = t_scaled / det_abs + 0.0;
-    Some((t, v * rcp, w * rcp))
+    Some((t_scaled, det, v, w))
 }
 
 #[cfg(test)]
