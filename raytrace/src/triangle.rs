@@ -28,31 +28,27 @@ impl RayShear {
             return None;
         }
         let a = dir.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
+        // The dominant axis by arithmetic rather than branches: incoherent rays (AO, bounces)
+        // would mispredict them, once or twice a ray.
+        let x_wins = (a.x >= a.y) & (a.x >= a.z);
+        let y_wins = a.y >= a.z;
+        let kz = usize::from(!x_wins) * (1 + usize::from(!y_wins));
         let d = dir.to_array();
-        if d[kz] == 0.0 {
+        let dz = d[kz % 3];
+        if dz == 0.0 {
             return None;
         }
-        let mut kx = if kz == 2 { 0 } else { kz + 1 };
-        let mut ky = if kx == 2 { 0 } else { kx + 1 };
+        let (kx, ky) = ([1, 2, 0][kz % 3], [2, 0, 1][kz % 3]);
         // Keep the winding (and so the sign of the edge functions) independent of the axis.
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let (kx, ky) = if dz < 0.0 { (ky, kx) } else { (kx, ky) };
         Some(Self {
             org: origin.to_array(),
             kx,
             ky,
             kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
+            sx: d[kx] / dz,
+            sy: d[ky] / dz,
+            sz: 1.0 / dz,
         })
     }
 
