@@ -7,9 +7,12 @@
 //! changes it, so the wide and the binary traversal return the same hit, bit for bit.
 //!
 //! Children hit are visited nearest first; the others wait on a stack with their entry
-//! distance and are dropped when the nearest hit so far is closer. Any-hit queries keep the
-//! order too: taking children in slot order instead measured no faster (slower inside rooms,
-//! where the nearest wall is the likeliest occluder).
+//! distance and are dropped when the nearest hit so far is closer. Any-hit queries take the
+//! nearest child next too, but push the others in slot order, unsorted: the first hit ends
+//! the walk, so the order of the rest matters less than sorting them costs (single-thread
+//! CPU time, AO rays: 5–10 % faster on forest, hairball and the dragon, the same elsewhere).
+//! Taking the first slot next instead of the nearest measured 5 % slower on the bunny and
+//! Sibenik, rooms and closed surfaces where the nearest box holds the likeliest occluder.
 //!
 //! `B` counts nodes entered as in the binary traversal: the root, if one of its children's
 //! boxes is hit, and every child (inner or leaf) taken from the stack, whose boxes are the
@@ -154,6 +157,28 @@ impl Bvh {
                     let first = mask.trailing_zeros() as usize;
                     if mask & (mask - 1) == 0 {
                         (child, count) = (node.child[first], node.count[first]);
+                        continue;
+                    }
+                    if any {
+                        // The first hit ends the walk, and the nearest child likeliest holds it:
+                        // it goes next (the first slot on a tie), the others wait unsorted.
+                        let mut b = first;
+                        let mut m = mask & (mask - 1);
+                        while m != 0 {
+                            let k = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            if near[k] < near[b] {
+                                b = k;
+                            }
+                        }
+                        let mut m = mask & !(1 << b);
+                        while m != 0 {
+                            let k = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            stack[sp].write((node.child[k], node.count[k], near[k]));
+                            sp += 1;
+                        }
+                        (child, count) = (node.child[b], node.count[b]);
                         continue;
                     }
                     // Two to eight children: order them nearest first (ties by slot, so the
