@@ -279,8 +279,10 @@ fn trace_rejects_bad_rays_and_writes_nothing() {
     }
 }
 
-/// `cobalt trace --device gpu` writes the CPU's hits (closest and any): ids equal on all but
-/// exact-edge ties (at most 1 in 1000), distances within 1e-5 relative (absolute below 1).
+/// `cobalt trace --device gpu` writes the CPU's hits: for closest hits, ids equal on all but
+/// exact-edge ties (at most 1 in 1000), distances within 1e-5 relative (absolute below 1); for
+/// any hits, the same hit-or-miss answer (each may stop at a different hit: the CPU's wide walk
+/// and the GPU's binary one take children in different orders).
 /// Software adapters are allowed (`COBALT_GPU_SOFTWARE=1`); without any adapter the test
 /// prints a note and passes, except under CI, where it fails.
 #[test]
@@ -369,6 +371,9 @@ fn trace_on_the_gpu_writes_the_cpu_hits() {
             );
             if p(c) != u32::MAX {
                 hits += 1;
+                if any {
+                    continue;
+                }
                 let (tc, tg) = (t(c), t(g));
                 // An absolute floor of 1e-5 (the scene's coordinates are about 1): a hit close
                 // to its origin keeps the rounding of the vertices' coordinates, which a

@@ -1,12 +1,18 @@
 //! Lane kernels of the wide traversal: the conservative box test of a node's eight children
-//! ([`Box8Ray::hit8`]) and the watertight test of four triangles ([`Shear4::intersect4`]).
+//! ([`Box8Ray::hit8`]) and the watertight test of four or eight triangles
+//! ([`Shear4::intersect4`], [`Shear4::intersect8`]).
 //!
 //! Each lane does exactly what the scalar tests do ([`crate::slab`] and
 //! [`crate::intersect_watertight`]): the same IEEE operations in the same order, with no fused
 //! multiply-add, so every lane's result equals the scalar one bit for bit (tests below check
 //! it). On x86_64 the box test is one AVX2 pass where the CPU has AVX2 (the caller detects it,
-//! see [`avx2`]) and two SSE2 passes otherwise; the triangle test is SSE2 (part of the x86_64
-//! baseline, so it needs no detection). Elsewhere both are loops over arrays.
+//! see [`avx2`]) and two SSE2 passes otherwise; the four-triangle test is SSE2 (part of the
+//! x86_64 baseline, so it needs no detection), and the eight-triangle one, which tests a leaf's
+//! two groups in one pass, AVX2. Elsewhere they are loops over arrays.
+//!
+//! The triangle tests leave the divisions to [`TriHits::hit`], lane by lane: only the lanes
+//! that hit need their distance, and most groups have none or one, so dividing every lane
+//! would cost two vector divisions per group for nothing.
 
 use crate::Ray;
 use crate::bvh::wide::{Node8, Tri4, WIDTH};
@@ -120,12 +126,40 @@ pub(crate) struct Shear4 {
     shear: RayShear,
 }
 
-/// Hits of four triangles: a bit per lane that hits, and `t`, `u`, `v` by lane.
-pub(crate) struct Hits4 {
+/// Hits of `N` triangles: a bit per lane that hits, and what [`TriHits::hit`] needs to give the
+/// distance and barycentrics of a lane (the scalar test's values before its divisions).
+pub(crate) struct TriHits<const N: usize> {
     pub(crate) mask: u32,
-    pub(crate) t: [f32; 4],
-    pub(crate) u: [f32; 4],
-    pub(crate) v: [f32; 4],
+    /// The scaled distance, its sign flipped where `det < 0`.
+    t_scaled: [f32; N],
+    det: [f32; N],
+    /// The edge functions of the second and third vertex.
+    v: [f32; N],
+    w: [f32; N],
+}
+
+impl<const N: usize> TriHits<N> {
+    const MISS: Self = Self {
+        mask: 0,
+        t_scaled: [0.0; N],
+        det: [0.0; N],
+        v: [0.0; N],
+        w: [0.0; N],
+    };
+
+    /// `(t, u, v)` of lane `k`, whose bit is set: the scalar test's divisions, so the same bits.
+    #[inline(always)]
+    pub(crate) fn hit(&self, k: usize) -> (f32, f32, f32) {
+        let det = self.det[k];
+        let rcp = 1.0 / det;
+        // `abs` is the scalar test's negation where `det < 0` (a hit's `det` is never zero or
+        // NaN). `+ 0.0` turns a -0.0 distance into +0.0, as the scalar test does.
+        (
+            self.t_scaled[k] / det.abs() + 0.0,
+            self.v[k] * rcp,
+            self.w[k] * rcp,
+        )
+    }
 }
 
 impl Shear4 {
@@ -144,7 +178,7 @@ impl Shear4 {
 
     /// [`crate::intersect_watertight`] of the four triangles of `g`, lane by lane.
     #[inline(always)]
-    pub(crate) fn intersect4(&self, g: &Tri4, tmin: f32, tmax: f32) -> Hits4 {
+    pub(crate) fn intersect4(&self, g: &Tri4, tmin: f32, tmax: f32) -> TriHits<4> {
         #[cfg(target_arch = "x86_64")]
         {
             x86::intersect4(self, g, tmin, tmax)
@@ -155,23 +189,28 @@ impl Shear4 {
         }
     }
 
+    /// [`Shear4::intersect4`] of two groups at once, `a` in lanes 0–3 and `b` in lanes 4–7, in
+    /// one AVX2 pass, inlined where the caller is compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn intersect8(&self, a: &Tri4, b: &Tri4, tmin: f32, tmax: f32) -> TriHits<8> {
+        // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
+        unsafe { x86::intersect8_avx2(self, a, b, tmin, tmax) }
+    }
+
     /// [`Shear4::intersect4`] by calling the scalar test per lane.
     #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
-    pub(crate) fn intersect4_scalar(&self, g: &Tri4, tmin: f32, tmax: f32) -> Hits4 {
-        let mut h = Hits4 {
-            mask: 0,
-            t: [0.0; 4],
-            u: [0.0; 4],
-            v: [0.0; 4],
-        };
+    pub(crate) fn intersect4_scalar(&self, g: &Tri4, tmin: f32, tmax: f32) -> TriHits<4> {
+        let mut h = TriHits::MISS;
         let vert = |i: usize, k: usize| [g.v[i][0][k], g.v[i][1][k], g.v[i][2][k]];
         for k in 0..4 {
             let (a, b, c) = (vert(0, k), vert(1, k), vert(2, k));
-            if let Some((t, u, v)) =
-                crate::intersect_watertight(&self.shear, &a, &b, &c, tmin, tmax)
-            {
+            if let Some(p) = crate::triangle::intersect_parts(&self.shear, &a, &b, &c, tmin, tmax) {
                 h.mask |= 1 << k;
-                (h.t[k], h.u[k], h.v[k]) = (t, u, v);
+                (h.t_scaled[k], h.det[k], h.v[k], h.w[k]) = p;
             }
         }
         h
@@ -181,22 +220,18 @@ impl Shear4 {
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use std::arch::x86_64::{
-        __m128, _CMP_LE_OQ, _mm_add_ps, _mm_and_ps, _mm_andnot_ps, _mm_castsi128_ps, _mm_cmpeq_ps,
-        _mm_cmpgt_ps, _mm_cmple_ps, _mm_cmplt_ps, _mm_div_ps, _mm_load_ps, _mm_loadu_ps,
-        _mm_max_ps, _mm_min_ps, _mm_movemask_ps, _mm_mul_ps, _mm_or_ps, _mm_set1_epi32,
-        _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps, _mm_sub_ps, _mm_xor_ps, _mm256_cmp_ps,
-        _mm256_load_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps,
-        _mm256_set1_ps, _mm256_storeu_ps, _mm256_sub_ps,
+        __m128, __m256, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm_add_ps, _mm_and_ps,
+        _mm_andnot_ps, _mm_castsi128_ps, _mm_cmpeq_ps, _mm_cmpgt_ps, _mm_cmple_ps, _mm_cmplt_ps,
+        _mm_load_ps, _mm_loadu_ps, _mm_max_ps, _mm_min_ps, _mm_movemask_ps, _mm_mul_ps, _mm_or_ps,
+        _mm_set1_epi32, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps, _mm_sub_ps, _mm_xor_ps,
+        _mm256_add_ps, _mm256_and_ps, _mm256_andnot_ps, _mm256_castsi256_ps, _mm256_cmp_ps,
+        _mm256_load_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
+        _mm256_mul_ps, _mm256_or_ps, _mm256_set_m128, _mm256_set1_epi32, _mm256_set1_ps,
+        _mm256_setzero_ps, _mm256_storeu_ps, _mm256_sub_ps, _mm256_xor_ps,
     };
 
-    use super::{Box8Ray, Hits4, Hits8, Shear4, WIDTH};
+    use super::{Box8Ray, Hits8, Shear4, TriHits, WIDTH};
     use crate::bvh::wide::{Node8, Tri4};
-
-    #[inline(always)]
-    fn load(a: &[f32; 4]) -> __m128 {
-        // SAFETY: SSE2 is part of the x86_64 baseline, and `a` is four readable floats.
-        unsafe { _mm_loadu_ps(a.as_ptr()) }
-    }
 
     #[inline(always)]
     fn store(v: __m128) -> [f32; 4] {
@@ -276,125 +311,353 @@ mod x86 {
         (mask, near)
     }
 
-    #[inline(always)]
-    pub(super) fn intersect4(s: &Shear4, g: &Tri4, tmin: f32, tmax: f32) -> Hits4 {
-        // SAFETY: SSE2 is part of the x86_64 baseline; the only memory accesses are `load` and
-        // `store` of whole `[f32; 4]`s.
-        unsafe { intersect4_sse(s, g, tmin, tmax) }
+    /// The four-lane operations of the watertight kernel, on SSE2 (the x86_64 baseline).
+    mod l4 {
+        use super::*;
+        pub(super) type V = __m128;
+        pub(super) const N: usize = 4;
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn splat(x: f32) -> V {
+            _mm_set1_ps(x)
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn zero() -> V {
+            _mm_setzero_ps()
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn sign() -> V {
+            _mm_castsi128_ps(_mm_set1_epi32(i32::MIN))
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn ones() -> V {
+            _mm_castsi128_ps(_mm_set1_epi32(-1))
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn sub(a: V, b: V) -> V {
+            _mm_sub_ps(a, b)
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn add(a: V, b: V) -> V {
+            _mm_add_ps(a, b)
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn mul(a: V, b: V) -> V {
+            _mm_mul_ps(a, b)
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn or(a: V, b: V) -> V {
+            _mm_or_ps(a, b)
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn and(a: V, b: V) -> V {
+            _mm_and_ps(a, b)
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn andnot(a: V, b: V) -> V {
+            _mm_andnot_ps(a, b)
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn xor(a: V, b: V) -> V {
+            _mm_xor_ps(a, b)
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn eq(a: V, b: V) -> V {
+            _mm_cmpeq_ps(a, b)
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn lt(a: V, b: V) -> V {
+            _mm_cmplt_ps(a, b)
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn gt(a: V, b: V) -> V {
+            _mm_cmpgt_ps(a, b)
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn movemask(a: V) -> u32 {
+            _mm_movemask_ps(a) as u32
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn load(a: &[f32; N]) -> V {
+            // SAFETY: `a` is four readable floats, and SSE2 is enabled here.
+            unsafe { _mm_loadu_ps(a.as_ptr()) }
+        }
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn store(v: V) -> [f32; N] {
+            let mut a = [0f32; N];
+            // SAFETY: `a` is four writable floats, and SSE2 is enabled here.
+            unsafe { _mm_storeu_ps(a.as_mut_ptr(), v) };
+            a
+        }
+        /// Row `axis` of vertex `i` of `g`.
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn vert(g: &Tri4, i: usize, axis: usize) -> V {
+            load(&g.v[i][axis])
+        }
+        /// A vertex (rows `x`, `y`, `z` along `kx`, `ky`, `kz`) minus the origin `o`, sheared.
+        #[target_feature(enable = "sse2")]
+        #[inline]
+        pub(super) fn rel(x: V, y: V, z: V, o: [V; 3], sx: V, sy: V) -> (V, V, V) {
+            let (x, y, z) = (sub(x, o[0]), sub(y, o[1]), sub(z, o[2]));
+            (sub(x, mul(sx, z)), sub(y, mul(sy, z)), z)
+        }
     }
 
-    #[inline(always)]
-    /// # Safety
-    /// SSE2 must be available (it is on every x86_64 CPU).
-    unsafe fn intersect4_sse(s: &Shear4, g: &Tri4, tmin: f32, tmax: f32) -> Hits4 {
-        // SAFETY: as the caller states (see `# Safety`).
-        unsafe {
+    /// The eight-lane operations of the watertight kernel, on AVX2: each is compiled for AVX2
+    /// so that it inlines into the AVX2 kernel, which alone calls them.
+    mod l8 {
+        use super::*;
+        pub(super) type V = __m256;
+        pub(super) const N: usize = 8;
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn splat(x: f32) -> V {
+            _mm256_set1_ps(x)
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn zero() -> V {
+            _mm256_setzero_ps()
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn sign() -> V {
+            _mm256_castsi256_ps(_mm256_set1_epi32(i32::MIN))
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn ones() -> V {
+            _mm256_castsi256_ps(_mm256_set1_epi32(-1))
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn sub(a: V, b: V) -> V {
+            _mm256_sub_ps(a, b)
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn add(a: V, b: V) -> V {
+            _mm256_add_ps(a, b)
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn mul(a: V, b: V) -> V {
+            _mm256_mul_ps(a, b)
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn or(a: V, b: V) -> V {
+            _mm256_or_ps(a, b)
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn and(a: V, b: V) -> V {
+            _mm256_and_ps(a, b)
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn andnot(a: V, b: V) -> V {
+            _mm256_andnot_ps(a, b)
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn xor(a: V, b: V) -> V {
+            _mm256_xor_ps(a, b)
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn eq(a: V, b: V) -> V {
+            _mm256_cmp_ps::<_CMP_EQ_OQ>(a, b)
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn lt(a: V, b: V) -> V {
+            _mm256_cmp_ps::<_CMP_LT_OQ>(a, b)
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn gt(a: V, b: V) -> V {
+            _mm256_cmp_ps::<_CMP_GT_OQ>(a, b)
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn movemask(a: V) -> u32 {
+            _mm256_movemask_ps(a) as u32
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn load(a: &[f32; N]) -> V {
+            // SAFETY: `a` is eight readable floats, and AVX is enabled here.
+            unsafe { _mm256_loadu_ps(a.as_ptr()) }
+        }
+        /// Two groups' rows side by side: `lo` in lanes 0–3, `hi` in 4–7.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn load2(lo: &[f32; 4], hi: &[f32; 4]) -> V {
+            _mm256_set_m128(super::l4::load(hi), super::l4::load(lo))
+        }
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn store(v: V) -> [f32; N] {
+            let mut a = [0f32; N];
+            // SAFETY: `a` is eight writable floats, and AVX is enabled here.
+            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), v) };
+            a
+        }
+        /// Row `axis` of vertex `i` of `a` and then `b`.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn vert(a: &Tri4, b: &Tri4, i: usize, axis: usize) -> V {
+            load2(&a.v[i][axis], &b.v[i][axis])
+        }
+        /// A vertex (rows `x`, `y`, `z` along `kx`, `ky`, `kz`) minus the origin `o`, sheared.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn rel(x: V, y: V, z: V, o: [V; 3], sx: V, sy: V) -> (V, V, V) {
+            let (x, y, z) = (sub(x, o[0]), sub(y, o[1]), sub(z, o[2]));
+            (sub(x, mul(sx, z)), sub(y, mul(sy, z)), z)
+        }
+    }
+
+    /// The watertight test of `$l::N` triangles, one per lane: [`crate::triangle::intersect_parts`]
+    /// operation for operation, on the groups `$g` (`$l::vert` loads their rows).
+    /// Written once for both lane widths, so that they cannot drift apart.
+    macro_rules! watertight {
+        ($l:ident, $s:expr, ($($g:expr),+), $tmin:expr, $tmax:expr) => {{
+            use $l as l;
+            let s: &Shear4 = $s;
             let [kx, ky, kz] = s.axis.map(|k| k % 3);
-            let (ox, oy, oz) = (
-                _mm_set1_ps(s.org[0]),
-                _mm_set1_ps(s.org[1]),
-                _mm_set1_ps(s.org[2]),
+            let o = [l::splat(s.org[0]), l::splat(s.org[1]), l::splat(s.org[2])];
+            let (sx, sy, sz) = (l::splat(s.sx), l::splat(s.sy), l::splat(s.sz));
+            // Vertex minus origin along kx, ky, kz, then sheared, as the scalar test does. No
+            // closures: they would not be compiled for the lane width's target features, and
+            // the lane operations would not inline into them.
+            let (ax, ay, az) = l::rel(
+                l::vert($($g),+, 0, kx),
+                l::vert($($g),+, 0, ky),
+                l::vert($($g),+, 0, kz),
+                o,
+                sx,
+                sy,
             );
-            let (sx, sy, sz) = (_mm_set1_ps(s.sx), _mm_set1_ps(s.sy), _mm_set1_ps(s.sz));
-            let v = &g.v;
-            // Vertex minus origin along kx, ky, kz, then sheared, as the scalar test does.
-            let rel = |i: usize| {
-                let x = _mm_sub_ps(load(&v[i][kx]), ox);
-                let y = _mm_sub_ps(load(&v[i][ky]), oy);
-                let z = _mm_sub_ps(load(&v[i][kz]), oz);
-                (
-                    _mm_sub_ps(x, _mm_mul_ps(sx, z)),
-                    _mm_sub_ps(y, _mm_mul_ps(sy, z)),
-                    z,
-                )
-            };
-            let (ax, ay, az) = rel(0);
-            let (bx, by, bz) = rel(1);
-            let (cx, cy, cz) = rel(2);
-            let mut u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
-            let mut w_v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
-            let mut w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
-            let zero = _mm_setzero_ps();
-            let on_edge = _mm_or_ps(
-                _mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(w_v, zero)),
-                _mm_cmpeq_ps(w, zero),
+            let (bx, by, bz) = l::rel(
+                l::vert($($g),+, 1, kx),
+                l::vert($($g),+, 1, ky),
+                l::vert($($g),+, 1, kz),
+                o,
+                sx,
+                sy,
             );
-            let edge_lanes = _mm_movemask_ps(on_edge);
+            let (cx, cy, cz) = l::rel(
+                l::vert($($g),+, 2, kx),
+                l::vert($($g),+, 2, ky),
+                l::vert($($g),+, 2, kz),
+                o,
+                sx,
+                sy,
+            );
+            let mut u = l::sub(l::mul(cx, by), l::mul(cy, bx));
+            let mut v = l::sub(l::mul(ax, cy), l::mul(ay, cx));
+            let mut w = l::sub(l::mul(bx, ay), l::mul(by, ax));
+            let zero = l::zero();
+            let on_edge = l::or(l::or(l::eq(u, zero), l::eq(v, zero)), l::eq(w, zero));
+            let edge_lanes = l::movemask(on_edge);
             if edge_lanes != 0 {
-                // Rare: redo the lanes with a zero edge function in f64, exactly as the scalar test.
+                // Rare: redo the lanes with a zero edge function in f64, exactly as the
+                // scalar test.
                 let (ax, ay, bx, by, cx, cy) = (
-                    store(ax),
-                    store(ay),
-                    store(bx),
-                    store(by),
-                    store(cx),
-                    store(cy),
+                    l::store(ax),
+                    l::store(ay),
+                    l::store(bx),
+                    l::store(by),
+                    l::store(cx),
+                    l::store(cy),
                 );
-                let (mut uu, mut vv, mut ww) = (store(u), store(w_v), store(w));
+                let (mut uu, mut vv, mut ww) = (l::store(u), l::store(v), l::store(w));
                 let d = |p: f32, q: f32, r: f32, t: f32| {
                     (p as f64 * q as f64 - r as f64 * t as f64) as f32
                 };
-                for k in 0..4 {
+                for k in 0..l::N {
                     if edge_lanes & (1 << k) != 0 {
                         uu[k] = d(cx[k], by[k], cy[k], bx[k]);
                         vv[k] = d(ax[k], cy[k], ay[k], cx[k]);
                         ww[k] = d(bx[k], ay[k], by[k], ax[k]);
                     }
                 }
-                (u, w_v, w) = (load(&uu), load(&vv), load(&ww));
+                (u, v, w) = (l::load(&uu), l::load(&vv), l::load(&ww));
             }
-            let v = w_v;
-            let neg = _mm_or_ps(
-                _mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)),
-                _mm_cmplt_ps(w, zero),
-            );
-            let pos = _mm_or_ps(
-                _mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)),
-                _mm_cmpgt_ps(w, zero),
-            );
-            let det = _mm_add_ps(_mm_add_ps(u, v), w);
-            let mut reject = _mm_or_ps(_mm_and_ps(neg, pos), _mm_cmpeq_ps(det, zero));
-            if _mm_movemask_ps(reject) == 0xF {
-                return Hits4 {
-                    mask: 0,
-                    t: [0.0; 4],
-                    u: [0.0; 4],
-                    v: [0.0; 4],
-                };
+            let neg = l::or(l::or(l::lt(u, zero), l::lt(v, zero)), l::lt(w, zero));
+            let pos = l::or(l::or(l::gt(u, zero), l::gt(v, zero)), l::gt(w, zero));
+            let det = l::add(l::add(u, v), w);
+            let mut reject = l::or(l::and(neg, pos), l::eq(det, zero));
+            let all = (1u32 << l::N) - 1;
+            if l::movemask(reject) == all {
+                return TriHits::MISS;
             }
-            let (az, bz, cz) = (_mm_mul_ps(sz, az), _mm_mul_ps(sz, bz), _mm_mul_ps(sz, cz));
-            let t_scaled = _mm_add_ps(
-                _mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)),
-                _mm_mul_ps(w, cz),
-            );
+            let (az, bz, cz) = (l::mul(sz, az), l::mul(sz, bz), l::mul(sz, cz));
+            let t_scaled = l::add(l::add(l::mul(u, az), l::mul(v, bz)), l::mul(w, cz));
             // Where det < 0, negate both (flip the sign bit, exactly the scalar negation).
-            let sign = _mm_and_ps(
-                _mm_cmplt_ps(det, zero),
-                _mm_castsi128_ps(_mm_set1_epi32(i32::MIN)),
-            );
-            let t_scaled = _mm_xor_ps(t_scaled, sign);
-            let det_abs = _mm_xor_ps(det, sign);
-            reject = _mm_or_ps(
+            let sign = l::and(l::lt(det, zero), l::sign());
+            let t_scaled = l::xor(t_scaled, sign);
+            let det_abs = l::xor(det, sign);
+            reject = l::or(
                 reject,
-                _mm_or_ps(
-                    _mm_cmplt_ps(t_scaled, _mm_mul_ps(_mm_set1_ps(tmin), det_abs)),
-                    _mm_cmpgt_ps(t_scaled, _mm_mul_ps(_mm_set1_ps(tmax), det_abs)),
+                l::or(
+                    l::lt(t_scaled, l::mul(l::splat($tmin), det_abs)),
+                    l::gt(t_scaled, l::mul(l::splat($tmax), det_abs)),
                 ),
             );
-            let mask = (_mm_movemask_ps(_mm_andnot_ps(
-                reject,
-                _mm_castsi128_ps(_mm_set1_epi32(-1)),
-            )) & 0xF) as u32;
-            let rcp = _mm_div_ps(_mm_set1_ps(1.0), det);
-            // `+ 0.0` turns a -0.0 distance into +0.0, as the scalar test does.
-            let t = _mm_add_ps(_mm_div_ps(t_scaled, det_abs), zero);
-            Hits4 {
-                mask,
-                t: store(t),
-                u: store(_mm_mul_ps(v, rcp)),
-                v: store(_mm_mul_ps(w, rcp)),
+            let mask = l::movemask(l::andnot(reject, l::ones())) & all;
+            if mask == 0 {
+                return TriHits::MISS;
             }
-        }
+            TriHits {
+                mask,
+                t_scaled: l::store(t_scaled),
+                det: l::store(det),
+                v: l::store(v),
+                w: l::store(w),
+            }
+        }};
+    }
+
+    #[inline(always)]
+    pub(super) fn intersect4(s: &Shear4, g: &Tri4, tmin: f32, tmax: f32) -> TriHits<4> {
+        // SAFETY: the four-lane operations need SSE2, part of the x86_64 baseline. The kernel
+        // is expanded here rather than called, so that it inlines into the traversal.
+        unsafe { watertight!(l4, s, (g), tmin, tmax) }
+    }
+
+    /// # Safety
+    /// The CPU must have AVX2. Inlined into a caller compiled for AVX2, the lane operations
+    /// inline too.
+    #[inline(always)]
+    pub(super) unsafe fn intersect8_avx2(
+        s: &Shear4,
+        a: &Tri4,
+        b: &Tri4,
+        tmin: f32,
+        tmax: f32,
+    ) -> TriHits<8> {
+        // SAFETY: the eight-lane operations need AVX2, which the caller has checked.
+        unsafe { watertight!(l8, s, (a, b), tmin, tmax) }
     }
 }
 
@@ -420,6 +683,8 @@ mod tests {
             }
         };
         let (mut box_hits, mut tri_hits) = (0, 0);
+        let bits = |(t, u, v): (f32, f32, f32)| [t, u, v].map(f32::to_bits);
+        let mut prev = Tri4::zeroed();
         for _ in 0..20_000 {
             let mut node = Node8::zeroed();
             for k in 0..WIDTH {
@@ -466,13 +731,52 @@ mod tests {
             let s = Shear4::new(shear);
             let h = s.intersect4(&g, ray.tmin, ray.tmax);
             let hs = s.intersect4_scalar(&g, ray.tmin, ray.tmax);
-            assert_eq!(h.mask, hs.mask, "{ray:?} {g:?} (COBALT_SEED={seed})");
+            let scalar = |k: usize| {
+                let vert = |i: usize| [g.v[i][0][k], g.v[i][1][k], g.v[i][2][k]];
+                crate::intersect_watertight(
+                    &shear,
+                    &vert(0),
+                    &vert(1),
+                    &vert(2),
+                    ray.tmin,
+                    ray.tmax,
+                )
+                .map(|(t, u, v)| [t, u, v].map(f32::to_bits))
+            };
+            let lane = |h: &TriHits<4>, k: usize| {
+                (h.mask & (1 << k) != 0).then(|| {
+                    let (t, u, v) = h.hit(k);
+                    [t, u, v].map(f32::to_bits)
+                })
+            };
             for k in 0..4 {
-                if h.mask & (1 << k) != 0 {
-                    let bits = |h: &Hits4| [h.t[k], h.u[k], h.v[k]].map(f32::to_bits);
-                    assert_eq!(bits(&h), bits(&hs), "{ray:?} {g:?} (COBALT_SEED={seed})");
+                assert_eq!(lane(&h, k), scalar(k), "{ray:?} {g:?} (COBALT_SEED={seed})");
+                assert_eq!(
+                    lane(&hs, k),
+                    scalar(k),
+                    "{ray:?} {g:?} (COBALT_SEED={seed})"
+                );
+            }
+            #[cfg(target_arch = "x86_64")]
+            if avx2() {
+                // The eight-lane test of this group beside the previous one: each half is the
+                // four-lane test of its group.
+                // SAFETY: AVX2 was just detected.
+                let h8 = unsafe { s.intersect8(&prev, &g, ray.tmin, ray.tmax) };
+                let hp = s.intersect4(&prev, ray.tmin, ray.tmax);
+                for k in 0..4 {
+                    let (lo, hi) = (1 << k, 1 << (4 + k));
+                    assert_eq!(h8.mask & lo != 0, hp.mask & lo != 0, "{ray:?} {prev:?}");
+                    assert_eq!(h8.mask & hi != 0, h.mask & lo != 0, "{ray:?} {g:?}");
+                    if h8.mask & lo != 0 {
+                        assert_eq!(bits(h8.hit(k)), bits(hp.hit(k)), "{ray:?} {prev:?}");
+                    }
+                    if h8.mask & hi != 0 {
+                        assert_eq!(bits(h8.hit(4 + k)), bits(h.hit(k)), "{ray:?} {g:?}");
+                    }
                 }
             }
+            prev = g;
             tri_hits += h.mask.count_ones();
         }
         // Both outcomes are exercised, not just misses.

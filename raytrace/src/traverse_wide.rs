@@ -1,14 +1,18 @@
 //! Traversal of the 8-wide tree ([`crate::bvh::wide`]): the closest-hit, any-hit and counted
-//! queries of [`crate::traverse`], eight child boxes and four triangles per step.
+//! queries of [`crate::traverse`], eight child boxes and four triangles per step (eight, a
+//! leaf's two groups at once, where AVX2 runs).
 //!
 //! The closest hit is the smallest `(t, primitive id)` among the triangles the watertight test
 //! accepts in `[tmin, tmax]`; neither the tree's shape nor the order the nodes are visited in
 //! changes it, so the wide and the binary traversal return the same hit, bit for bit.
 //!
 //! Children hit are visited nearest first; the others wait on a stack with their entry
-//! distance and are dropped when the nearest hit so far is closer. Any-hit queries keep the
-//! order too: taking children in slot order instead measured no faster (slower inside rooms,
-//! where the nearest wall is the likeliest occluder).
+//! distance and are dropped when the nearest hit so far is closer. Any-hit queries take the
+//! nearest child next too, but push the others in slot order, unsorted: the first hit ends
+//! the walk, so the order of the rest matters less than sorting them costs (single-thread
+//! CPU time, AO rays: 5–10 % faster on forest, hairball and the dragon, the same elsewhere).
+//! Taking the first slot next instead of the nearest measured 5 % slower on the bunny and
+//! Sibenik, rooms and closed surfaces where the nearest box holds the likeliest occluder.
 //!
 //! `B` counts nodes entered as in the binary traversal: the root, if one of its children's
 //! boxes is hit, and every child (inner or leaf) taken from the stack, whose boxes are the
@@ -171,6 +175,28 @@ impl Bvh {
                         (child, count) = (node.child[first], node.count[first]);
                         continue;
                     }
+                    if any {
+                        // The first hit ends the walk, and the nearest child likeliest holds it:
+                        // it goes next (the first slot on a tie), the others wait unsorted.
+                        let mut b = first;
+                        let mut m = mask & (mask - 1);
+                        while m != 0 {
+                            let k = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            if near[k] < near[b] {
+                                b = k;
+                            }
+                        }
+                        let mut m = mask & !(1 << b);
+                        while m != 0 {
+                            let k = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            stack[sp].write((node.child[k], node.count[k], near[k]));
+                            sp += 1;
+                        }
+                        (child, count) = (node.child[b], node.count[b]);
+                        continue;
+                    }
                     // Two to eight children: order them nearest first (ties by slot, so the
                     // walk is deterministic), push all but the nearest, farthest first.
                     let mut hit = [(0usize, 0f32); WIDTH];
@@ -201,7 +227,47 @@ impl Bvh {
                 // SAFETY: a leaf's `ceil(count / 4)` groups from `child` were pushed by
                 // `WideBvh::collapse` when it wrote the leaf.
                 let leaf = unsafe { groups.get_unchecked(first..first + n) };
-                for (j, g) in leaf.iter().enumerate() {
+                // A lane that hits: keep it if it is the nearest so far (and stop there for
+                // an any-hit query). Only such lanes pay for the divisions.
+                macro_rules! take {
+                    ($h:expr, $k:expr, $prim:expr) => {{
+                        let (t, u, v) = $h.hit($k);
+                        if better(t, $prim, best) {
+                            best = Some(Hit {
+                                t,
+                                prim: $prim,
+                                u,
+                                v,
+                            });
+                            if any {
+                                return (best, counts);
+                            }
+                            cull = cull_bound(t);
+                        }
+                    }};
+                }
+                let mut j = 0;
+                while j < n {
+                    #[cfg(target_arch = "x86_64")]
+                    if AVX2 && j + 1 < n {
+                        // Two groups in one eight-lane pass: the cost of one.
+                        let (a, b) = (&leaf[j], &leaf[j + 1]);
+                        if counted {
+                            counts.tris += (count - 4 * j as u32).min(8);
+                        }
+                        // SAFETY: as the caller states (see `# Safety`).
+                        let h = unsafe { shear.intersect8(a, b, tmin, tmax) };
+                        let mut m = h.mask;
+                        while m != 0 {
+                            let k = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            let prim = if k < 4 { a.prim[k] } else { b.prim[k - 4] };
+                            take!(h, k, prim);
+                        }
+                        j += 2;
+                        continue;
+                    }
+                    let g = &leaf[j];
                     if counted {
                         counts.tris += (count - 4 * j as u32).min(4);
                     }
@@ -210,19 +276,9 @@ impl Bvh {
                     while m != 0 {
                         let k = m.trailing_zeros() as usize;
                         m &= m - 1;
-                        if better(h.t[k], g.prim[k], best) {
-                            best = Some(Hit {
-                                t: h.t[k],
-                                prim: g.prim[k],
-                                u: h.u[k],
-                                v: h.v[k],
-                            });
-                            if any {
-                                return (best, counts);
-                            }
-                            cull = cull_bound(h.t[k]);
-                        }
+                        take!(h, k, g.prim[k]);
                     }
+                    j += 1;
                 }
             }
             // Pop the next node, skipping those now beyond the nearest hit.

@@ -28,31 +28,27 @@ impl RayShear {
             return None;
         }
         let a = dir.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
+        // The dominant axis by arithmetic rather than branches: incoherent rays (AO, bounces)
+        // would mispredict them, once or twice a ray.
+        let x_wins = (a.x >= a.y) & (a.x >= a.z);
+        let y_wins = a.y >= a.z;
+        let kz = usize::from(!x_wins) * (1 + usize::from(!y_wins));
         let d = dir.to_array();
-        if d[kz] == 0.0 {
+        let dz = d[kz % 3];
+        if dz == 0.0 {
             return None;
         }
-        let mut kx = if kz == 2 { 0 } else { kz + 1 };
-        let mut ky = if kx == 2 { 0 } else { kx + 1 };
+        let (kx, ky) = ([1, 2, 0][kz % 3], [2, 0, 1][kz % 3]);
         // Keep the winding (and so the sign of the edge functions) independent of the axis.
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let (kx, ky) = if dz < 0.0 { (ky, kx) } else { (kx, ky) };
         Some(Self {
             org: origin.to_array(),
             kx,
             ky,
             kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
+            sx: d[kx] / dz,
+            sy: d[ky] / dz,
+            sz: 1.0 / dz,
         })
     }
 
@@ -79,6 +75,26 @@ pub fn intersect_watertight(
     tmin: f32,
     tmax: f32,
 ) -> Option<(f32, f32, f32)> {
+    let (t_scaled, det, v, w) = intersect_parts(s, v0, v1, v2, tmin, tmax)?;
+    let rcp = 1.0 / det;
+    // `abs` is the negation of a negative `det` (a hit's is never zero or NaN). `+ 0.0` turns a
+    // -0.0 distance (origin on the triangle) into +0.0.
+    let t = t_scaled / det.abs() + 0.0;
+    Some((t, v * rcp, w * rcp))
+}
+
+/// [`intersect_watertight`] up to its divisions: on a hit, the scaled distance (its sign
+/// flipped where `det < 0`), `det` and the edge functions `v`, `w`. The lane kernels
+/// (`simd.rs`) leave the divisions to the lanes that hit, and are checked against this.
+#[inline(always)]
+pub(crate) fn intersect_parts(
+    s: &RayShear,
+    v0: &[f32; 3],
+    v1: &[f32; 3],
+    v2: &[f32; 3],
+    tmin: f32,
+    tmax: f32,
+) -> Option<(f32, f32, f32, f32)> {
     let (kx, ky, kz) = (s.kx, s.ky, s.kz);
     let o = &s.org;
     // Four lanes so that `k & 3` indexing needs no bounds check (k < 3 by construction).
@@ -122,10 +138,7 @@ pub fn intersect_watertight(
     if t_scaled < tmin * det_abs || t_scaled > tmax * det_abs {
         return None;
     }
-    let rcp = 1.0 / det;
-    // `+ 0.0` turns a -0.0 distance (origin on the triangle) into +0.0.
-    let t = t_scaled / det_abs + 0.0;
-    Some((t, v * rcp, w * rcp))
+    Some((t_scaled, det, v, w))
 }
 
 #[cfg(test)]
