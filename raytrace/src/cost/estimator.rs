@@ -158,7 +158,9 @@ impl Traced {
 
 /// `probe`'s reduced traversal of *every* ray of every task: the "full" of the thesis's
 /// prediction error, which a sample rate of 1 reproduces exactly. Tasks run in parallel, each
-/// summed on one thread (it is a reference, not timed).
+/// summed on one thread (it is a reference, not timed). The trace probe's counts come from the
+/// batch trace its sample takes: its leaf test may take two groups of triangles in one pass,
+/// which the single-ray test counts as they come.
 pub fn full_work(
     bvh: &Bvh,
     rays: &RayBatch,
@@ -166,6 +168,18 @@ pub fn full_work(
     probe: Probe,
 ) -> Result<Vec<Work>, CostError> {
     check_tasks(rays, tasks)?;
+    if let Probe::Trace { any } = probe {
+        let index: Vec<usize> = tasks.iter().flat_map(Range::clone).collect();
+        let (_, counts) = traverse::traced_at(bvh, rays, any, &index);
+        let mut at = 0;
+        return Ok(tasks
+            .iter()
+            .map(|r| {
+                at += r.len();
+                Work::sum(&counts[at - r.len()..at])
+            })
+            .collect());
+    }
     Ok(tasks
         .par_iter()
         .map(|r| {
