@@ -30,7 +30,7 @@ const MAX_DEVICES: usize = 1024;
 const MAX_TASK_SIZE: usize = 1 << 24;
 
 /// Most AO rays per primary hit.
-const MAX_AO_SAMPLES: u32 = 4096;
+pub const MAX_AO_SAMPLES: u32 = 4096;
 
 /// An image size, `WIDTHxHEIGHT`, each side in `1..=MAX_SIDE`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
