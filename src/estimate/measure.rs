@@ -20,7 +20,6 @@ pub(super) fn measure(
     args: &Args,
     scene: &Scene,
     bvh: &Bvh,
-    rate: SampleRate,
     rays: Generations,
 ) -> Result<Report, CliError> {
     let Generations {
@@ -29,6 +28,7 @@ pub(super) fn measure(
         coherent,
     } = rays;
     let preset = args.scene.preset;
+    let (task_size, rate) = (args.task_size.get(), args.sample_rate);
     let mut rays = RayBatch::default();
     let mut tasks = Vec::new();
     // Per generation, its tasks (indices into `tasks`) and kind: the first-leaf probe models
@@ -38,7 +38,7 @@ pub(super) fn measure(
         let base = rays.len();
         let first = tasks.len();
         tasks.extend(
-            sched::split_ranges(batch.len(), args.task_size)
+            sched::split_ranges(batch.len(), task_size)
                 .into_iter()
                 .map(|t| base + t.start..base + t.end),
         );
@@ -55,7 +55,7 @@ pub(super) fn measure(
 
     let mut measured = Vec::with_capacity(tasks.len());
     for (batch, kind) in &segments {
-        let own = sched::split_ranges(batch.len(), args.task_size);
+        let own = sched::split_ranges(batch.len(), task_size);
         measured.extend(measure_seconds(bvh, batch, &own, *kind, args.repeats)?);
     }
     // `work` weighed by `fit` against the measured times: error and Spearman correlation.
@@ -138,7 +138,7 @@ pub(super) fn measure(
             let known: Vec<Vec<usize>> = segments
                 .iter()
                 .map(|(batch, _)| {
-                    let own = sched::split_ranges(batch.len(), args.task_size);
+                    let own = sched::split_ranges(batch.len(), task_size);
                     Compacted::gather(batch, &own, rate).map(|c| c.index)
                 })
                 .collect::<Result<_, _>>()?;
@@ -229,7 +229,7 @@ pub(super) fn measure(
         } else {
             traverse::closest_hits_counted(bvh, batch).1
         };
-        let own = sched::split_ranges(batch.len(), args.task_size);
+        let own = sched::split_ranges(batch.len(), task_size);
         trace_work.extend(own.into_iter().map(|r| Work::sum(&counts[r])));
     }
     let (trace_nodes, trace_tris) = trace_work
@@ -256,7 +256,7 @@ pub(super) fn measure(
         ray_kind: kind_name,
         coherent,
         rays: rays.len(),
-        task_size: args.task_size,
+        task_size,
         tasks: tasks.len(),
         sample_rate: rate.get(),
         probe: probe.name(),

@@ -16,9 +16,14 @@ mod measure;
 mod rays;
 mod report;
 
-use raytrace::cost::SampleRate;
-use raytrace::{Bvh, Camera, Probe, SceneSource};
+use std::num::NonZeroUsize;
 
+use raytrace::cost::SampleRate;
+use raytrace::{Bvh, Camera, Probe, RayKind, SceneSource};
+
+use crate::args::{
+    MAX_AO_SAMPLES, Size, camera_index, count, positive_length, sample_rate, task_size,
+};
 use crate::error::CliError;
 use rays::{RaySettings, RaySource};
 
@@ -34,29 +39,30 @@ pub struct Args {
     #[arg(long)]
     rays: String,
     /// Rays per task.
-    #[arg(long, default_value_t = 4096)]
-    task_size: usize,
+    #[arg(long, default_value = "4096", value_parser = task_size)]
+    task_size: NonZeroUsize,
     /// Fraction of each task's rays traced by the estimator, in (0, 1].
-    #[arg(long, default_value_t = 0.125)]
-    sample_rate: f64,
+    #[arg(long, default_value = "0.125", value_parser = sample_rate)]
+    sample_rate: SampleRate,
     /// Image size `WxH` of the camera rays.
     #[arg(long, default_value = "512x512")]
-    size: crate::args::Size,
+    size: Size,
     /// Orbit camera 0..3: above one quadrant of the scene, looking at its centre.
-    #[arg(long, default_value = "0", value_parser = crate::args::camera_index)]
+    #[arg(long, default_value = "0", value_parser = camera_index)]
     camera: usize,
-    /// AO rays per primary hit.
-    #[arg(long, default_value_t = 32)]
+    /// AO rays per primary hit, 1..=4096.
+    #[arg(long, default_value_t = 32,
+          value_parser = clap::value_parser!(u32).range(1..=MAX_AO_SAMPLES as i64))]
     ao_samples: u32,
     /// Length of AO rays as a fraction of the scene's bounding-box diagonal.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, value_parser = positive_length)]
     ao_distance: f32,
     /// Kind of the rays of a ray file (primary, shadow, reflection, ao): decides closest- or
     /// any-hit tracing.
     #[arg(long, default_value = "primary")]
-    ray_kind: String,
-    /// Every timing is repeated this many times and the least kept.
-    #[arg(long, default_value_t = 3)]
+    ray_kind: RayKind,
+    /// Every timing is repeated this many times, 1..=1000, and the least kept.
+    #[arg(long, default_value_t = 3, value_parser = count::<1000>)]
     repeats: usize,
     /// Where the estimator and the full trace run: `cpu` (all cores) or `gpu` (the first
     /// usable adapter; software ones only with `COBALT_GPU_SOFTWARE=1`): sampling,
@@ -116,27 +122,7 @@ pub(super) enum DeviceArg {
 
 /// Runs the command: all arguments are checked before the scene is loaded.
 pub fn run(args: Args) -> Result<(), CliError> {
-    let arg = |flag: &'static str, value: &dyn ToString, message: String| CliError::Arg {
-        flag,
-        value: value.to_string(),
-        message,
-    };
-    let rate = SampleRate::new(args.sample_rate)
-        .map_err(|e| arg("sample-rate", &args.sample_rate, e.to_string()))?;
-    if args.task_size == 0 {
-        return Err(arg("task-size", &0, "must be at least 1".into()));
-    }
-    if args.repeats == 0 {
-        return Err(arg("repeats", &0, "must be at least 1".into()));
-    }
-    if !(args.ao_distance.is_finite() && args.ao_distance > 0.0) {
-        return Err(arg(
-            "ao-distance",
-            &args.ao_distance,
-            "must be positive".into(),
-        ));
-    }
-    let source = RaySource::parse(&args.rays, &args.ray_kind)?;
+    let source = RaySource::parse(&args.rays, args.ray_kind);
 
     let scene = SceneSource::parse(&args.scene.scene)?.load(source.needs())?;
     let bvh = Bvh::build(&scene, args.scene.preset)?;
@@ -147,7 +133,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ao_distance: args.ao_distance,
     };
     let rays = source.generations(&scene, &bvh, camera, &settings)?;
-    let report = measure::measure(&args, &scene, &bvh, rate, rays)?;
+    let report = measure::measure(&args, &scene, &bvh, rays)?;
     if args.json {
         crate::print_json(&report)
     } else {

@@ -21,24 +21,6 @@ pub(super) enum RaySource {
     File(String, RayKind),
 }
 
-impl RaySource {
-    pub(super) fn parse(rays: &str, kind: &str) -> Result<Self, CliError> {
-        match rays {
-            "primary" => Ok(Self::Primary),
-            "ao" => Ok(Self::Ao),
-            "whitted" => Ok(Self::Whitted),
-            path => {
-                let kind = kind.parse().map_err(|message| CliError::Arg {
-                    flag: "ray-kind",
-                    value: kind.into(),
-                    message,
-                })?;
-                Ok(Self::File(path.into(), kind))
-            }
-        }
-    }
-}
-
 /// The rays of one run, one segment per generation: tasks never straddle two generations, and
 /// each is traced with its own query (closest or any hit).
 pub(super) struct Generations {
@@ -61,6 +43,16 @@ pub(super) struct RaySettings {
 }
 
 impl RaySource {
+    /// `--rays` with `--ray-kind`, which only a ray file needs.
+    pub(super) fn parse(rays: &str, kind: RayKind) -> Self {
+        match rays {
+            "primary" => Self::Primary,
+            "ao" => Self::Ao,
+            "whitted" => Self::Whitted,
+            path => Self::File(path.into(), kind),
+        }
+    }
+
     /// What the scene must provide for these rays (a Whitted render needs materials).
     pub(super) fn needs(&self) -> SceneNeeds {
         if matches!(self, Self::Whitted) {
