@@ -15,7 +15,7 @@ use raytrace::devices::DeviceSpec;
 use raytrace::glam::Vec3;
 use raytrace::scheduled::{FailAfter, Mode};
 use raytrace::{BuildPreset, Camera};
-use sched::Policy;
+use sched::{Fault, Policy, Speeds};
 
 use crate::error::CliError;
 
@@ -30,7 +30,7 @@ const MAX_DEVICES: usize = 1024;
 const MAX_TASK_SIZE: usize = 1 << 24;
 
 /// Most AO rays per primary hit.
-const MAX_AO_SAMPLES: u32 = 4096;
+pub const MAX_AO_SAMPLES: u32 = 4096;
 
 /// An image size, `WIDTHxHEIGHT`, each side in `1..=MAX_SIDE`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -260,6 +260,82 @@ impl FromStr for Faults {
     }
 }
 
+/// A count `1..=MAX`: points, queries, bodies, neighbours, threads. The limit keeps a typo
+/// such as an extra zero from allocating before the memory check can name it.
+pub fn count<const MAX: usize>(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if (1..=MAX).contains(&n) => Ok(n),
+        _ => Err(format!("expected a whole number in 1..={MAX}")),
+    }
+}
+
+/// `--speeds` as typed, and the relative device speeds it gives: finite and positive.
+#[derive(Debug, Clone)]
+pub struct SpeedList {
+    text: String,
+    speeds: Speeds,
+}
+
+impl SpeedList {
+    /// The list as the user typed it, for errors.
+    pub fn as_str(&self) -> &str {
+        &self.text
+    }
+
+    /// The speeds, one per device.
+    pub fn speeds(&self) -> &Speeds {
+        &self.speeds
+    }
+}
+
+impl FromStr for SpeedList {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        let speeds = text
+            .split(',')
+            .map(|item| {
+                item.trim()
+                    .parse::<f64>()
+                    .map_err(|_| format!("{:?} is not a number", item.trim()))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            text: text.to_string(),
+            speeds: Speeds::new(speeds).map_err(|e| e.to_string())?,
+        })
+    }
+}
+
+/// `--fail DEVICE@TIME[,…]` of `cobalt schedule`: each device stops at a time in the costs'
+/// unit, finite and non-negative. Whether each device exists depends on `--speeds`; the
+/// simulation checks it.
+#[derive(Debug, Clone)]
+pub struct FaultTimes(pub Vec<Fault>);
+
+impl FromStr for FaultTimes {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        text.split(',')
+            .map(|item| {
+                let item = item.trim();
+                let bad = |message: &str| format!("{item:?} {message}");
+                let (device, at) = item
+                    .split_once('@')
+                    .ok_or_else(|| bad("is not DEVICE@TIME"))?;
+                let device = device
+                    .parse()
+                    .map_err(|_| bad("does not start with a device index"))?;
+                let at: f64 = at.parse().map_err(|_| bad("does not end with a time"))?;
+                if !(at.is_finite() && at >= 0.0) {
+                    return Err(bad("has a time that is not finite and non-negative"));
+                }
+                Ok(Fault { device, at })
+            })
+            .collect::<Result<_, _>>()
+            .map(Self)
+    }
+}
+
 /// The scene and how its BVH is built.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SceneArgs {
@@ -426,6 +502,22 @@ mod tests {
         for bad in ["1", "0@x", "x@1"] {
             assert!(bad.parse::<Faults>().is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn schedule_lists_and_counts_are_checked_item_by_item() {
+        let s: SpeedList = "1, 2.5".parse().expect("valid");
+        assert_eq!(s.speeds().as_slice(), [1.0, 2.5]);
+        for bad in ["1,,2", "1,0", "x"] {
+            assert!(bad.parse::<SpeedList>().is_err(), "{bad}");
+        }
+        let f: FaultTimes = "1@0.5, 0@2".parse().expect("valid");
+        assert_eq!(f.0.len(), 2);
+        for bad in ["1", "x@1", "1@-1", "1@inf"] {
+            assert!(bad.parse::<FaultTimes>().is_err(), "{bad}");
+        }
+        assert_eq!(count::<4>("4"), Ok(4));
+        assert!(count::<4>("5").is_err() && count::<4>("0").is_err());
     }
 
     #[test]

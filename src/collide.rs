@@ -9,32 +9,34 @@ use collision::{
 use raytrace::{SceneNeeds, SceneSource};
 use sched::{CostEstimator, Policy};
 
+use crate::args::{count, sample_rate};
 use crate::error::CliError;
-use crate::spatial::{Workload, check_args, measure, tables};
+use crate::limits::{MAX_THREADS, memory};
+use crate::spatial::{Workload, measure, tables};
 
 /// Arguments of `cobalt collide`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Moving bodies (balls, cuboids, convex hulls), half of them in swarms.
-    #[arg(long, default_value_t = 20_000)]
+    /// Moving bodies (balls, cuboids, convex hulls), half of them in swarms; 1..=2^24.
+    #[arg(long, default_value_t = 20_000, value_parser = count::<{ 1 << 24 }>)]
     bodies: usize,
     /// Use this OBJ scene, scaled into the unit cube, as the static mesh.
     #[arg(long)]
     scene: Option<PathBuf>,
-    /// Quads per side of the built-in terrain (two triangles each).
-    #[arg(long, default_value_t = 128)]
+    /// Quads per side of the built-in terrain (two triangles each), 1..=8192.
+    #[arg(long, default_value_t = 128, value_parser = count::<{ 1 << 13 }>)]
     terrain: usize,
-    /// Bodies per task.
-    #[arg(long, default_value_t = 128)]
+    /// Bodies per task, 1..=2^24.
+    #[arg(long, default_value_t = 128, value_parser = count::<{ 1 << 24 }>)]
     task_size: usize,
     /// Share of each task's bodies whose broad phase the estimator counts, in (0, 1].
-    #[arg(long, default_value_t = 0.125)]
-    sample_rate: f64,
+    #[arg(long, default_value = "0.125", value_parser = sample_rate)]
+    sample_rate: SampleRate,
     /// One policy instead of all five.
     #[arg(long)]
     policy: Option<Policy>,
-    /// Real CPU devices (threads).
-    #[arg(long, default_value_t = 2)]
+    /// Real CPU devices (threads), 1..=4096.
+    #[arg(long, default_value_t = 2, value_parser = count::<MAX_THREADS>)]
     devices: usize,
     /// Seed of the bodies.
     #[arg(long, default_value_t = 1)]
@@ -46,20 +48,6 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> Result<(), CliError> {
-    check_args(
-        args.sample_rate,
-        &[
-            ("bodies", args.bodies),
-            ("terrain", args.terrain),
-            ("task-size", args.task_size),
-            ("devices", args.devices),
-        ],
-    )?;
-    use crate::limits::{MAX_THREADS, count, memory};
-    count("bodies", args.bodies, 1 << 24)?;
-    count("terrain", args.terrain, 1 << 13)?;
-    count("task-size", args.task_size, 1 << 24)?;
-    count("devices", args.devices, MAX_THREADS)?;
     // A body's shape (a convex hull at most), its pose, bounds and contacts.
     memory("bodies", &args.bodies.to_string(), &[(args.bodies, 1024)])?;
     if args.scene.is_none() {
@@ -111,7 +99,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         check: Box::new(|_| Ok(())),
     };
     let policies = args.policy.map_or(Policy::ALL.to_vec(), |p| vec![p]);
-    let report = measure(&work, &policies, args.devices, args.sample_rate)?;
+    let report = measure(&work, &policies, args.devices, args.sample_rate.get())?;
     if args.json {
         crate::print_json(&report)
     } else {

@@ -97,20 +97,6 @@ pub fn read_text(path: &Path) -> Result<Vec<u8>, CliError> {
     Ok(bytes)
 }
 
-/// Parses `1,1,2.5` into numbers, naming the flag and the bad item.
-pub fn parse_list(flag: &'static str, value: &str) -> Result<Vec<f64>, CliError> {
-    value
-        .split(',')
-        .map(|item| {
-            item.trim().parse::<f64>().map_err(|_| CliError::Arg {
-                flag,
-                value: value.to_owned(),
-                message: format!("{:?} is not a number", item.trim()),
-            })
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use proptest::prelude::*;

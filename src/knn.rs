@@ -10,8 +10,10 @@ use knn::{
 use raytrace::{SceneNeeds, SceneSource};
 use sched::{CostEstimator, Policy};
 
+use crate::args::{count, sample_rate};
 use crate::error::CliError;
-use crate::spatial::{Workload, check_args, measure, tables};
+use crate::limits::{MAX_THREADS, memory};
+use crate::spatial::{Workload, measure, tables};
 
 /// How a task's cost is estimated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -35,24 +37,24 @@ impl Estimator {
 /// Arguments of `cobalt knn`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Points in the generated cloud (ignored with --scene).
-    #[arg(long, default_value_t = 200_000)]
+    /// Points in the generated cloud (ignored with --scene), 1..=2^28.
+    #[arg(long, default_value_t = 200_000, value_parser = count::<{ 1 << 28 }>)]
     points: usize,
     /// Use the vertices of this OBJ scene as the cloud.
     #[arg(long)]
     scene: Option<PathBuf>,
-    /// Query points: half near the data, half uniform in its bounding box.
-    #[arg(long, default_value_t = 100_000)]
+    /// Query points: half near the data, half uniform in its bounding box; 1..=2^28.
+    #[arg(long, default_value_t = 100_000, value_parser = count::<{ 1 << 28 }>)]
     queries: usize,
-    /// Neighbours per query.
-    #[arg(long, default_value_t = 16)]
+    /// Neighbours per query, 1..=1024.
+    #[arg(long, default_value_t = 16, value_parser = count::<1024>)]
     k: usize,
-    /// Queries per task.
-    #[arg(long, default_value_t = 1024)]
+    /// Queries per task, 1..=2^24.
+    #[arg(long, default_value_t = 1024, value_parser = count::<{ 1 << 24 }>)]
     task_size: usize,
     /// Share of each task's queries the estimator looks at, in (0, 1].
-    #[arg(long, default_value_t = 0.125)]
-    sample_rate: f64,
+    #[arg(long, default_value = "0.125", value_parser = sample_rate)]
+    sample_rate: SampleRate,
     /// `density` (a density grid, no search: cheap, deterministic, rough) or `sampled` (times
     /// the real search of sampled queries: better ranks, timing noise, costlier; also
     /// `probe`).
@@ -61,8 +63,8 @@ pub struct Args {
     /// One policy instead of all five.
     #[arg(long)]
     policy: Option<Policy>,
-    /// Real CPU devices (threads).
-    #[arg(long, default_value_t = 2)]
+    /// Real CPU devices (threads), 1..=4096.
+    #[arg(long, default_value_t = 2, value_parser = count::<MAX_THREADS>)]
     devices: usize,
     /// Seed of the cloud and the queries.
     #[arg(long, default_value_t = 1)]
@@ -74,22 +76,6 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> Result<(), CliError> {
-    check_args(
-        args.sample_rate,
-        &[
-            ("points", args.points),
-            ("queries", args.queries),
-            ("k", args.k),
-            ("task-size", args.task_size),
-            ("devices", args.devices),
-        ],
-    )?;
-    use crate::limits::{MAX_THREADS, count, memory};
-    count("points", args.points, 1 << 28)?;
-    count("queries", args.queries, 1 << 28)?;
-    count("k", args.k, 1024)?;
-    count("task-size", args.task_size, 1 << 24)?;
-    count("devices", args.devices, MAX_THREADS)?;
     if args.scene.is_none() {
         // The cloud, its copy in the index and the index's own nodes.
         memory("points", &args.points.to_string(), &[(args.points, 64)])?;
@@ -165,7 +151,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }),
     };
     let policies = args.policy.map_or(Policy::ALL.to_vec(), |p| vec![p]);
-    let report = measure(&work, &policies, args.devices, args.sample_rate)?;
+    let report = measure(&work, &policies, args.devices, args.sample_rate.get())?;
     if args.json {
         crate::print_json(&report)
     } else {

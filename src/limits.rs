@@ -1,25 +1,13 @@
-//! Sizes given on the command line, checked before anything is allocated: against a stated
-//! limit, and what they would take in memory against what the machine has. A typo such as an
-//! extra zero then ends in an error naming the flag instead of an abort or a swap storm.
+//! Sizes given on the command line, checked before anything is allocated: what they would take
+//! in memory against what the machine has (each count's own limit is its parser's, in
+//! [`crate::args`]). A typo such as an extra zero then ends in an error naming the flag instead
+//! of an abort or a swap storm.
 
 use crate::error::CliError;
 
 /// Threads a command starts for its CPU devices, in all: beyond this, the operating system
 /// refuses threads before any speed is gained.
 pub const MAX_THREADS: usize = 4096;
-
-/// `value` must be in `1..=max`.
-pub fn count(flag: &'static str, value: usize, max: usize) -> Result<(), CliError> {
-    if (1..=max).contains(&value) {
-        Ok(())
-    } else {
-        Err(CliError::Arg {
-            flag,
-            value: value.to_string(),
-            message: format!("expected a whole number in 1..={max}"),
-        })
-    }
-}
 
 /// The memory that `parts` (item counts times bytes per item) add up to must fit in the
 /// machine's available memory; the sum is computed with checked arithmetic, so a size that

@@ -4,11 +4,12 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use sched::bounds::{guarantee, lower_bound};
-use sched::{Costs, Fault, Policy, Simulation, Speeds};
+use sched::{Costs, Policy, Simulation};
 use serde::Serialize;
 
+use crate::args::{FaultTimes, SpeedList};
 use crate::error::CliError;
-use crate::input::{parse_list, read_costs};
+use crate::input::read_costs;
 
 /// Arguments of `cobalt schedule`.
 #[derive(Debug, clap::Args)]
@@ -18,7 +19,7 @@ pub struct Args {
     costs: PathBuf,
     /// Relative device speeds, comma-separated: `1,1,2.5` is two devices and one 2.5× faster.
     #[arg(long, default_value = "1")]
-    speeds: String,
+    speeds: SpeedList,
     /// static-equal, static-lpt (lpt), queue-fifo (fifo), queue-sorted (sorted) or hybrid.
     #[arg(long, default_value = "static-lpt")]
     policy: Policy,
@@ -30,7 +31,7 @@ pub struct Args {
     actual: Option<PathBuf>,
     /// Device failures, `DEVICE@TIME`, comma-separated: `1@0.5` stops device 1 at time 0.5.
     #[arg(long)]
-    fail: Option<String>,
+    fail: Option<FaultTimes>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -80,8 +81,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
         Some(path) => Costs::new(read_costs(path)?).map_err(named(path))?,
         None => estimated.clone(),
     };
-    let speeds = Speeds::new(parse_list("speeds", &args.speeds)?)?;
-    let faults = parse_faults(args.fail.as_deref())?;
+    let speeds = args.speeds.speeds().clone();
+    let faults = args.fail.clone().map_or(Vec::new(), |f| f.0);
     // The proven factors hold for exact estimates, no latency and no failures.
     let ideal = faults.is_empty() && args.latency == 0.0 && estimated == actual;
     let mut sim = Simulation::new(args.policy, speeds.clone()).latency(args.latency);
@@ -103,7 +104,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if !finite {
         return Err(CliError::Arg {
             flag: "speeds",
-            value: args.speeds.clone(),
+            value: args.speeds.as_str().to_string(),
             message: format!(
                 "the costs divided by these speeds (plus --latency {}) overflow: a makespan \
                  of {makespan:e} cannot be reported; scale the costs down",
@@ -134,33 +135,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
     } else {
         crate::print_text(&table(&report))
     }
-}
-
-fn parse_faults(text: Option<&str>) -> Result<Vec<Fault>, CliError> {
-    let Some(text) = text else {
-        return Ok(Vec::new());
-    };
-    text.split(',')
-        .map(|item| {
-            let bad = |message: &str| CliError::Arg {
-                flag: "fail",
-                value: text.to_owned(),
-                message: format!("{:?} {message}", item.trim()),
-            };
-            let (device, at) = item
-                .trim()
-                .split_once('@')
-                .ok_or_else(|| bad("is not DEVICE@TIME"))?;
-            let device = device
-                .parse()
-                .map_err(|_| bad("does not start with a device index"))?;
-            let at: f64 = at.parse().map_err(|_| bad("does not end with a time"))?;
-            if !(at.is_finite() && at >= 0.0) {
-                return Err(bad("has a time that is not finite and non-negative"));
-            }
-            Ok(Fault { device, at })
-        })
-        .collect()
 }
 
 fn table(r: &Report) -> String {

@@ -240,24 +240,3 @@ pub fn tables(report: &Report) -> String {
     ));
     out
 }
-
-/// Checks a sampling rate and a count, naming the flag.
-pub fn check_args(rate: f64, counts: &[(&'static str, usize)]) -> Result<(), CliError> {
-    if !(rate > 0.0 && rate <= 1.0) {
-        return Err(CliError::Arg {
-            flag: "sample-rate",
-            value: rate.to_string(),
-            message: "must be in (0, 1]".into(),
-        });
-    }
-    for &(flag, value) in counts {
-        if value == 0 {
-            return Err(CliError::Arg {
-                flag,
-                value: value.to_string(),
-                message: "must be at least 1".into(),
-            });
-        }
-    }
-    Ok(())
-}

@@ -168,22 +168,33 @@ fn bench_runs_the_generation_pipeline_on_request() {
 
 #[test]
 fn bench_rejects_bad_values_naming_them() {
-    for (flag, value) in [
-        ("--task-sizes", "0"),
-        ("--policies", "lpt,nope"),
-        ("--shaders", "phong"),
-        ("--sample-rate", "2"),
-        ("--devices", "cpu:0"),
-        ("--simulate", "x"),
-        ("--repeats", "0"),
-        ("--scene", "/no/such/scene.obj"),
+    // The value the error names: in a list, the bad item.
+    for (flag, value, named) in [
+        ("--task-sizes", "0", "0"),
+        ("--task-sizes", "512,0", "0"),
+        ("--policies", "lpt,nope", "nope"),
+        ("--shaders", "phong", "phong"),
+        ("--sample-rate", "2", "2"),
+        ("--devices", "cpu:0", "cpu:0"),
+        ("--simulate", "x", "x"),
+        ("--simulate", "8,0", "0"),
+        ("--repeats", "0", "0"),
+        ("--cameras", "5", "5"),
+        ("--scene", "/no/such/scene.obj", "/no/such/scene.obj"),
         // Flags of the generation pipeline, given without it.
-        ("--probe", "trace"),
-        ("--estimate-on", "gpu"),
+        ("--probe", "trace", "trace"),
+        ("--estimate-on", "gpu", "gpu"),
     ] {
         let o = cobalt(&["bench", flag, value]);
         assert_eq!(o.status.code(), Some(2), "{flag} {value}");
         let err = String::from_utf8_lossy(&o.stderr);
-        assert!(err.contains(value), "{flag} {value}: {err}");
+        // A file's error names the file; a flag's names the flag and quotes the value.
+        let ok = if flag == "--scene" {
+            err.contains(named)
+        } else {
+            err.contains(flag)
+                && (err.contains(&format!("'{named}'")) || err.contains(&format!("{named:?}")))
+        };
+        assert!(ok, "{flag} {value}: {err}");
     }
 }

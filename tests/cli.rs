@@ -152,7 +152,7 @@ fn bad_input_names_file_line_and_value_and_prints_nothing() {
     let good = good.to_str().unwrap();
     for (args, expected) in [
         (vec!["--speeds", "1,0"], "speed of device 1 is 0"),
-        (vec!["--speeds", "1,,2"], "--speeds \"1,,2\""),
+        (vec!["--speeds", "1,,2"], "'1,,2' for '--speeds"),
         (vec!["--fail", "7@1"], "fault on device 7"),
         (vec!["--fail", "1"], "is not DEVICE@TIME"),
         (vec!["--latency=-1"], "latency -1"),

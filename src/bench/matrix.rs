@@ -20,6 +20,7 @@ use serde::Serialize;
 use super::prediction::{ErrorSums, PredictionTracer};
 use super::repeats;
 use super::replay::{Replayed, RunDevice};
+use crate::args::ShaderKind;
 use crate::error::CliError;
 
 /// The two workloads of the thesis.
@@ -29,6 +30,15 @@ pub enum Workload {
     Whitted,
     /// 32-sample ambient occlusion: diffuse rays.
     Ao,
+}
+
+impl From<ShaderKind> for Workload {
+    fn from(shader: ShaderKind) -> Self {
+        match shader {
+            ShaderKind::Whitted => Self::Whitted,
+            ShaderKind::Ao => Self::Ao,
+        }
+    }
 }
 
 impl Workload {

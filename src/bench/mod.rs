@@ -19,16 +19,17 @@ mod simulate;
 mod table;
 mod trade;
 
+use std::num::NonZeroUsize;
 use std::path::PathBuf;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use raytrace::cost::SampleRate;
-use raytrace::devices::parse_devices;
 use raytrace::shade::{AoSettings, CpuTracer, RenderOptions, Shader, render};
 use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
 use sched::Policy;
 
+use crate::args::{Devices, MAX_AO_SAMPLES, ShaderKind, Size, sample_rate, task_size};
 use crate::error::CliError;
 use matrix::{Pipeline, Plan, Workload};
 
@@ -44,25 +45,25 @@ pub struct Args {
     full: bool,
     /// Image size `WxH` (overrides the default of quick or full).
     #[arg(long)]
-    size: Option<crate::args::Size>,
+    size: Option<Size>,
     /// Thesis cameras per run, 1..=4 (overrides the default of quick or full).
-    #[arg(long)]
-    cameras: Option<usize>,
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4))]
+    cameras: Option<u32>,
     /// Devices, as for `cobalt render`.
     #[arg(long, default_value = "cpu:2")]
-    devices: String,
-    /// Task sizes in rays.
-    #[arg(long, default_value = "16384,4096,512")]
-    task_sizes: String,
-    /// Policies (default all five).
-    #[arg(long)]
-    policies: Option<String>,
-    /// Workloads: `whitted` (coherent rays), `ao` (diffuse rays).
-    #[arg(long, default_value = "whitted,ao")]
-    shaders: String,
+    devices: Devices,
+    /// Task sizes in rays, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "16384,4096,512", value_parser = task_size)]
+    task_sizes: Vec<NonZeroUsize>,
+    /// Policies, comma-separated (default all five).
+    #[arg(long, value_delimiter = ',')]
+    policies: Option<Vec<Policy>>,
+    /// Workloads, comma-separated: `whitted` (coherent rays), `ao` (diffuse rays).
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "whitted,ao")]
+    shaders: Vec<ShaderKind>,
     /// Share of each task's rays traced to estimate it (cost mode).
-    #[arg(long, default_value_t = 0.125)]
-    sample_rate: f64,
+    #[arg(long, default_value = "0.125", value_parser = sample_rate)]
+    sample_rate: SampleRate,
     /// How each cell renders: `paths` (frames of whole paths on path-resident devices; the
     /// default) or `generations` (each generation of rays scheduled on its own, made and
     /// shaded on the host, as the thesis measures them). Under `--mpi` too: by paths every
@@ -78,20 +79,23 @@ pub struct Args {
     /// pipeline renders its sampled paths for real.
     #[arg(long)]
     probe: Option<raytrace::Probe>,
-    /// AO probes per primary hit.
-    #[arg(long, default_value_t = 32)]
+    /// AO probes per primary hit, 1..=4096.
+    #[arg(long, default_value_t = 32,
+          value_parser = clap::value_parser!(u32).range(1..=MAX_AO_SAMPLES as i64))]
     ao_samples: u32,
-    /// Runs of every cell, in rounds (each round runs the whole matrix once); the
+    /// Runs of every cell, 1..=100, in rounds (each round runs the whole matrix once); the
     /// tables and `--json` give the medians and every run's MRays/s and balance.
-    #[arg(long, default_value_t = 1)]
-    repeats: usize,
-    /// BVH build preset.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
+    repeats: u32,
+    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
     #[arg(long, default_value = "medium")]
-    preset: String,
-    /// Also replay the measured tasks on simulated machines of these device counts, of mixed
-    /// speeds, behind PCIe-like (10 µs) and network-like (200 µs) launch latencies.
-    #[arg(long)]
-    simulate: Option<String>,
+    preset: BuildPreset,
+    /// Also replay the measured tasks on simulated machines of these device counts
+    /// (comma-separated, each 1..=65536), of mixed speeds, behind PCIe-like (10 µs) and
+    /// network-like (200 µs) launch latencies.
+    #[arg(long, value_delimiter = ',',
+          value_parser = clap::value_parser!(u32).range(1..=MAX_SIMULATED_DEVICES))]
+    simulate: Vec<u32>,
     /// Write every run (measured, then simulated) as one JSON array to this file.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -111,6 +115,9 @@ pub struct Args {
     calibration: crate::calibration::CalibrationArgs,
 }
 
+/// Most devices of a simulated machine: the simulator plans every task on every device.
+const MAX_SIMULATED_DEVICES: i64 = 65536;
+
 fn bad(flag: &'static str, value: &str, message: &str) -> CliError {
     CliError::Arg {
         flag,
@@ -119,82 +126,28 @@ fn bad(flag: &'static str, value: &str, message: &str) -> CliError {
     }
 }
 
-fn list<T>(
-    flag: &'static str,
-    text: &str,
-    parse: impl Fn(&str) -> Option<T>,
-) -> Result<Vec<T>, CliError> {
-    let items: Option<Vec<T>> = text.split(',').map(|s| parse(s.trim())).collect();
-    match items {
-        Some(v) if !v.is_empty() => Ok(v),
-        _ => Err(bad(
-            flag,
-            text,
-            "expected a comma-separated list of valid values",
-        )),
-    }
-}
-
 /// Runs the benchmark; every argument is checked before anything is measured.
 pub fn run(args: Args) -> Result<(), CliError> {
     let started = Instant::now();
     // A bad --json path fails now rather than after the whole matrix has run.
     crate::output::Outputs::check(&[("json", args.json.as_deref())], &[])?;
-    let crate::args::Size { width, height } =
-        args.size.unwrap_or(crate::args::Size::square(if args.full {
-            1024
-        } else {
-            512
-        }));
-    let cameras = args.cameras.unwrap_or(if args.full { 4 } else { 1 });
-    if !(1..=4).contains(&cameras) {
-        return Err(bad(
-            "cameras",
-            &cameras.to_string(),
-            "expected 1 to 4 thesis cameras",
-        ));
-    }
-    let specs = parse_devices(&args.devices)?;
-    let task_sizes = list("task-sizes", &args.task_sizes, |s| {
-        s.parse::<usize>().ok().filter(|&n| n > 0)
-    })?;
-    let policies: Vec<Policy> = match &args.policies {
-        None => Policy::ALL.to_vec(),
-        Some(p) => list("policies", p, |s| s.parse().ok())?,
-    };
-    let workloads = list("shaders", &args.shaders, |s| match s {
-        "whitted" => Some(Workload::Whitted),
-        "ao" => Some(Workload::Ao),
-        _ => None,
-    })?;
-    let rate = SampleRate::new(args.sample_rate)
-        .map_err(|e| bad("sample-rate", &args.sample_rate.to_string(), &e.to_string()))?;
-    if !(1..=4096).contains(&args.ao_samples) {
-        return Err(bad(
-            "ao-samples",
-            &args.ao_samples.to_string(),
-            "expected 1..=4096",
-        ));
-    }
-    if !(1..=100).contains(&args.repeats) {
-        return Err(bad(
-            "repeats",
-            &args.repeats.to_string(),
-            "expected 1..=100 runs of every cell",
-        ));
-    }
-    let preset: BuildPreset = args
-        .preset
-        .parse()
-        .map_err(|e: String| bad("preset", &args.preset, &e))?;
-    let simulate: Vec<usize> = match &args.simulate {
-        None => Vec::new(),
-        Some(s) => list("simulate", s, |x| {
-            x.parse::<usize>()
-                .ok()
-                .filter(|&m| (1..=65536).contains(&m))
-        })?,
-    };
+    let Size { width, height } =
+        args.size
+            .unwrap_or(Size::square(if args.full { 1024 } else { 512 }));
+    let cameras = args
+        .cameras
+        .map_or(if args.full { 4 } else { 1 }, |c| c as usize);
+    let specs = args.devices.specs();
+    let task_sizes: Vec<usize> = args.task_sizes.iter().map(|n| n.get()).collect();
+    let policies: Vec<Policy> = args
+        .policies
+        .clone()
+        .unwrap_or_else(|| Policy::ALL.to_vec());
+    let workloads: Vec<Workload> = args.shaders.iter().map(|&s| Workload::from(s)).collect();
+    let rate = args.sample_rate;
+    let repeats = args.repeats as usize;
+    let preset = args.preset;
+    let simulate: Vec<usize> = args.simulate.iter().map(|&m| m as usize).collect();
     let scenes = if args.scenes.is_empty() {
         vec![String::from("builtin:forest")]
     } else {
@@ -244,7 +197,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         let settings = MpiSettings {
             width,
             height,
-            specs: &specs,
+            specs,
             workloads: &workloads,
             task_sizes: &task_sizes,
             policies: &policies,
@@ -279,8 +232,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
             scene_name: name,
             scene,
             bvh: &bvh,
-            devices: &specs,
-            device_list: &args.devices,
+            devices: specs,
+            device_list: args.devices.as_str(),
             workloads: &workloads,
             task_sizes: &task_sizes,
             policies: &policies,
@@ -291,7 +244,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             sample_rate: rate,
             estimate_on,
             probe,
-            repeats: args.repeats,
+            repeats,
             pipeline,
             calibration: store.as_ref(),
         };
@@ -331,13 +284,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
         width,
         height,
         cameras,
-        args.devices,
+        args.devices.as_str(),
         pipeline.name(),
         rate.get(),
-        if args.repeats > 1 {
+        if repeats > 1 {
             format!(
                 ", {} runs of every cell (medians; MRays/s and balance show the runs' range)",
-                args.repeats
+                repeats
             )
         } else {
             String::new()
@@ -439,7 +392,7 @@ fn run_mpi(
             scene,
             bvh,
             devices: s.specs,
-            device_list: &args.devices,
+            device_list: args.devices.as_str(),
             workloads: s.workloads,
             task_sizes: s.task_sizes,
             policies: s.policies,

@@ -12,9 +12,9 @@ use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
 
 use super::buffers::{SceneBuffers, pack_rays};
 use super::estimate::{SampledCounts, Sampling, estimate_kernel, sampled_counts};
-use super::pipeline::{GpuMode, Kernels, Threads, launch};
 use super::program::Kernel;
 use super::staging::{Staging, staged_hits};
+use super::trace::{Threads, TraceKernels, TraceMode, launch};
 use super::{GpuContext, GpuError};
 
 /// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a generation's rays,
@@ -23,7 +23,7 @@ use super::{GpuContext, GpuError};
 #[derive(Debug)]
 pub struct GpuDevice {
     ctx: GpuContext,
-    kernels: Kernels,
+    kernels: TraceKernels,
     estimate: Kernel,
     scene: SceneBuffers,
     threads: Threads,
@@ -45,7 +45,7 @@ impl GpuDevice {
     /// [`GpuError::TooLarge`] when the tree exceeds a binding limit, [`GpuError::TooDeep`]
     /// beyond the deepest supported tree.
     pub fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
-        let kernels = Kernels::new(&ctx.device, bvh.depth())?;
+        let kernels = TraceKernels::new(&ctx.device, bvh.depth())?;
         let scene = SceneBuffers::upload(&ctx, bvh)?;
         let estimate = estimate_kernel(&ctx.device);
         Ok(Self {
@@ -102,9 +102,9 @@ impl GpuDevice {
         ranges: &[&Range<usize>],
     ) -> Result<HitBatch, GpuError> {
         let mode = if occlusion {
-            GpuMode::Any
+            TraceMode::Any
         } else {
-            GpuMode::Closest
+            TraceMode::Closest
         };
         // A launch that panicked left nothing worth keeping: its buffers are dropped.
         let mut staging = self.staging.lock().unwrap_or_else(|poisoned| {
@@ -159,7 +159,7 @@ impl GpuDevice {
             &self.kernels,
             &self.scene,
             &packed,
-            GpuMode::counts(probe)?,
+            TraceMode::counts(probe)?,
         )?;
         Ok(out
             .into_iter()

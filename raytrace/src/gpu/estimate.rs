@@ -16,8 +16,8 @@ use std::ops::Range;
 use super::buffers::{
     GpuRay, SceneBuffers, check_size, fetch, init, pack_at, rays_per_launch, storage,
 };
-use super::pipeline::{GpuMode, Kernels, Threads, grid, trace_resident};
 use super::program::{Kernel, READ, UNIFORM, WRITE, dispatch};
+use super::trace::{Threads, TraceKernels, TraceMode, grid, trace_resident};
 use super::{GpuContext, GpuDevice, GpuError};
 use crate::Traffic;
 use crate::cost::{Compacted, CostError, CostModel, SampleRate, Work};
@@ -73,7 +73,7 @@ pub(crate) struct Sampling {
 #[allow(clippy::too_many_arguments)] // the device's parts, the work, and what it moved
 pub(crate) fn sampled_counts(
     ctx: &GpuContext,
-    kernels: &Kernels,
+    kernels: &TraceKernels,
     estimate: &Kernel,
     scene: &SceneBuffers,
     rays: &RayBatch,
@@ -82,7 +82,7 @@ pub(crate) fn sampled_counts(
     traffic: &mut Traffic,
 ) -> Result<Vec<SampledCounts>, GpuError> {
     // Before the sample is gathered: a probe the GPU cannot run is refused at once.
-    let mode = GpuMode::counts(sampling.probe)?;
+    let mode = TraceMode::counts(sampling.probe)?;
     let sample = Compacted::gather(rays, tasks, sampling.rate)
         .map_err(|e: CostError| GpuError::BadTasks { why: e.to_string() })?;
     let mut out = Vec::with_capacity(tasks.len());
@@ -115,13 +115,13 @@ pub(crate) fn sampled_counts(
 #[allow(clippy::too_many_arguments)] // the device's parts, passed in as the other kernels are
 fn group(
     ctx: &GpuContext,
-    kernels: &Kernels,
+    kernels: &TraceKernels,
     estimate: &Kernel,
     scene: &SceneBuffers,
     rays: &RayBatch,
     sample: &Compacted,
     group: Range<usize>,
-    mode: GpuMode,
+    mode: TraceMode,
     traffic: &mut Traffic,
 ) -> Result<Vec<SampledCounts>, GpuError> {
     let base = sample.offsets[group.start];

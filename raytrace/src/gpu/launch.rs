@@ -6,16 +6,16 @@
 //! the end, which is what they do unless an implementation cuts a loop short. At the end of
 //! the launch, `verdict.wgsl` folds every trace's queue state into one word that proves it.
 //! Should a queue not be drained, the launch is recorded again with the host checking every
-//! trace ([`trace_resident`](super::pipeline::trace_resident)): slower, but the same values.
+//! trace ([`trace_resident`](super::trace::trace_resident)): slower, but the same values.
 //!
 //! Nothing of a trace is uploaded: its queue is a new (zeroed) buffer and its ray count is
 //! copied on the device from the launch's [`Header`](super::header::Header).
 
 use super::buffers::{SceneBuffers, init, read_back, storage};
-use super::pipeline::{
-    GpuMode, Kernels, Threads, TraceRound, grid, stamp_seconds, timestamps, trace_resident,
-};
 use super::program::{Kernel, READ, WRITE};
+use super::trace::{
+    Threads, TraceKernels, TraceMode, TraceRound, grid, stamp_seconds, timestamps, trace_resident,
+};
 use super::{GpuContext, GpuError};
 use crate::Traffic;
 
@@ -57,7 +57,7 @@ struct Recorded {
 /// The commands of one launch, recorded until [`Recorder::finish`] submits them.
 pub(super) struct Recorder<'a> {
     ctx: &'a GpuContext,
-    kernels: &'a Kernels,
+    kernels: &'a TraceKernels,
     scene: &'a SceneBuffers,
     verdict: &'a Kernel,
     threads: Threads,
@@ -100,7 +100,7 @@ impl<'a> Recorder<'a> {
     /// check every trace's queue before the next step is recorded.
     pub(super) fn new(
         ctx: &'a GpuContext,
-        kernels: &'a Kernels,
+        kernels: &'a TraceKernels,
         scene: &'a SceneBuffers,
         verdict: &'a Kernel,
         threads: Threads,
@@ -199,7 +199,7 @@ impl<'a> Recorder<'a> {
         rays: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
-        mode: GpuMode,
+        mode: TraceMode,
         count: Count<'_>,
         traffic: &mut Traffic,
     ) -> Result<(), GpuError> {
@@ -353,7 +353,7 @@ impl<'a> Recorder<'a> {
         if verdict & LOOP_CUT != 0 {
             return Err(GpuError::LoopCut {
                 adapter: name.to_string(),
-                batches: super::pipeline::BATCHES,
+                batches: super::trace::BATCHES,
             });
         }
         // One thread per ray covers its rays in one dispatch and leaves the queue untouched.

@@ -5,7 +5,7 @@
 //! - [`context`]: which adapters exist and which are used (hardware only, unless software
 //!   adapters such as Mesa's lavapipe are asked for), each opened with its own limits;
 //! - [`buffers`]: the scene and ray buffers, checked against the binding-size limits;
-//! - [`pipeline`]: the kernels (`traverse.wgsl`) and the host loop that re-dispatches the
+//! - [`trace`]: the trace kernels (`traverse.wgsl`) and the host loop that re-dispatches the
 //!   persistent threads until the ray queue is drained;
 //! - `program`: a shader module with its bind group's layout, and the pipelines and dispatches
 //!   every kernel family shares;
@@ -26,7 +26,6 @@ mod device;
 mod estimate;
 mod header;
 mod launch;
-pub mod pipeline;
 mod program;
 mod render;
 mod resident;
@@ -34,14 +33,15 @@ mod sample;
 mod staging;
 #[cfg(test)]
 pub(crate) mod tests;
+pub mod trace;
 mod whitted;
 
 pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
 pub use estimate::{GpuReducedTraversal, SampledCounts};
-pub use pipeline::{GpuMode, Kernels, Threads};
 pub use render::{FrameParams, GpuRenderer, PathValues};
 pub use sample::{PathSums, SampledPaths};
+pub use trace::{Threads, TraceKernels, TraceMode};
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or
 /// the limit that was hit.

@@ -21,9 +21,9 @@ use super::buffers::{
 };
 use super::header::{self, Header, Setup, task_list};
 use super::launch::{Count, Recorder, verdict_kernel};
-use super::pipeline::{GpuMode, Kernels, Threads};
 use super::program::{Kernel, Program, READ, UNIFORM, WRITE, with_shading};
 use super::resident::Resident;
+use super::trace::{Threads, TraceKernels, TraceMode};
 use super::{GpuContext, GpuError};
 use crate::Traffic;
 use crate::shade::AoSettings;
@@ -113,7 +113,7 @@ pub struct FrameParams<'a> {
 #[derive(Debug)]
 pub struct GpuRenderer {
     pub(super) ctx: GpuContext,
-    pub(super) kernels: Kernels,
+    pub(super) kernels: TraceKernels,
     pub(super) scene: SceneBuffers,
     pub(super) tris: wgpu::Buffer,
     pub(super) whitted: super::whitted::WhittedKernels,
@@ -145,7 +145,7 @@ impl GpuRenderer {
     /// [`GpuError::TooLarge`] when a scene buffer exceeds a binding limit,
     /// [`GpuError::TooDeep`] beyond the deepest supported tree.
     pub fn new(ctx: GpuContext, scene: &Scene, bvh: &Bvh) -> Result<Self, GpuError> {
-        let kernels = Kernels::new(&ctx.device, bvh.depth())?;
+        let kernels = TraceKernels::new(&ctx.device, bvh.depth())?;
         let scene_buffers = SceneBuffers::upload(&ctx, bvh)?;
         let mut tris: Vec<SceneTri> = (0..scene.len())
             .map(|prim| SceneTri {
@@ -451,7 +451,7 @@ impl GpuRenderer {
             Some(out) => Ok(out),
             None => launch(true)?.ok_or_else(|| GpuError::LoopCut {
                 adapter: self.ctx.info.name.clone(),
-                batches: super::pipeline::BATCHES,
+                batches: super::trace::BATCHES,
             }),
         }
     }
@@ -517,7 +517,7 @@ impl GpuRenderer {
             &stage.primary,
             &stage.hits,
             n,
-            GpuMode::Closest,
+            TraceMode::Closest,
             match tally {
                 Some(t) => Count::Counted {
                     counts: &t.paths,
@@ -554,7 +554,7 @@ impl GpuRenderer {
                     &stage.probes,
                     &stage.probe_hits,
                     len * samples,
-                    GpuMode::Any,
+                    TraceMode::Any,
                     match tally {
                         Some(t) => Count::Counted {
                             counts: &t.probes,

@@ -14,9 +14,9 @@ use std::ops::Range;
 
 use super::GpuError;
 use super::buffers::{check_size, storage};
-use super::pipeline::grid;
 use super::program::{Kernel, READ, WRITE};
 use super::render::{FrameParams, GpuRenderer, Tally};
+use super::trace::grid;
 use crate::Traffic;
 use crate::shade::{AoSettings, Shader};
 
@@ -70,7 +70,7 @@ impl GpuRenderer {
         self.sample_launch(frame, tasks, shader, stride)?
             .ok_or_else(|| GpuError::LoopCut {
                 adapter: self.ctx.info.name.clone(),
-                batches: super::pipeline::BATCHES,
+                batches: super::trace::BATCHES,
             })
     }
 

@@ -17,7 +17,7 @@ use crate::{HitBatch, RayBatch};
 use super::buffers::{
     GpuRay, RESULT_BYTES, SceneBuffers, copy, map, rays_per_launch, readback_err,
 };
-use super::pipeline::{GpuMode, Kernels, Threads, trace_resident};
+use super::trace::{Threads, TraceKernels, TraceMode, trace_resident};
 use super::{GpuContext, GpuError};
 
 const RAY_BYTES: u64 = size_of::<GpuRay>() as u64;
@@ -90,11 +90,11 @@ impl Staging {
 pub(crate) fn staged_hits(
     staging: &mut Option<Staging>,
     ctx: &GpuContext,
-    kernels: &Kernels,
+    kernels: &TraceKernels,
     scene: &SceneBuffers,
     rays: &RayBatch,
     ranges: &[&Range<usize>],
-    mode: GpuMode,
+    mode: TraceMode,
     threads: Threads,
     traffic: &mut Traffic,
 ) -> Result<(HitBatch, Option<f64>), GpuError> {
@@ -151,11 +151,11 @@ fn launches(ranges: &[&Range<usize>], most: usize) -> Vec<Vec<Range<usize>>> {
 fn run(
     s: &Staging,
     ctx: &GpuContext,
-    kernels: &Kernels,
+    kernels: &TraceKernels,
     scene: &SceneBuffers,
     rays: &RayBatch,
     chunk: &[Range<usize>],
-    mode: GpuMode,
+    mode: TraceMode,
     threads: Threads,
     hits: &mut HitBatch,
     traffic: &mut Traffic,

@@ -11,7 +11,9 @@ use glam::Vec3;
 use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers, pack_rays};
-use super::pipeline::{BATCHES, GpuMode, Kernels, MAX_WORKGROUPS, Threads, launch, launch_timed};
+use super::trace::{
+    BATCHES, MAX_WORKGROUPS, Threads, TraceKernels, TraceMode, launch, launch_timed,
+};
 use super::{
     FrameParams, GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, GpuRenderer,
 };
@@ -61,9 +63,9 @@ fn scene_bvh(name: &str) -> Bvh {
 
 /// What a raw launch needs on `ctx`: the kernels and buffers of `name`'s tree, and the rays
 /// of `rays_for(name, seed)`.
-fn launch_kit(ctx: &GpuContext, name: &str, seed: u64) -> (Kernels, SceneBuffers, RayBatch) {
+fn launch_kit(ctx: &GpuContext, name: &str, seed: u64) -> (TraceKernels, SceneBuffers, RayBatch) {
     let bvh = scene_bvh(name);
-    let kernels = Kernels::new(&ctx.device, bvh.depth()).expect("kernels");
+    let kernels = TraceKernels::new(&ctx.device, bvh.depth()).expect("kernels");
     let scene = SceneBuffers::upload(ctx, &bvh).expect("upload");
     (kernels, scene, rays_for(name, seed))
 }
@@ -249,14 +251,14 @@ fn splits_launches_and_names_the_limit() {
     let Some(mut ctx) = gpu() else { return };
     let bvh = scene_bvh("builtin:cornell:0.2");
     let rays = rays_for("builtin:cornell:0.2", 13);
-    let kernels = Kernels::new(&ctx.device, bvh.depth()).expect("kernels");
+    let kernels = TraceKernels::new(&ctx.device, bvh.depth()).expect("kernels");
     let scene = SceneBuffers::upload(&ctx, &bvh).expect("upload");
     let (a, b) = (0..1000, 1500..rays.len());
     let packed = pack_rays(&rays, &[&a, &b]);
-    let whole = launch(&ctx, &kernels, &scene, &packed, GpuMode::Closest).expect("launch");
+    let whole = launch(&ctx, &kernels, &scene, &packed, TraceMode::Closest).expect("launch");
     // 640 rays a launch: several launches, the last one partial.
     ctx.limits.max_storage_buffer_binding_size = 640 * size_of::<GpuRay>() as u64;
-    let split = launch(&ctx, &kernels, &scene, &packed, GpuMode::Closest).expect("split launch");
+    let split = launch(&ctx, &kernels, &scene, &packed, TraceMode::Closest).expect("split launch");
     assert_eq!(whole, split);
     let cpu = traverse::closest_hits(&bvh, &rays);
     let mut want = HitBatch::misses(0);
@@ -277,7 +279,7 @@ fn splits_launches_and_names_the_limit() {
     );
     // Empty launches return nothing.
     assert!(
-        launch(&ctx, &kernels, &scene, &[], GpuMode::Any)
+        launch(&ctx, &kernels, &scene, &[], TraceMode::Any)
             .expect("empty")
             .is_empty()
     );
@@ -488,10 +490,10 @@ fn per_ray_threads_equal_persistent() {
     let packed = pack_rays(&rays, &[&all]);
     assert_ne!(packed.len() % 64, 0);
     for mode in [
-        GpuMode::Closest,
-        GpuMode::Any,
-        GpuMode::Reduced,
-        GpuMode::FirstLeaf,
+        TraceMode::Closest,
+        TraceMode::Any,
+        TraceMode::Reduced,
+        TraceMode::FirstLeaf,
     ] {
         let run = |threads| {
             launch_timed(&ctx, &kernels, &scene, &packed, mode, threads)
@@ -518,7 +520,7 @@ fn a_launch_of_three_passes_is_timed_and_traced_whole() {
         &kernels,
         &scene,
         &packed,
-        GpuMode::Reduced,
+        TraceMode::Reduced,
         Threads::Persistent,
     )
     .expect("one pass");
@@ -527,7 +529,7 @@ fn a_launch_of_three_passes_is_timed_and_traced_whole() {
         &kernels,
         &scene,
         &many,
-        GpuMode::Reduced,
+        TraceMode::Reduced,
         Threads::Persistent,
     )
     .expect("three passes");

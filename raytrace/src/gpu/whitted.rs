@@ -16,9 +16,9 @@ use glam::Vec3;
 use super::buffers::{GpuRay, RESULT_BYTES, check_size, init};
 use super::header::Header;
 use super::launch::{Count, Recorder};
-use super::pipeline::GpuMode;
 use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
 use super::render::{FrameParams, GpuRenderer, PathValues, Stage, Tally};
+use super::trace::TraceMode;
 use super::{GpuContext, GpuError};
 use crate::Traffic;
 use crate::shade::{AMBIENT, AoSettings, SKY, WhittedSettings};
@@ -299,7 +299,7 @@ impl GpuRenderer {
                 },
                 None => Count::Copied(header, Header::COUNT),
             };
-            launch.trace(rays, &stage.hits, n, GpuMode::Closest, count, traffic)?;
+            launch.trace(rays, &stage.hits, n, TraceMode::Closest, count, traffic)?;
             launch.pass_over(&w.shade, group, n);
             if lights > 0 {
                 // `slots` fits one binding, so far below 2^32.
@@ -307,7 +307,7 @@ impl GpuRenderer {
                     &shadow_rays,
                     &shadow_hits,
                     slots as u32,
-                    GpuMode::Any,
+                    TraceMode::Any,
                     match tally {
                         Some(t) => Count::Counted {
                             counts: &t.paths,

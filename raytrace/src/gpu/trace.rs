@@ -1,6 +1,6 @@
 //! The kernels of `traverse.wgsl` and the host loop that runs them.
 //!
-//! One shader, four pipelines (the `MODE` override): closest hit, any hit, and the two reduced
+//! One shader, four compute pipelines (the `MODE` override): closest hit, any hit, and the two reduced
 //! traversals (the thesis's and the first-leaf one, see [`crate::Probe`]).
 //! A launch uploads its rays, resets the queue head, and records enough dispatches of
 //! persistent workgroups to drain the queue: each workgroup takes [`BATCHES`] batches of 64
@@ -29,7 +29,7 @@ const MAX_STACK: usize = 256;
 
 /// What a launch computes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum GpuMode {
+pub enum TraceMode {
     /// The nearest hit (`Bvh::closest_hit`).
     Closest,
     /// The first hit found (`Bvh::any_hit`).
@@ -40,7 +40,7 @@ pub enum GpuMode {
     FirstLeaf,
 }
 
-impl GpuMode {
+impl TraceMode {
     fn index(self) -> usize {
         match self {
             Self::Closest => 0,
@@ -96,16 +96,16 @@ impl Threads {
 
 /// The compiled kernels for trees up to a given depth.
 #[derive(Debug)]
-pub struct Kernels {
+pub struct TraceKernels {
     program: Program,
-    /// By [`Threads::index`], then [`GpuMode::index`].
+    /// By [`Threads::index`], then [`TraceMode::index`].
     pipelines: [[wgpu::ComputePipeline; 4]; 2],
     stack: usize,
     /// Bound as the per-path counts of a trace that counts nothing.
     no_counts: wgpu::Buffer,
 }
 
-impl Kernels {
+impl TraceKernels {
     /// Compiles the kernels with a stack for trees of `depth` levels.
     ///
     /// # Errors
@@ -199,10 +199,10 @@ impl Kernels {
 /// when the implementation ended a traversal loop early.
 pub fn launch(
     ctx: &GpuContext,
-    kernels: &Kernels,
+    kernels: &TraceKernels,
     scene: &SceneBuffers,
     rays: &[GpuRay],
-    mode: GpuMode,
+    mode: TraceMode,
 ) -> Result<Vec<[u32; 2]>, GpuError> {
     Ok(launch_timed(ctx, kernels, scene, rays, mode, Threads::Persistent)?.0)
 }
@@ -214,15 +214,15 @@ pub fn launch(
 /// As [`launch`].
 pub fn launch_timed(
     ctx: &GpuContext,
-    kernels: &Kernels,
+    kernels: &TraceKernels,
     scene: &SceneBuffers,
     rays: &[GpuRay],
-    mode: GpuMode,
+    mode: TraceMode,
     threads: Threads,
 ) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     if scene.empty {
         let none = match mode {
-            GpuMode::Reduced | GpuMode::FirstLeaf => [0, 0],
+            TraceMode::Reduced | TraceMode::FirstLeaf => [0, 0],
             _ => [f32::INFINITY.to_bits(), u32::MAX],
         };
         return Ok((vec![none; rays.len()], None));
@@ -240,10 +240,10 @@ pub fn launch_timed(
 /// Uploads `rays`, traces them and reads the results back.
 fn launch_one(
     ctx: &GpuContext,
-    kernels: &Kernels,
+    kernels: &TraceKernels,
     scene: &SceneBuffers,
     rays: &[GpuRay],
-    mode: GpuMode,
+    mode: TraceMode,
     threads: Threads,
 ) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     if rays.is_empty() {
@@ -325,12 +325,12 @@ impl TraceRound {
     #[allow(clippy::too_many_arguments)] // the buffers and the two choices of a trace
     pub(crate) fn new(
         ctx: &GpuContext,
-        kernels: &Kernels,
+        kernels: &TraceKernels,
         scene: &SceneBuffers,
         rays: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
-        mode: GpuMode,
+        mode: TraceMode,
         threads: Threads,
         traffic: &mut Traffic,
     ) -> Self {
@@ -360,12 +360,12 @@ impl TraceRound {
     #[allow(clippy::too_many_arguments)] // the buffers and the two choices of a trace
     pub(crate) fn bound(
         ctx: &GpuContext,
-        kernels: &Kernels,
+        kernels: &TraceKernels,
         scene: &SceneBuffers,
         rays: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
-        mode: GpuMode,
+        mode: TraceMode,
         threads: Threads,
         queue: wgpu::Buffer,
         params: wgpu::Buffer,
@@ -424,7 +424,7 @@ impl TraceRound {
     /// last one's end timestamped into `timing` (queries 0 and 1) when given.
     pub(crate) fn record(
         &self,
-        kernels: &Kernels,
+        kernels: &TraceKernels,
         encoder: &mut wgpu::CommandEncoder,
         dispatches: u64,
         timing: Option<&wgpu::QuerySet>,
@@ -504,12 +504,12 @@ pub(crate) fn stamp_seconds(ctx: &GpuContext, stamps: [u64; 2]) -> f64 {
 #[allow(clippy::too_many_arguments)] // the buffers and the two choices of a trace
 pub(crate) fn trace_resident(
     ctx: &GpuContext,
-    kernels: &Kernels,
+    kernels: &TraceKernels,
     scene: &SceneBuffers,
     rays: &wgpu::Buffer,
     out: &wgpu::Buffer,
     n: u32,
-    mode: GpuMode,
+    mode: TraceMode,
     threads: Threads,
     traffic: &mut Traffic,
 ) -> Result<Option<f64>, GpuError> {

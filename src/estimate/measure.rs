@@ -1,0 +1,391 @@
+//! The run of `cobalt estimate`: the rays cut into tasks, each task's single-thread trace time
+//! measured, the estimates and the full trace timed (every probe in the same rounds on the CPU),
+//! and the figures that judge the estimates against the times.
+
+use std::time::Instant;
+
+use raytrace::cost::{
+    Compacted, CostModel, Fit, ReducedTraversal, SampleRate, Work, calibrate, error_vs_time,
+    full_work, measure_seconds, prediction_error, spearman,
+};
+use raytrace::{Bvh, Probe, RayBatch, RayKind, Scene, traverse};
+
+use super::rays::Generations;
+use super::report::{Calibration, Model, ProbeFigures, ProbeFit, Report};
+use super::{Args, DeviceArg, ProbeArg};
+use crate::error::CliError;
+
+/// Measures the estimates of `rays` against their tasks' times, as `args` asks.
+pub(super) fn measure(
+    args: &Args,
+    scene: &Scene,
+    bvh: &Bvh,
+    rays: Generations,
+) -> Result<Report, CliError> {
+    let Generations {
+        segments,
+        kind_name,
+        coherent,
+    } = rays;
+    let preset = args.scene.preset;
+    let (task_size, rate) = (args.task_size.get(), args.sample_rate);
+    let mut rays = RayBatch::default();
+    let mut tasks = Vec::new();
+    // Per generation, its tasks (indices into `tasks`) and kind: the first-leaf probe models
+    // a closest hit, not an any-hit query (`Probe::for_kind`).
+    let mut parts = Vec::new();
+    for (batch, kind) in &segments {
+        let base = rays.len();
+        let first = tasks.len();
+        tasks.extend(
+            sched::split_ranges(batch.len(), task_size)
+                .into_iter()
+                .map(|t| base + t.start..base + t.end),
+        );
+        parts.push((first..tasks.len(), *kind));
+        rays.extend(batch);
+    }
+    if rays.is_empty() {
+        return Err(CliError::Arg {
+            flag: "rays",
+            value: args.rays.clone(),
+            message: "there are no rays to estimate (no primary ray hit the scene?)".into(),
+        });
+    }
+
+    let mut measured = Vec::with_capacity(tasks.len());
+    for (batch, kind) in &segments {
+        let own = sched::split_ranges(batch.len(), task_size);
+        measured.extend(measure_seconds(bvh, batch, &own, *kind, args.repeats)?);
+    }
+    // `work` weighed by `fit` against the measured times: error and Spearman correlation.
+    let vs_time = |fit: Option<Fit>, work: &[Work]| {
+        let predicted = fit.map(|f| f.model.costs(work));
+        (
+            predicted
+                .as_ref()
+                .and_then(|p| error_vs_time(p, &measured).ok()),
+            predicted.as_ref().and_then(|p| spearman(p, &measured).ok()),
+        )
+    };
+    let full_of = |probe: Probe| -> Result<Vec<Work>, CliError> {
+        let mut full = Vec::with_capacity(tasks.len());
+        for (range, kind) in &parts {
+            let own = &tasks[range.clone()];
+            full.extend(full_work(bvh, &rays, own, probe.for_kind(*kind))?);
+        }
+        Ok(full)
+    };
+    // The real trace where it can run: its hits are the render's, so it costs little more
+    // than counting, and it stops where the trace stops, which the reduced traversals do not.
+    let asked = args.probe.unwrap_or(match args.device {
+        DeviceArg::Cpu => ProbeArg::Fixed(Probe::Trace { any: false }),
+        DeviceArg::Gpu => ProbeArg::Fixed(Probe::Thesis),
+    });
+    if let (ProbeArg::Fixed(Probe::Trace { .. }), DeviceArg::Gpu) = (asked, args.device) {
+        return Err(CliError::Arg {
+            flag: "probe",
+            value: "trace".into(),
+            message:
+                "the `trace` probe runs on the CPU only; use thesis or first-leaf with --device gpu"
+                    .into(),
+        });
+    }
+    let (probe, full, probe_fits) = match asked {
+        ProbeArg::Fixed(p) => (p, full_of(p)?, None),
+        ProbeArg::Auto => {
+            let mut fits = Vec::new();
+            let mut best = (f64::INFINITY, Probe::Thesis, Vec::new());
+            for p in Probe::ALL {
+                let full = full_of(p)?;
+                let (error, spearman_vs_time) = vs_time(calibrate(&full, &measured).ok(), &full);
+                fits.push(ProbeFit {
+                    probe: p.name(),
+                    error_vs_time: error,
+                    spearman_vs_time,
+                });
+                // Ties and failed fits keep the thesis's probe, tried first.
+                if best.2.is_empty() || error.is_some_and(|e| e < best.0) {
+                    best = (error.unwrap_or(f64::INFINITY), p, full);
+                }
+            }
+            (best.1, best.2, Some(fits))
+        }
+    };
+
+    // Each generation's tasks and the probe that estimates them.
+    let jobs_of = |probe: Probe| -> Vec<(&[std::ops::Range<usize>], Probe)> {
+        parts
+            .iter()
+            .map(|(range, kind)| (&tasks[range.clone()], probe.for_kind(*kind)))
+            .collect()
+    };
+    let jobs = jobs_of(probe);
+    let (estimate_seconds, est, trace_seconds, rest_seconds, adapter, probes) = match args.device {
+        DeviceArg::Cpu => {
+            // Every probe is timed, the asked one among them, so that the trade is one table.
+            let mut candidates = vec![Probe::Trace { any: false }, Probe::Thesis, Probe::FirstLeaf];
+            let chosen = candidates
+                .iter()
+                .position(|p| p.name() == probe.name())
+                .unwrap_or_else(|| {
+                    candidates.push(probe);
+                    candidates.len() - 1
+                });
+            // A render does not trace the trace probe's sampled rays again (their hits are
+            // the estimate's), so what is left of the trace is timed too: per generation, its
+            // sample.
+            let known: Vec<Vec<usize>> = segments
+                .iter()
+                .map(|(batch, _)| {
+                    let own = sched::split_ranges(batch.len(), task_size);
+                    Compacted::gather(batch, &own, rate).map(|c| c.index)
+                })
+                .collect::<Result<_, _>>()?;
+            let estimator = ReducedTraversal::new(bvh, &rays, rate);
+            let mut ests: Vec<Vec<Work>> = vec![Vec::new(); candidates.len()];
+            let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CliError> + '_>> = ests
+                .iter_mut()
+                .zip(&candidates)
+                .map(|(est, &p)| {
+                    let jobs = jobs_of(p);
+                    Box::new(move || -> Result<(), CliError> {
+                        est.clear();
+                        for &(own, p) in &jobs {
+                            est.extend(estimator.with_probe(p).try_work(own)?);
+                        }
+                        Ok(())
+                    }) as Box<dyn FnMut() -> Result<(), CliError> + '_>
+                })
+                .collect();
+            let mut trace = || -> Result<(), CliError> {
+                for (batch, kind) in &segments {
+                    let hits = if kind.is_occlusion() {
+                        traverse::any_hits(bvh, batch)
+                    } else {
+                        traverse::closest_hits(bvh, batch)
+                    };
+                    std::hint::black_box(hits);
+                }
+                Ok(())
+            };
+            let mut rest = || -> Result<(), CliError> {
+                for ((batch, kind), known) in segments.iter().zip(&known) {
+                    let any = kind.is_occlusion();
+                    std::hint::black_box(traverse::hits_skipping(bvh, batch, any, known));
+                }
+                Ok(())
+            };
+            // Taken in turns, so that a noisy moment of this shared machine falls on all of
+            // them alike rather than on one.
+            let mut steps: Vec<&mut dyn FnMut() -> Result<(), CliError>> =
+                vec![&mut trace, &mut rest];
+            for e in &mut estimates {
+                steps.push(e.as_mut());
+            }
+            let best = min_times(args.repeats, &mut steps)?;
+            drop(steps);
+            drop(estimates);
+            let (trace_seconds, rest_seconds) = (best[0], best[1]);
+            let figures: Vec<ProbeFigures> = candidates
+                .iter()
+                .zip(&ests)
+                .zip(&best[2..])
+                .map(|((&p, est), &seconds)| {
+                    let reused = matches!(p, Probe::Trace { .. });
+                    let rest = if reused { rest_seconds } else { trace_seconds };
+                    let (error, rho) = vs_time(calibrate(est, &measured).ok(), est);
+                    let full = full_of(p).ok();
+                    let model = CostModel::default();
+                    ProbeFigures {
+                        probe: p.name(),
+                        error_vs_time: error,
+                        spearman_vs_time: rho,
+                        prediction_error: full.and_then(|f| {
+                            prediction_error(&model.costs(est), &model.costs(&f)).ok()
+                        }),
+                        estimate_seconds: seconds,
+                        overhead: seconds / trace_seconds.max(1e-12),
+                        net_overhead: (seconds + rest - trace_seconds) / trace_seconds.max(1e-12),
+                    }
+                })
+                .collect();
+            let est = std::mem::take(&mut ests[chosen]);
+            let rest = matches!(probe, Probe::Trace { .. }).then_some(rest_seconds);
+            (best[2 + chosen], est, trace_seconds, rest, None, figures)
+        }
+        DeviceArg::Gpu => {
+            let (e, est, t, name) = gpu_estimate(bvh, &rays, &segments, &jobs, rate, args.repeats)?;
+            (e, est, t, None, Some(name), Vec::new())
+        }
+    };
+
+    let per_ray = |total: f64| total / rays.len() as f64;
+    // Each task's counts of the real trace, traced as the generation is (closest or any hit).
+    let mut trace_work = Vec::with_capacity(tasks.len());
+    for (batch, kind) in &segments {
+        let counts = if kind.is_occlusion() {
+            traverse::any_hits_counted(bvh, batch).1
+        } else {
+            traverse::closest_hits_counted(bvh, batch).1
+        };
+        let own = sched::split_ranges(batch.len(), task_size);
+        trace_work.extend(own.into_iter().map(|r| Work::sum(&counts[r])));
+    }
+    let (trace_nodes, trace_tris) = trace_work
+        .iter()
+        .fold((0.0, 0.0), |(b, t), w| (b + w.nodes, t + w.tris));
+
+    let model = CostModel::default();
+    let part = |f: fn(&Work) -> f64| -> (Vec<f64>, Vec<f64>) {
+        (est.iter().map(f).collect(), full.iter().map(f).collect())
+    };
+    let (est_b, full_b) = part(|w| w.nodes);
+    let (est_t, full_t) = part(|w| w.tris);
+    let fit = calibrate(&est, &measured).ok();
+    let fit_full = calibrate(&full, &measured).ok();
+    let (error_vs_time, spearman_vs_time) = vs_time(fit, &est);
+    let (error_vs_time_full, spearman_full_vs_time) = vs_time(fit_full, &full);
+    let (error_vs_time_trace, spearman_trace_vs_time) =
+        vs_time(calibrate(&trace_work, &measured).ok(), &trace_work);
+
+    Ok(Report {
+        scene: args.scene.scene.clone(),
+        triangles: scene.len(),
+        preset: preset.name().to_string(),
+        ray_kind: kind_name,
+        coherent,
+        rays: rays.len(),
+        task_size,
+        tasks: tasks.len(),
+        sample_rate: rate.get(),
+        probe: probe.name(),
+        probe_fits,
+        probes,
+        sampled_rays: tasks.iter().map(|t| rate.samples(t.len())).sum(),
+        threads: rayon::current_num_threads(),
+        repeats: args.repeats,
+        device: match args.device {
+            DeviceArg::Cpu => "cpu",
+            DeviceArg::Gpu => "gpu",
+        },
+        adapter,
+        prediction_error: prediction_error(&model.costs(&est), &model.costs(&full)).ok(),
+        prediction_error_nodes: prediction_error(&est_b, &full_b).ok(),
+        prediction_error_tris: prediction_error(&est_t, &full_t).ok(),
+        estimate_seconds,
+        trace_seconds,
+        overhead: estimate_seconds / trace_seconds.max(1e-12),
+        rest_seconds,
+        // A reduced probe's sample is wasted: its net overhead is its overhead, exactly.
+        net_overhead: match rest_seconds {
+            Some(rest) => (estimate_seconds + rest - trace_seconds) / trace_seconds.max(1e-12),
+            None => estimate_seconds / trace_seconds.max(1e-12),
+        },
+        error_vs_time,
+        spearman_vs_time,
+        error_vs_time_full,
+        spearman_full_vs_time,
+        error_vs_time_trace,
+        spearman_trace_vs_time,
+        measured_seconds: measured.iter().sum(),
+        reduced_nodes_per_ray: per_ray(full_b.iter().sum()),
+        reduced_tris_per_ray: per_ray(full_t.iter().sum()),
+        trace_nodes_per_ray: per_ray(trace_nodes),
+        trace_tris_per_ray: per_ray(trace_tris),
+        default_model: Model {
+            kb: model.kb,
+            kt: model.kt,
+        },
+        calibration: fit.map(Calibration::from),
+        build_seconds: bvh.report().build_seconds,
+    })
+}
+
+/// The estimate and the full trace on the first usable GPU adapter: the best of `repeats`
+/// times of each, the estimates, and the adapter's name.
+#[cfg(feature = "gpu")]
+fn gpu_estimate(
+    bvh: &Bvh,
+    rays: &RayBatch,
+    segments: &[(RayBatch, RayKind)],
+    jobs: &[(&[std::ops::Range<usize>], Probe)],
+    rate: SampleRate,
+    repeats: usize,
+) -> Result<(f64, Vec<Work>, f64, String), CliError> {
+    use raytrace::gpu::{GpuDevice, GpuReducedTraversal};
+    let gpu_err = crate::render_gpu::gpu_err("device");
+    let ctx = crate::render_gpu::first_gpu("device")?;
+    let name = ctx.info.name.clone();
+    let dev = GpuDevice::new(ctx, bvh).map_err(gpu_err)?;
+    let estimator = GpuReducedTraversal::new(&dev, rays, rate);
+    let (estimate_seconds, est) = min_time(repeats, || {
+        let mut work = Vec::new();
+        for &(own, p) in jobs {
+            work.extend(estimator.with_probe(p).try_work(own).map_err(gpu_err)?);
+        }
+        Ok::<_, CliError>(work)
+    })?;
+    let (trace_seconds, ()) = min_time(repeats, || {
+        for (batch, kind) in segments {
+            let all = 0..batch.len();
+            let hits = dev
+                .hits(kind.is_occlusion(), batch, &[&all])
+                .map_err(gpu_err)?;
+            std::hint::black_box(hits);
+        }
+        Ok::<_, CliError>(())
+    })?;
+    Ok((estimate_seconds, est, trace_seconds, name))
+}
+
+/// Without the `gpu` feature, `--device gpu` is refused.
+#[cfg(not(feature = "gpu"))]
+fn gpu_estimate(
+    _: &Bvh,
+    _: &RayBatch,
+    _: &[(RayBatch, RayKind)],
+    _: &[(&[std::ops::Range<usize>], Probe)],
+    _: SampleRate,
+    _: usize,
+) -> Result<(f64, Vec<Work>, f64, String), CliError> {
+    Err(CliError::Arg {
+        flag: "device",
+        value: "gpu".into(),
+        message: "this cobalt was built without the `gpu` feature".into(),
+    })
+}
+
+/// The least time of each step over `repeats` rounds, the steps taken in turn each round.
+fn min_times(
+    repeats: usize,
+    steps: &mut [&mut dyn FnMut() -> Result<(), CliError>],
+) -> Result<Vec<f64>, CliError> {
+    let mut best = vec![f64::INFINITY; steps.len()];
+    for _ in 0..repeats.max(1) {
+        for (step, best) in steps.iter_mut().zip(&mut best) {
+            let start = Instant::now();
+            step()?;
+            *best = best.min(start.elapsed().as_secs_f64());
+        }
+    }
+    Ok(best)
+}
+
+/// Runs `f` `repeats` times; the least wall time and the last result. The first run warms
+/// caches and the thread pool, the minimum drops interruptions by other processes.
+fn min_time<T, E>(repeats: usize, mut f: impl FnMut() -> Result<T, E>) -> Result<(f64, T), CliError>
+where
+    CliError: From<E>,
+{
+    let mut best = f64::INFINITY;
+    let mut last = None;
+    for _ in 0..repeats.max(1) {
+        let start = Instant::now();
+        let out = f()?;
+        best = best.min(start.elapsed().as_secs_f64());
+        last = Some(out);
+    }
+    last.map(|out| (best, out))
+        .ok_or_else(|| CliError::Write("no timing was taken".into()))
+}
