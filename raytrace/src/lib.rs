@@ -45,6 +45,7 @@ pub mod gpu;
 mod obj;
 mod packet;
 pub mod paths;
+mod probe;
 mod ray;
 pub mod ray_device;
 mod scene;
