@@ -58,12 +58,6 @@ impl Camera {
         cam
     }
 
-    /// [`Camera::orbit`] under its former name, for callers not yet moved to it.
-    #[doc(hidden)]
-    pub fn thesis(bounds: &Aabb, index: usize) -> Self {
-        Self::orbit(bounds, index)
-    }
-
     /// The ray through pixel `(x, y)` (`y = 0` is the top row), through the pixel centre.
     pub fn ray(&self, x: u32, y: u32, width: u32, height: u32) -> Ray {
         self.ray_in(&self.frame(width, height), x, y, width, height)

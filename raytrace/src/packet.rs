@@ -612,7 +612,7 @@ mod tests {
             .unwrap();
         let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
         let b = scene.bounds();
-        let mut rays = Camera::thesis(&b, 1).primary_rays(37, 29).rays;
+        let mut rays = Camera::orbit(&b, 1).primary_rays(37, 29).rays;
         let mut rng = Rng::new(testkit::seed(5));
         let c = b.center();
         for k in 0..3001 {

@@ -560,7 +560,7 @@ fn raygen_equals_cpu_primary_rays() {
     let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
     let renderer = GpuRenderer::new(ctx, &scene, &bvh).expect("renderer");
     for (w, h, cam) in [(64, 64, 0), (128, 32, 1), (37, 23, 2), (1, 5, 3)] {
-        let camera = Camera::thesis(&scene.bounds(), cam);
+        let camera = Camera::orbit(&scene.bounds(), cam);
         let cpu = camera.primary_rays(w, h);
         let n = cpu.rays.len();
         // Two tasks, the later one first: a launch's slots follow its task list.
@@ -648,7 +648,7 @@ fn check_ao_image(name: &str, samples: u32, split: bool) {
         ctx.limits.max_storage_buffer_binding_size = u64::from(w * h) * size_of::<GpuRay>() as u64;
     }
     let renderer = GpuRenderer::new(ctx, &scene, &bvh).expect("renderer");
-    let camera = Camera::thesis(&scene.bounds(), 1);
+    let camera = Camera::orbit(&scene.bounds(), 1);
     let settings = AoSettings {
         samples,
         seed: 7,
@@ -732,7 +732,7 @@ fn check_whitted_image(name: &str, bent: bool) {
     let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
     let renderer = GpuRenderer::new(ctx, &scene, &bvh).expect("renderer");
     let (w, h) = (64, 48);
-    let camera = Camera::thesis(&scene.bounds(), 2);
+    let camera = Camera::orbit(&scene.bounds(), 2);
     let options = RenderOptions::new(w, h, camera, shader);
     let cpu = render(&scene, &mut CpuTracer::new(&bvh), &options);
     let (gpu, _) = gpu_film(&renderer, &options).expect("GPU render");
@@ -794,7 +794,7 @@ fn a_scheduled_gpu_frame_moves_bytes_by_task_not_by_ray() {
     let Some(ctx) = gpu() else { return };
     let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
     let (w, h) = (96, 80);
-    let camera = Camera::thesis(&scene.bounds(), 0);
+    let camera = Camera::orbit(&scene.bounds(), 0);
     let mut seen = Vec::new();
     for samples in [8, 16] {
         let settings = AoSettings {
@@ -864,7 +864,7 @@ fn launches_and_frames_of_every_size_share_one_device() {
     use crate::scheduled::{Mode, Settings};
     let Some(ctx) = gpu() else { return };
     let (scene, bvh) = testkit::builtin_with_bvh("builtin:cornell:0.2").expect("scene");
-    let camera = Camera::thesis(&scene.bounds(), 1);
+    let camera = Camera::orbit(&scene.bounds(), 1);
     let ao = Shader::Ao(AoSettings {
         samples: 4,
         ..AoSettings::default()
@@ -910,7 +910,7 @@ fn one_task_launches_move_their_counts_only() {
     use crate::scheduled::{Mode, Settings};
     let Some(ctx) = gpu() else { return };
     let (scene, bvh) = testkit::builtin_with_bvh("builtin:cornell:0.2").expect("scene");
-    let camera = Camera::thesis(&scene.bounds(), 1);
+    let camera = Camera::orbit(&scene.bounds(), 1);
     let whitted = WhittedSettings::default();
     let shaders = [
         Shader::Ao(AoSettings {
@@ -972,7 +972,7 @@ fn the_header_kernel_counts_as_the_host_does() {
     let Some(ctx) = gpu() else { return };
     let (scene, bvh) = testkit::builtin_with_bvh("builtin:cornell:0.2").expect("scene");
     let r = GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer");
-    let camera = Camera::thesis(&scene.bounds(), 0);
+    let camera = Camera::orbit(&scene.bounds(), 0);
     let (w, h) = (40u32, 30u32);
     let frame = FrameParams {
         width: w,
@@ -1040,7 +1040,7 @@ fn estimating_gpus_move_at_most_64_bytes_a_task() {
     use crate::scheduled::{Mode, Settings};
     let Some(ctx) = gpu() else { return };
     let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
-    let camera = Camera::thesis(&scene.bounds(), 0);
+    let camera = Camera::orbit(&scene.bounds(), 0);
     let ao = |samples| {
         Shader::Ao(AoSettings {
             samples,
@@ -1104,7 +1104,7 @@ fn estimating_gpus_move_at_most_64_bytes_a_task() {
 fn an_undrained_launch_is_run_again_checked() {
     let Some(ctx) = gpu() else { return };
     let (scene, bvh) = testkit::builtin_with_bvh("builtin:cornell:0.2").expect("scene");
-    let camera = Camera::thesis(&scene.bounds(), 2);
+    let camera = Camera::orbit(&scene.bounds(), 2);
     for shader in [
         Shader::Ao(AoSettings {
             samples: 3,
@@ -1153,7 +1153,7 @@ fn a_gpu_estimates_its_paths_as_the_host_does() {
     for name in ["builtin:cornell:0.2", "builtin:forest:0.05"] {
         let (scene, bvh) = testkit::builtin_with_bvh(name).expect("scene");
         let mut device = GpuPaths::new(ctx.clone(), &scene, &bvh).expect("device");
-        let camera = Camera::thesis(&scene.bounds(), 1);
+        let camera = Camera::orbit(&scene.bounds(), 1);
         let shaders = [
             Shader::Ao(AoSettings {
                 samples: 6,
@@ -1199,7 +1199,7 @@ fn the_first_devices_kind_estimates_a_mixed_frame() {
     let options = RenderOptions::new(
         40,
         32,
-        Camera::thesis(&scene.bounds(), 0),
+        Camera::orbit(&scene.bounds(), 0),
         Shader::Ao(AoSettings {
             samples: 4,
             ..AoSettings::default()
