@@ -78,7 +78,7 @@ impl Plan<'_> {
 
     fn frames_record(&self, w: Workload, settings: Settings, frames: &[FrameStats]) -> Record {
         let mut t = Totals::default();
-        let mut traffic = raytrace::paths::Traffic::default();
+        let mut traffic = raytrace::Traffic::default();
         let mut film_bytes = 0;
         for f in frames {
             t.add(Totals {

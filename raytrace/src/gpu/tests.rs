@@ -988,7 +988,7 @@ fn the_header_kernel_counts_as_the_host_does() {
         let tasks: Vec<std::ops::Range<usize>> = cuts.windows(2).map(|c| c[0]..c[1]).collect();
         let refs: Vec<&std::ops::Range<usize>> = tasks.iter().collect();
         let (stride, lights) = (1 + rng.below(4), rng.below(3));
-        let mut traffic = crate::paths::Traffic::default();
+        let mut traffic = crate::Traffic::default();
         let (stage, _) = r
             .begin(
                 &frame,
