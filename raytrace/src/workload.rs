@@ -10,7 +10,7 @@ pub fn ao_radius(scene: &Scene) -> f32 {
 }
 
 /// Primary rays of `width x height` pixels for each camera in `cameras` (indices of
-/// [`Camera::thesis`]), one camera after another, each in Morton order.
+/// [`Camera::orbit`]), one camera after another, each in Morton order.
 pub fn thesis_primary(
     scene: &Scene,
     width: u32,
