@@ -176,7 +176,7 @@ pub(super) fn measure(
                 }
                 Ok(())
             };
-            // Taken in turns, so that a noisy moment of this shared machine falls on all of
+            // Taken in turns, so that a noisy moment of a shared machine falls on all of
             // them alike rather than on one.
             let mut steps: Vec<&mut dyn FnMut() -> Result<(), CliError>> =
                 vec![&mut trace, &mut rest];
