@@ -36,14 +36,16 @@ impl Header {
     /// Byte offset of [`Header::secondary`].
     pub const SECONDARY: u64 = 12;
 
+    /// Slots of a launch of `tasks`: every `stride`-th path of each task, from its first.
+    pub fn slots(tasks: &[&Range<usize>], stride: u32) -> u64 {
+        let stride = stride.max(1) as usize;
+        tasks.iter().map(|t| t.len().div_ceil(stride) as u64).sum()
+    }
+
     /// The header `header.wgsl` makes for `tasks` under `setup`, or `None` when the slots
     /// overflow 32 bits (the caller's binding limit refuses such launches first).
     pub fn of(tasks: &[&Range<usize>], setup: &Setup) -> Option<Self> {
-        let stride = setup.stride.max(1) as usize;
-        let count = tasks
-            .iter()
-            .map(|t| t.len().div_ceil(stride))
-            .try_fold(0u32, |n, s| n.checked_add(u32::try_from(s).ok()?))?;
+        let count = u32::try_from(Self::slots(tasks, setup.stride)).ok()?;
         let chunk = count.min(setup.fit);
         Some(Self {
             count,

@@ -242,8 +242,7 @@ impl GpuRenderer {
         }
         let pixels = u64::from(width) * u64::from(height);
         let stride = stride.max(1);
-        let slots = |t: &Range<usize>| t.len().div_ceil(stride as usize) as u64;
-        let n: u64 = tasks.iter().map(|t| slots(t)).sum();
+        let n = Header::slots(tasks, stride);
         let per_launch = rays_per_launch(&ctx.limits) as u64;
         if n > per_launch {
             return Err(too_large(
