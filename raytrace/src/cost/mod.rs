@@ -27,7 +27,7 @@
 //!
 //! let estimator = ReducedTraversal::new(&bvh, &rays, SampleRate::new(0.125)?);
 //! let estimate = estimator.estimate_timed(&tasks)?; // costs and overhead
-//! let (est, full) = (estimator.try_work(&tasks)?, full_work(&bvh, &rays, &tasks, estimator.probe())?);
+//! let (est, full) = (estimator.try_work(&tasks)?, full_work(&bvh, &rays, &tasks, estimator.walk())?);
 //! let model = estimator.model();
 //! let error = prediction_error(&model.costs(&est), &model.costs(&full))?;
 //! assert!(estimate.costs.len() == 8 && error < 0.5);
