@@ -86,8 +86,8 @@ fn bench_writes_one_record_per_run_and_the_charts() {
     let simulated = runs.iter().filter(|r| r["source"] == "simulated").count();
     // 2 shaders × 1 size × 2 device counts × 2 links × 5 policies × 2 modes.
     assert_eq!(simulated, 80);
-    // Table 4.1's trade: 2 ray kinds × 1 task size × 6 rates of the bench's probe, beside the
-    // thesis where it has the rate, and full sampling exact; and the trace probe's 4 rates.
+    // Table 4.1's trade: 2 ray kinds × 1 task size × 6 rates of the bench's walk, beside the
+    // thesis where it has the rate, and full sampling exact; and the trace walk's 4 rates.
     let trade: Vec<_> = runs
         .iter()
         .filter(|r| r["source"] == "sampling_trade")
@@ -95,7 +95,7 @@ fn bench_writes_one_record_per_run_and_the_charts() {
     assert_eq!(trade.len(), 20);
     let traced = trade
         .iter()
-        .filter(|p| p["probe"].as_str().is_some_and(|n| n.starts_with("trace")))
+        .filter(|p| p["walk"].as_str().is_some_and(|n| n.starts_with("trace")))
         .count();
     assert_eq!(traced, 8);
     for p in &trade {
@@ -103,11 +103,11 @@ fn bench_writes_one_record_per_run_and_the_charts() {
         let error = p["prediction_error"].as_f64().expect("error");
         assert!(p["overhead"].as_f64().is_some_and(|o| o > 0.0), "{p}");
         assert!(p["meets_target"].is_boolean(), "{p}");
-        // The thesis's figures stand beside its own probe's rows.
-        let thesis_probe = p["probe"] == "thesis";
+        // The thesis's figures stand beside its own walk's rows.
+        let reduced_walk = p["walk"] == "reduced";
         assert_eq!(
             p["thesis_overhead"].is_null(),
-            rate < 0.125 || !thesis_probe,
+            rate < 0.125 || !reduced_walk,
             "{p}"
         );
         if rate == 1.0 {
@@ -182,7 +182,7 @@ fn bench_rejects_bad_values_naming_them() {
         ("--cameras", "5", "5"),
         ("--scene", "/no/such/scene.obj", "/no/such/scene.obj"),
         // Flags of the generation pipeline, given without it.
-        ("--probe", "trace", "trace"),
+        ("--walk", "trace", "trace"),
         ("--estimate-on", "gpu", "gpu"),
     ] {
         let o = cobalt(&["bench", flag, value]);

@@ -159,39 +159,39 @@ fn whitted_rays_are_every_generation_of_a_render() {
     assert_eq!(num(&full, "prediction_error"), 0.0);
 }
 
-/// `--probe first-leaf` ends camera rays at their first leaf: fewer nodes per ray than the
-/// thesis's probe, reported as such, and still the exact "full" at a sampling rate of 1, also
-/// for Whitted's mix of generations (its shadow rays keep the thesis's probe).
+/// `--walk first-leaf` ends camera rays at their first leaf: fewer nodes per ray than the
+/// thesis's walk, reported as such, and still the exact "full" at a sampling rate of 1, also
+/// for Whitted's mix of generations (its shadow rays keep the reduced walk).
 #[test]
-fn the_first_leaf_probe_is_reported_and_enters_fewer_nodes() {
-    let thesis = json(&["--rays", "primary", "--probe", "thesis"]);
-    let first = json(&["--rays", "primary", "--probe", "first-leaf"]);
-    assert_eq!(thesis["probe"], "thesis");
-    assert_eq!(first["probe"], "first-leaf");
+fn the_first_leaf_walk_is_reported_and_enters_fewer_nodes() {
+    let thesis = json(&["--rays", "primary", "--walk", "reduced"]);
+    let first = json(&["--rays", "primary", "--walk", "first-leaf"]);
+    assert_eq!(thesis["walk"], "reduced");
+    assert_eq!(first["walk"], "first-leaf");
     let nodes = |v: &serde_json::Value| num(v, "reduced_nodes_per_ray");
     assert!(nodes(&first) < nodes(&thesis), "{first} vs {thesis}");
     let all = json(&[
         "--rays",
         "primary",
-        "--probe",
+        "--walk",
         "first-leaf",
         "--sample-rate",
         "1",
     ]);
     assert_eq!(num(&all, "prediction_error"), 0.0);
-    let whitted = |probe| {
+    let whitted = |walk| {
         json(&[
             "--rays",
             "whitted",
-            "--probe",
-            probe,
+            "--walk",
+            walk,
             "--size",
             "32x32",
             "--sample-rate",
             "1",
         ])
     };
-    let (w_thesis, w_first) = (whitted("thesis"), whitted("first-leaf"));
+    let (w_thesis, w_first) = (whitted("reduced"), whitted("first-leaf"));
     assert_eq!(num(&w_first, "prediction_error"), 0.0);
     assert!(
         nodes(&w_first) < nodes(&w_thesis),
@@ -201,10 +201,16 @@ fn the_first_leaf_probe_is_reported_and_enters_fewer_nodes() {
 
 #[test]
 fn bad_arguments_exit_2_naming_flag_and_value() {
-    let cases: [(&[&str], &[&str]); 9] = [
+    let cases: [(&[&str], &[&str]); 12] = [
+        (&["--walk", "deepest"], &["--walk", "deepest", "first-leaf"]),
+        (&["--sample-run", "0"], &["--sample-run", "0"]),
         (
-            &["--probe", "deepest"],
-            &["--probe", "deepest", "first-leaf"],
+            &["--clock", "sundial"],
+            &["--clock", "sundial", "wall or cpu"],
+        ),
+        (
+            &["--clock", "cpu", "--device", "gpu"],
+            &["clock", "cpu", "--device gpu"],
         ),
         (&["--sample-rate", "0"], &["--sample-rate", "0"]),
         (&["--sample-rate", "1.5"], &["--sample-rate", "1.5"]),
@@ -239,7 +245,7 @@ fn bad_arguments_exit_2_naming_flag_and_value() {
 
 /// `--device gpu` samples, compacts, traverses and sums on the GPU, and its estimates are the
 /// CPU's: the same prediction errors to the bit, for primary, AO and Whitted rays, with either
-/// probe. Without any
+/// walk. Without any
 /// adapter: a note, or a failure when `CI` is set. A task beyond the GPU's limit is refused,
 /// naming `--task-size`.
 #[test]
@@ -261,20 +267,20 @@ fn gpu_estimates_equal_cpu_estimates() {
             .args(all);
         cmd.arg("--json").output().expect("the cobalt binary runs")
     };
-    for (rays, probe) in [
-        ("primary", "thesis"),
-        ("ao", "thesis"),
-        ("whitted", "thesis"),
+    for (rays, walk) in [
+        ("primary", "reduced"),
+        ("ao", "reduced"),
+        ("whitted", "reduced"),
         ("primary", "first-leaf"),
         ("whitted", "first-leaf"),
     ] {
-        let cpu = run(&["--rays", rays, "--probe", probe]);
+        let cpu = run(&["--rays", rays, "--walk", walk]);
         assert!(
             cpu.status.success(),
             "{}",
             String::from_utf8_lossy(&cpu.stderr)
         );
-        let gpu = run(&["--rays", rays, "--probe", probe, "--device", "gpu"]);
+        let gpu = run(&["--rays", rays, "--walk", walk, "--device", "gpu"]);
         let err = String::from_utf8_lossy(&gpu.stderr);
         if err.contains("no GPU adapter") {
             assert!(
@@ -301,10 +307,10 @@ fn gpu_estimates_equal_cpu_estimates() {
             "sampled_rays",
             "tasks",
         ] {
-            assert_eq!(c[key], g[key], "{rays} {probe}: {key}");
+            assert_eq!(c[key], g[key], "{rays} {walk}: {key}");
         }
-        assert_eq!(g["probe"], probe);
-        assert!(num(&g, "prediction_error") > 0.0, "{rays} {probe}: {g}");
+        assert_eq!(g["walk"], walk);
+        assert!(num(&g, "prediction_error") > 0.0, "{rays} {walk}: {g}");
     }
     // One task longer than the 46 340 rays the device's sample arithmetic once allowed: the
     // GPU samples it as the CPU does.
@@ -315,8 +321,8 @@ fn gpu_estimates_equal_cpu_estimates() {
         "256x256",
         "--task-size",
         "50000",
-        "--probe",
-        "thesis",
+        "--walk",
+        "reduced",
     ];
     let (c, g) = (run(&long), run(&[&long[..], &["--device", "gpu"]].concat()));
     assert!(g.status.success(), "{}", String::from_utf8_lossy(&g.stderr));
@@ -328,8 +334,8 @@ fn gpu_estimates_equal_cpu_estimates() {
     for key in ["prediction_error", "sampled_rays", "tasks"] {
         assert_eq!(c[key], g[key], "tasks of 50000 rays: {key}");
     }
-    // The trace probe runs on the CPU only, and the GPU says so.
-    let refused = run(&["--rays", "primary", "--probe", "trace", "--device", "gpu"]);
+    // The trace walk runs on the CPU only, and the GPU says so.
+    let refused = run(&["--rays", "primary", "--walk", "trace", "--device", "gpu"]);
     let err = String::from_utf8_lossy(&refused.stderr);
     assert!(
         !refused.status.success() && err.contains("`trace`"),
@@ -337,36 +343,65 @@ fn gpu_estimates_equal_cpu_estimates() {
     );
 }
 
-/// `--probe trace` traces the sample for real: its estimate of a full sample is the trace's
+/// `--walk trace` traces the sample for real: its estimate of a full sample is the trace's
 /// own counts, and the overhead net of the sampled rays (which a render does not trace
 /// again) is reported beside the gross one.
 #[test]
-fn the_trace_probe_reports_its_net_overhead() {
+fn the_trace_walk_reports_its_net_overhead() {
     for rays in ["primary", "ao"] {
-        let v = json(&["--rays", rays, "--probe", "trace"]);
-        assert_eq!(v["probe"], "trace");
+        let v = json(&["--rays", rays, "--walk", "trace"]);
+        assert_eq!(v["walk"], "trace");
         let (gross, net) = (num(&v, "overhead"), num(&v, "net_overhead"));
         let (full, rest) = (num(&v, "trace_seconds"), num(&v, "rest_seconds"));
         let est = num(&v, "estimate_seconds");
         assert!(gross > 0.0 && rest > 0.0, "{v}");
         assert!(((est + rest - full) / full - net).abs() < 1e-9, "{v}");
-        let full_sample = json(&["--rays", rays, "--probe", "trace", "--sample-rate", "1"]);
+        let full_sample = json(&["--rays", rays, "--walk", "trace", "--sample-rate", "1"]);
         assert_eq!(num(&full_sample, "prediction_error"), 0.0);
         assert_eq!(
             full_sample["error_vs_time_full"], full_sample["error_vs_time_trace"],
-            "the full trace probe is the trace's own counts"
+            "the full trace walk is the trace's own counts"
         );
     }
-    // A reduced probe's sample is wasted: its net overhead is its overhead.
-    let thesis = json(&["--rays", "primary", "--probe", "thesis"]);
+    // A reduced walk's sample is wasted: its net overhead is its overhead.
+    let thesis = json(&["--rays", "primary", "--walk", "reduced"]);
     assert!(thesis.get("rest_seconds").is_none(), "{thesis}");
     assert_eq!(thesis["net_overhead"], thesis["overhead"]);
 }
 
-/// On the CPU the trace probe is the default, the report leads with the figures judged by
-/// time, and every probe's trade is timed beside the chosen one's.
+/// `--sample-run` keeps as many samples in longer runs, and `--clock cpu` times every step on
+/// the process's CPU time; both are reported.
 #[test]
-fn estimates_are_judged_by_time_with_every_probe_beside() {
+fn the_sample_run_and_the_clock_are_reported() {
+    let pairs = json(&["--rays", "primary"]);
+    let runs = json(&["--rays", "primary", "--sample-run", "16", "--clock", "cpu"]);
+    assert_eq!(
+        (pairs["sample_run"].as_u64(), runs["sample_run"].as_u64()),
+        (Some(2), Some(16))
+    );
+    assert_eq!(
+        (pairs["clock"].as_str(), runs["clock"].as_str()),
+        (Some("wall"), Some("cpu"))
+    );
+    assert_eq!(pairs["sampled_rays"], runs["sampled_rays"]);
+    for key in [
+        "estimate_seconds",
+        "trace_seconds",
+        "rest_seconds",
+        "net_overhead",
+    ] {
+        assert!(
+            runs[key].as_f64().is_some_and(f64::is_finite),
+            "{key}: {runs}"
+        );
+    }
+    assert!(num(&runs, "trace_seconds") > 0.0, "{runs}");
+}
+
+/// On the CPU the trace walk is the default, the report leads with the figures judged by
+/// time, and every walk's trade is timed beside the chosen one's.
+#[test]
+fn estimates_are_judged_by_time_with_every_walk_beside() {
     let out = cobalt(&[
         "--scene",
         SCENE,
@@ -391,11 +426,11 @@ fn estimates_are_judged_by_time_with_every_probe_beside() {
     ];
     assert!(order.windows(2).all(|w| at(w[0]) < at(w[1])), "{text}");
     let v: serde_json::Value = serde_json::from_str(&text).expect("JSON");
-    assert_eq!(v["probe"], "trace");
-    let probes = v["probes"].as_array().expect("every probe's trade");
-    let names: Vec<&str> = probes.iter().filter_map(|p| p["probe"].as_str()).collect();
-    assert_eq!(names, ["trace", "thesis", "first-leaf"]);
-    let trace = &probes[0];
+    assert_eq!(v["walk"], "trace");
+    let walks = v["walks"].as_array().expect("every walk's trade");
+    let names: Vec<&str> = walks.iter().filter_map(|p| p["walk"].as_str()).collect();
+    assert_eq!(names, ["trace", "reduced", "first-leaf"]);
+    let trace = &walks[0];
     assert_eq!(trace["error_vs_time"], v["error_vs_time"]);
     assert_eq!(trace["net_overhead"], v["net_overhead"]);
 }

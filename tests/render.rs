@@ -112,7 +112,7 @@ fn bad_arguments_exit_2_naming_the_value_and_write_nothing() {
         ("--eye", "1,2"),
         ("--policy", "round-robin"),
         ("--mode", "guess"),
-        ("--probe", "deepest"),
+        ("--walk", "deepest"),
         ("--task-size", "0"),
         ("--task-size", "many"),
         ("--sample-rate", "0"),
@@ -252,21 +252,21 @@ fn every_policy_mode_and_device_list_renders_the_same_image() {
     }
 }
 
-/// `--probe first-leaf` and `--probe trace` plan with their probe and say so; the image is
-/// the thesis probe's, whatever the shader (the trace probe's sampled hits stand in for the
+/// `--walk first-leaf` and `--walk trace` plan with their walk and say so; the image is
+/// the reduced walk's, whatever the shader (the trace walk's sampled hits stand in for the
 /// devices' trace of those rays).
 #[test]
-fn every_probe_renders_the_same_image() {
+fn every_walk_renders_the_same_image() {
     for shader in ["whitted", "ao"] {
         let base = ["--devices", "cpu:2", "--policy", "hybrid"];
         let (want, thesis) = render_with(&format!("{shader}-thesis"), shader, &base);
-        assert_eq!(thesis["probe"], "thesis");
-        for probe in ["first-leaf", "trace"] {
+        assert_eq!(thesis["walk"], "reduced");
+        for walk in ["first-leaf", "trace"] {
             let mut args = base.to_vec();
-            args.extend(["--probe", probe]);
-            let (png, got) = render_with(&format!("{shader}-{probe}"), shader, &args);
-            assert!(png == want, "{shader}, {probe}: the image differs");
-            assert_eq!(got["probe"], probe);
+            args.extend(["--walk", walk]);
+            let (png, got) = render_with(&format!("{shader}-{walk}"), shader, &args);
+            assert!(png == want, "{shader}, {walk}: the image differs");
+            assert_eq!(got["walk"], walk);
         }
     }
 }
@@ -491,7 +491,7 @@ fn the_path_pipeline_renders_the_cpu_image() {
         }
     }
     for (extra, flag) in [
-        (&["gpu", "--probe", "trace"][..], "--probe"),
+        (&["gpu", "--walk", "trace"][..], "--walk"),
         (&["paths", "--estimate-on", "gpu"][..], "--estimate-on"),
         (&["generations", "--repeats", "2"][..], "--repeats"),
     ] {

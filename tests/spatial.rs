@@ -73,7 +73,7 @@ fn knn_json_has_the_bench_record_shape() {
         "--policy",
         "lpt",
         "--estimator",
-        "probe",
+        "sampled",
         "--json",
     ]);
     check_shape(&r, 1, false);

@@ -45,7 +45,6 @@ pub mod gpu;
 mod obj;
 mod packet;
 pub mod paths;
-mod probe;
 mod ray;
 pub mod ray_device;
 mod scene;
@@ -64,6 +63,7 @@ pub mod traverse;
 mod traverse_shared;
 mod traverse_wide;
 mod triangle;
+mod walk;
 pub mod workload;
 
 pub use aabb::Aabb;
@@ -79,7 +79,7 @@ pub use scene_source::SceneSource;
 /// The seeded generator of the built-in scenes and the seeded tests.
 pub use sched::Rng;
 pub use traffic::Traffic;
-pub use traverse::{Counts, Layout, Probe};
+pub use traverse::{Counts, Layout, Walk};
 pub use triangle::{RayShear, intersect_watertight};
 
 /// Result alias for this crate's [`Error`].

@@ -10,9 +10,9 @@
 //! to four rays. This is what makes estimation cheap on a CPU, where, unlike the thesis's GPU,
 //! fetching triangles is not what dominates a trace.
 //!
-//! The first-leaf probe ([`Probe::FirstLeaf`]) does shorten rays, so there the order of the
+//! The first-leaf walk ([`Walk::FirstLeaf`]) does shorten rays, so there the order of the
 //! walk matters. It takes children in an order set by the direction's signs
-//! ([`crate::probe::near_child_first`]), the same for every lane of a packet whose lanes
+//! ([`crate::walk::near_child_first`]), the same for every lane of a packet whose lanes
 //! share their signs; each lane keeps its own `tmax`, and a popped node keeps only the lanes
 //! whose entry distance is still within it, which is the scalar walk's pop rule.
 //!
@@ -23,7 +23,7 @@
 //! latencies (5–14 % slower). An AO packet's lanes share a node 3.1–3.8 times on average, a
 //! coherent packet's 5–7 times.
 
-use crate::probe::Probe;
+use crate::walk::Walk;
 use crate::{Bvh, Counts, RayBatch};
 
 /// True when the traversal traces ray `i` at all: exactly when [`crate::RayShear::new`] accepts
@@ -40,20 +40,20 @@ fn traceable(rays: &RayBatch, i: usize) -> bool {
 /// `lane_of` maps an entry of `out` to a ray of `rays`: a range, or a compacted sample's ray
 /// indices, read in place without copying the sample out.
 ///
-/// [`Probe::FirstLeaf`] walks in packets only where AVX2 runs and the packet's directions
+/// [`Walk::FirstLeaf`] walks in packets only where AVX2 runs and the packet's directions
 /// share their signs (its child order follows them); other packets run ray by ray.
 #[inline]
 pub(crate) fn reduced_lanes(
     bvh: &Bvh,
     rays: &RayBatch,
-    probe: Probe,
+    walk: Walk,
     lane_of: impl Fn(usize) -> usize,
     out: &mut [Counts],
 ) {
     // A real trace shortens each ray at its own hits: its lanes would part at once.
-    if let Probe::Trace { .. } = probe {
+    if let Walk::Trace { .. } = walk {
         for (j, c) in out.iter_mut().enumerate() {
-            *c = bvh.probe(&rays.get(lane_of(j)), probe);
+            *c = bvh.walk(&rays.get(lane_of(j)), walk);
         }
         return;
     }
@@ -62,14 +62,14 @@ pub(crate) fn reduced_lanes(
         for (k, part) in out.chunks_mut(8).enumerate() {
             let idx: [usize; 8] = std::array::from_fn(|j| lane_of(8 * k + j.min(part.len() - 1)));
             // SAFETY: AVX2 is available, as just checked.
-            let got = unsafe { avx2::reduced8(bvh, rays, probe, &idx, part.len()) };
+            let got = unsafe { avx2::reduced8(bvh, rays, walk, &idx, part.len()) };
             part.copy_from_slice(&got[..part.len()]);
         }
         return;
     }
-    if probe != Probe::Thesis {
+    if walk != Walk::Reduced {
         for (j, c) in out.iter_mut().enumerate() {
-            *c = bvh.probe(&rays.get(lane_of(j)), probe);
+            *c = bvh.walk(&rays.get(lane_of(j)), walk);
         }
         return;
     }
@@ -156,14 +156,14 @@ mod sse {
     pub(super) fn reduced4(bvh: &Bvh, rays: &RayBatch, idx: &[usize; 4], n: usize) -> [Counts; 4] {
         // A small stack for the usual trees: it is initialised for every packet.
         if bvh.depth() <= 64 {
-            walk::<64>(bvh, rays, idx, n)
+            walk_packet::<64>(bvh, rays, idx, n)
         } else {
-            walk::<{ MAX_DEPTH }>(bvh, rays, idx, n)
+            walk_packet::<{ MAX_DEPTH }>(bvh, rays, idx, n)
         }
     }
 
     #[inline(always)]
-    fn walk<const STACK: usize>(
+    fn walk_packet<const STACK: usize>(
         bvh: &Bvh,
         rays: &RayBatch,
         idx: &[usize; 4],
@@ -276,8 +276,8 @@ mod avx2 {
     use std::mem::MaybeUninit;
 
     use crate::bvh::MAX_DEPTH;
-    use crate::probe::{Probe, near_child_first};
     use crate::slab::far_scale;
+    use crate::walk::{Walk, near_child_first};
     use crate::{Bvh, Counts, Node, RayBatch};
 
     /// Eight rays in lanes; see the SSE version for the per-lane arithmetic.
@@ -367,23 +367,23 @@ mod avx2 {
     pub(super) unsafe fn reduced8(
         bvh: &Bvh,
         rays: &RayBatch,
-        probe: Probe,
+        walk: Walk,
         idx: &[usize; 8],
         n: usize,
     ) -> [Counts; 8] {
         if bvh.depth() <= 64 {
-            walk::<64>(bvh, rays, probe, idx, n)
+            walk_packet::<64>(bvh, rays, walk, idx, n)
         } else {
-            walk::<{ MAX_DEPTH }>(bvh, rays, probe, idx, n)
+            walk_packet::<{ MAX_DEPTH }>(bvh, rays, walk, idx, n)
         }
     }
 
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn walk<const STACK: usize>(
+    fn walk_packet<const STACK: usize>(
         bvh: &Bvh,
         rays: &RayBatch,
-        probe: Probe,
+        walk: Walk,
         idx: &[usize; 8],
         n: usize,
     ) -> [Counts; 8] {
@@ -446,25 +446,25 @@ mod avx2 {
         if uniform {
             lanes.near = std::array::from_fn(|a| if neg[a] == valid { 4 + a } else { a });
         }
-        match (probe, uniform) {
-            (Probe::Thesis, true) => traverse::<STACK, true>(bvh, &lanes, valid, n),
-            (Probe::Thesis, false) => traverse::<STACK, false>(bvh, &lanes, valid, n),
-            (Probe::FirstLeaf, true) => {
+        match (walk, uniform) {
+            (Walk::Reduced, true) => traverse::<STACK, true>(bvh, &lanes, valid, n),
+            (Walk::Reduced, false) => traverse::<STACK, false>(bvh, &lanes, valid, n),
+            (Walk::FirstLeaf, true) => {
                 let negative = std::array::from_fn(|a| neg[a] == valid && valid != 0);
                 first_leaf::<STACK>(bvh, lanes, negative, valid, n)
             }
-            (Probe::FirstLeaf, false) | (Probe::Trace { .. }, _) => {
+            (Walk::FirstLeaf, false) | (Walk::Trace { .. }, _) => {
                 // Lanes that disagree on a sign may disagree on the child order (and a real
                 // trace, which `reduced_lanes` never sends here, shortens each lane its way).
                 for (k, c) in out.iter_mut().enumerate().take(n) {
-                    *c = bvh.probe(&rays.get(lane(k)), probe);
+                    *c = bvh.walk(&rays.get(lane(k)), walk);
                 }
                 out
             }
         }
     }
 
-    /// [`traverse`] for [`Probe::FirstLeaf`], on a uniform packet (`lanes.near` set, and
+    /// [`traverse`] for [`Walk::FirstLeaf`], on a uniform packet (`lanes.near` set, and
     /// `negative` its direction's signs). Each lane's `tmax` shrinks to the exit of the first
     /// leaf it enters; a popped node keeps the lanes whose entry is still within their range,
     /// which is the scalar walk's `t_near <= best_t` on the same entry distances.
@@ -652,7 +652,7 @@ mod tests {
         // The widest packets this CPU runs (8 lanes with AVX2) agree too, from any offset.
         for first in [0, 3] {
             let mut wide = vec![Counts::default(); rays.len() - first];
-            reduced_lanes(&bvh, &rays, Probe::Thesis, |j| first + j, &mut wide);
+            reduced_lanes(&bvh, &rays, Walk::Reduced, |j| first + j, &mut wide);
             for (k, w) in wide.iter().enumerate() {
                 assert_eq!(
                     *w,
@@ -662,21 +662,21 @@ mod tests {
                 );
             }
         }
-        // And so does a scattered index list, read in place, for either probe (the first-leaf
+        // And so does a scattered index list, read in place, for either walk (the first-leaf
         // walk orders children by direction signs, so camera packets stay packets).
         let index: Vec<usize> = (0..rays.len()).rev().step_by(3).collect();
-        for probe in [Probe::Thesis, Probe::FirstLeaf] {
+        for walk in [Walk::Reduced, Walk::FirstLeaf] {
             let mut scattered = vec![Counts::default(); index.len()];
-            reduced_lanes(&bvh, &rays, probe, |j| index[j], &mut scattered);
+            reduced_lanes(&bvh, &rays, walk, |j| index[j], &mut scattered);
             for (w, &i) in scattered.iter().zip(&index) {
-                assert_eq!(*w, bvh.probe(&rays.get(i), probe), "ray {i}, {probe:?}");
+                assert_eq!(*w, bvh.walk(&rays.get(i), walk), "ray {i}, {walk:?}");
             }
             for first in [0, 5] {
                 let mut wide = vec![Counts::default(); rays.len() - first];
-                reduced_lanes(&bvh, &rays, probe, |j| first + j, &mut wide);
+                reduced_lanes(&bvh, &rays, walk, |j| first + j, &mut wide);
                 for (k, w) in wide.iter().enumerate() {
-                    let want = bvh.probe(&rays.get(first + k), probe);
-                    assert_eq!(*w, want, "ray {}, {probe:?}", first + k);
+                    let want = bvh.walk(&rays.get(first + k), walk);
+                    assert_eq!(*w, want, "ray {}, {walk:?}", first + k);
                 }
             }
         }

@@ -72,7 +72,7 @@ impl BoxRay {
     }
 
     /// Where the ray leaves the node's box, clipped to `tmax`: [`BoxRay::hit`]'s far end (the
-    /// first-leaf probe ends a ray there).
+    /// first-leaf walk ends a ray there).
     #[inline(always)]
     pub(crate) fn exit(&self, node: &Node, tmax: f32) -> f32 {
         let b: &[f32; 8] = bytemuck::cast_ref(node);

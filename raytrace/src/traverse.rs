@@ -8,9 +8,9 @@
 //!   the thesis models, nodes visited `B` and triangle tests `T`;
 //! - [`Bvh::reduced_traversal`]: the thesis's *reduced traversal* (section 3.3): boxes only,
 //!   never fetching a triangle, so the ray is never shortened; `B` counts the nodes it enters
-//!   and `T` the triangles of the leaves it reaches. This is the cost estimator's probe.
+//!   and `T` the triangles of the leaves it reaches. This is the cost estimator's walk.
 //! - [`Bvh::first_leaf_traversal`]: the same, but each ray ends where it leaves the first leaf
-//!   it reaches ([`Probe::FirstLeaf`]), children taken in a fixed order ([`near_child_first`]).
+//!   it reaches ([`Walk::FirstLeaf`]), children taken in a fixed order ([`near_child_first`]).
 //!
 //! `B` counts nodes *entered* (the root, if its box is hit, and every child whose box is hit);
 //! entering an inner node costs two child box tests, entering a leaf `count` triangle tests.
@@ -29,7 +29,7 @@ use crate::slab::BoxRay;
 use crate::triangle::{RayShear, intersect_watertight};
 use crate::{Hit, HitBatch, Ray, RayBatch};
 
-pub use crate::probe::{Probe, near_child_first};
+pub use crate::walk::{Walk, near_child_first};
 
 /// Cost counters of one ray: nodes entered `B` and triangles tested (or, in the reduced
 /// traversal, triangles in reached leaves) `T`.
@@ -156,14 +156,14 @@ impl Bvh {
         self.run::<FIRST_LEAF>(ray).1
     }
 
-    /// The counts of `probe` for one ray.
+    /// The counts of `walk` for one ray.
     #[inline]
-    pub fn probe(&self, ray: &Ray, probe: Probe) -> Counts {
-        match probe {
-            Probe::Thesis => self.reduced_traversal(ray),
-            Probe::FirstLeaf => self.first_leaf_traversal(ray),
-            Probe::Trace { any: false } => self.closest_hit_counted(ray).1,
-            Probe::Trace { any: true } => self.any_hit_counted(ray).1,
+    pub fn walk(&self, ray: &Ray, walk: Walk) -> Counts {
+        match walk {
+            Walk::Reduced => self.reduced_traversal(ray),
+            Walk::FirstLeaf => self.first_leaf_traversal(ray),
+            Walk::Trace { any: false } => self.closest_hit_counted(ray).1,
+            Walk::Trace { any: true } => self.any_hit_counted(ray).1,
         }
     }
 
@@ -229,7 +229,7 @@ impl Bvh {
         }
         let (tmin, tmax) = (ray.tmin, ray.tmax);
         let reduced = MODE == REDUCED || MODE == FIRST_LEAF;
-        // The reduced traversals bound boxes by `best_t` itself (the first-leaf probe shortens
+        // The reduced traversals bound boxes by `best_t` itself (the first-leaf walk shortens
         // it); the hit queries by `cull_bound` of the nearest hit.
         let mut best_t = if reduced { tmax } else { cull_bound(tmax) };
         let mut best: Option<Hit> = None;
@@ -448,7 +448,7 @@ pub fn any_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts>) {
 }
 
 /// The real trace of rays `index[0], index[1], …` of `rays` (any hit with `any`, else the
-/// closest), their hits and counts, in parallel: [`crate::Probe::Trace`]'s sample.
+/// closest), their hits and counts, in parallel: [`crate::Walk::Trace`]'s sample.
 ///
 /// # Panics
 /// Panics if an index is out of bounds or the batch's columns have different lengths.
@@ -569,7 +569,7 @@ fn fill_with<const MODE: u8>(
 }
 
 /// [`fill_skipping`] over the whole batch, in parallel: the trace that is left once the rays
-/// at `known` have been traced by the estimator ([`crate::Probe::Trace`]).
+/// at `known` have been traced by the estimator ([`crate::Walk::Trace`]).
 ///
 /// # Panics
 /// Panics if the batch's columns have different lengths.
@@ -584,15 +584,15 @@ pub fn hits_skipping(bvh: &Bvh, rays: &RayBatch, any: bool, known: &[usize]) -> 
     out
 }
 
-/// `probe`'s counts of the rays in `range` (a task), in parallel, in packets of 4 or 8 rays
-/// (each lane's counts are exactly its ray's [`Bvh::probe`]; see `packet.rs`).
+/// `walk`'s counts of the rays in `range` (a task), in parallel, in packets of 4 or 8 rays
+/// (each lane's counts are exactly its ray's [`Bvh::walk`]; see `packet.rs`).
 ///
 /// # Panics
 /// Panics if `range` is out of bounds or the batch's columns have different lengths.
 pub fn reduced_counts(
     bvh: &Bvh,
     rays: &RayBatch,
-    probe: Probe,
+    walk: Walk,
     range: std::ops::Range<usize>,
 ) -> Vec<Counts> {
     check(rays);
@@ -603,17 +603,17 @@ pub fn reduced_counts(
         .enumerate()
         .for_each(|(c, cs)| {
             let first = range.start + c * CHUNK;
-            crate::packet::reduced_lanes(bvh, rays, probe, |j| first + j, cs);
+            crate::packet::reduced_lanes(bvh, rays, walk, |j| first + j, cs);
         });
     counts
 }
 
-/// `probe`'s counts of rays `index[0], index[1], …` of `rays`, in parallel, read in place (a
+/// `walk`'s counts of rays `index[0], index[1], …` of `rays`, in parallel, read in place (a
 /// compacted sample without copying its rays out).
 ///
 /// # Panics
 /// Panics if an index is out of bounds or the batch's columns have different lengths.
-pub fn reduced_counts_at(bvh: &Bvh, rays: &RayBatch, probe: Probe, index: &[usize]) -> Vec<Counts> {
+pub fn reduced_counts_at(bvh: &Bvh, rays: &RayBatch, walk: Walk, index: &[usize]) -> Vec<Counts> {
     check(rays);
     assert!(
         index.iter().all(|&i| i < rays.len()),
@@ -625,7 +625,7 @@ pub fn reduced_counts_at(bvh: &Bvh, rays: &RayBatch, probe: Probe, index: &[usiz
         .enumerate()
         .for_each(|(c, cs)| {
             let part = &index[c * CHUNK..];
-            crate::packet::reduced_lanes(bvh, rays, probe, |j| part[j], cs);
+            crate::packet::reduced_lanes(bvh, rays, walk, |j| part[j], cs);
         });
     counts
 }

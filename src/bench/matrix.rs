@@ -97,8 +97,8 @@ pub struct Record {
     pub ray_kind: &'static str,
     pub policy: &'static str,
     pub mode: &'static str,
-    /// Cost mode's probe of closest-hit rays (`thesis` or `first-leaf`).
-    pub probe: &'static str,
+    /// Cost mode's walk of closest-hit rays (`reduced` or `first-leaf`).
+    pub walk: &'static str,
     pub task_size: usize,
     pub devices: usize,
     pub device_list: String,
@@ -172,7 +172,7 @@ impl Record {
             ray_kind: w.ray_kind(),
             policy: settings.policy.name(),
             mode: settings.mode.name(),
-            probe: settings.probe.name(),
+            walk: settings.walk.name(),
             task_size: settings.task_size.get(),
             devices,
             device_list: plan.device_list.to_string(),
@@ -253,8 +253,8 @@ pub struct Plan<'a> {
     pub sample_rate: SampleRate,
     /// Where cost mode's estimate runs.
     pub estimate_on: raytrace::scheduled::EstimateOn,
-    /// Cost mode's probe of closest-hit rays.
-    pub probe: raytrace::Probe,
+    /// Cost mode's walk of closest-hit rays.
+    pub walk: raytrace::Walk,
     /// Runs of every cell, in rounds that each run every cell of the matrix once.
     pub repeats: usize,
     /// How each cell's frames are rendered.
@@ -376,7 +376,7 @@ impl Plan<'_> {
                             task_size: size,
                             sample_rate: self.sample_rate,
                             estimate_on: self.estimate_on,
-                            probe: self.probe,
+                            walk: self.walk,
                         };
                         cells.push((w, settings));
                     }

@@ -46,7 +46,7 @@ pub struct Args {
     /// Image size `WxH` (overrides the default of quick or full).
     #[arg(long)]
     size: Option<Size>,
-    /// Thesis cameras per run, 1..=4 (overrides the default of quick or full).
+    /// Orbit cameras per run, 1..=4 (overrides the default of quick or full).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4))]
     cameras: Option<u32>,
     /// Devices, as for `cobalt render`.
@@ -74,11 +74,11 @@ pub struct Args {
     /// first GPU among `--devices`, as the thesis does). `--pipeline generations` only.
     #[arg(long)]
     estimate_on: Option<raytrace::scheduled::EstimateOn>,
-    /// How cost mode traces each task's sample: `thesis` (the default), `first-leaf` or
-    /// `trace` (see `cobalt render --probe`). `--pipeline generations` only: the path
+    /// How cost mode traces each task's sample: `reduced` (the thesis's, the default), `first-leaf` or
+    /// `trace` (see `cobalt render --walk`). `--pipeline generations` only: the path
     /// pipeline renders its sampled paths for real.
-    #[arg(long)]
-    probe: Option<raytrace::Probe>,
+    #[arg(long, alias = "probe")]
+    walk: Option<raytrace::Walk>,
     /// AO probes per primary hit, 1..=4096.
     #[arg(long, default_value_t = 32,
           value_parser = clap::value_parser!(u32).range(1..=MAX_AO_SAMPLES as i64))]
@@ -155,9 +155,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
     };
     let pipeline = args.pipeline.unwrap_or(Pipeline::Paths);
     if pipeline == Pipeline::Paths {
-        if let Some(p) = args.probe {
+        if let Some(p) = args.walk {
             return Err(bad(
-                "probe",
+                "walk",
                 p.name(),
                 "applies to --pipeline generations; the path pipeline renders its sampled paths for real",
             ));
@@ -176,7 +176,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             "the generations pipeline learns within one run; it applies to --pipeline paths",
         ));
     }
-    let probe = args.probe.unwrap_or(raytrace::Probe::Thesis);
+    let walk = args.walk.unwrap_or(raytrace::Walk::Reduced);
     let estimate_on = args.estimate_on.unwrap_or_default();
     let needs = if workloads.contains(&Workload::Whitted) {
         SceneNeeds::WHITTED
@@ -202,7 +202,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             task_sizes: &task_sizes,
             policies: &policies,
             rate,
-            probe,
+            walk,
             preset,
             pipeline,
         };
@@ -243,7 +243,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             ao_samples: args.ao_samples,
             sample_rate: rate,
             estimate_on,
-            probe,
+            walk,
             repeats,
             pipeline,
             calibration: store.as_ref(),
@@ -359,7 +359,7 @@ struct MpiSettings<'a> {
     task_sizes: &'a [usize],
     policies: &'a [Policy],
     rate: SampleRate,
-    probe: raytrace::Probe,
+    walk: raytrace::Walk,
     preset: BuildPreset,
     pipeline: Pipeline,
 }
@@ -400,7 +400,7 @@ fn run_mpi(
             height: s.height,
             ao_samples: args.ao_samples,
             sample_rate: s.rate,
-            probe: s.probe,
+            walk: s.walk,
             pipeline: s.pipeline,
         })
         .collect();

@@ -46,8 +46,8 @@ pub struct Plan<'a> {
     pub height: u32,
     pub ao_samples: u32,
     pub sample_rate: SampleRate,
-    /// Cost mode's probe of closest-hit rays (generations).
-    pub probe: raytrace::Probe,
+    /// Cost mode's walk of closest-hit rays (generations).
+    pub walk: raytrace::Walk,
     pub pipeline: Pipeline,
 }
 
@@ -121,7 +121,7 @@ impl Plan<'_> {
             sample_rate: self.sample_rate,
             // Each rank estimates its slice of the tasks on its own host.
             estimate_on: raytrace::scheduled::EstimateOn::Cpu,
-            probe: self.probe,
+            walk: self.walk,
         }
     }
 

@@ -98,7 +98,7 @@ impl Plan<'_> {
         let devices = frames.first().map_or(0, |f| f.devices.len());
         let mut r = t.record(Record::new(self, w, settings, devices));
         r.pipeline = "paths";
-        r.probe = "sampled-paths";
+        r.walk = "sampled-paths";
         r.host_to_device_bytes = Some(traffic.host_to_device_bytes);
         r.device_to_host_bytes = Some(traffic.device_to_host_bytes);
         r.host_waits = Some(traffic.host_waits);

@@ -1,7 +1,7 @@
 //! `cobalt bench --plots DIR`: charts in the manner of the thesis: Figure 4.1 (rendering
 //! efficiency, MRays/s) and Figure 4.2 (balance efficiency) as bars of regular and cost-based
 //! runs per policy and task size, the estimators' trade of Table 4.1 judged by time (error
-//! against measured task times over net overhead, per probe and sampling rate), and the cost
+//! against measured task times over net overhead, per walk and sampling rate), and the cost
 //! image of Figure 3.2.
 //!
 //! Text is drawn from a TrueType font read at run time (`$COBALT_FONT`, else DejaVu Sans from
@@ -184,7 +184,7 @@ fn bars(
 }
 
 /// The estimators' trade: error against measured time over net overhead, one line per ray kind
-/// and probe, points labelled by sampling rate: the first scene's, at tasks of 4096 rays if
+/// and walk, points labelled by sampling rate: the first scene's, at tasks of 4096 rays if
 /// measured (else the first size).
 fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
     let Some(first) = points.first() else {
@@ -244,25 +244,25 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
             .label_style(("sans-serif", 13))
             .draw()
             .map_err(draw_err)?;
-        let mut probes: Vec<&str> = points.iter().map(|p| p.probe).collect();
-        probes.sort_unstable();
-        probes.dedup();
+        let mut walks: Vec<&str> = points.iter().map(|p| p.walk).collect();
+        walks.sort_unstable();
+        walks.dedup();
         let lines = [
             ("coherent", RGBColor(40, 90, 200)),
             ("diffuse", RGBColor(210, 90, 30)),
         ]
         .into_iter()
-        .flat_map(|k| probes.iter().map(move |&probe| (k, probe)));
-        for ((kind, base), probe) in lines {
-            // The real trace's probe drawn darker than the reduced traversals.
-            let colour = if probe == "trace" {
+        .flat_map(|k| walks.iter().map(move |&walk| (k, walk)));
+        for ((kind, base), walk) in lines {
+            // The real trace's walk drawn darker than the reduced traversals.
+            let colour = if walk == "trace" {
                 RGBColor(base.0 / 2, base.1 / 2, base.2 / 2)
             } else {
                 base
             };
             let pts: Vec<(f64, f64, f64)> = points
                 .iter()
-                .filter(|p| p.ray_kind == kind && p.probe == probe)
+                .filter(|p| p.ray_kind == kind && p.walk == walk)
                 .filter_map(|p| {
                     Some((
                         100.0 * p.net_overhead,
@@ -280,7 +280,7 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
                     colour.stroke_width(2),
                 ))
                 .map_err(draw_err)?
-                .label(format!("{kind}, {probe}"))
+                .label(format!("{kind}, {walk}"))
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
                 });

@@ -42,7 +42,7 @@ impl ErrorSums {
 pub struct PredictionTracer<'a, T> {
     pub inner: T,
     bvh: &'a Bvh,
-    /// The scheduled tracer's: its task size, sampling rate and probe.
+    /// The scheduled tracer's: its task size, sampling rate and walk.
     settings: Settings,
     enabled: bool,
     /// One entry per generation traced, in order (empty when disabled).
@@ -50,7 +50,7 @@ pub struct PredictionTracer<'a, T> {
 }
 
 impl<'a, T: Tracer> PredictionTracer<'a, T> {
-    /// `settings` gives the task size, sampling rate and probe the scheduled tracer uses.
+    /// `settings` gives the task size, sampling rate and walk the scheduled tracer uses.
     pub fn new(inner: T, bvh: &'a Bvh, settings: &Settings, enabled: bool) -> Self {
         Self {
             inner,
@@ -65,11 +65,11 @@ impl<'a, T: Tracer> PredictionTracer<'a, T> {
         let s = &self.settings;
         let tasks: Vec<Range<usize>> = sched::split_ranges(rays.len(), s.task_size.get());
         let model = CostModel::default();
-        let probe = s.probe.for_kind(kind);
+        let walk = s.walk.for_kind(kind);
         let est = ReducedTraversal::new(self.bvh, rays, s.sample_rate)
-            .with_probe(probe)
+            .with_walk(walk)
             .try_work(&tasks);
-        let full = full_work(self.bvh, rays, &tasks, probe);
+        let full = full_work(self.bvh, rays, &tasks, walk);
         match (est, full) {
             (Ok(est), Ok(full)) => {
                 let (est, full) = (model.costs(&est), model.costs(&full));

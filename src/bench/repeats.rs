@@ -70,7 +70,7 @@ mod tests {
             ray_kind: "diffuse",
             policy: "static-lpt",
             mode: "cost",
-            probe: "thesis",
+            walk: "reduced",
             task_size: 512,
             devices: 2,
             device_list: "cpu:2".into(),

@@ -197,7 +197,7 @@ pub fn simulated(records: &[SimRecord], task_size: usize) -> String {
 /// after them.
 pub fn trade(points: &[TradePoint]) -> String {
     let mut s = String::from(
-        "| scene | rays | task size | probe | sampled | error vs time | spearman | bound: trace counts | net overhead | prediction error | overhead | thesis (error, overhead) | error ≤ 2 / 3 %, overhead ≤ 4 % |\n\
+        "| scene | rays | task size | walk | sampled | error vs time | spearman | bound: trace counts | net overhead | prediction error | overhead | thesis (error, overhead) | error ≤ 2 / 3 %, overhead ≤ 4 % |\n\
          |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---|---|\n",
     );
     let opt = |v: Option<f64>, f: fn(f64) -> String| v.map_or_else(|| "–".into(), f);
@@ -211,7 +211,7 @@ pub fn trade(points: &[TradePoint]) -> String {
             p.scene,
             p.ray_kind,
             p.task_size,
-            p.probe,
+            p.walk,
             100.0 * p.sample_rate,
             opt(p.error_vs_time, pct),
             opt(p.spearman_vs_time, |x| format!("{x:.3}")),

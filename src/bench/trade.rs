@@ -11,7 +11,7 @@ use raytrace::cost::{
     Compacted, CostModel, ReducedTraversal, SampleRate, Work, calibrate, error_vs_time, full_work,
     measure_seconds, prediction_error, spearman,
 };
-use raytrace::{Bvh, Probe, RayBatch, RayKind, traverse, workload};
+use raytrace::{Bvh, RayBatch, RayKind, Walk, traverse, workload};
 use serde::Serialize;
 
 use super::matrix::Plan;
@@ -74,8 +74,8 @@ pub struct TradePoint {
     pub task_size: usize,
     pub rays: usize,
     pub sample_rate: f64,
-    /// How the sample was traced: `thesis`, `first-leaf` or `trace` (the real trace).
-    pub probe: &'static str,
+    /// How the sample was traced: `reduced`, `first-leaf` or `trace` (the real trace).
+    pub walk: &'static str,
     /// The estimates, calibrated (`kB`, `kT`), against each task's measured single-thread
     /// trace time: what a plan needs of them.
     pub error_vs_time: Option<f64>,
@@ -84,11 +84,11 @@ pub struct TradePoint {
     /// `T` can beat.
     pub error_vs_time_trace: Option<f64>,
     pub spearman_trace_vs_time: Option<f64>,
-    /// The thesis's, against the probe's own full count (secondary: it does not see time).
+    /// The thesis's, against the walk's own full count (secondary: it does not see time).
     pub prediction_error: f64,
     /// Estimation time over the full trace's time, both on all cores, best of three.
     pub overhead: f64,
-    /// What estimating costs a render: the overhead less the sample's trace, where the probe
+    /// What estimating costs a render: the overhead less the sample's trace, where the walk
     /// traced it for real and the render reuses its hits; else the overhead.
     pub net_overhead: f64,
     /// The thesis's error and overhead at this rate and ray kind, where Table 4.1 has them.
@@ -108,7 +108,7 @@ fn best_of_3(mut f: impl FnMut()) -> f64 {
         .fold(f64::MAX, f64::min)
 }
 
-/// The rates the trace probe is measured at: its net overhead is what matters, and above
+/// The rates the trace walk is measured at: its net overhead is what matters, and above
 /// these the sample costs what the trace it saves does.
 const TRACE_RATES: [f64; 4] = [0.03125, 0.0625, 0.125, 0.25];
 
@@ -141,7 +141,7 @@ fn points(
     rays: &RayBatch,
     kind: &'static str,
     occlusion: bool,
-    probe: Probe,
+    walk: Walk,
     task_sizes: &[usize],
 ) -> Result<Vec<TradePoint>, CliError> {
     let cost_err = |e: raytrace::cost::CostError| CliError::Write(format!("estimate: {e}"));
@@ -163,7 +163,8 @@ fn points(
     } else {
         RayKind::Primary
     };
-    let chunk_seconds = measure_seconds(bvh, rays, &chunks, ray_kind, 3).map_err(cost_err)?;
+    let chunk_seconds =
+        measure_seconds(bvh, rays, &chunks, ray_kind, 3, sched::Clock::Wall).map_err(cost_err)?;
     let counts = if occlusion {
         traverse::any_hits_counted(bvh, rays).1
     } else {
@@ -188,10 +189,10 @@ fn points(
             })
             .collect();
         let (error_vs_time_trace, spearman_trace_vs_time) = vs_time(&trace_work, &seconds);
-        let traced = Probe::Trace { any: occlusion };
+        let traced = Walk::Trace { any: occlusion };
         let runs = RATES
             .iter()
-            .map(|&r| (probe, r))
+            .map(|&r| (walk, r))
             .chain(TRACE_RATES.iter().map(|&r| (traced, r)));
         let mut fulls: Vec<(&'static str, Vec<f64>)> = Vec::new();
         for (p, rate) in runs {
@@ -204,7 +205,7 @@ fn points(
                 }
             };
             let rate = SampleRate::new(rate).map_err(|e| cost_err(e.into()))?;
-            let estimator = ReducedTraversal::new(bvh, rays, rate).with_probe(p);
+            let estimator = ReducedTraversal::new(bvh, rays, rate).with_walk(p);
             let mut work = Vec::new();
             let est_seconds = best_of_3(|| work = estimator.try_work(&tasks).unwrap_or_default());
             let est = model.costs(&work);
@@ -232,7 +233,7 @@ fn points(
                 task_size,
                 rays: rays.len(),
                 sample_rate: rate.get(),
-                probe: p.name(),
+                walk: p.name(),
                 error_vs_time,
                 spearman_vs_time,
                 error_vs_time_trace,
@@ -250,17 +251,17 @@ fn points(
 }
 
 /// The trade on thesis camera 0 at the plan's size, for tasks of each of its task sizes, with its
-/// probe for the coherent rays.
+/// walk for the coherent rays.
 pub fn sampling_trade(plan: &Plan) -> Result<Vec<TradePoint>, CliError> {
     let (name, scene, bvh) = (plan.scene_name, plan.scene, plan.bvh);
     let (width, height, ao_samples) = (plan.width, plan.height, plan.ao_samples);
-    let (task_sizes, probe) = (plan.task_sizes, plan.probe);
+    let (task_sizes, walk) = (plan.task_sizes, plan.walk);
     let primary = workload::thesis_primary(scene, width, height, 0..1);
     let ao = workload::thesis_ao(scene, bvh, width, height, 0, ao_samples).rays;
-    let coherent = probe.for_kind(RayKind::Primary);
+    let coherent = walk.for_kind(RayKind::Primary);
     let mut out = points(name, bvh, &primary, "coherent", false, coherent, task_sizes)?;
     if !ao.is_empty() {
-        let diffuse = probe.for_kind(RayKind::Ao);
+        let diffuse = walk.for_kind(RayKind::Ao);
         out.extend(points(
             name, bvh, &ao, "diffuse", true, diffuse, task_sizes,
         )?);

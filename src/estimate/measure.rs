@@ -1,18 +1,18 @@
 //! The run of `cobalt estimate`: the rays cut into tasks, each task's single-thread trace time
-//! measured, the estimates and the full trace timed (every probe in the same rounds on the CPU),
+//! measured, the estimates and the full trace timed (every walk in the same rounds on the CPU),
 //! and the figures that judge the estimates against the times.
 
 use std::time::Instant;
 
 use raytrace::cost::{
-    Compacted, CostModel, Fit, ReducedTraversal, SampleRate, Work, calibrate, error_vs_time,
-    full_work, measure_seconds, prediction_error, spearman,
+    Compacted, CostModel, Fit, ReducedTraversal, SampleRate, SampleRun, Work, calibrate,
+    error_vs_time, full_work, measure_seconds, prediction_error, spearman,
 };
-use raytrace::{Bvh, Probe, RayBatch, RayKind, Scene, traverse};
+use raytrace::{Bvh, RayBatch, RayKind, Scene, Walk, traverse};
 
 use super::rays::Generations;
-use super::report::{Calibration, Model, ProbeFigures, ProbeFit, Report};
-use super::{Args, DeviceArg, ProbeArg};
+use super::report::{Calibration, Model, Report, WalkFigures, WalkFit};
+use super::{Args, DeviceArg, WalkArg};
 use crate::error::CliError;
 
 /// Measures the estimates of `rays` against their tasks' times, as `args` asks.
@@ -31,8 +31,8 @@ pub(super) fn measure(
     let (task_size, rate) = (args.task_size.get(), args.sample_rate);
     let mut rays = RayBatch::default();
     let mut tasks = Vec::new();
-    // Per generation, its tasks (indices into `tasks`) and kind: the first-leaf probe models
-    // a closest hit, not an any-hit query (`Probe::for_kind`).
+    // Per generation, its tasks (indices into `tasks`) and kind: the first-leaf walk models
+    // a closest hit, not an any-hit query (`Walk::for_kind`).
     let mut parts = Vec::new();
     for (batch, kind) in &segments {
         let base = rays.len();
@@ -56,7 +56,14 @@ pub(super) fn measure(
     let mut measured = Vec::with_capacity(tasks.len());
     for (batch, kind) in &segments {
         let own = sched::split_ranges(batch.len(), task_size);
-        measured.extend(measure_seconds(bvh, batch, &own, *kind, args.repeats)?);
+        measured.extend(measure_seconds(
+            bvh,
+            batch,
+            &own,
+            *kind,
+            args.repeats,
+            args.clock,
+        )?);
     }
     // `work` weighed by `fit` against the measured times: error and Spearman correlation.
     let vs_time = |fit: Option<Fit>, work: &[Work]| {
@@ -68,43 +75,68 @@ pub(super) fn measure(
             predicted.as_ref().and_then(|p| spearman(p, &measured).ok()),
         )
     };
-    let full_of = |probe: Probe| -> Result<Vec<Work>, CliError> {
+    let full_of = |walk: Walk| -> Result<Vec<Work>, CliError> {
         let mut full = Vec::with_capacity(tasks.len());
         for (range, kind) in &parts {
             let own = &tasks[range.clone()];
-            full.extend(full_work(bvh, &rays, own, probe.for_kind(*kind))?);
+            full.extend(full_work(bvh, &rays, own, walk.for_kind(*kind))?);
         }
         Ok(full)
     };
     // The real trace where it can run: its hits are the render's, so it costs little more
     // than counting, and it stops where the trace stops, which the reduced traversals do not.
-    let asked = args.probe.unwrap_or(match args.device {
-        DeviceArg::Cpu => ProbeArg::Fixed(Probe::Trace { any: false }),
-        DeviceArg::Gpu => ProbeArg::Fixed(Probe::Thesis),
+    let asked = args.walk.unwrap_or(match args.device {
+        DeviceArg::Cpu => WalkArg::Fixed(Walk::Trace { any: false }),
+        DeviceArg::Gpu => WalkArg::Fixed(Walk::Reduced),
     });
-    if let (ProbeArg::Fixed(Probe::Trace { .. }), DeviceArg::Gpu) = (asked, args.device) {
+    if let (WalkArg::Fixed(Walk::Trace { .. }), DeviceArg::Gpu) = (asked, args.device) {
         return Err(CliError::Arg {
-            flag: "probe",
+            flag: "walk",
             value: "trace".into(),
             message:
-                "the `trace` probe runs on the CPU only; use thesis or first-leaf with --device gpu"
+                "the `trace` walk runs on the CPU only; use reduced or first-leaf with --device gpu"
                     .into(),
         });
     }
-    let (probe, full, probe_fits) = match asked {
-        ProbeArg::Fixed(p) => (p, full_of(p)?, None),
-        ProbeArg::Auto => {
+    if args.clock != sched::Clock::Wall && matches!(args.device, DeviceArg::Gpu) {
+        return Err(CliError::Arg {
+            flag: "clock",
+            value: args.clock.to_string(),
+            message: "a GPU's work is not the host's CPU time; use --clock wall with --device gpu"
+                .into(),
+        });
+    }
+    if !args.clock.is_available() {
+        return Err(CliError::Arg {
+            flag: "clock",
+            value: args.clock.to_string(),
+            message: "this system has no process CPU clock; use --clock wall".into(),
+        });
+    }
+    if args.sample_run != SampleRun::DEFAULT && matches!(args.device, DeviceArg::Gpu) {
+        return Err(CliError::Arg {
+            flag: "sample-run",
+            value: args.sample_run.to_string(),
+            message: format!(
+                "the GPU estimator samples in runs of {}; other runs are measured on the CPU",
+                SampleRun::DEFAULT
+            ),
+        });
+    }
+    let (walk, full, walk_fits) = match asked {
+        WalkArg::Fixed(p) => (p, full_of(p)?, None),
+        WalkArg::Auto => {
             let mut fits = Vec::new();
-            let mut best = (f64::INFINITY, Probe::Thesis, Vec::new());
-            for p in Probe::ALL {
+            let mut best = (f64::INFINITY, Walk::Reduced, Vec::new());
+            for p in Walk::ALL {
                 let full = full_of(p)?;
                 let (error, spearman_vs_time) = vs_time(calibrate(&full, &measured).ok(), &full);
-                fits.push(ProbeFit {
-                    probe: p.name(),
+                fits.push(WalkFit {
+                    walk: p.name(),
                     error_vs_time: error,
                     spearman_vs_time,
                 });
-                // Ties and failed fits keep the thesis's probe, tried first.
+                // Ties and failed fits keep the reduced walk, tried first.
                 if best.2.is_empty() || error.is_some_and(|e| e < best.0) {
                     best = (error.unwrap_or(f64::INFINITY), p, full);
                 }
@@ -113,36 +145,36 @@ pub(super) fn measure(
         }
     };
 
-    // Each generation's tasks and the probe that estimates them.
-    let jobs_of = |probe: Probe| -> Vec<(&[std::ops::Range<usize>], Probe)> {
+    // Each generation's tasks and the walk that estimates them.
+    let jobs_of = |walk: Walk| -> Vec<(&[std::ops::Range<usize>], Walk)> {
         parts
             .iter()
-            .map(|(range, kind)| (&tasks[range.clone()], probe.for_kind(*kind)))
+            .map(|(range, kind)| (&tasks[range.clone()], walk.for_kind(*kind)))
             .collect()
     };
-    let jobs = jobs_of(probe);
-    let (estimate_seconds, est, trace_seconds, rest_seconds, adapter, probes) = match args.device {
+    let jobs = jobs_of(walk);
+    let (estimate_seconds, est, trace_seconds, rest_seconds, adapter, walks) = match args.device {
         DeviceArg::Cpu => {
-            // Every probe is timed, the asked one among them, so that the trade is one table.
-            let mut candidates = vec![Probe::Trace { any: false }, Probe::Thesis, Probe::FirstLeaf];
+            // Every walk is timed, the asked one among them, so that the trade is one table.
+            let mut candidates = vec![Walk::Trace { any: false }, Walk::Reduced, Walk::FirstLeaf];
             let chosen = candidates
                 .iter()
-                .position(|p| p.name() == probe.name())
+                .position(|p| p.name() == walk.name())
                 .unwrap_or_else(|| {
-                    candidates.push(probe);
+                    candidates.push(walk);
                     candidates.len() - 1
                 });
-            // A render does not trace the trace probe's sampled rays again (their hits are
+            // A render does not trace the trace walk's sampled rays again (their hits are
             // the estimate's), so what is left of the trace is timed too: per generation, its
             // sample.
             let known: Vec<Vec<usize>> = segments
                 .iter()
                 .map(|(batch, _)| {
                     let own = sched::split_ranges(batch.len(), task_size);
-                    Compacted::gather(batch, &own, rate).map(|c| c.index)
+                    Compacted::gather_in_runs(batch, &own, rate, args.sample_run).map(|c| c.index)
                 })
                 .collect::<Result<_, _>>()?;
-            let estimator = ReducedTraversal::new(bvh, &rays, rate);
+            let estimator = ReducedTraversal::new(bvh, &rays, rate).with_run(args.sample_run);
             let mut ests: Vec<Vec<Work>> = vec![Vec::new(); candidates.len()];
             let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CliError> + '_>> = ests
                 .iter_mut()
@@ -152,7 +184,7 @@ pub(super) fn measure(
                     Box::new(move || -> Result<(), CliError> {
                         est.clear();
                         for &(own, p) in &jobs {
-                            est.extend(estimator.with_probe(p).try_work(own)?);
+                            est.extend(estimator.with_walk(p).try_work(own)?);
                         }
                         Ok(())
                     }) as Box<dyn FnMut() -> Result<(), CliError> + '_>
@@ -183,22 +215,22 @@ pub(super) fn measure(
             for e in &mut estimates {
                 steps.push(e.as_mut());
             }
-            let best = min_times(args.repeats, &mut steps)?;
+            let best = min_times(args.repeats, args.clock, &mut steps)?;
             drop(steps);
             drop(estimates);
             let (trace_seconds, rest_seconds) = (best[0], best[1]);
-            let figures: Vec<ProbeFigures> = candidates
+            let figures: Vec<WalkFigures> = candidates
                 .iter()
                 .zip(&ests)
                 .zip(&best[2..])
                 .map(|((&p, est), &seconds)| {
-                    let reused = matches!(p, Probe::Trace { .. });
+                    let reused = matches!(p, Walk::Trace { .. });
                     let rest = if reused { rest_seconds } else { trace_seconds };
                     let (error, rho) = vs_time(calibrate(est, &measured).ok(), est);
                     let full = full_of(p).ok();
                     let model = CostModel::default();
-                    ProbeFigures {
-                        probe: p.name(),
+                    WalkFigures {
+                        walk: p.name(),
                         error_vs_time: error,
                         spearman_vs_time: rho,
                         prediction_error: full.and_then(|f| {
@@ -211,7 +243,7 @@ pub(super) fn measure(
                 })
                 .collect();
             let est = std::mem::take(&mut ests[chosen]);
-            let rest = matches!(probe, Probe::Trace { .. }).then_some(rest_seconds);
+            let rest = matches!(walk, Walk::Trace { .. }).then_some(rest_seconds);
             (best[2 + chosen], est, trace_seconds, rest, None, figures)
         }
         DeviceArg::Gpu => {
@@ -259,12 +291,14 @@ pub(super) fn measure(
         task_size,
         tasks: tasks.len(),
         sample_rate: rate.get(),
-        probe: probe.name(),
-        probe_fits,
-        probes,
+        sample_run: args.sample_run.get(),
+        walk: walk.name(),
+        walk_fits,
+        walks,
         sampled_rays: tasks.iter().map(|t| rate.samples(t.len())).sum(),
         threads: rayon::current_num_threads(),
         repeats: args.repeats,
+        clock: args.clock.name(),
         device: match args.device {
             DeviceArg::Cpu => "cpu",
             DeviceArg::Gpu => "gpu",
@@ -277,7 +311,7 @@ pub(super) fn measure(
         trace_seconds,
         overhead: estimate_seconds / trace_seconds.max(1e-12),
         rest_seconds,
-        // A reduced probe's sample is wasted: its net overhead is its overhead, exactly.
+        // A reduced walk's sample is wasted: its net overhead is its overhead, exactly.
         net_overhead: match rest_seconds {
             Some(rest) => (estimate_seconds + rest - trace_seconds) / trace_seconds.max(1e-12),
             None => estimate_seconds / trace_seconds.max(1e-12),
@@ -309,7 +343,7 @@ fn gpu_estimate(
     bvh: &Bvh,
     rays: &RayBatch,
     segments: &[(RayBatch, RayKind)],
-    jobs: &[(&[std::ops::Range<usize>], Probe)],
+    jobs: &[(&[std::ops::Range<usize>], Walk)],
     rate: SampleRate,
     repeats: usize,
 ) -> Result<(f64, Vec<Work>, f64, String), CliError> {
@@ -322,7 +356,7 @@ fn gpu_estimate(
     let (estimate_seconds, est) = min_time(repeats, || {
         let mut work = Vec::new();
         for &(own, p) in jobs {
-            work.extend(estimator.with_probe(p).try_work(own).map_err(gpu_err)?);
+            work.extend(estimator.with_walk(p).try_work(own).map_err(gpu_err)?);
         }
         Ok::<_, CliError>(work)
     })?;
@@ -345,7 +379,7 @@ fn gpu_estimate(
     _: &Bvh,
     _: &RayBatch,
     _: &[(RayBatch, RayKind)],
-    _: &[(&[std::ops::Range<usize>], Probe)],
+    _: &[(&[std::ops::Range<usize>], Walk)],
     _: SampleRate,
     _: usize,
 ) -> Result<(f64, Vec<Work>, f64, String), CliError> {
@@ -356,17 +390,19 @@ fn gpu_estimate(
     })
 }
 
-/// The least time of each step over `repeats` rounds, the steps taken in turn each round.
+/// The least time of each step on `clock` over `repeats` rounds, the steps taken in turn
+/// each round.
 fn min_times(
     repeats: usize,
+    clock: sched::Clock,
     steps: &mut [&mut dyn FnMut() -> Result<(), CliError>],
 ) -> Result<Vec<f64>, CliError> {
     let mut best = vec![f64::INFINITY; steps.len()];
     for _ in 0..repeats.max(1) {
         for (step, best) in steps.iter_mut().zip(&mut best) {
-            let start = Instant::now();
-            step()?;
-            *best = best.min(start.elapsed().as_secs_f64());
+            let (seconds, done) = clock.time(&mut **step);
+            done?;
+            *best = best.min(seconds);
         }
     }
     Ok(best)

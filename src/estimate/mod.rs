@@ -4,8 +4,8 @@
 //! For one generation of rays cut into tasks it leads with the error and rank correlation of
 //! the calibrated estimates against each task's measured single-thread trace time, beside
 //! their bound (the real trace's own counts) and the net overhead; the thesis's prediction
-//! error (against the probe's full count) and overhead (estimation time over the full trace
-//! time, both on all cores) follow. On the CPU every probe is timed in the same rounds, so the
+//! error (against the walk's full count) and overhead (estimation time over the full trace
+//! time, both on all cores) follow. On the CPU every walk is timed in the same rounds, so the
 //! report holds the whole trade.
 //!
 //! [`run`] checks the arguments, loads the scene and makes the rays ([`rays`]);
@@ -18,8 +18,8 @@ mod report;
 
 use std::num::NonZeroUsize;
 
-use raytrace::cost::SampleRate;
-use raytrace::{Bvh, Camera, Probe, RayKind, SceneSource};
+use raytrace::cost::{SampleRate, SampleRun};
+use raytrace::{Bvh, Camera, RayKind, SceneSource, Walk};
 
 use crate::args::{
     MAX_AO_SAMPLES, Size, camera_index, count, positive_length, sample_rate, task_size,
@@ -44,6 +44,14 @@ pub struct Args {
     /// Fraction of each task's rays traced by the estimator, in (0, 1].
     #[arg(long, default_value = "0.125", value_parser = sample_rate)]
     sample_rate: SampleRate,
+    /// Adjacent rays the sample keeps together: longer runs trace faster, shorter ones spread
+    /// the sample over more of each task (CPU only).
+    #[arg(long, default_value_t = SampleRun::DEFAULT)]
+    sample_run: SampleRun,
+    /// What times are taken on: `wall` time, or `cpu`, the CPU time of the whole process,
+    /// which other work on a shared machine disturbs far less (CPU only; Linux).
+    #[arg(long, default_value_t = sched::Clock::Wall)]
+    clock: sched::Clock,
     /// Image size `WxH` of the camera rays.
     #[arg(long, default_value = "512x512")]
     size: Size,
@@ -71,38 +79,38 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "cpu")]
     device: DeviceArg,
     /// How the sample is traced: `trace` (the real trace, closest or any hit, counted as
-    /// traced, its hits kept for the render; the default on the CPU), `thesis` (the reduced
+    /// traced, its hits kept for the render; the default on the CPU), `reduced` (the reduced
     /// traversal of the whole range of every ray; the default, and the only one, on the
     /// GPU), `first-leaf` (closest-hit rays end at the exit of the first leaf they reach;
-    /// shadow and AO rays keep the thesis's probe), or `auto`: the reduced traversal whose
+    /// shadow and AO rays keep the reduced walk), or `auto`: the reduced traversal whose
     /// full counts, calibrated, err least against the measured task times.
-    #[arg(long)]
-    probe: Option<ProbeArg>,
+    #[arg(long, alias = "probe")]
+    walk: Option<WalkArg>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
 }
 
-/// `--probe`: one reduced traversal, or the better fit of both.
+/// `--walk`: one reduced traversal, or the better fit of both.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum ProbeArg {
-    Fixed(Probe),
+pub(super) enum WalkArg {
+    Fixed(Walk),
     Auto,
 }
 
-impl std::str::FromStr for ProbeArg {
+impl std::str::FromStr for WalkArg {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         if s.trim() == "auto" {
             return Ok(Self::Auto);
         }
         s.parse().map(Self::Fixed).map_err(|_| {
-            format!("unknown probe `{s}` (expected thesis, first-leaf, trace or auto)")
+            format!("unknown walk `{s}` (expected reduced, first-leaf, trace or auto)")
         })
     }
 }
 
-impl std::fmt::Display for ProbeArg {
+impl std::fmt::Display for WalkArg {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
             Self::Fixed(p) => p.name(),

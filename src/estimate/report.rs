@@ -1,4 +1,4 @@
-//! The report of `cobalt estimate`: the estimator's error and overhead, every probe's trade on
+//! The report of `cobalt estimate`: the estimator's error and overhead, every walk's trade on
 //! the CPU and the calibrated model, as one JSON object (its field names are read by users and
 //! tests, so they stay as they are) or a table.
 
@@ -8,10 +8,10 @@ use serde::Serialize;
 /// The device name calibrations are recorded under: one CPU thread, as measured.
 const DEVICE: &str = "cpu-thread";
 
-/// How well one probe's full reduced traversal, calibrated, explains the measured times.
+/// How well one walk's full reduced traversal, calibrated, explains the measured times.
 #[derive(Debug, Serialize)]
-pub(super) struct ProbeFit {
-    pub(super) probe: &'static str,
+pub(super) struct WalkFit {
+    pub(super) walk: &'static str,
     pub(super) error_vs_time: Option<f64>,
     pub(super) spearman_vs_time: Option<f64>,
 }
@@ -19,16 +19,16 @@ pub(super) struct ProbeFit {
 /// One estimator's trade on the CPU: what its sample predicts of the measured times, and what
 /// it costs a render.
 #[derive(Debug, Serialize)]
-pub(super) struct ProbeFigures {
-    pub(super) probe: &'static str,
+pub(super) struct WalkFigures {
+    pub(super) walk: &'static str,
     /// Its sampled estimates, calibrated, against the measured task times.
     pub(super) error_vs_time: Option<f64>,
     pub(super) spearman_vs_time: Option<f64>,
-    /// The thesis's, against the probe's own full count.
+    /// The thesis's, against the walk's own full count.
     pub(super) prediction_error: Option<f64>,
     pub(super) estimate_seconds: f64,
     pub(super) overhead: f64,
-    /// Overhead less the sample's trace where the render reuses its hits (the trace probe).
+    /// Overhead less the sample's trace where the render reuses its hits (the trace walk).
     pub(super) net_overhead: f64,
 }
 
@@ -67,12 +67,12 @@ pub(super) struct Report {
     pub(super) error_vs_time: Option<f64>,
     pub(super) spearman_vs_time: Option<f64>,
     /// The same with each task's exact counts of the real trace (closest or any hit, as
-    /// traced): what no estimate of `B` and `T` can beat, whatever its probe and rate. What
+    /// traced): what no estimate of `B` and `T` can beat, whatever its walk and rate. What
     /// is left is time the counts do not see (caches, branches, the machine).
     pub(super) error_vs_time_trace: Option<f64>,
     pub(super) spearman_trace_vs_time: Option<f64>,
     /// `(estimate + rest − full trace) / full trace`, where `rest` is the full trace less
-    /// the sampled rays when the probe traces them for real (a render takes their hits from
+    /// the sampled rays when the walk traces them for real (a render takes their hits from
     /// the estimate), else the full trace: what estimating costs a render.
     pub(super) net_overhead: f64,
     pub(super) scene: String,
@@ -84,23 +84,27 @@ pub(super) struct Report {
     pub(super) task_size: usize,
     pub(super) tasks: usize,
     pub(super) sample_rate: f64,
-    /// `trace`, `thesis` or `first-leaf` (applied to closest-hit generations only): the one
-    /// asked for, or the better fit with `--probe auto`.
-    pub(super) probe: &'static str,
-    /// With `--probe auto`: how each probe fitted the measured times.
-    pub(super) probe_fits: Option<Vec<ProbeFit>>,
-    /// On the CPU: every probe's trade at this sample rate, timed in the same rounds.
+    /// Adjacent rays the sample keeps together.
+    pub(super) sample_run: usize,
+    /// `trace`, `reduced` or `first-leaf` (applied to closest-hit generations only): the one
+    /// asked for, or the better fit with `--walk auto`.
+    pub(super) walk: &'static str,
+    /// With `--walk auto`: how each walk fitted the measured times.
+    pub(super) walk_fits: Option<Vec<WalkFit>>,
+    /// On the CPU: every walk's trade at this sample rate, timed in the same rounds.
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub(super) probes: Vec<ProbeFigures>,
+    pub(super) walks: Vec<WalkFigures>,
     pub(super) sampled_rays: usize,
     pub(super) threads: usize,
     pub(super) repeats: usize,
+    /// What the times were taken on: `wall` or `cpu` (the process's CPU time).
+    pub(super) clock: &'static str,
     /// Where the estimate and the full trace ran: `cpu` or `gpu`.
     pub(super) device: &'static str,
     /// The GPU adapter's name with `--device gpu`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) adapter: Option<String>,
-    /// The thesis's (secondary: it judges the sample against its own probe's full count, not
+    /// The thesis's (secondary: it judges the sample against its own walk's full count, not
     /// against time): Σ|est − full| / Σ full of `C` under the default model.
     pub(super) prediction_error: Option<f64>,
     /// The same for `B` and for `T` alone.
@@ -113,7 +117,7 @@ pub(super) struct Report {
     /// the GPU, upload and read-back included).
     pub(super) trace_seconds: f64,
     pub(super) overhead: f64,
-    /// With `--probe trace` on the CPU: the full trace less the sampled rays, which a render
+    /// With `--walk trace` on the CPU: the full trace less the sampled rays, which a render
     /// takes from the estimate instead of tracing them again.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) rest_seconds: Option<f64>,
@@ -144,12 +148,13 @@ pub(super) struct Model {
 fn ran_on(r: &Report) -> String {
     match &r.adapter {
         Some(name) => format!("the GPU ({name})"),
+        None if r.clock == "cpu" => format!("{} threads, CPU time of all", r.threads),
         None => format!("{} threads", r.threads),
     }
 }
 
 impl Report {
-    /// The table printed without `--json`: the headline figures, then one row per probe.
+    /// The table printed without `--json`: the headline figures, then one row per walk.
     pub(super) fn table(&self) -> String {
         let r = self;
         let pct = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{:.2} %", 100.0 * v));
@@ -164,7 +169,7 @@ impl Report {
             (
                 "error vs time",
                 format!(
-                    "{} (bound, the trace's own counts: {}; full counts of this probe: {})",
+                    "{} (bound, the trace's own counts: {}; full counts of this walk: {})",
                     pct(r.error_vs_time),
                     pct(r.error_vs_time_trace),
                     pct(r.error_vs_time_full)
@@ -207,10 +212,11 @@ impl Report {
             (
                 "sampled",
                 format!(
-                    "{:.1} % ({} rays), {} probe",
+                    "{:.1} % ({} rays, in runs of {}), {} walk",
                     100.0 * r.sample_rate,
                     r.sampled_rays,
-                    r.probe
+                    r.sample_run,
+                    r.walk
                 ),
             ),
             (
@@ -224,7 +230,7 @@ impl Report {
             (
                 "prediction error",
                 format!(
-                    "{} against the probe's full count (B {}, T {})",
+                    "{} against the walk's full count (B {}, T {})",
                     pct(r.prediction_error),
                     pct(r.prediction_error_nodes),
                     pct(r.prediction_error_tris)
@@ -243,20 +249,20 @@ impl Report {
             ("calibration", cal),
         ];
         let mut text: String = rows.iter().map(|(k, v)| format!("{k:<17} {v}\n")).collect();
-        for f in r.probe_fits.iter().flatten() {
+        for f in r.walk_fits.iter().flatten() {
             text += &format!(
                 "{:<17} error vs time {}, spearman {} (full counts)\n",
-                format!("probe {}", f.probe),
+                format!("walk {}", f.walk),
                 pct(f.error_vs_time),
                 num(f.spearman_vs_time)
             );
         }
-        if !r.probes.is_empty() {
-            text += "\n| probe | error vs time | spearman | net overhead | overhead | prediction error |\n|---|---:|---:|---:|---:|---:|\n";
-            for f in &r.probes {
+        if !r.walks.is_empty() {
+            text += "\n| walk | error vs time | spearman | net overhead | overhead | prediction error |\n|---|---:|---:|---:|---:|---:|\n";
+            for f in &r.walks {
                 text += &format!(
                     "| {} | {} | {} | {} | {} | {} |\n",
-                    f.probe,
+                    f.walk,
                     pct(f.error_vs_time),
                     num(f.spearman_vs_time),
                     pct(Some(f.net_overhead)),

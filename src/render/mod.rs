@@ -19,7 +19,7 @@ use std::time::Instant;
 use raytrace::devices::{DeviceSpec, GpuSelect};
 use raytrace::scheduled::{EstimateOn, FailAfter, Settings};
 use raytrace::shade::{RenderOptions, Shader};
-use raytrace::{Bvh, Camera, Probe, Scene, SceneSource};
+use raytrace::{Bvh, Camera, Scene, SceneSource, Walk};
 
 use crate::args::{
     CameraArgs, CameraChoice, Faults, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs, Size,
@@ -81,13 +81,13 @@ pub struct Args {
     /// only.
     #[arg(long)]
     estimate_on: Option<EstimateOn>,
-    /// How cost mode traces each task's sample: `thesis` (the reduced traversal of the whole
+    /// How cost mode traces each task's sample: `reduced` (the reduced traversal of the whole
     /// ray), `first-leaf` (closest-hit rays end at the exit of the first leaf they reach;
     /// better on closed meshes; shadow and AO rays keep the whole reduced traversal), or
-    /// `trace` (the real trace, counted; on the CPU). See `cobalt estimate --probe`.
+    /// `trace` (the real trace, counted; on the CPU). See `cobalt estimate --walk`.
     /// `--pipeline generations` only: the path pipeline renders its sampled paths for real.
-    #[arg(long)]
-    probe: Option<Probe>,
+    #[arg(long, alias = "probe")]
+    walk: Option<Walk>,
     /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order, a
     /// GPU included) fails after completing TASKS tasks; its unfinished tasks are re-run
     /// elsewhere.
@@ -122,7 +122,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         task_size: args.schedule.task_size,
         sample_rate: args.schedule.sample_rate,
         estimate_on: args.estimate_on.unwrap_or_default(),
-        probe: args.probe.unwrap_or(Probe::Thesis),
+        walk: args.walk.unwrap_or(Walk::Reduced),
     };
     let camera = args.camera.choice()?;
     let shader = args.shader.shader();
@@ -253,7 +253,7 @@ fn check_pipeline_flags(args: &Args, pipeline: PipelineArg) -> Result<(), CliErr
             ),
             None => Ok(()),
         },
-        _ => match (args.estimate_on, args.probe) {
+        _ => match (args.estimate_on, args.walk) {
             (Some(on), _) => refuse(
                 "estimate-on",
                 on.name(),
@@ -262,9 +262,9 @@ fn check_pipeline_flags(args: &Args, pipeline: PipelineArg) -> Result<(), CliErr
                      {generations}"
                 ),
             ),
-            (_, Some(probe)) => refuse(
-                "probe",
-                probe.name(),
+            (_, Some(walk)) => refuse(
+                "walk",
+                walk.name(),
                 &format!("the path pipeline renders its sampled paths for real; {generations}"),
             ),
             _ => Ok(()),
@@ -302,10 +302,10 @@ fn mpi(
         let why = "not available under mpirun; give each rank `--devices …,gpu:all` instead";
         return refuse("pipeline", "gpu".into(), why);
     }
-    if let (PipelineArg::Paths, Some(probe)) = (pipeline, args.probe) {
+    if let (PipelineArg::Paths, Some(walk)) = (pipeline, args.walk) {
         let why = "the path pipeline renders its sampled paths for real; it applies to \
                    --pipeline generations";
-        return refuse("probe", probe.name().to_string(), why);
+        return refuse("walk", walk.name().to_string(), why);
     }
     let job = crate::cluster::Job {
         scene: &args.scene.scene,

@@ -106,8 +106,8 @@ pub struct Report {
     mode: &'static str,
     task_size: usize,
     sample_rate: f64,
-    /// Cost mode's probe of closest-hit generations.
-    probe: &'static str,
+    /// Cost mode's walk of closest-hit generations.
+    walk: &'static str,
     generations: Vec<GenerationReport>,
     total_rays: usize,
     /// Sum of the generations' trace times.
@@ -150,7 +150,7 @@ impl Report {
             mode: settings.mode.name(),
             task_size: settings.task_size.get(),
             sample_rate: settings.sample_rate.get(),
-            probe: settings.probe.name(),
+            walk: settings.walk.name(),
             generations: generation_reports(rendering, stats),
             total_rays: rendering.total_rays(),
             trace_seconds: rendering.trace_seconds(),

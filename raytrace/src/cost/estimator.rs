@@ -7,8 +7,8 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::sample::{Compacted, check_tasks};
-use super::{CostError, CostModel, SampleRate, Work};
-use crate::{Bvh, HitBatch, Probe, RayBatch, traverse};
+use super::{CostError, CostModel, SampleRate, SampleRun, Work};
+use crate::{Bvh, HitBatch, RayBatch, Walk, traverse};
 
 /// Estimates ray tasks (ranges of one [`RayBatch`]) by the reduced traversal of a sample.
 ///
@@ -20,8 +20,9 @@ pub struct ReducedTraversal<'a> {
     bvh: &'a Bvh,
     rays: &'a RayBatch,
     rate: SampleRate,
+    run: SampleRun,
     model: CostModel,
-    probe: Probe,
+    walk: Walk,
 }
 
 impl<'a> ReducedTraversal<'a> {
@@ -31,19 +32,30 @@ impl<'a> ReducedTraversal<'a> {
             bvh,
             rays,
             rate,
+            run: SampleRun::DEFAULT,
             model: CostModel::default(),
-            probe: Probe::Thesis,
+            walk: Walk::Reduced,
         }
     }
 
+    /// The same estimator keeping its samples in runs of `run` adjacent rays.
+    pub fn with_run(self, run: SampleRun) -> Self {
+        Self { run, ..self }
+    }
+
+    /// The sample's runs of adjacent rays.
+    pub fn run(&self) -> SampleRun {
+        self.run
+    }
+
     /// The same estimator tracing its sample with another reduced traversal.
-    pub fn with_probe(self, probe: Probe) -> Self {
-        Self { probe, ..self }
+    pub fn with_walk(self, walk: Walk) -> Self {
+        Self { walk, ..self }
     }
 
     /// The reduced traversal the sample is traced with.
-    pub fn probe(&self) -> Probe {
-        self.probe
+    pub fn walk(&self) -> Walk {
+        self.walk
     }
 
     /// The same estimator weighing `B` and `T` by a calibrated model.
@@ -66,22 +78,22 @@ impl<'a> ReducedTraversal<'a> {
         Ok(self.try_work_traced(tasks)?.0)
     }
 
-    /// [`ReducedTraversal::try_work`], and with [`Probe::Trace`] the hits of the sampled rays,
+    /// [`ReducedTraversal::try_work`], and with [`Walk::Trace`] the hits of the sampled rays,
     /// which a tracer then need not trace again.
     pub fn try_work_traced(
         &self,
         tasks: &[Range<usize>],
     ) -> Result<(Vec<Work>, Option<Traced>), CostError> {
-        let sample = Compacted::gather(self.rays, tasks, self.rate)?;
+        let sample = Compacted::gather_in_runs(self.rays, tasks, self.rate, self.run)?;
         // One parallel loop over the whole compacted batch (rayon chunks of it), not one per
         // task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
-        let (counts, traced) = match self.probe {
-            Probe::Trace { any } => {
+        let (counts, traced) = match self.walk {
+            Walk::Trace { any } => {
                 let (hits, counts) = traverse::traced_at(self.bvh, self.rays, any, &sample.index);
                 (counts, Some(hits))
             }
-            probe => (
-                traverse::reduced_counts_at(self.bvh, self.rays, probe, &sample.index),
+            walk => (
+                traverse::reduced_counts_at(self.bvh, self.rays, walk, &sample.index),
                 None,
             ),
         };
@@ -133,7 +145,7 @@ impl sched::CostEstimator<Range<usize>> for ReducedTraversal<'_> {
     }
 }
 
-/// The hits of a sample traced for real ([`Probe::Trace`]): ray `index[k]` of the batch hit
+/// The hits of a sample traced for real ([`Walk::Trace`]): ray `index[k]` of the batch hit
 /// `hits.get(k)`. Sorted by index when the tasks were.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Traced {
@@ -156,19 +168,19 @@ impl Traced {
     }
 }
 
-/// `probe`'s reduced traversal of *every* ray of every task: the "full" of the thesis's
+/// `walk`'s reduced traversal of *every* ray of every task: the "full" of the thesis's
 /// prediction error, which a sample rate of 1 reproduces exactly. Tasks run in parallel, each
-/// summed on one thread (it is a reference, not timed). The trace probe's counts come from the
+/// summed on one thread (it is a reference, not timed). The trace walk's counts come from the
 /// batch trace its sample takes: its leaf test may take two groups of triangles in one pass,
 /// which the single-ray test counts as they come.
 pub fn full_work(
     bvh: &Bvh,
     rays: &RayBatch,
     tasks: &[Range<usize>],
-    probe: Probe,
+    walk: Walk,
 ) -> Result<Vec<Work>, CostError> {
     check_tasks(rays, tasks)?;
-    if let Probe::Trace { any } = probe {
+    if let Walk::Trace { any } = walk {
         let index: Vec<usize> = tasks.iter().flat_map(Range::clone).collect();
         let (_, counts) = traverse::traced_at(bvh, rays, any, &index);
         let mut at = 0;
@@ -184,7 +196,7 @@ pub fn full_work(
         .par_iter()
         .map(|r| {
             let (b, t) = r.clone().fold((0u64, 0u64), |(b, t), i| {
-                let c = bvh.probe(&rays.get(i), probe);
+                let c = bvh.walk(&rays.get(i), walk);
                 (b + u64::from(c.nodes), t + u64::from(c.tris))
             });
             Work {
@@ -218,7 +230,7 @@ mod tests {
         let (bvh, rays) = forest();
         let tasks = sched::split_ranges(rays.len(), 100);
         let est = ReducedTraversal::new(&bvh, &rays, SampleRate::FULL);
-        let full = full_work(&bvh, &rays, &tasks, Probe::Thesis).unwrap();
+        let full = full_work(&bvh, &rays, &tasks, Walk::Reduced).unwrap();
         assert_eq!(est.try_work(&tasks).unwrap(), full);
         let m = CostModel::default();
         assert_eq!(
@@ -236,7 +248,7 @@ mod tests {
         let (bvh, rays) = forest();
         let tasks = sched::split_ranges(rays.len(), 256);
         let m = CostModel::default();
-        let full = m.costs(&full_work(&bvh, &rays, &tasks, Probe::Thesis).unwrap());
+        let full = m.costs(&full_work(&bvh, &rays, &tasks, Walk::Reduced).unwrap());
         let err = |r| {
             let e = ReducedTraversal::new(&bvh, &rays, SampleRate::new(r).unwrap());
             prediction_error(&e.try_estimate(&tasks).unwrap(), &full).unwrap()
@@ -268,15 +280,15 @@ mod tests {
         }
     }
 
-    /// The trace probe counts what the real trace does and keeps the sample's hits, which
-    /// are the trace's own; the reduced probes keep none.
+    /// The trace walk counts what the real trace does and keeps the sample's hits, which
+    /// are the trace's own; the reduced walks keep none.
     #[test]
-    fn the_trace_probe_counts_the_real_trace_and_keeps_its_hits() {
+    fn the_trace_walk_counts_the_real_trace_and_keeps_its_hits() {
         let (bvh, rays) = forest();
         let tasks = sched::split_ranges(rays.len(), 200);
         for any in [false, true] {
-            let probe = Probe::Trace { any };
-            let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS).with_probe(probe);
+            let walk = Walk::Trace { any };
+            let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS).with_walk(walk);
             let (work, traced) = e.try_work_traced(&tasks).unwrap();
             let traced = traced.expect("the sample's hits");
             let sample = Compacted::gather(&rays, &tasks, SampleRate::THESIS).unwrap();
@@ -293,7 +305,7 @@ mod tests {
             }
             assert_eq!(work, e.try_work(&tasks).unwrap());
             // At a rate of 1 the estimate is the real trace's own counts.
-            let full = ReducedTraversal::new(&bvh, &rays, SampleRate::FULL).with_probe(probe);
+            let full = ReducedTraversal::new(&bvh, &rays, SampleRate::FULL).with_walk(walk);
             let counted = if any {
                 crate::traverse::any_hits_counted(&bvh, &rays).1
             } else {
@@ -304,7 +316,7 @@ mod tests {
                 .map(|r| Work::sum(&counted[r.clone()]))
                 .collect();
             assert_eq!(full.try_work(&tasks).unwrap(), want);
-            assert_eq!(full_work(&bvh, &rays, &tasks, e.probe()).unwrap(), want);
+            assert_eq!(full_work(&bvh, &rays, &tasks, e.walk()).unwrap(), want);
         }
         let reduced = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS);
         assert_eq!(reduced.try_work_traced(&tasks).unwrap().1, None);
@@ -324,7 +336,7 @@ mod tests {
         );
         #[allow(clippy::reversed_empty_ranges)] // the point of the test
         let backwards = vec![0..1, 5..3];
-        assert!(full_work(&bvh, &rays, &backwards, Probe::Thesis).is_err());
+        assert!(full_work(&bvh, &rays, &backwards, Walk::Reduced).is_err());
         assert_eq!(e.try_work(&[]), Ok(vec![]));
     }
 }

@@ -27,7 +27,7 @@
 //!
 //! let estimator = ReducedTraversal::new(&bvh, &rays, SampleRate::new(0.125)?);
 //! let estimate = estimator.estimate_timed(&tasks)?; // costs and overhead
-//! let (est, full) = (estimator.try_work(&tasks)?, full_work(&bvh, &rays, &tasks, estimator.probe())?);
+//! let (est, full) = (estimator.try_work(&tasks)?, full_work(&bvh, &rays, &tasks, estimator.walk())?);
 //! let model = estimator.model();
 //! let error = prediction_error(&model.costs(&est), &model.costs(&full))?;
 //! assert!(estimate.costs.len() == 8 && error < 0.5);
@@ -48,4 +48,4 @@ pub use estimator::{ReducedTraversal, Traced, full_work};
 pub use measure::measure_seconds;
 pub use metrics::{error_vs_time, prediction_error, spearman};
 pub use model::{Calibrations, CostModel, Work};
-pub use sample::{Compacted, SAMPLE_RUN, SampleRate};
+pub use sample::{Compacted, SampleRate, SampleRun};

@@ -78,7 +78,7 @@ impl<'a, 'c> ClusterTracer<'a, 'c> {
         let (rank, size) = (self.cluster.rank(), self.cluster.size());
         let mine = &tasks[tasks.len() * rank / size..tasks.len() * (rank + 1) / size];
         let estimator = ReducedTraversal::new(self.bvh, rays, self.settings.sample_rate)
-            .with_probe(self.settings.probe.for_kind(kind));
+            .with_walk(self.settings.walk.for_kind(kind));
         let flat: Vec<f64> = match estimator.try_work(mine) {
             Ok(work) => work.iter().flat_map(|w| [w.nodes, w.tris]).collect(),
             Err(_) => vec![f64::NAN; 2 * mine.len()],

@@ -140,7 +140,7 @@ impl GpuDevice {
         Ok(hits)
     }
 
-    /// `probe`'s counts of the rays of `range` (equal to [`crate::traverse::reduced_counts`]'s).
+    /// `walk`'s counts of the rays of `range` (equal to [`crate::traverse::reduced_counts`]'s).
     ///
     /// # Errors
     /// See [`launch`].
@@ -150,7 +150,7 @@ impl GpuDevice {
     pub fn reduced_counts(
         &self,
         rays: &RayBatch,
-        probe: crate::Probe,
+        walk: crate::Walk,
         range: &Range<usize>,
     ) -> Result<Vec<Counts>, GpuError> {
         let packed = pack_rays(rays, &[range]);
@@ -159,7 +159,7 @@ impl GpuDevice {
             &self.kernels,
             &self.scene,
             &packed,
-            TraceMode::counts(probe)?,
+            TraceMode::counts(walk)?,
         )?;
         Ok(out
             .into_iter()
@@ -182,7 +182,7 @@ impl GpuDevice {
         rays: &RayBatch,
         tasks: &[Range<usize>],
         rate: crate::cost::SampleRate,
-        probe: crate::Probe,
+        walk: crate::Walk,
     ) -> Result<Vec<SampledCounts>, GpuError> {
         let mut traffic = Traffic::default();
         let counts = sampled_counts(
@@ -192,7 +192,7 @@ impl GpuDevice {
             &self.scene,
             rays,
             tasks,
-            Sampling { rate, probe },
+            Sampling { rate, walk },
             &mut traffic,
         );
         self.count(traffic);
@@ -261,9 +261,9 @@ impl RayDevice for GpuDevice {
         rays: &RayBatch,
         tasks: &[Range<usize>],
         rate: crate::cost::SampleRate,
-        probe: crate::Probe,
+        walk: crate::Walk,
     ) -> Option<Result<Vec<crate::cost::Work>, DeviceError>> {
-        let estimator = super::GpuReducedTraversal::new(self, rays, rate).with_probe(probe);
+        let estimator = super::GpuReducedTraversal::new(self, rays, rate).with_walk(walk);
         Some(estimator.try_work(tasks).map_err(DeviceError::from))
     }
 

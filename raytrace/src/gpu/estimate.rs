@@ -21,7 +21,7 @@ use super::trace::{Threads, TraceKernels, TraceMode, grid, trace_resident};
 use super::{GpuContext, GpuDevice, GpuError};
 use crate::Traffic;
 use crate::cost::{Compacted, CostError, CostModel, SampleRate, Work};
-use crate::{Probe, RayBatch};
+use crate::{RayBatch, Walk};
 
 /// A task's sampled sums as the GPU computed them: exact integer sums of the reduced-traversal
 /// counts of its `sampled` rays, standing for its `len` rays.
@@ -58,11 +58,11 @@ pub(crate) fn estimate_kernel(device: &wgpu::Device) -> Kernel {
     )
 }
 
-/// What the estimator traces: each task's sample at `rate`, by `probe`'s reduced traversal.
+/// What the estimator traces: each task's sample at `rate`, by `walk`'s reduced traversal.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Sampling {
     pub rate: SampleRate,
-    pub probe: Probe,
+    pub walk: Walk,
 }
 
 /// Sampled sums of every task of `rays` (see the module docs).
@@ -81,8 +81,8 @@ pub(crate) fn sampled_counts(
     sampling: Sampling,
     traffic: &mut Traffic,
 ) -> Result<Vec<SampledCounts>, GpuError> {
-    // Before the sample is gathered: a probe the GPU cannot run is refused at once.
-    let mode = TraceMode::counts(sampling.probe)?;
+    // Before the sample is gathered: a walk the GPU cannot run is refused at once.
+    let mode = TraceMode::counts(sampling.walk)?;
     let sample = Compacted::gather(rays, tasks, sampling.rate)
         .map_err(|e: CostError| GpuError::BadTasks { why: e.to_string() })?;
     let mut out = Vec::with_capacity(tasks.len());
@@ -239,7 +239,7 @@ pub struct GpuReducedTraversal<'a> {
     rays: &'a RayBatch,
     rate: SampleRate,
     model: CostModel,
-    probe: Probe,
+    walk: Walk,
 }
 
 impl<'a> GpuReducedTraversal<'a> {
@@ -251,7 +251,7 @@ impl<'a> GpuReducedTraversal<'a> {
             rays,
             rate,
             model: CostModel::default(),
-            probe: Probe::Thesis,
+            walk: Walk::Reduced,
         }
     }
 
@@ -261,8 +261,8 @@ impl<'a> GpuReducedTraversal<'a> {
     }
 
     /// The same estimator tracing its sample with another reduced traversal.
-    pub fn with_probe(self, probe: Probe) -> Self {
-        Self { probe, ..self }
+    pub fn with_walk(self, walk: Walk) -> Self {
+        Self { walk, ..self }
     }
 
     /// Estimated `B` and `T` of every task (equal to the CPU's).
@@ -272,7 +272,7 @@ impl<'a> GpuReducedTraversal<'a> {
     pub fn try_work(&self, tasks: &[Range<usize>]) -> Result<Vec<Work>, GpuError> {
         Ok(self
             .device
-            .sampled_counts(self.rays, tasks, self.rate, self.probe)?
+            .sampled_counts(self.rays, tasks, self.rate, self.walk)?
             .iter()
             .map(SampledCounts::work)
             .collect())

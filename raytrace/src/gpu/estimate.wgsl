@@ -1,5 +1,5 @@
 // The GPU estimator's per-task sums (thesis, section 3.3), after the reduced traversal of
-// `traverse.wgsl` (MODE 2, or 3 for the first-leaf probe) of the compacted sample: the host
+// `traverse.wgsl` (MODE 2, or 3 for the first-leaf walk) of the compacted sample: the host
 // samples every task as `raytrace/src/cost/sample.rs` does and uploads only the sample, task
 // after task; `main` then gives one workgroup to each task and adds the reduced-traversal counts
 // of its samples in 64-bit integers (two u32 words with a carry), so the sums are exact and

@@ -138,11 +138,11 @@ pub enum GpuError {
         /// The cost module's reason, naming the task.
         why: String,
     },
-    /// The GPU runs the reduced traversals only; the trace probe counts on the CPU.
-    #[error("the GPU estimator runs the thesis and first-leaf probes, not `{probe}`")]
-    ProbeUnsupported {
-        /// The probe's name.
-        probe: &'static str,
+    /// The GPU runs the reduced traversals only; the trace walk counts on the CPU.
+    #[error("the GPU estimator runs the reduced and first-leaf walks, not `{walk}`")]
+    WalkUnsupported {
+        /// The walk's name.
+        walk: &'static str,
     },
     /// A task's sampled counts exceed the 32 bits the device sums them in.
     #[error("{adapter}: the sampled counts of task {task} exceed 32 bits")]

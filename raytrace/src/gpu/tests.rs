@@ -208,13 +208,13 @@ fn check_scene(name: &str, seed: u64) {
         &traverse::hits_in(&bvh, &rays, true, traverse::Layout::Binary),
         &any,
     );
-    for probe in [crate::Probe::Thesis, crate::Probe::FirstLeaf] {
-        let counts = dev.reduced_counts(&rays, probe, &all).expect("GPU counts");
-        let want = traverse::reduced_counts(&bvh, &rays, probe, all.clone());
+    for walk in [crate::Walk::Reduced, crate::Walk::FirstLeaf] {
+        let counts = dev.reduced_counts(&rays, walk, &all).expect("GPU counts");
+        let want = traverse::reduced_counts(&bvh, &rays, walk, all.clone());
         let bad: Vec<usize> = (0..n).filter(|&i| counts[i] != want[i]).collect();
         assert!(
             bad.is_empty(),
-            "{name} {probe:?}: {} of {n} counts differ, first ray {}: CPU {:?} GPU {:?}",
+            "{name} {walk:?}: {} of {n} counts differ, first ray {}: CPU {:?} GPU {:?}",
             bad.len(),
             bad[0],
             want[bad[0]],
@@ -222,7 +222,7 @@ fn check_scene(name: &str, seed: u64) {
         );
     }
     let counts = dev
-        .reduced_counts(&rays, crate::Probe::Thesis, &all)
+        .reduced_counts(&rays, crate::Walk::Reduced, &all)
         .expect("GPU counts");
     // Some rays hit, some miss, and the counts are not trivial.
     let hits = closest
@@ -362,11 +362,11 @@ fn check_estimates(name: &str) {
                 let rate = SampleRate::new(rate).expect("rate");
                 let at = format!("{name} {what}, tasks of {size}, rate {}", rate.get());
                 let gpu = dev
-                    .sampled_counts(rays, &tasks, rate, crate::Probe::Thesis)
+                    .sampled_counts(rays, &tasks, rate, crate::Walk::Reduced)
                     .expect("GPU estimate");
                 let sample = Compacted::gather(rays, &tasks, rate).expect("CPU sample");
                 let counts =
-                    traverse::reduced_counts_at(&bvh, rays, crate::Probe::Thesis, &sample.index);
+                    traverse::reduced_counts_at(&bvh, rays, crate::Walk::Reduced, &sample.index);
                 assert_eq!(gpu.len(), tasks.len(), "{at}");
                 for (t, g) in gpu.iter().enumerate() {
                     let (a, b) = (sample.offsets[t], sample.offsets[t + 1]);
@@ -386,17 +386,17 @@ fn check_estimates(name: &str) {
                     .try_work(&tasks)
                     .expect("GPU estimate");
                 assert_eq!(gpu_work, cpu_work, "{at}");
-                // The first-leaf probe too (camera rays only: AO rays never use it).
+                // The first-leaf walk too (camera rays only: AO rays never use it).
                 if what == "primary" {
-                    let probe = crate::Probe::FirstLeaf;
-                    let cpu = ReducedTraversal::new(&bvh, rays, rate).with_probe(probe);
-                    let gpu = GpuReducedTraversal::new(&dev, rays, rate).with_probe(probe);
+                    let walk = crate::Walk::FirstLeaf;
+                    let cpu = ReducedTraversal::new(&bvh, rays, rate).with_walk(walk);
+                    let gpu = GpuReducedTraversal::new(&dev, rays, rate).with_walk(walk);
                     assert_eq!(gpu.try_work(&tasks).ok(), cpu.try_work(&tasks).ok(), "{at}");
                 }
                 if rate == SampleRate::FULL {
                     assert_eq!(
                         gpu_work,
-                        full_work(&bvh, rays, &tasks, crate::Probe::Thesis).expect("full"),
+                        full_work(&bvh, rays, &tasks, crate::Walk::Reduced).expect("full"),
                         "{at}"
                     );
                 }
@@ -409,7 +409,7 @@ fn check_estimates(name: &str) {
                 rays,
                 std::slice::from_ref(&one),
                 SampleRate::FULL,
-                crate::Probe::Thesis,
+                crate::Walk::Reduced,
             )
             .expect("one task");
         assert!(all[0].nodes > all[0].len as u64, "{name} {what}: {all:?}");
@@ -440,11 +440,11 @@ fn estimator_refuses_bad_tasks_and_serves_sched() {
     let n = rays.len();
     let rate = SampleRate::THESIS;
     let e = dev
-        .sampled_counts(&rays, &[0..10, 10..10], rate, crate::Probe::Thesis)
+        .sampled_counts(&rays, &[0..10, 10..10], rate, crate::Walk::Reduced)
         .expect_err("empty task");
     assert!(e.to_string().contains("task 1 is empty"), "{e}");
     let e = dev
-        .sampled_counts(&rays, &[0..10, 5..n + 1], rate, crate::Probe::Thesis)
+        .sampled_counts(&rays, &[0..10, 5..n + 1], rate, crate::Walk::Reduced)
         .expect_err("beyond the batch");
     assert!(e.to_string().contains("task 1"), "{e}");
     // A task beyond the 46 340 rays the device's u32 sample arithmetic once allowed is
@@ -461,7 +461,7 @@ fn estimator_refuses_bad_tasks_and_serves_sched() {
         .expect("a long task");
     assert_eq!(gpu, cpu);
     assert!(
-        dev.sampled_counts(&rays, &[], rate, crate::Probe::Thesis)
+        dev.sampled_counts(&rays, &[], rate, crate::Walk::Reduced)
             .expect("none")
             .is_empty()
     );
@@ -631,11 +631,11 @@ fn gpu_film(
 }
 
 /// The GPU's AO image against `shade::render` with the same settings. Both compute in f32 with
-/// the same operations; they may differ where `cos`/`sin` round differently (a probe direction
-/// moves by an ulp) or at an exact-edge tie, and a probe that changes its verdict moves its
+/// the same operations; they may differ where `cos`/`sin` round differently (a walk direction
+/// moves by an ulp) or at an exact-edge tie, and a walk that changes its verdict moves its
 /// pixel by 1/samples. Tolerance: at most 1 % of pixels differ at all, none by more than
 /// 2/samples, and the mean absolute difference is at most 1e-3. With `split`, the binding
-/// limit is lowered to the primary rays' size, so the probes go in several chunks.
+/// limit is lowered to the primary rays' size, so the walks go in several chunks.
 fn check_ao_image(name: &str, samples: u32, split: bool) {
     let Some(mut ctx) = gpu() else { return };
     let scene = SceneSource::parse(name)

@@ -1,7 +1,7 @@
 //! The kernels of `traverse.wgsl` and the host loop that runs them.
 //!
 //! One shader, four compute pipelines (the `MODE` override): closest hit, any hit, and the two reduced
-//! traversals (the thesis's and the first-leaf one, see [`crate::Probe`]).
+//! traversals (the thesis's and the first-leaf one, see [`crate::Walk`]).
 //! A launch uploads its rays, resets the queue head, and records enough dispatches of
 //! persistent workgroups to drain the queue: each workgroup takes [`BATCHES`] batches of 64
 //! rays per dispatch, so `ceil(rays / (64 · BATCHES · workgroups))` dispatches suffice when
@@ -50,17 +50,15 @@ impl TraceMode {
         }
     }
 
-    /// The counting mode of a probe: the reduced traversals have one, the trace probe none.
+    /// The counting mode of a walk: the reduced traversals have one, the trace walk none.
     ///
     /// # Errors
-    /// [`GpuError::ProbeUnsupported`] for [`crate::Probe::Trace`].
-    pub fn counts(probe: crate::Probe) -> Result<Self, GpuError> {
-        match probe {
-            crate::Probe::Thesis => Ok(Self::Reduced),
-            crate::Probe::FirstLeaf => Ok(Self::FirstLeaf),
-            crate::Probe::Trace { .. } => Err(GpuError::ProbeUnsupported {
-                probe: probe.name(),
-            }),
+    /// [`GpuError::WalkUnsupported`] for [`crate::Walk::Trace`].
+    pub fn counts(walk: crate::Walk) -> Result<Self, GpuError> {
+        match walk {
+            crate::Walk::Reduced => Ok(Self::Reduced),
+            crate::Walk::FirstLeaf => Ok(Self::FirstLeaf),
+            crate::Walk::Trace { .. } => Err(GpuError::WalkUnsupported { walk: walk.name() }),
         }
     }
 }

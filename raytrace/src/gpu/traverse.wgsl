@@ -19,7 +19,7 @@
 // invocation per ray in a single dispatch.
 
 // 0: closest hit, 1: any hit, 2: reduced traversal (counts B and T), 3: the first-leaf
-// reduced traversal (`Probe::FirstLeaf`: counts B and T, each ray ending at the exit of the
+// reduced traversal (`Walk::FirstLeaf`: counts B and T, each ray ending at the exit of the
 // first leaf it reaches, children in `near_child_first` order).
 override MODE: u32 = 0u;
 // Batches of 64 rays a workgroup takes per dispatch.

@@ -68,7 +68,7 @@ pub trait RayDevice: Send {
     /// dispatch) overrides this to pay it once per launch rather than once per range.
     ///
     /// The rays at `known` (sorted indices into `rays`, usually none) were traced already, by
-    /// the estimator's sample ([`crate::Probe::Trace`]): a device that
+    /// the estimator's sample ([`crate::Walk::Trace`]): a device that
     /// [skips them](RayDevice::skips_known) leaves them as misses, for the caller writes
     /// their hits in afterwards. By default they are traced like the others.
     fn trace_ranges(
@@ -103,7 +103,7 @@ pub trait RayDevice: Send {
     }
 
     /// The estimate of `tasks` computed on this device (the thesis estimates on the GPU):
-    /// each task's sampled work at `rate` by `probe`'s reduced traversal, equal to
+    /// each task's sampled work at `rate` by `walk`'s reduced traversal, equal to
     /// [`crate::cost::ReducedTraversal::try_work`]'s. `None` for a device that does not
     /// estimate (the default: the CPU estimates in parallel on the host instead).
     fn estimate_work(
@@ -111,9 +111,9 @@ pub trait RayDevice: Send {
         rays: &RayBatch,
         tasks: &[Range<usize>],
         rate: SampleRate,
-        probe: crate::Probe,
+        walk: crate::Walk,
     ) -> Option<Result<Vec<Work>, DeviceError>> {
-        let _ = (rays, tasks, rate, probe);
+        let _ = (rays, tasks, rate, walk);
         None
     }
 

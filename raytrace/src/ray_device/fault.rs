@@ -120,8 +120,8 @@ impl RayDevice for FailingAfter<'_> {
         rays: &RayBatch,
         tasks: &[Range<usize>],
         rate: SampleRate,
-        probe: crate::Probe,
+        walk: crate::Walk,
     ) -> Option<Result<Vec<Work>, DeviceError>> {
-        self.inner.estimate_work(rays, tasks, rate, probe)
+        self.inner.estimate_work(rays, tasks, rate, walk)
     }
 }

@@ -6,7 +6,7 @@ use std::str::FromStr;
 
 use sched::Policy;
 
-use crate::Probe;
+use crate::Walk;
 use crate::cost::SampleRate;
 
 /// Where a generation's task costs come from.
@@ -99,8 +99,8 @@ pub struct Settings {
     /// Where the estimate runs (cost mode).
     pub estimate_on: EstimateOn,
     /// How the estimate traces its sample (cost mode), per generation as
-    /// [`Probe::for_kind`] says.
-    pub probe: Probe,
+    /// [`Walk::for_kind`] says.
+    pub walk: Walk,
 }
 
 impl Settings {
@@ -148,7 +148,7 @@ impl Default for Settings {
             task_size: Self::DEFAULT_TASK_SIZE,
             sample_rate: SampleRate::THESIS,
             estimate_on: EstimateOn::Cpu,
-            probe: Probe::Thesis,
+            walk: Walk::Reduced,
         }
     }
 }

@@ -143,7 +143,7 @@ impl<'a> ScheduledTracer<'a> {
     /// the host estimates instead, and tracing will show whether the device still works);
     /// else on the host.
     ///
-    /// Returns the work, the sample's hits where the probe traced it for real (on the host),
+    /// Returns the work, the sample's hits where the walk traced it for real (on the host),
     /// and where it was estimated: a device's name, or `host` (with why no device did, when
     /// one was asked for).
     fn estimate_work(
@@ -153,7 +153,7 @@ impl<'a> ScheduledTracer<'a> {
         tasks: &[Range<usize>],
     ) -> Result<(Vec<Work>, Option<Traced>, String), String> {
         let rate = self.settings.sample_rate;
-        let probe = self.settings.probe.for_kind(kind);
+        let walk = self.settings.walk.for_kind(kind);
         let mut on = String::from("host");
         if self.settings.estimate_on == EstimateOn::Gpu {
             on.push_str(" (no GPU among the devices)");
@@ -161,7 +161,7 @@ impl<'a> ScheduledTracer<'a> {
                 if *retired {
                     continue;
                 }
-                match device.estimate_work(rays, tasks, rate, probe) {
+                match device.estimate_work(rays, tasks, rate, walk) {
                     Some(Ok(work)) => return Ok((work, None, device.name())),
                     Some(Err(e)) => on = format!("host ({} could not: {e})", device.name()),
                     None => {}
@@ -169,7 +169,7 @@ impl<'a> ScheduledTracer<'a> {
             }
         }
         let (work, traced) = ReducedTraversal::new(self.bvh, rays, rate)
-            .with_probe(probe)
+            .with_walk(walk)
             .try_work_traced(tasks)
             .map_err(|e| e.to_string())?;
         Ok((work, traced, on))
@@ -475,7 +475,7 @@ impl ScheduledTracer<'_> {
 struct Costed {
     costs: Costs,
     work: Option<Vec<Work>>,
-    /// The sample's hits, where the probe traced it for real.
+    /// The sample's hits, where the walk traced it for real.
     traced: Option<Traced>,
     error: Option<String>,
     on: Option<String>,

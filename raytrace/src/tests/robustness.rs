@@ -12,7 +12,7 @@ use crate::testkit::{self, reference_closest};
 use crate::traverse::{
     any_hits, any_hits_counted, closest_hits, closest_hits_counted, reduced_counts,
 };
-use crate::{BuildPreset, Bvh, Probe, Ray, RayBatch, Rng, Scene};
+use crate::{BuildPreset, Bvh, Ray, RayBatch, Rng, Scene, Walk};
 
 fn build(scene: &Scene) -> Bvh {
     let bvh = Bvh::build(scene, BuildPreset::Medium).unwrap();
@@ -343,8 +343,8 @@ fn counts_and_reduced_traversal() {
     let bvh = build(&scene);
     let batch: RayBatch = rays.into_iter().collect();
     let (hits, counts) = closest_hits_counted(&bvh, &batch);
-    let reduced = reduced_counts(&bvh, &batch, Probe::Thesis, 0..batch.len());
-    let part = reduced_counts(&bvh, &batch, Probe::Thesis, 100..300);
+    let reduced = reduced_counts(&bvh, &batch, Walk::Reduced, 0..batch.len());
+    let part = reduced_counts(&bvh, &batch, Walk::Reduced, 100..300);
     assert_eq!(&reduced[100..300], &part[..]);
     for i in 0..batch.len() {
         let (c, r) = (counts[i], reduced[i]);
@@ -362,7 +362,7 @@ fn counts_and_reduced_traversal() {
         let f = bvh.first_leaf_traversal(&batch.get(i));
         assert!(f.nodes >= 2 && f.tris >= 1 && f.nodes <= r.nodes && f.tris <= r.tris);
     }
-    let first = reduced_counts(&bvh, &batch, Probe::FirstLeaf, 0..batch.len());
+    let first = reduced_counts(&bvh, &batch, Walk::FirstLeaf, 0..batch.len());
     assert!(first.iter().zip(&reduced).any(|(f, r)| f.nodes < r.nodes));
     // An any-hit query stops at its first hit: its hit is `any_hit`'s, it enters only nodes
     // the reduced traversal enters, and it often enters fewer than the closest hit. (It takes

@@ -14,7 +14,7 @@ use crate::scheduled::{
 use crate::shade::{
     AoSettings, CpuTracer, RenderOptions, Rendering, Shader, WhittedSettings, render,
 };
-use crate::{BuildPreset, Bvh, Camera, Probe, RayKind, Scene, SceneSource};
+use crate::{BuildPreset, Bvh, Camera, RayKind, Scene, SceneSource, Walk};
 
 const N: u32 = 32;
 
@@ -112,21 +112,21 @@ fn images_are_identical_whatever_the_policy_mode_and_devices() {
     }
 }
 
-/// The first-leaf probe changes the plan of closest-hit generations only, never the image.
+/// The first-leaf walk changes the plan of closest-hit generations only, never the image.
 #[test]
-fn the_first_leaf_probe_costs_closest_hit_rays_and_leaves_the_image_alone() {
+fn the_first_leaf_walk_costs_closest_hit_rays_and_leaves_the_image_alone() {
     let shader = whitted();
     let (scene, bvh) = load("builtin:cornell", shader);
     let want = reference(&scene, &bvh, shader);
-    let run = |probe| {
+    let run = |walk| {
         let settings = Settings {
-            probe,
+            walk,
             ..settings(Policy::StaticLpt, Mode::Cost, 96)
         };
         scheduled(&scene, &bvh, shader, "cpu:2", &[], settings)
     };
-    let (thesis, thesis_stats) = run(Probe::Thesis);
-    let (first, first_stats) = run(Probe::FirstLeaf);
+    let (thesis, thesis_stats) = run(Walk::Reduced);
+    let (first, first_stats) = run(Walk::FirstLeaf);
     assert_eq!(thesis.film, want.film);
     assert_eq!(first.film, want.film);
     // The first generation (camera rays) is planned with the default model in both runs:
@@ -183,12 +183,12 @@ impl crate::scheduled::RayDevice for Spy<'_> {
     }
 }
 
-/// The trace probe traces each task's sample for real; where every device skips known rays,
+/// The trace walk traces each task's sample for real; where every device skips known rays,
 /// the sample's hits stand in for their trace (and the devices are told of every sampled ray
 /// of their tasks), else they trace everything. The image is the same either way, through
 /// failures too.
 #[test]
-fn the_trace_probe_hands_its_samples_hits_down_and_leaves_the_image_alone() {
+fn the_trace_walk_hands_its_samples_hits_down_and_leaves_the_image_alone() {
     use std::sync::Arc;
     use std::sync::atomic::{AtomicUsize, Ordering};
     for (source, shader) in [
@@ -197,12 +197,12 @@ fn the_trace_probe_hands_its_samples_hits_down_and_leaves_the_image_alone() {
     ] {
         let (scene, bvh) = load(source, shader);
         let want = reference(&scene, &bvh, shader);
-        for (probe, second_skips, faults) in [
-            (Probe::Trace { any: false }, true, vec![]),
-            (Probe::Trace { any: false }, false, vec![]),
-            (Probe::Thesis, true, vec![]),
+        for (walk, second_skips, faults) in [
+            (Walk::Trace { any: false }, true, vec![]),
+            (Walk::Trace { any: false }, false, vec![]),
+            (Walk::Reduced, true, vec![]),
             (
-                Probe::Trace { any: false },
+                Walk::Trace { any: false },
                 true,
                 vec![FailAfter {
                     device: 1,
@@ -224,16 +224,16 @@ fn the_trace_probe_hands_its_samples_hits_down_and_leaves_the_image_alone() {
                 })
                 .collect();
             let settings = Settings {
-                probe,
+                walk,
                 ..settings(Policy::Hybrid, Mode::Cost, 64)
             };
             let mut tracer = ScheduledTracer::new(&bvh, devices, settings).unwrap();
             let options = RenderOptions::new(N, N, Camera::orbit(&scene.bounds(), 1), shader);
             let got = render(&scene, &mut tracer, &options);
-            let case = format!("{source} {probe:?} second skips {second_skips} {faults:?}");
+            let case = format!("{source} {walk:?} second skips {second_skips} {faults:?}");
             assert_eq!(got.film, want.film, "{case}");
             let told = told.load(Ordering::Relaxed);
-            if probe == Probe::Thesis || !second_skips {
+            if walk == Walk::Reduced || !second_skips {
                 assert_eq!(told, 0, "{case}");
             } else {
                 // Every generation's sample, 1/8 of its rays, at least once (reruns again).
@@ -564,16 +564,16 @@ fn estimates_on_the_gpu_equal_the_hosts() {
     let shader = whitted();
     let (scene, bvh) = load("builtin:cornell", shader);
     let want = reference(&scene, &bvh, shader);
-    let on = |estimate_on, devices, probe| {
+    let on = |estimate_on, devices, walk| {
         let settings = Settings {
             estimate_on,
-            probe,
+            walk,
             ..settings(Policy::StaticLpt, Mode::Cost, 96)
         };
         scheduled(&scene, &bvh, shader, devices, &[], settings)
     };
-    let (host, host_stats) = on(EstimateOn::Cpu, "cpu:1,gpu:0", Probe::Thesis);
-    let (gpu, gpu_stats) = on(EstimateOn::Gpu, "cpu:1,gpu:0", Probe::Thesis);
+    let (host, host_stats) = on(EstimateOn::Cpu, "cpu:1,gpu:0", Walk::Reduced);
+    let (gpu, gpu_stats) = on(EstimateOn::Gpu, "cpu:1,gpu:0", Walk::Reduced);
     assert_eq!(host.film, want.film);
     assert_eq!(gpu.film, want.film);
     // The first generation is planned with the default model on both: equal work, equal
@@ -588,14 +588,14 @@ fn estimates_on_the_gpu_equal_the_hosts() {
             .iter()
             .all(|s| s.estimated_on.as_deref() == Some("host"))
     );
-    let (_, cpu_only) = on(EstimateOn::Gpu, "cpu:2", Probe::Thesis);
+    let (_, cpu_only) = on(EstimateOn::Gpu, "cpu:2", Walk::Reduced);
     assert_eq!(
         cpu_only[0].estimated_on.as_deref(),
         Some("host (no GPU among the devices)")
     );
-    // The first-leaf probe runs on the GPU too, with the host's costs.
-    let (host, host_stats) = on(EstimateOn::Cpu, "cpu:1,gpu:0", Probe::FirstLeaf);
-    let (gpu, gpu_stats) = on(EstimateOn::Gpu, "cpu:1,gpu:0", Probe::FirstLeaf);
+    // The first-leaf walk runs on the GPU too, with the host's costs.
+    let (host, host_stats) = on(EstimateOn::Cpu, "cpu:1,gpu:0", Walk::FirstLeaf);
+    let (gpu, gpu_stats) = on(EstimateOn::Gpu, "cpu:1,gpu:0", Walk::FirstLeaf);
     assert_eq!(host.film, want.film);
     assert_eq!(gpu.film, want.film);
     assert_eq!(costs(&gpu_stats[0]), costs(&host_stats[0]));
