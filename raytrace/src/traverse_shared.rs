@@ -98,7 +98,7 @@ impl Bvh {
                     // SAFETY: the CPU has AVX2 (see `# Safety`), and `(child, count)` is the
                     // root or a child reference read from the tree.
                     let (hit, _) = unsafe {
-                        self.walk::<ANY, true, STACK>(
+                        self.walk_from::<ANY, true, STACK>(
                             &boxes[r],
                             s,
                             tmin[r],

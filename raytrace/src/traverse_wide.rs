@@ -209,7 +209,7 @@ impl Bvh {
         let boxes = Box8Ray::new(ray);
         let shear = Shear4::new(shear);
         // SAFETY: as the caller states (see `# Safety`); the root is node 0.
-        unsafe { self.walk::<MODE, AVX2, STACK>(&boxes, &shear, ray.tmin, ray.tmax, (0, 0)) }
+        unsafe { self.walk_from::<MODE, AVX2, STACK>(&boxes, &shear, ray.tmin, ray.tmax, (0, 0)) }
     }
 
     /// The walk of [`Bvh::traverse_wide`] from `start` (inner node or first group, triangle
@@ -219,7 +219,7 @@ impl Bvh {
     /// With `AVX2`, the CPU must have AVX2; `start` must be the root or a child reference of
     /// the wide tree.
     #[inline(always)]
-    pub(crate) unsafe fn walk<const MODE: u8, const AVX2: bool, const STACK: usize>(
+    pub(crate) unsafe fn walk_from<const MODE: u8, const AVX2: bool, const STACK: usize>(
         &self,
         boxes: &Box8Ray,
         shear: &Shear4,
