@@ -181,12 +181,7 @@ fn points(
         let seconds = regroup(&chunk_seconds, unit, task_size);
         let trace_work: Vec<Work> = chunk_work
             .chunks(task_size / unit)
-            .map(|c| {
-                c.iter().fold(Work::default(), |a, w| Work {
-                    nodes: a.nodes + w.nodes,
-                    tris: a.tris + w.tris,
-                })
-            })
+            .map(|c| c.iter().fold(Work::default(), |a, &w| a.plus(w)))
             .collect();
         let (error_vs_time_trace, spearman_trace_vs_time) = vs_time(&trace_work, &seconds);
         let traced = Walk::Trace { any: occlusion };
