@@ -436,6 +436,28 @@ impl ShaderArgs {
     }
 }
 
+/// How a render's frames are made: the `--pipeline` of `cobalt render` and `cobalt bench`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Pipeline {
+    /// Every frame scheduled over `--devices` by `--policy` as tasks of whole paths, each
+    /// made, traced and shaded on the device that runs it.
+    Paths,
+    /// Every generation of rays scheduled over `--devices` by `--policy` on its own, the rays
+    /// made and shaded on the host (per-generation statistics and calibration).
+    #[value(alias = "scheduled")]
+    Generations,
+}
+
+impl Pipeline {
+    /// The name reports, records and tables use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Paths => "paths",
+            Self::Generations => "generations",
+        }
+    }
+}
+
 /// The devices, and how tasks are cut, costed and planned over them.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ScheduleArgs {

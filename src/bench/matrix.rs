@@ -20,7 +20,7 @@ use serde::Serialize;
 use super::prediction::{ErrorSums, PredictionTracer};
 use super::repeats;
 use super::replay::{Replayed, RunDevice};
-use crate::args::ShaderKind;
+use crate::args::{Pipeline, ShaderKind};
 use crate::error::CliError;
 
 /// The two workloads of the thesis.
@@ -61,26 +61,6 @@ impl Workload {
         match self {
             Self::Whitted => true,
             Self::Ao => kind == RayKind::Ao,
-        }
-    }
-}
-
-/// How a cell's frames are rendered.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Pipeline {
-    /// Frames of whole paths, each task's paths made, traced and shaded on the device that
-    /// runs it.
-    Paths,
-    /// Each generation of rays scheduled on its own, the rays made and shaded on the host.
-    Generations,
-}
-
-impl Pipeline {
-    /// The name records and tables use.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Paths => "paths",
-            Self::Generations => "generations",
         }
     }
 }

@@ -29,9 +29,9 @@ use raytrace::shade::{AoSettings, CpuTracer, RenderOptions, Shader, render};
 use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
 use sched::Policy;
 
-use crate::args::{Devices, MAX_AO_SAMPLES, ShaderKind, Size, sample_rate, task_size};
+use crate::args::{Devices, MAX_AO_SAMPLES, Pipeline, ShaderKind, Size, sample_rate, task_size};
 use crate::error::CliError;
-use matrix::{Pipeline, Plan, Workload};
+use matrix::{Plan, Workload};
 
 /// Arguments of `cobalt bench`.
 #[derive(Debug, clap::Args)]
@@ -64,10 +64,9 @@ pub struct Args {
     /// Share of each task's rays traced to estimate it (cost mode).
     #[arg(long, default_value = "0.125", value_parser = sample_rate)]
     sample_rate: SampleRate,
-    /// How each cell renders: `paths` (frames of whole paths on path-resident devices; the
-    /// default) or `generations` (each generation of rays scheduled on its own, made and
-    /// shaded on the host, as the thesis measures them). Under `--mpi` too: by paths every
-    /// other rank is a path device of rank 0's renderer.
+    /// How each cell renders: `paths` (the default) or `generations` (as the thesis measures
+    /// it), as for `cobalt render`. Under `--mpi` too: by paths every other rank is a path
+    /// device of rank 0's renderer.
     #[arg(long, value_enum)]
     pipeline: Option<Pipeline>,
     /// Where cost mode's estimate runs: `cpu` (the host's cores; the default) or `gpu` (the

@@ -22,8 +22,9 @@ use sched::mpi::Cluster;
 use sched::{Costs, Policy, Simulation, Speeds};
 use serde::Serialize;
 
-use super::matrix::{Pipeline, Replay, Workload, replay};
+use super::matrix::{Replay, Workload, replay};
 use super::paths::replay_frame;
+use crate::args::Pipeline;
 use crate::error::CliError;
 
 /// Node counts of the simulated clusters.
