@@ -22,7 +22,7 @@ use raytrace::shade::{RenderOptions, Shader};
 use raytrace::{Bvh, Camera, Scene, SceneSource, Walk};
 
 use crate::args::{
-    CameraArgs, CameraChoice, Faults, Pipeline, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs,
+    CameraArgs, CameraChoice, Pipeline, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs,
     Size,
 };
 use crate::error::CliError;
@@ -115,8 +115,8 @@ pub struct Args {
     /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order, a
     /// GPU included) fails after completing TASKS tasks; its unfinished tasks are re-run
     /// elsewhere.
-    #[arg(long)]
-    fail: Option<Faults>,
+    #[arg(long, value_delimiter = ',', value_parser = crate::args::fail_after)]
+    fail: Vec<FailAfter>,
     /// When every device of `--devices` fails, finish the frame on the host's threads and say
     /// so, instead of exiting with status 3 and writing nothing.
     #[arg(long)]
@@ -244,11 +244,12 @@ fn load(
 /// exist: their indices are checked once the devices are built (naming the fault).
 fn faults(args: &Args) -> Result<Vec<FailAfter>, CliError> {
     let devices = &args.schedule.devices;
-    match &args.fail {
-        Some(faults) if devices.has_gpu() => faults.check(usize::MAX),
-        Some(faults) => faults.check(devices.cpu_devices()),
-        None => Ok(Vec::new()),
-    }
+    let known = if devices.has_gpu() {
+        usize::MAX
+    } else {
+        devices.cpu_devices()
+    };
+    crate::args::check_faults(&args.fail, known)
 }
 
 /// Refuses the flags that do not apply to `pipeline`, naming the one they apply to.
