@@ -141,13 +141,13 @@ pub struct Record {
 }
 
 impl Record {
-    /// A record of one run of `plan`'s cell (`w`, `settings`) on `devices` devices, its
+    /// A record of one run of `matrix`'s cell (`w`, `settings`) on `devices` devices, its
     /// figures still zero.
-    pub fn new(plan: &Plan<'_>, w: Workload, settings: Settings, devices: usize) -> Self {
+    pub fn new(matrix: &SceneMatrix<'_>, w: Workload, settings: Settings, devices: usize) -> Self {
         Self {
             source: "measured",
             pipeline: "generations",
-            scene: plan.scene_name.to_string(),
+            scene: matrix.scene_name.to_string(),
             shader: w.name(),
             ray_kind: w.ray_kind(),
             policy: settings.policy.name(),
@@ -155,10 +155,10 @@ impl Record {
             walk: settings.walk.name(),
             task_size: settings.task_size.get(),
             devices,
-            device_list: plan.device_list.to_string(),
-            cameras: plan.cameras,
-            width: plan.width,
-            height: plan.height,
+            device_list: matrix.device_list.to_string(),
+            cameras: matrix.cameras,
+            width: matrix.width,
+            height: matrix.height,
             rays: 0,
             seconds: 0.0,
             mrays_per_s: 0.0,
@@ -216,8 +216,8 @@ pub struct Replays {
     pub gens: Vec<Replay>,
 }
 
-/// What to run on one scene.
-pub struct Plan<'a> {
+/// What to run on one scene: every cell (workload, task size, policy, mode) of its matrix.
+pub struct SceneMatrix<'a> {
     pub scene_name: &'a str,
     pub scene: &'a Scene,
     pub bvh: &'a Bvh,
@@ -243,7 +243,7 @@ pub struct Plan<'a> {
     pub calibration: Option<&'a std::cell::RefCell<crate::calibration::Store>>,
 }
 
-impl Plan<'_> {
+impl SceneMatrix<'_> {
     /// Runs in the matrix, repeats included.
     pub fn runs(&self) -> usize {
         self.workloads.len()

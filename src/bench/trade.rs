@@ -14,7 +14,7 @@ use raytrace::cost::{
 use raytrace::{Bvh, RayBatch, RayKind, Walk, traverse, workload};
 use serde::Serialize;
 
-use super::matrix::Plan;
+use super::matrix::SceneMatrix;
 use crate::error::CliError;
 
 /// The sampling rates measured: the thesis's four, and two below them.
@@ -249,14 +249,14 @@ fn points(
     Ok(out)
 }
 
-/// The trade on thesis camera 0 at the plan's size, for tasks of each of its task sizes, with its
+/// The trade on orbit camera 0 at the matrix's size, for tasks of each of its task sizes, with its
 /// walk for the coherent rays.
-pub fn sampling_trade(plan: &Plan) -> Result<Vec<TradePoint>, CliError> {
-    let (name, scene, bvh) = (plan.scene_name, plan.scene, plan.bvh);
-    let (width, height, ao_samples) = (plan.width, plan.height, plan.ao_samples);
-    let (task_sizes, walk) = (plan.task_sizes, plan.walk);
-    let primary = workload::thesis_primary(scene, width, height, 0..1);
-    let ao = workload::thesis_ao(scene, bvh, width, height, 0, ao_samples).rays;
+pub fn sampling_trade(matrix: &SceneMatrix) -> Result<Vec<TradePoint>, CliError> {
+    let (name, scene, bvh) = (matrix.scene_name, matrix.scene, matrix.bvh);
+    let (width, height, ao_samples) = (matrix.width, matrix.height, matrix.ao_samples);
+    let (task_sizes, walk) = (matrix.task_sizes, matrix.walk);
+    let primary = workload::orbit_primary(scene, width, height, 0..1);
+    let ao = workload::orbit_ao(scene, bvh, width, height, 0, ao_samples).rays;
     let coherent = walk.for_kind(RayKind::Primary);
     let mut out = points(name, bvh, &primary, "coherent", false, coherent, task_sizes)?;
     if !ao.is_empty() {
