@@ -251,9 +251,9 @@ pub fn count<const MAX: usize>(text: &str) -> Result<usize, String> {
 
 /// One relative device speed of `cobalt schedule --speeds`; [`sched::Speeds`] checks the list.
 pub fn speed(text: &str) -> Result<f64, String> {
-    text.trim()
-        .parse()
-        .map_err(|_| "expected a number, e.g. 2.5 (a device 2.5 times as fast as one of speed 1)".into())
+    text.trim().parse().map_err(|_| {
+        "expected a number, e.g. 2.5 (a device 2.5 times as fast as one of speed 1)".into()
+    })
 }
 
 /// One fault of `cobalt schedule --fail DEVICE@TIME[,…]`: the device stops at a time in the

@@ -29,9 +29,7 @@ use raytrace::shade::{AoSettings, CpuTracer, RenderOptions, Shader, render};
 use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
 use sched::Policy;
 
-use crate::args::{
-    Devices, MAX_AO_SAMPLES, Pipeline, ShaderKind, Size, sample_rate, task_size,
-};
+use crate::args::{Devices, MAX_AO_SAMPLES, Pipeline, ShaderKind, Size, sample_rate, task_size};
 use crate::error::CliError;
 use matrix::{SceneMatrix, Workload};
 

@@ -22,8 +22,7 @@ use raytrace::shade::{RenderOptions, Shader};
 use raytrace::{Bvh, Camera, Scene, SceneSource, Walk};
 
 use crate::args::{
-    CameraArgs, CameraChoice, Pipeline, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs,
-    Size,
+    CameraArgs, CameraChoice, Pipeline, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs, Size,
 };
 use crate::error::CliError;
 use crate::output::Outputs;
