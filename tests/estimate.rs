@@ -201,8 +201,17 @@ fn the_first_leaf_walk_is_reported_and_enters_fewer_nodes() {
 
 #[test]
 fn bad_arguments_exit_2_naming_flag_and_value() {
-    let cases: [(&[&str], &[&str]); 9] = [
+    let cases: [(&[&str], &[&str]); 12] = [
         (&["--walk", "deepest"], &["--walk", "deepest", "first-leaf"]),
+        (&["--sample-run", "0"], &["--sample-run", "0"]),
+        (
+            &["--clock", "sundial"],
+            &["--clock", "sundial", "wall or cpu"],
+        ),
+        (
+            &["--clock", "cpu", "--device", "gpu"],
+            &["clock", "cpu", "--device gpu"],
+        ),
         (&["--sample-rate", "0"], &["--sample-rate", "0"]),
         (&["--sample-rate", "1.5"], &["--sample-rate", "1.5"]),
         (&["--sample-rate", "lots"], &["--sample-rate", "lots"]),
@@ -358,6 +367,35 @@ fn the_trace_walk_reports_its_net_overhead() {
     let thesis = json(&["--rays", "primary", "--walk", "reduced"]);
     assert!(thesis.get("rest_seconds").is_none(), "{thesis}");
     assert_eq!(thesis["net_overhead"], thesis["overhead"]);
+}
+
+/// `--sample-run` keeps as many samples in longer runs, and `--clock cpu` times every step on
+/// the process's CPU time; both are reported.
+#[test]
+fn the_sample_run_and_the_clock_are_reported() {
+    let pairs = json(&["--rays", "primary"]);
+    let runs = json(&["--rays", "primary", "--sample-run", "16", "--clock", "cpu"]);
+    assert_eq!(
+        (pairs["sample_run"].as_u64(), runs["sample_run"].as_u64()),
+        (Some(2), Some(16))
+    );
+    assert_eq!(
+        (pairs["clock"].as_str(), runs["clock"].as_str()),
+        (Some("wall"), Some("cpu"))
+    );
+    assert_eq!(pairs["sampled_rays"], runs["sampled_rays"]);
+    for key in [
+        "estimate_seconds",
+        "trace_seconds",
+        "rest_seconds",
+        "net_overhead",
+    ] {
+        assert!(
+            runs[key].as_f64().is_some_and(f64::is_finite),
+            "{key}: {runs}"
+        );
+    }
+    assert!(num(&runs, "trace_seconds") > 0.0, "{runs}");
 }
 
 /// On the CPU the trace walk is the default, the report leads with the figures judged by

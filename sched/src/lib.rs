@@ -57,6 +57,7 @@
 //! `RemoteNode` is another rank seen as an [`Executor`] by rank 0's runtime.
 
 pub mod bounds;
+mod clock;
 mod cost;
 mod dispatch;
 mod error;
@@ -80,6 +81,7 @@ mod speeds;
 mod task;
 mod timeline;
 
+pub use clock::Clock;
 pub use cost::{ByItems, CostEstimator, Costs, Estimate, Uniform, prediction_error};
 pub use dispatch::Dispatch;
 pub use error::{DeviceFailure, SchedError};

@@ -162,7 +162,8 @@ fn points(
     } else {
         RayKind::Primary
     };
-    let chunk_seconds = measure_seconds(bvh, rays, &chunks, ray_kind, 3).map_err(cost_err)?;
+    let chunk_seconds =
+        measure_seconds(bvh, rays, &chunks, ray_kind, 3, sched::Clock::Wall).map_err(cost_err)?;
     let counts = if occlusion {
         traverse::any_hits_counted(bvh, rays).1
     } else {

@@ -5,8 +5,8 @@
 use std::time::Instant;
 
 use raytrace::cost::{
-    Compacted, CostModel, Fit, ReducedTraversal, SampleRate, Work, calibrate, error_vs_time,
-    full_work, measure_seconds, prediction_error, spearman,
+    Compacted, CostModel, Fit, ReducedTraversal, SampleRate, SampleRun, Work, calibrate,
+    error_vs_time, full_work, measure_seconds, prediction_error, spearman,
 };
 use raytrace::{Bvh, RayBatch, RayKind, Scene, Walk, traverse};
 
@@ -56,7 +56,14 @@ pub(super) fn measure(
     let mut measured = Vec::with_capacity(tasks.len());
     for (batch, kind) in &segments {
         let own = sched::split_ranges(batch.len(), task_size);
-        measured.extend(measure_seconds(bvh, batch, &own, *kind, args.repeats)?);
+        measured.extend(measure_seconds(
+            bvh,
+            batch,
+            &own,
+            *kind,
+            args.repeats,
+            args.clock,
+        )?);
     }
     // `work` weighed by `fit` against the measured times: error and Spearman correlation.
     let vs_time = |fit: Option<Fit>, work: &[Work]| {
@@ -89,6 +96,31 @@ pub(super) fn measure(
             message:
                 "the `trace` walk runs on the CPU only; use reduced or first-leaf with --device gpu"
                     .into(),
+        });
+    }
+    if args.clock != sched::Clock::Wall && matches!(args.device, DeviceArg::Gpu) {
+        return Err(CliError::Arg {
+            flag: "clock",
+            value: args.clock.to_string(),
+            message: "a GPU's work is not the host's CPU time; use --clock wall with --device gpu"
+                .into(),
+        });
+    }
+    if !args.clock.is_available() {
+        return Err(CliError::Arg {
+            flag: "clock",
+            value: args.clock.to_string(),
+            message: "this system has no process CPU clock; use --clock wall".into(),
+        });
+    }
+    if args.sample_run != SampleRun::DEFAULT && matches!(args.device, DeviceArg::Gpu) {
+        return Err(CliError::Arg {
+            flag: "sample-run",
+            value: args.sample_run.to_string(),
+            message: format!(
+                "the GPU estimator samples in runs of {}; other runs are measured on the CPU",
+                SampleRun::DEFAULT
+            ),
         });
     }
     let (walk, full, walk_fits) = match asked {
@@ -139,10 +171,10 @@ pub(super) fn measure(
                 .iter()
                 .map(|(batch, _)| {
                     let own = sched::split_ranges(batch.len(), task_size);
-                    Compacted::gather(batch, &own, rate).map(|c| c.index)
+                    Compacted::gather_in_runs(batch, &own, rate, args.sample_run).map(|c| c.index)
                 })
                 .collect::<Result<_, _>>()?;
-            let estimator = ReducedTraversal::new(bvh, &rays, rate);
+            let estimator = ReducedTraversal::new(bvh, &rays, rate).with_run(args.sample_run);
             let mut ests: Vec<Vec<Work>> = vec![Vec::new(); candidates.len()];
             let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CliError> + '_>> = ests
                 .iter_mut()
@@ -183,7 +215,7 @@ pub(super) fn measure(
             for e in &mut estimates {
                 steps.push(e.as_mut());
             }
-            let best = min_times(args.repeats, &mut steps)?;
+            let best = min_times(args.repeats, args.clock, &mut steps)?;
             drop(steps);
             drop(estimates);
             let (trace_seconds, rest_seconds) = (best[0], best[1]);
@@ -259,12 +291,14 @@ pub(super) fn measure(
         task_size,
         tasks: tasks.len(),
         sample_rate: rate.get(),
+        sample_run: args.sample_run.get(),
         walk: walk.name(),
         walk_fits,
         walks,
         sampled_rays: tasks.iter().map(|t| rate.samples(t.len())).sum(),
         threads: rayon::current_num_threads(),
         repeats: args.repeats,
+        clock: args.clock.name(),
         device: match args.device {
             DeviceArg::Cpu => "cpu",
             DeviceArg::Gpu => "gpu",
@@ -356,17 +390,19 @@ fn gpu_estimate(
     })
 }
 
-/// The least time of each step over `repeats` rounds, the steps taken in turn each round.
+/// The least time of each step on `clock` over `repeats` rounds, the steps taken in turn
+/// each round.
 fn min_times(
     repeats: usize,
+    clock: sched::Clock,
     steps: &mut [&mut dyn FnMut() -> Result<(), CliError>],
 ) -> Result<Vec<f64>, CliError> {
     let mut best = vec![f64::INFINITY; steps.len()];
     for _ in 0..repeats.max(1) {
         for (step, best) in steps.iter_mut().zip(&mut best) {
-            let start = Instant::now();
-            step()?;
-            *best = best.min(start.elapsed().as_secs_f64());
+            let (seconds, done) = clock.time(&mut **step);
+            done?;
+            *best = best.min(seconds);
         }
     }
     Ok(best)

@@ -18,7 +18,7 @@ mod report;
 
 use std::num::NonZeroUsize;
 
-use raytrace::cost::SampleRate;
+use raytrace::cost::{SampleRate, SampleRun};
 use raytrace::{Bvh, Camera, RayKind, SceneSource, Walk};
 
 use crate::args::{
@@ -44,6 +44,14 @@ pub struct Args {
     /// Fraction of each task's rays traced by the estimator, in (0, 1].
     #[arg(long, default_value = "0.125", value_parser = sample_rate)]
     sample_rate: SampleRate,
+    /// Adjacent rays the sample keeps together: longer runs trace faster, shorter ones spread
+    /// the sample over more of each task (CPU only).
+    #[arg(long, default_value_t = SampleRun::DEFAULT)]
+    sample_run: SampleRun,
+    /// What times are taken on: `wall` time, or `cpu`, the CPU time of the whole process,
+    /// which other work on a shared machine disturbs far less (CPU only; Linux).
+    #[arg(long, default_value_t = sched::Clock::Wall)]
+    clock: sched::Clock,
     /// Image size `WxH` of the camera rays.
     #[arg(long, default_value = "512x512")]
     size: Size,

@@ -84,6 +84,8 @@ pub(super) struct Report {
     pub(super) task_size: usize,
     pub(super) tasks: usize,
     pub(super) sample_rate: f64,
+    /// Adjacent rays the sample keeps together.
+    pub(super) sample_run: usize,
     /// `trace`, `reduced` or `first-leaf` (applied to closest-hit generations only): the one
     /// asked for, or the better fit with `--walk auto`.
     pub(super) walk: &'static str,
@@ -95,6 +97,8 @@ pub(super) struct Report {
     pub(super) sampled_rays: usize,
     pub(super) threads: usize,
     pub(super) repeats: usize,
+    /// What the times were taken on: `wall` or `cpu` (the process's CPU time).
+    pub(super) clock: &'static str,
     /// Where the estimate and the full trace ran: `cpu` or `gpu`.
     pub(super) device: &'static str,
     /// The GPU adapter's name with `--device gpu`.
@@ -144,6 +148,7 @@ pub(super) struct Model {
 fn ran_on(r: &Report) -> String {
     match &r.adapter {
         Some(name) => format!("the GPU ({name})"),
+        None if r.clock == "cpu" => format!("{} threads, CPU time of all", r.threads),
         None => format!("{} threads", r.threads),
     }
 }
@@ -207,9 +212,10 @@ impl Report {
             (
                 "sampled",
                 format!(
-                    "{:.1} % ({} rays), {} walk",
+                    "{:.1} % ({} rays, in runs of {}), {} walk",
                     100.0 * r.sample_rate,
                     r.sampled_rays,
+                    r.sample_run,
                     r.walk
                 ),
             ),

@@ -7,7 +7,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::sample::{Compacted, check_tasks};
-use super::{CostError, CostModel, SampleRate, Work};
+use super::{CostError, CostModel, SampleRate, SampleRun, Work};
 use crate::{Bvh, HitBatch, RayBatch, Walk, traverse};
 
 /// Estimates ray tasks (ranges of one [`RayBatch`]) by the reduced traversal of a sample.
@@ -20,6 +20,7 @@ pub struct ReducedTraversal<'a> {
     bvh: &'a Bvh,
     rays: &'a RayBatch,
     rate: SampleRate,
+    run: SampleRun,
     model: CostModel,
     walk: Walk,
 }
@@ -31,9 +32,20 @@ impl<'a> ReducedTraversal<'a> {
             bvh,
             rays,
             rate,
+            run: SampleRun::DEFAULT,
             model: CostModel::default(),
             walk: Walk::Reduced,
         }
+    }
+
+    /// The same estimator keeping its samples in runs of `run` adjacent rays.
+    pub fn with_run(self, run: SampleRun) -> Self {
+        Self { run, ..self }
+    }
+
+    /// The sample's runs of adjacent rays.
+    pub fn run(&self) -> SampleRun {
+        self.run
     }
 
     /// The same estimator tracing its sample with another reduced traversal.
@@ -72,7 +84,7 @@ impl<'a> ReducedTraversal<'a> {
         &self,
         tasks: &[Range<usize>],
     ) -> Result<(Vec<Work>, Option<Traced>), CostError> {
-        let sample = Compacted::gather(self.rays, tasks, self.rate)?;
+        let sample = Compacted::gather_in_runs(self.rays, tasks, self.rate, self.run)?;
         // One parallel loop over the whole compacted batch (rayon chunks of it), not one per
         // task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
         let (counts, traced) = match self.walk {

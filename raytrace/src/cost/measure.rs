@@ -5,11 +5,11 @@
 //! scheduling lands inside a timing. The query is the one the ray kind needs (closest hit
 //! for primary and reflection rays, any hit for shadow and AO rays). Each task is timed
 //! `repeats` times and the least time is kept, which filters out interruptions by other
-//! processes and the cold first pass.
+//! processes and the cold first pass. [`sched::Clock::ProcessCpu`] times tasks on the CPU
+//! time they used, which other processes on a shared machine disturb far less.
 
 use std::hint::black_box;
 use std::ops::Range;
-use std::time::Instant;
 
 use super::CostError;
 use super::sample::check_tasks;
@@ -22,6 +22,7 @@ pub fn measure_seconds(
     tasks: &[Range<usize>],
     kind: RayKind,
     repeats: usize,
+    clock: sched::Clock,
 ) -> Result<Vec<f64>, CostError> {
     check_tasks(rays, tasks)?;
     let trace = |r: &Range<usize>| {
@@ -41,11 +42,7 @@ pub fn measure_seconds(
         .iter()
         .map(|r| {
             (0..repeats.max(1))
-                .map(|_| {
-                    let start = Instant::now();
-                    trace(r);
-                    start.elapsed().as_secs_f64()
-                })
+                .map(|_| clock.time(|| trace(r)).0)
                 .fold(f64::INFINITY, f64::min)
         })
         .collect())
@@ -63,9 +60,25 @@ mod tests {
             .expect("builtin scene");
         let bvh = Bvh::build(&scene, BuildPreset::Fast).expect("bvh");
         let rays = Camera::orbit(&scene.bounds(), 0).primary_rays(64, 64).rays;
-        let t = measure_seconds(&bvh, &rays, &[0..64, 0..4096], RayKind::Primary, 3).unwrap();
+        let t = measure_seconds(
+            &bvh,
+            &rays,
+            &[0..64, 0..4096],
+            RayKind::Primary,
+            3,
+            sched::Clock::Wall,
+        )
+        .unwrap();
         assert!(t[0] > 0.0 && t[1] > t[0], "{t:?}");
-        let err = measure_seconds(&bvh, &rays, &[0..1, 0..0], RayKind::Ao, 1).unwrap_err();
+        let err = measure_seconds(
+            &bvh,
+            &rays,
+            &[0..1, 0..0],
+            RayKind::Ao,
+            1,
+            sched::Clock::Wall,
+        )
+        .unwrap_err();
         assert_eq!(err, CostError::EmptyTask { task: 1 });
     }
 }

@@ -48,4 +48,4 @@ pub use estimator::{ReducedTraversal, Traced, full_work};
 pub use measure::measure_seconds;
 pub use metrics::{error_vs_time, prediction_error, spearman};
 pub use model::{Calibrations, CostModel, Work};
-pub use sample::{Compacted, SAMPLE_RUN, SampleRate};
+pub use sample::{Compacted, SampleRate, SampleRun};

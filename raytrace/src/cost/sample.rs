@@ -1,5 +1,5 @@
 //! Uniform task sampling and compaction (thesis, figure 3.1 b and section 3.3): every task
-//! keeps rays at a fixed stride (pairs of neighbours, see [`SAMPLE_RUN`]), and the kept rays
+//! keeps rays at a fixed stride (runs of neighbours, see [`SampleRun`]), and the kept rays
 //! of all tasks are gathered into one contiguous batch, so the reduced trace streams through
 //! memory and its parallel loop sees one flat array instead of many short strided ones.
 
@@ -12,38 +12,70 @@ use crate::RayBatch;
 /// every estimator of the workspace.
 pub use sched::SampleRate;
 
-/// Adjacent rays kept together: a task's samples are runs of this many neighbours (the last
-/// run of an odd sample count has one), each run at the middle of one of equal strata.
+/// How many adjacent rays a task's sample keeps together: its samples are runs of this many
+/// neighbours (the last run of a sample count that does not divide has fewer), each at the
+/// middle of one of equal strata of the task.
 ///
-/// Two predicted better than one ray per stratum in 11 of the 12 cases we measured
-/// (`cobalt estimate`, 12.5 %, tasks of 4096 and 512: forest, hairball, Sibenik, Conference;
-/// Whitted and AO rays; the exception, hairball Whitted at 512, 2.68 → 2.86 %), at no cost: e.g. Conference primary rays
-/// 0.87 → 0.48 % at 4096, AO 5.98 → 4.85 % at 512. In Morton order a stratum's middle index
-/// is the corner of a sub-block, while the pair astride it stands for both halves of the
-/// stratum; in AO order (a pixel's Halton probes in a row) it keeps two successive probes.
-/// Longer runs trace faster (the packets share more nodes) but err more on coherent rays:
-/// runs of 4 and 8 took Conference's Whitted error at 4096 from 1.86 % to 2.66 and 3.34 %.
-/// For AO rays, the first probes of every pixel (the best-spread prefix of its Halton
-/// sequence) erred no less than pairs (forest, 512: 4.09 against 4.02 %), and ordering each
-/// task's sample by direction traced 12 % faster on forest but 17 % slower on Conference.
-pub const SAMPLE_RUN: usize = 2;
+/// Longer runs trace faster, since neighbouring rays in Morton order (a tile of pixels, or a
+/// pixel's Halton probes) share most of their nodes and the trace left after the sample has
+/// fewer, wider gaps; shorter runs spread the same number of samples over more of the task.
+/// `cobalt estimate --sample-run` measures the trade (error against measured time, net
+/// overhead); docs/measurements.md has the figures that chose [`SampleRun::DEFAULT`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SampleRun(std::num::NonZeroUsize);
+
+impl SampleRun {
+    /// The run every estimator uses unless told otherwise.
+    pub const DEFAULT: Self = Self(std::num::NonZeroUsize::new(2).unwrap());
+
+    /// A run of `n` adjacent rays; `None` for zero.
+    pub fn new(n: usize) -> Option<Self> {
+        std::num::NonZeroUsize::new(n).map(Self)
+    }
+
+    /// Rays a run holds.
+    pub fn get(self) -> usize {
+        self.0.get()
+    }
+}
+
+impl Default for SampleRun {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+impl std::fmt::Display for SampleRun {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::str::FromStr for SampleRun {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        s.trim()
+            .parse::<usize>()
+            .ok()
+            .and_then(Self::new)
+            .ok_or_else(|| format!("sample run `{s}` is not a whole number of rays of at least 1"))
+    }
+}
 
 /// Indices (within a task of `len` rays) of its `k` samples, `0 < k <= len`, in order: all of
-/// them when `k == len`, else runs of [`SAMPLE_RUN`] adjacent rays centred in
-/// `ceil(k / SAMPLE_RUN)` equal strata. A stratum holds at least `SAMPLE_RUN` rays when
-/// `k < len`, so runs never overlap. The GPU estimator uploads exactly these samples.
-fn sample_indices(k: usize, len: usize) -> impl Iterator<Item = usize> {
-    let runs = if k == len {
-        len
-    } else {
-        k.div_ceil(SAMPLE_RUN)
-    };
+/// them when `k == len`, else runs of up to `run` adjacent rays centred in `ceil(k / run)`
+/// equal strata. Where the strata would be narrower than the run (a sample of nearly the whole
+/// task), the run is shortened until each fits its stratum, so runs never overlap. The GPU
+/// estimator uploads exactly these samples.
+fn sample_indices(k: usize, len: usize, run: SampleRun) -> impl Iterator<Item = usize> {
+    // A run of 1 always fits: `len / k >= 1`.
+    let run = (1..=run.get().min(k))
+        .rev()
+        .find(|&r| len / k.div_ceil(r) >= r)
+        .unwrap_or(1);
+    let runs = if k == len { len } else { k.div_ceil(run) };
     (0..runs).flat_map(move |j| {
-        let width = if k == len {
-            1
-        } else {
-            SAMPLE_RUN.min(k - SAMPLE_RUN * j)
-        };
+        let width = if k == len { 1 } else { run.min(k - run * j) };
         // Integer strata bounds, never past the task: `(j + 1)·len <= len²` does not overflow
         // for tasks below 2^32 rays.
         let (lo, hi) = (j * len / runs, (j + 1) * len / runs);
@@ -67,7 +99,8 @@ pub struct Compacted {
 }
 
 impl Compacted {
-    /// Samples every task of `rays` at `rate` and gathers the samples.
+    /// Samples every task of `rays` at `rate` in runs of [`SampleRun::DEFAULT`] and gathers
+    /// the samples.
     ///
     /// Checks before reading: every task must be non-empty and inside the batch, and the
     /// batch's columns must agree in length.
@@ -75,6 +108,16 @@ impl Compacted {
         rays: &RayBatch,
         tasks: &[Range<usize>],
         rate: SampleRate,
+    ) -> Result<Self, CostError> {
+        Self::gather_in_runs(rays, tasks, rate, SampleRun::DEFAULT)
+    }
+
+    /// [`Compacted::gather`] with samples in runs of `run` adjacent rays.
+    pub fn gather_in_runs(
+        rays: &RayBatch,
+        tasks: &[Range<usize>],
+        rate: SampleRate,
+        run: SampleRun,
     ) -> Result<Self, CostError> {
         check_tasks(rays, tasks)?;
         let mut offsets = Vec::with_capacity(tasks.len() + 1);
@@ -86,7 +129,7 @@ impl Compacted {
         let mut index = Vec::with_capacity(total);
         for r in tasks {
             let (len, k) = (r.len(), rate.samples(r.len()));
-            index.extend(sample_indices(k, len).map(|i| r.start + i));
+            index.extend(sample_indices(k, len, run).map(|i| r.start + i));
         }
         Ok(Self {
             index,
@@ -197,20 +240,35 @@ mod tests {
 
     #[test]
     fn samples_are_distinct_in_order_inside_the_task_and_as_many_as_asked() {
-        for len in 1..200 {
-            for k in 1..=len {
-                let got: Vec<usize> = sample_indices(k, len).collect();
-                assert_eq!(got.len(), k, "k {k} len {len}");
-                assert!(
-                    got.windows(2).all(|w| w[0] < w[1]),
-                    "k {k} len {len}: {got:?}"
-                );
-                assert!(got.last().is_some_and(|&i| i < len), "k {k} len {len}");
-                if k == len {
-                    assert!(got.iter().copied().eq(0..len));
+        for run in [1, 2, 3, 8, 16, 64, usize::MAX] {
+            let run = SampleRun::new(run).unwrap();
+            for len in 1..200 {
+                for k in 1..=len {
+                    let got: Vec<usize> = sample_indices(k, len, run).collect();
+                    let case = format!("run {run:?} k {k} len {len}: {got:?}");
+                    assert_eq!(got.len(), k, "{case}");
+                    assert!(got.windows(2).all(|w| w[0] < w[1]), "{case}");
+                    assert!(got.last().is_some_and(|&i| i < len), "{case}");
+                    if k == len {
+                        assert!(got.iter().copied().eq(0..len));
+                    }
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_long_run_keeps_neighbours_together_in_the_middle_of_each_stratum() {
+        let rays = batch(256);
+        let run = SampleRun::new(8).unwrap();
+        let c =
+            Compacted::gather_in_runs(&rays, &[0..128, 128..256], SampleRate::THESIS, run).unwrap();
+        // 16 samples a task: two runs of 8, each centred in a stratum of 64.
+        let first: Vec<f32> = (28..36).chain(92..100).map(|i| i as f32).collect();
+        let second: Vec<f32> = first.iter().map(|x| x + 128.0).collect();
+        assert_eq!(c.rays(&rays).ox, [first, second].concat());
+        assert!("0".parse::<SampleRun>().is_err() && "x".parse::<SampleRun>().is_err());
+        assert_eq!("16".parse::<SampleRun>(), Ok(SampleRun::new(16).unwrap()));
     }
 
     #[test]
