@@ -59,6 +59,8 @@ pub mod testkit;
 mod tests;
 mod traffic;
 pub mod traverse;
+#[cfg(target_arch = "x86_64")]
+mod traverse_shared;
 mod traverse_wide;
 mod triangle;
 mod walk;

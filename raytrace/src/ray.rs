@@ -133,7 +133,7 @@ impl RayBatch {
     ///
     /// # Panics
     /// Panics if `i >= self.len()` or the columns have different lengths.
-    #[inline]
+    #[inline(always)]
     pub fn get(&self, i: usize) -> Ray {
         Ray {
             origin: Vec3::new(self.ox[i], self.oy[i], self.oz[i]),

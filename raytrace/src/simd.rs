@@ -113,6 +113,51 @@ impl Box8Ray {
     }
 }
 
+/// The slot of the nearest child among those `mask` sets (the first slot on a tie); `mask`
+/// must not be empty. Where AVX2 runs, one pass over the eight entry distances: the scalar
+/// loop's compares branch on the distances, which an incoherent ray mispredicts about once a
+/// node.
+///
+/// # Safety
+/// With `AVX2`, the CPU must have AVX2.
+#[inline(always)]
+pub(crate) unsafe fn nearest<const AVX2: bool>(mask: u32, near: &[f32; WIDTH]) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
+        return unsafe { x86::nearest_avx2(mask, near) };
+    }
+    nearest_scalar(mask, near)
+}
+
+/// Folds a box test's entry distances into `acc`, lane by lane, as the bits of the nearer float
+/// (`acc` starts as `u32::MAX`; lanes not in `mask` leave it as it is): the nearest entry into
+/// each child over several rays, for [`nearest`] (non-negative floats order as their bits).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) unsafe fn min_entry(acc: &mut [f32; WIDTH], mask: u32, near: &[f32; WIDTH]) {
+    // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
+    unsafe { x86::min_entry_avx2(acc, mask, near) }
+}
+
+/// [`nearest`] slot by slot.
+#[inline(always)]
+pub(crate) fn nearest_scalar(mask: u32, near: &[f32; WIDTH]) -> usize {
+    let mut b = mask.trailing_zeros() as usize;
+    let mut m = mask & (mask - 1);
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        if near[k] < near[b] {
+            b = k;
+        }
+    }
+    b
+}
+
 /// The per-ray part of the four-triangle test: [`RayShear`]'s axes and shear.
 #[derive(Clone, Copy)]
 pub(crate) struct Shear4 {
@@ -220,14 +265,17 @@ impl Shear4 {
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use std::arch::x86_64::{
-        __m128, __m256, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm_add_ps, _mm_and_ps,
-        _mm_andnot_ps, _mm_castsi128_ps, _mm_cmpeq_ps, _mm_cmpgt_ps, _mm_cmple_ps, _mm_cmplt_ps,
-        _mm_load_ps, _mm_loadu_ps, _mm_max_ps, _mm_min_ps, _mm_movemask_ps, _mm_mul_ps, _mm_or_ps,
-        _mm_set1_epi32, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps, _mm_sub_ps, _mm_xor_ps,
-        _mm256_add_ps, _mm256_and_ps, _mm256_andnot_ps, _mm256_castsi256_ps, _mm256_cmp_ps,
-        _mm256_load_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
-        _mm256_mul_ps, _mm256_or_ps, _mm256_set_m128, _mm256_set1_epi32, _mm256_set1_ps,
-        _mm256_setzero_ps, _mm256_storeu_ps, _mm256_sub_ps, _mm256_xor_ps,
+        __m128, __m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm_add_ps,
+        _mm_and_ps, _mm_andnot_ps, _mm_castsi128_ps, _mm_cmpeq_ps, _mm_cmpgt_ps, _mm_cmple_ps,
+        _mm_cmplt_ps, _mm_load_ps, _mm_loadu_ps, _mm_max_ps, _mm_min_ps, _mm_movemask_ps,
+        _mm_mul_ps, _mm_or_ps, _mm_set1_epi32, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps,
+        _mm_sub_ps, _mm_xor_ps, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_andnot_ps,
+        _mm256_andnot_si256, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32,
+        _mm256_cvtsi256_si32, _mm256_load_ps, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_ps,
+        _mm256_min_epu32, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps,
+        _mm256_or_si256, _mm256_permute2x128_si256, _mm256_set_m128, _mm256_set1_epi32,
+        _mm256_set1_ps, _mm256_setr_epi32, _mm256_setzero_ps, _mm256_shuffle_epi32,
+        _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_xor_ps,
     };
 
     use super::{Box8Ray, Hits8, Shear4, TriHits, WIDTH};
@@ -286,12 +334,14 @@ mod x86 {
         for a in 0..3 {
             let (o, inv) = (_mm256_set1_ps(r.org[a]), _mm256_set1_ps(r.inv[a]));
             // SAFETY: `Node8` is 64-byte aligned and its rows are 32 bytes each, so every row
-            // is a 32-byte aligned run of eight floats for `_mm256_load_ps`; `% 6` keeps the
-            // row indices in bounds (they already are).
+            // is a 32-byte aligned run of eight floats for `_mm256_load_ps`. `Box8Ray::new`
+            // writes row indices below 6 only. Unchecked rather than `% 6`: where the ray's
+            // part is not hoisted out of the walk (rays walked together), the remainders
+            // were six multiplications a test.
             let (n, f) = unsafe {
                 (
-                    _mm256_load_ps(p[r.near[a] % 6].as_ptr()),
-                    _mm256_load_ps(p[r.far[a] % 6].as_ptr()),
+                    _mm256_load_ps(p.get_unchecked(r.near[a]).as_ptr()),
+                    _mm256_load_ps(p.get_unchecked(r.far[a]).as_ptr()),
                 )
             };
             let n = _mm256_mul_ps(_mm256_sub_ps(n, o), inv);
@@ -309,6 +359,54 @@ mod x86 {
         // SAFETY: `near` is eight writable floats.
         unsafe { _mm256_storeu_ps(near.as_mut_ptr(), t0) };
         (mask, near)
+    }
+
+    /// [`super::nearest`] in 256-bit registers: each lane's distance as an integer key, its
+    /// low three bits replaced by the lane's slot and lanes not in `mask` the largest key, and
+    /// the least key found in three integer steps. Non-negative floats order as their bits do,
+    /// so this is the nearest slot to within eight units in the last place (ties, and those
+    /// nearer still, go to the lower slot); negative distances (only where `tmin < 0`) sort
+    /// after all others. Either way the choice depends on the distances alone.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn nearest_avx2(mask: u32, near: &[f32; WIDTH]) -> usize {
+        let slot = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        let set = lanes(mask);
+        // SAFETY: `near` is eight readable floats.
+        let t = unsafe { _mm256_loadu_si256(near.as_ptr().cast()) };
+        let key = _mm256_or_si256(_mm256_andnot_si256(_mm256_set1_epi32(7), t), slot);
+        let key = _mm256_or_si256(key, _mm256_andnot_si256(set, _mm256_set1_epi32(-1)));
+        let m = _mm256_min_epu32(key, _mm256_permute2x128_si256::<1>(key, key));
+        let m = _mm256_min_epu32(m, _mm256_shuffle_epi32::<0b01_00_11_10>(m));
+        let m = _mm256_min_epu32(m, _mm256_shuffle_epi32::<0b10_11_00_01>(m));
+        (_mm256_cvtsi256_si32(m) & 7) as usize
+    }
+
+    /// The lanes of `mask` as all-ones lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn lanes(mask: u32) -> __m256i {
+        let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(mask as i32), bits), bits)
+    }
+
+    /// [`super::min_entry`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn min_entry_avx2(acc: &mut [f32; WIDTH], mask: u32, near: &[f32; WIDTH]) {
+        // SAFETY: `acc` and `near` are eight floats each.
+        unsafe {
+            let t = _mm256_loadu_si256(near.as_ptr().cast());
+            let t = _mm256_or_si256(t, _mm256_andnot_si256(lanes(mask), _mm256_set1_epi32(-1)));
+            let a = _mm256_loadu_si256(acc.as_ptr().cast());
+            _mm256_storeu_si256(acc.as_mut_ptr().cast(), _mm256_min_epu32(a, t));
+        }
     }
 
     /// The four-lane operations of the watertight kernel, on SSE2 (the x86_64 baseline).

@@ -229,8 +229,10 @@ pub(super) fn measure(
                     let (error, rho) = vs_time(calibrate(est, &measured).ok(), est);
                     let full = full_of(p).ok();
                     let model = CostModel::default();
+                    let costs = calibrate(est, &measured).ok().map(|f| f.model.costs(est));
                     WalkFigures {
                         walk: p.name(),
+                        lpt_balance: costs.and_then(|c| super::balance::lpt(&c, &measured)),
                         error_vs_time: error,
                         spearman_vs_time: rho,
                         prediction_error: full.and_then(|f| {
@@ -295,6 +297,9 @@ pub(super) fn measure(
         walk: walk.name(),
         walk_fits,
         walks,
+        balance_devices: super::balance::DEVICES,
+        balance_measured: super::balance::lpt(&measured, &measured),
+        balance_uniform: super::balance::uniform(&measured),
         sampled_rays: tasks.iter().map(|t| rate.samples(t.len())).sum(),
         threads: rayon::current_num_threads(),
         repeats: args.repeats,

@@ -30,6 +30,9 @@ pub(super) struct WalkFigures {
     pub(super) overhead: f64,
     /// Overhead less the sample's trace where the render reuses its hits (the trace walk).
     pub(super) net_overhead: f64,
+    /// What the estimates buy a plan: the balance of an LPT plan by them on
+    /// `balance_devices` equal devices, judged by the measured task times.
+    pub(super) lpt_balance: Option<f64>,
 }
 
 /// A calibrated model, for the report.
@@ -94,6 +97,12 @@ pub(super) struct Report {
     /// On the CPU: every walk's trade at this sample rate, timed in the same rounds.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub(super) walks: Vec<WalkFigures>,
+    /// Equal devices each walk's `lpt_balance` plans for.
+    pub(super) balance_devices: usize,
+    /// The balance of LPT by the measured times themselves (the best an estimate can buy),
+    /// and of the tasks dealt out in order without an estimate.
+    pub(super) balance_measured: Option<f64>,
+    pub(super) balance_uniform: Option<f64>,
     pub(super) sampled_rays: usize,
     pub(super) threads: usize,
     pub(super) repeats: usize,
@@ -258,18 +267,27 @@ impl Report {
             );
         }
         if !r.walks.is_empty() {
-            text += "\n| walk | error vs time | spearman | net overhead | overhead | prediction error |\n|---|---:|---:|---:|---:|---:|\n";
+            text += &format!(
+                "\n| walk | error vs time | spearman | net overhead | overhead | prediction error | LPT balance, {} devices |\n|---|---:|---:|---:|---:|---:|---:|\n",
+                r.balance_devices
+            );
             for f in &r.walks {
                 text += &format!(
-                    "| {} | {} | {} | {} | {} | {} |\n",
+                    "| {} | {} | {} | {} | {} | {} | {} |\n",
                     f.walk,
                     pct(f.error_vs_time),
                     num(f.spearman_vs_time),
                     pct(Some(f.net_overhead)),
                     pct(Some(f.overhead)),
-                    pct(f.prediction_error)
+                    pct(f.prediction_error),
+                    pct(f.lpt_balance)
                 );
             }
+            text += &format!(
+                "| measured times (no estimate can do better) | | | | | | {} |\n| none (tasks in order) | | | | | | {} |\n",
+                pct(r.balance_measured),
+                pct(r.balance_uniform)
+            );
         }
         text
     }

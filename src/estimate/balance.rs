@@ -1,0 +1,59 @@
+//! What an estimate buys a plan: the balance of a static LPT plan made from the estimates,
+//! judged by the measured task times. It puts a plan's view beside `error_vs_time`: an error
+//! that leaves the tasks' order intact costs a plan little, one that swaps big and small
+//! tasks costs it much.
+
+use sched::{Costs, Speeds, plan_equal, plan_lpt};
+
+/// Equal devices the plans are made for: with tasks of 4096 rays a 512² frame gives each of
+/// them 8 tasks, few enough that where each big task goes shows in the balance.
+pub(super) const DEVICES: usize = 8;
+
+/// Balance (mean over largest device time, in `(0, 1]`) of the LPT plan made from
+/// `estimates` on [`DEVICES`] equal devices, each device's time the sum of its tasks'
+/// `measured` times; `None` if either list is unusable (empty, of other lengths, negative
+/// or not finite).
+pub(super) fn lpt(estimates: &[f64], measured: &[f64]) -> Option<f64> {
+    if estimates.len() != measured.len() {
+        return None;
+    }
+    let plan = plan_lpt(&Costs::new(estimates.to_vec()).ok()?, &speeds());
+    judged(&plan, measured)
+}
+
+/// The balance without an estimate: tasks dealt out in order, the same number to each device.
+pub(super) fn uniform(measured: &[f64]) -> Option<f64> {
+    judged(&plan_equal(measured.len(), &speeds()), measured)
+}
+
+fn speeds() -> Speeds {
+    Speeds::identical(DEVICES).expect("a positive number of devices")
+}
+
+fn judged(plan: &sched::Plan, measured: &[f64]) -> Option<f64> {
+    let costs = Costs::new(measured.to_vec()).ok()?;
+    let makespan = plan.makespan(&costs, &speeds());
+    let total: f64 = measured.iter().sum();
+    (makespan > 0.0).then(|| total / (DEVICES as f64 * makespan))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exact_estimates_balance_best_and_a_reversed_order_worse_than_none() {
+        // 16 tasks, one big one and a tail: LPT by the truth places the big task alone.
+        let measured: Vec<f64> = (0..16)
+            .map(|i| if i == 5 { 8.0 } else { 1.0 + i as f64 * 0.1 })
+            .collect();
+        let exact = lpt(&measured, &measured).unwrap();
+        let inverted: Vec<f64> = measured.iter().map(|t| 1.0 / t).collect();
+        let wrong = lpt(&inverted, &measured).unwrap();
+        let none = uniform(&measured).unwrap();
+        assert!(exact <= 1.0 && exact > none && none > 0.0, "{exact} {none}");
+        assert!(wrong < exact, "{wrong} {exact}");
+        assert_eq!(lpt(&[1.0], &[]), None);
+        assert_eq!(lpt(&[f64::NAN, 1.0], &[1.0, 1.0]), None);
+    }
+}
