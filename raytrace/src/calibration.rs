@@ -395,7 +395,7 @@ fn default_path_from(xdg_cache_home: Option<OsString>, home: Option<OsString>) -
     Some(cache.join("cobalt").join("calibration.json"))
 }
 
-/// This machine's name, for the entries' keys: the kernel's host name, else `/etc/hostname`,
+/// The host's name, for the entries' keys: the kernel's host name, else `/etc/hostname`,
 /// else `$HOSTNAME`, else `unknown` (entries then still separate devices and workloads).
 pub fn host_name() -> String {
     let from_file = |p: &str| fs::read_to_string(p).ok();
