@@ -27,8 +27,8 @@ fn trace(c: &mut Criterion) {
             .expect("bench scene loads");
         let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("bvh builds");
         let cw = CwBvhBaseline::build(&scene, BuildPreset::Medium);
-        let primary = workload::thesis_primary(&scene, 256, 256, 0..4);
-        let ao = workload::thesis_ao(&scene, &bvh, 128, 128, 0, 32).rays;
+        let primary = workload::orbit_primary(&scene, 256, 256, 0..4);
+        let ao = workload::orbit_ao(&scene, &bvh, 128, 128, 0, 32).rays;
 
         let mut g = c.benchmark_group(format!("trace/{name}"));
         g.sample_size(10);

@@ -111,10 +111,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let scene = SceneSource::parse(&args.scene)?.load(raytrace::SceneNeeds::AO)?;
 
     let mut preset_records = Vec::new();
-    let primary = workload::thesis_primary(&scene, width, height, 0..4);
+    let primary = workload::orbit_primary(&scene, width, height, 0..4);
     for &preset in &presets {
         let bvh = Bvh::build(&scene, preset)?;
-        let ao = workload::thesis_ao(&scene, &bvh, width, height, camera, 32);
+        let ao = workload::orbit_ao(&scene, &bvh, width, height, camera, 32);
         let mrays = |n: usize, f: &dyn Fn()| {
             // Best of two: the first run also warms caches.
             let mut best = f64::MAX;

@@ -36,8 +36,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let dir = PathBuf::from(dir);
     let scene = SceneSource::parse(scene_arg)?.load(SceneNeeds::AO)?;
     let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
-    let primary = workload::thesis_primary(&scene, size, size, 0..1);
-    let ao = workload::thesis_ao(&scene, &bvh, size / 2, size / 2, 0, samples);
+    let primary = workload::orbit_primary(&scene, size, size, 0..1);
+    let ao = workload::orbit_ao(&scene, &bvh, size / 2, size / 2, 0, samples);
     let vertices = scene
         .positions
         .iter()

@@ -51,12 +51,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         t.elapsed().as_secs_f64(),
         rayon::current_num_threads()
     );
-    let primary = workload::thesis_primary(&scene, size, size, 0..4);
+    let primary = workload::orbit_primary(&scene, size, size, 0..4);
 
     for preset in presets {
         let bvh = Bvh::build(&scene, preset)?;
         let r = bvh.report();
-        let ao = workload::thesis_ao(&scene, &bvh, size / 2, size / 2, 0, 32);
+        let ao = workload::orbit_ao(&scene, &bvh, size / 2, size / 2, 0, 32);
         let cw = CwBvhBaseline::build(&scene, preset);
         let hit_count =
             |h: raytrace::HitBatch| (0..h.len()).filter(|&i| h.get(i).is_some()).count();

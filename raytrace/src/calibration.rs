@@ -546,7 +546,7 @@ mod tests {
         let key = Key::new("h", "d", "w");
         let entry = |speed, kb| Entry {
             speed,
-            model: Some(CostModel::thesis(kb, 0.0)),
+            model: Some(CostModel::counts_only(kb, 0.0)),
             samples: 1,
             spikes: 0,
         };

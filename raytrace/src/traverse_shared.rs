@@ -245,7 +245,7 @@ mod tests {
     #[test]
     fn rays_walked_together_answer_as_each_alone() {
         let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").unwrap();
-        let mut rays = workload::thesis_ao(&scene, &bvh, 48, 48, 0, 8).rays;
+        let mut rays = workload::orbit_ao(&scene, &bvh, 48, 48, 0, 8).rays;
         let mut rng = crate::Rng::new(testkit::seed(29));
         let b = scene.bounds();
         let ext = (b.max - b.min).max_element();

@@ -11,7 +11,7 @@ pub fn ao_radius(scene: &Scene) -> f32 {
 
 /// Primary rays of `width x height` pixels for each camera in `cameras` (indices of
 /// [`Camera::orbit`]), one camera after another, each in Morton order.
-pub fn thesis_primary(
+pub fn orbit_primary(
     scene: &Scene,
     width: u32,
     height: u32,
@@ -28,7 +28,7 @@ pub fn thesis_primary(
 
 /// `samples` AO rays per primary hit of orbit camera `camera` at `width x height`, with the
 /// default length ([`ao_radius`]).
-pub fn thesis_ao(
+pub fn orbit_ao(
     scene: &Scene,
     bvh: &Bvh,
     width: u32,

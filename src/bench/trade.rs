@@ -250,8 +250,8 @@ pub fn sampling_trade(matrix: &SceneMatrix) -> Result<Vec<TradePoint>, CliError>
     let (name, scene, bvh) = (matrix.scene_name, matrix.scene, matrix.bvh);
     let (width, height, ao_samples) = (matrix.width, matrix.height, matrix.ao_samples);
     let (task_sizes, walk) = (matrix.task_sizes, matrix.walk);
-    let primary = workload::thesis_primary(scene, width, height, 0..1);
-    let ao = workload::thesis_ao(scene, bvh, width, height, 0, ao_samples).rays;
+    let primary = workload::orbit_primary(scene, width, height, 0..1);
+    let ao = workload::orbit_ao(scene, bvh, width, height, 0, ao_samples).rays;
     let coherent = walk.for_kind(RayKind::Primary);
     let mut out = points(name, bvh, &primary, "coherent", false, coherent, task_sizes)?;
     if !ao.is_empty() {

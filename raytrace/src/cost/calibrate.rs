@@ -160,8 +160,8 @@ pub fn calibrate(work: &[Work], seconds: &[f64]) -> Result<Fit, CostError> {
     // A single column with a non-negative right-hand side always solves, so `best` is set
     // whenever `B` or `T` is non-zero somewhere; the fallback is for safety only.
     let (res, model, form) = best.unwrap_or((
-        ssr(&CostModel::thesis(0.0, 0.0)),
-        CostModel::thesis(0.0, 0.0),
+        ssr(&CostModel::counts_only(0.0, 0.0)),
+        CostModel::counts_only(0.0, 0.0),
         FitForm {
             rays: false,
             nodes: false,
@@ -258,7 +258,7 @@ mod tests {
         assert!((fit.model.kt / truth.kt - 1.0).abs() < 1e-9, "{fit:?}");
         assert!(fit.r2 > 1.0 - 1e-12 && fit.rms_residual < 1e-15 && fit.n == 50);
         // Without a per-ray cost, none is found.
-        let thesis = CostModel::thesis(2e-9, 7e-9);
+        let thesis = CostModel::counts_only(2e-9, 7e-9);
         let fit = calibrate(&work, &thesis.costs(&work)).unwrap();
         assert_eq!(fit.form.name(), "nodes+triangles");
         assert!((fit.model.kb / thesis.kb - 1.0).abs() < 1e-9, "{fit:?}");
@@ -266,7 +266,7 @@ mod tests {
 
     #[test]
     fn recovers_known_constants_approximately_with_noise() {
-        let truth = CostModel::thesis(3e-9, 1e-8);
+        let truth = CostModel::counts_only(3e-9, 1e-8);
         let work = synthetic(400);
         // ±5 % deterministic noise.
         let y: Vec<f64> = truth

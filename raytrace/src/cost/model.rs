@@ -76,13 +76,13 @@ impl Default for CostModel {
     /// traversal, and `B` already counts each ray's root; the order of magnitude is all a
     /// policy needs before a calibration exists.
     fn default() -> Self {
-        Self::thesis(1.0, 2.0)
+        Self::counts_only(1.0, 2.0)
     }
 }
 
 impl CostModel {
-    /// The thesis's model: `kR = 0`.
-    pub fn thesis(kb: f64, kt: f64) -> Self {
+    /// A model of the counts alone, `kR = 0`: the thesis's equation 3.1.
+    pub fn counts_only(kb: f64, kt: f64) -> Self {
         Self { kr: 0.0, kb, kt }
     }
 
@@ -148,7 +148,7 @@ mod tests {
     #[test]
     fn calibrations_are_per_device_and_kind_with_a_default() {
         let mut c = Calibrations::default();
-        let m = CostModel::thesis(3.0, 0.5);
+        let m = CostModel::counts_only(3.0, 0.5);
         c.insert("cpu", RayKind::Ao, m);
         assert_eq!(c.model("cpu", RayKind::Ao), m);
         assert_eq!(c.model("cpu", RayKind::Primary), CostModel::default());

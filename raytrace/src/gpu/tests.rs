@@ -78,8 +78,8 @@ fn rays_for(name: &str, seed: u64) -> RayBatch {
         .and_then(|s| s.load(SceneNeeds::AO))
         .expect("built-in scene");
     let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
-    let mut rays = workload::thesis_primary(&scene, 24, 24, 0..4);
-    rays.extend(&workload::thesis_ao(&scene, &bvh, 12, 12, 0, 8).rays);
+    let mut rays = workload::orbit_primary(&scene, 24, 24, 0..4);
+    rays.extend(&workload::orbit_ao(&scene, &bvh, 12, 12, 0, 8).rays);
     let b = scene.bounds();
     let mut rng = Rng::new(testkit::seed(seed));
     for k in 0..1500 {
@@ -300,8 +300,8 @@ fn throughput() {
         .expect("built-in scene");
     let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
     let mut dev = GpuDevice::new(ctx, &bvh).expect("upload");
-    let primary = workload::thesis_primary(&scene, 512, 512, [0]);
-    let ao = workload::thesis_ao(&scene, &bvh, 256, 256, 0, 8).rays;
+    let primary = workload::orbit_primary(&scene, 512, 512, [0]);
+    let ao = workload::orbit_ao(&scene, &bvh, 256, 256, 0, 8).rays;
     for (what, rays, any) in [("primary", &primary, false), ("ao", &ao, true)] {
         let all = 0..rays.len();
         let mrays = |s: f64| rays.len() as f64 / s / 1e6;
@@ -352,8 +352,8 @@ fn check_estimates(name: &str) {
         .expect("built-in scene");
     let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
     let dev = GpuDevice::new(ctx, &bvh).expect("upload");
-    let primary = workload::thesis_primary(&scene, 64, 64, [1]);
-    let ao = workload::thesis_ao(&scene, &bvh, 32, 32, 0, 8).rays;
+    let primary = workload::orbit_primary(&scene, 64, 64, [1]);
+    let ao = workload::orbit_ao(&scene, &bvh, 32, 32, 0, 8).rays;
     for (what, rays) in [("primary", &primary), ("ao", &ao)] {
         assert!(rays.len() > 4000, "{name} {what}: {} rays", rays.len());
         for size in [1, 100, 512, 4096] {
@@ -436,7 +436,7 @@ fn estimator_refuses_bad_tasks_and_serves_sched() {
         .expect("built-in scene");
     let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
     let dev = GpuDevice::new(ctx, &bvh).expect("upload");
-    let rays = workload::thesis_primary(&scene, 32, 32, [0]);
+    let rays = workload::orbit_primary(&scene, 32, 32, [0]);
     let n = rays.len();
     let rate = SampleRate::THESIS;
     let e = dev

@@ -125,19 +125,19 @@ fn the_first_leaf_walk_costs_closest_hit_rays_and_leaves_the_image_alone() {
         };
         scheduled(&scene, &bvh, shader, "cpu:2", &[], settings)
     };
-    let (thesis, thesis_stats) = run(Walk::Reduced);
+    let (reduced, reduced_stats) = run(Walk::Reduced);
     let (first, first_stats) = run(Walk::FirstLeaf);
-    assert_eq!(thesis.film, want.film);
+    assert_eq!(reduced.film, want.film);
     assert_eq!(first.film, want.film);
     // The first generation (camera rays) is planned with the default model in both runs:
     // the closed box ends every ray at its first leaf, so it costs less.
     let total = |s: &GenerationStats| s.task_stats.iter().map(|t| t.cost).sum::<f64>();
     assert_eq!(first_stats[0].kind, RayKind::Primary);
     assert!(
-        total(&first_stats[0]) < 0.9 * total(&thesis_stats[0]),
+        total(&first_stats[0]) < 0.9 * total(&reduced_stats[0]),
         "{} vs {}",
         total(&first_stats[0]),
-        total(&thesis_stats[0])
+        total(&reduced_stats[0])
     );
 }
 
