@@ -1,6 +1,7 @@
 //! `cobalt`: cost-balanced scheduling of irregular workloads, from the command line.
 
 mod args;
+mod balance;
 mod bench;
 mod calibration;
 #[cfg(feature = "mpi")]

@@ -103,6 +103,9 @@ fn bench_writes_one_record_per_run_and_the_charts() {
         let error = p["prediction_error"].as_f64().expect("error");
         assert!(p["overhead"].as_f64().is_some_and(|o| o > 0.0), "{p}");
         assert!(p["meets_target"].is_boolean(), "{p}");
+        // What the estimates buy an 8-device LPT plan: a balance in (0, 1].
+        let balance = p["lpt_balance"].as_f64();
+        assert!(balance.is_some_and(|b| b > 0.0 && b <= 1.0 + 1e-12), "{p}");
         // The thesis's figures stand beside its own walk's rows.
         let reduced_walk = p["walk"] == "reduced";
         assert_eq!(

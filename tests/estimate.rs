@@ -396,6 +396,20 @@ fn the_sample_run_and_the_clock_are_reported() {
         );
     }
     assert!(num(&runs, "trace_seconds") > 0.0, "{runs}");
+    // What each walk's estimates buy a plan, framed by the measured times and by none.
+    let (best, none) = (
+        num(&pairs, "balance_measured"),
+        num(&pairs, "balance_uniform"),
+    );
+    assert!(
+        best > 0.0 && best <= 1.0 + 1e-12 && none > 0.0 && none <= best + 1e-12,
+        "{pairs}"
+    );
+    for w in pairs["walks"].as_array().expect("walks") {
+        let b = num(w, "lpt_balance");
+        assert!(b > 0.0 && b <= 1.0 + 1e-12, "{w}");
+    }
+    assert_eq!(pairs["balance_devices"], 8);
 }
 
 /// On the CPU the trace walk is the default, the report leads with the figures judged by

@@ -197,8 +197,8 @@ pub fn simulated(records: &[SimRecord], task_size: usize) -> String {
 /// after them.
 pub fn trade(points: &[TradePoint]) -> String {
     let mut s = String::from(
-        "| scene | rays | task size | walk | sampled | error vs time | spearman | bound: trace counts | net overhead | prediction error | overhead | thesis (error, overhead) | error ≤ 2 / 3 %, overhead ≤ 4 % |\n\
-         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---|---|\n",
+        "| scene | rays | task size | walk | sampled | error vs time | spearman | bound: trace counts | net overhead | LPT balance, 8 devices | prediction error | overhead | thesis (error, overhead) | error ≤ 2 / 3 %, overhead ≤ 4 % |\n\
+         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n",
     );
     let opt = |v: Option<f64>, f: fn(f64) -> String| v.map_or_else(|| "–".into(), f);
     for p in points {
@@ -207,7 +207,7 @@ pub fn trade(points: &[TradePoint]) -> String {
             _ => "–".into(),
         };
         s += &format!(
-            "| {} | {} | {} | {} | {:.2} % | {} | {} | {} ({}) | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.2} % | {} | {} | {} ({}) | {} | {} | {} | {} | {} | {} |\n",
             p.scene,
             p.ray_kind,
             p.task_size,
@@ -218,6 +218,7 @@ pub fn trade(points: &[TradePoint]) -> String {
             opt(p.error_vs_time_trace, pct),
             opt(p.spearman_trace_vs_time, |x| format!("{x:.3}")),
             pct(p.net_overhead),
+            opt(p.lpt_balance, pct),
             pct(p.prediction_error),
             pct(p.overhead),
             thesis,

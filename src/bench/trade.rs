@@ -95,6 +95,9 @@ pub struct TradePoint {
     pub thesis_overhead: Option<f64>,
     /// The target met: error ≤ 2 % coherent / 3 % diffuse, overhead ≤ 4 %.
     pub meets_target: bool,
+    /// What the estimates buy a plan: the balance of an LPT plan by them (calibrated) on 8
+    /// equal devices, judged by the measured task times.
+    pub lpt_balance: Option<f64>,
 }
 
 fn best_of_3(mut f: impl FnMut()) -> f64 {
@@ -122,15 +125,17 @@ fn regroup(per: &[f64], unit: usize, size: usize) -> Vec<f64> {
     per.chunks(size / unit).map(|c| c.iter().sum()).collect()
 }
 
-/// Calibrated `work` against `seconds`: error and rank correlation.
-fn vs_time(work: &[Work], seconds: &[f64]) -> (Option<f64>, Option<f64>) {
+/// Calibrated `work` against `seconds`: error, rank correlation and the LPT balance the
+/// calibrated costs buy.
+fn vs_time(work: &[Work], seconds: &[f64]) -> (Option<f64>, Option<f64>, Option<f64>) {
     let Ok(fit) = calibrate(work, seconds) else {
-        return (None, None);
+        return (None, None, None);
     };
     let costs = fit.model.costs(work);
     (
         error_vs_time(&costs, seconds).ok(),
         spearman(&costs, seconds).ok(),
+        crate::balance::lpt(&costs, seconds),
     )
 }
 
@@ -182,7 +187,7 @@ fn points(
             .chunks(task_size / unit)
             .map(|c| c.iter().fold(Work::default(), |a, &w| a.plus(w)))
             .collect();
-        let (error_vs_time_trace, spearman_trace_vs_time) = vs_time(&trace_work, &seconds);
+        let (error_vs_time_trace, spearman_trace_vs_time, _) = vs_time(&trace_work, &seconds);
         let traced = Walk::Trace { any: occlusion };
         let runs = RATES
             .iter()
@@ -216,7 +221,7 @@ fn points(
             } else {
                 overhead
             };
-            let (error_vs_time, spearman_vs_time) = vs_time(&work, &seconds);
+            let (error_vs_time, spearman_vs_time, lpt_balance) = vs_time(&work, &seconds);
             let thesis_at = thesis
                 .filter(|_| p != traced)
                 .and_then(|t| t.iter().find(|x| x.rate == rate.get()));
@@ -238,6 +243,7 @@ fn points(
                 thesis_prediction_error: thesis_at.map(|x| x.error),
                 thesis_overhead: thesis_at.map(|x| x.overhead),
                 meets_target: meets_target(kind, prediction_error, overhead),
+                lpt_balance,
             });
         }
     }

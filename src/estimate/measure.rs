@@ -232,7 +232,7 @@ pub(super) fn measure(
                     let costs = calibrate(est, &measured).ok().map(|f| f.model.costs(est));
                     WalkFigures {
                         walk: p.name(),
-                        lpt_balance: costs.and_then(|c| super::balance::lpt(&c, &measured)),
+                        lpt_balance: costs.and_then(|c| crate::balance::lpt(&c, &measured)),
                         error_vs_time: error,
                         spearman_vs_time: rho,
                         prediction_error: full.and_then(|f| {
@@ -297,9 +297,9 @@ pub(super) fn measure(
         walk: walk.name(),
         walk_fits,
         walks,
-        balance_devices: super::balance::DEVICES,
-        balance_measured: super::balance::lpt(&measured, &measured),
-        balance_uniform: super::balance::uniform(&measured),
+        balance_devices: crate::balance::DEVICES,
+        balance_measured: crate::balance::lpt(&measured, &measured),
+        balance_uniform: crate::balance::uniform(&measured),
         sampled_rays: tasks.iter().map(|t| rate.samples(t.len())).sum(),
         threads: rayon::current_num_threads(),
         repeats: args.repeats,

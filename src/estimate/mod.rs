@@ -12,7 +12,6 @@
 //! [`measure`] times the estimates against the tasks' traces; [`report`] holds the figures
 //! and prints them as a table or one JSON object.
 
-mod balance;
 mod measure;
 mod rays;
 mod report;

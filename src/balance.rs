@@ -7,13 +7,13 @@ use sched::{Costs, Speeds, plan_equal, plan_lpt};
 
 /// Equal devices the plans are made for: with tasks of 4096 rays a 512² frame gives each of
 /// them 8 tasks, few enough that where each big task goes shows in the balance.
-pub(super) const DEVICES: usize = 8;
+pub(crate) const DEVICES: usize = 8;
 
 /// Balance (mean over largest device time, in `(0, 1]`) of the LPT plan made from
 /// `estimates` on [`DEVICES`] equal devices, each device's time the sum of its tasks'
 /// `measured` times; `None` if either list is unusable (empty, of other lengths, negative
 /// or not finite).
-pub(super) fn lpt(estimates: &[f64], measured: &[f64]) -> Option<f64> {
+pub(crate) fn lpt(estimates: &[f64], measured: &[f64]) -> Option<f64> {
     if estimates.len() != measured.len() {
         return None;
     }
@@ -22,7 +22,7 @@ pub(super) fn lpt(estimates: &[f64], measured: &[f64]) -> Option<f64> {
 }
 
 /// The balance without an estimate: tasks dealt out in order, the same number to each device.
-pub(super) fn uniform(measured: &[f64]) -> Option<f64> {
+pub(crate) fn uniform(measured: &[f64]) -> Option<f64> {
     judged(&plan_equal(measured.len(), &speeds()), measured)
 }
 
