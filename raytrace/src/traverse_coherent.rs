@@ -247,8 +247,8 @@ mod tests {
 
     /// Primary rays (one origin, Morton order) with runs of other rays mixed in: other
     /// origins, a zero direction, empty and NaN ranges, short ranges, a range that starts
-    /// away from the origin, and rays aimed at a vertex (ties between triangles). The batch
-    /// answer of each ray equals its single walk, bit for bit.
+    /// away from the origin or behind it, and rays aimed at a vertex (ties between
+    /// triangles). The batch answer of each ray equals its single walk, bit for bit.
     #[test]
     fn rays_walked_together_hit_as_each_alone() {
         for scene in ["builtin:forest:0.05", "builtin:hairball:0.05"] {
@@ -273,6 +273,9 @@ mod tests {
                         2 => r.tmax = f32::NAN,
                         3 => r.dir = Vec3::ZERO,
                         4 => r.tmin = rng.range(0.0, 1.0) * ext,
+                        // Behind the origin: such rays walk alone.
+                        5 => r.tmin = -0.0,
+                        6 => r.tmin = -rng.range(0.0, 1.0) * ext,
                         _ => {}
                     }
                     rays.push(&r);
@@ -308,7 +311,10 @@ mod tests {
                     );
                     found += usize::from(got.is_some());
                 }
-                assert!(len < 100 || (found > 100 && found < len - 100), "{found} of {len}");
+                assert!(
+                    len < 100 || (found > 100 && found < len - 100),
+                    "{found} of {len}"
+                );
             }
         }
     }
