@@ -168,15 +168,10 @@ impl Bvh {
                 sp -= 1;
                 // SAFETY: entries below the old `sp` were written by a push.
                 let (c, k, rays, t_near) = unsafe { stack[sp].assume_init() };
-                let mut keep = 0;
-                let mut each = rays;
-                while each != 0 {
-                    let r = each.trailing_zeros() as usize;
-                    each &= each - 1;
-                    // `t_near` is at most this ray's own entry (the ordering of bits is that
-                    // of the floats here, see `# Safety`).
-                    keep |= u32::from(t_near <= cull[r]) << r;
-                }
+                // `t_near` is at most each of these rays' own entry (the ordering of bits is
+                // that of the floats here, see `# Safety`).
+                // SAFETY: the CPU has AVX2 (see `# Safety`).
+                let keep = rays & unsafe { simd::within(t_near, &cull) };
                 if keep != 0 {
                     (child, count, m) = (c, k, keep);
                     break;
