@@ -15,7 +15,7 @@ use raytrace::devices::DeviceSpec;
 use raytrace::glam::Vec3;
 use raytrace::scheduled::{FailAfter, Mode};
 use raytrace::{BuildPreset, Camera};
-use sched::{Fault, Policy, Speeds};
+use sched::{Fault, Policy};
 
 use crate::error::CliError;
 
@@ -205,58 +205,38 @@ impl FromStr for Devices {
     }
 }
 
-/// `--fail DEVICE@TASKS[,…]` as typed, and the faults it injects. Whether each device exists
-/// depends on `--devices`: [`Faults::check`].
-#[derive(Debug, Clone)]
-pub struct Faults {
-    text: String,
-    faults: Vec<FailAfter>,
+/// One fault of `cobalt render --fail DEVICE@TASKS[,…]`: device DEVICE fails after TASKS
+/// tasks. Whether the device exists depends on `--devices`: [`check_faults`].
+pub fn fail_after(text: &str) -> Result<FailAfter, String> {
+    let (device, tasks) = text
+        .trim()
+        .split_once('@')
+        .ok_or("expected DEVICE@TASKS, e.g. 1@3 (device 1 fails after 3 tasks)")?;
+    Ok(FailAfter {
+        device: device
+            .trim()
+            .parse()
+            .map_err(|_| format!("{device:?} is not a device index"))?,
+        tasks: tasks
+            .trim()
+            .parse()
+            .map_err(|_| format!("{tasks:?} is not a task count"))?,
+    })
 }
 
-impl Faults {
-    /// The faults, each device an index below `devices` (`usize::MAX` where GPU entries make
-    /// the count known only once the devices are opened; they check it then).
-    pub fn check(&self, devices: usize) -> Result<Vec<FailAfter>, CliError> {
-        match self.faults.iter().find(|f| f.device >= devices) {
-            Some(f) => Err(CliError::Arg {
-                flag: "fail",
-                value: self.text.clone(),
-                message: format!(
-                    "no device {}: there are {devices} (numbered from 0)",
-                    f.device
-                ),
-            }),
-            None => Ok(self.faults.clone()),
-        }
-    }
-}
-
-impl FromStr for Faults {
-    type Err = String;
-    fn from_str(text: &str) -> Result<Self, String> {
-        let faults = text
-            .split(',')
-            .map(|item| {
-                let (d, k) = item.trim().split_once('@').ok_or_else(|| {
-                    format!(
-                        "{item:?}: expected DEVICE@TASKS, e.g. 1@3 (device 1 fails after 3 tasks)"
-                    )
-                })?;
-                let device = d
-                    .trim()
-                    .parse::<usize>()
-                    .map_err(|_| format!("{d:?} is not a device index"))?;
-                let tasks = k
-                    .trim()
-                    .parse::<u64>()
-                    .map_err(|_| format!("{k:?} is not a task count"))?;
-                Ok(FailAfter { device, tasks })
-            })
-            .collect::<Result<_, String>>()?;
-        Ok(Self {
-            text: text.to_string(),
-            faults,
-        })
+/// The faults of `--fail`, each device an index below `devices` (`usize::MAX` where GPU
+/// entries make the count known only once the devices are opened; they check it then).
+pub fn check_faults(faults: &[FailAfter], devices: usize) -> Result<Vec<FailAfter>, CliError> {
+    match faults.iter().find(|f| f.device >= devices) {
+        Some(f) => Err(CliError::Arg {
+            flag: "fail",
+            value: format!("{}@{}", f.device, f.tasks),
+            message: format!(
+                "no device {}: there are {devices} (numbered from 0)",
+                f.device
+            ),
+        }),
+        None => Ok(faults.to_vec()),
     }
 }
 
@@ -269,71 +249,33 @@ pub fn count<const MAX: usize>(text: &str) -> Result<usize, String> {
     }
 }
 
-/// `--speeds` as typed, and the relative device speeds it gives: finite and positive.
-#[derive(Debug, Clone)]
-pub struct SpeedList {
-    text: String,
-    speeds: Speeds,
+/// One relative device speed of `cobalt schedule --speeds`; [`sched::Speeds`] checks the list.
+pub fn speed(text: &str) -> Result<f64, String> {
+    text.trim().parse().map_err(|_| {
+        "expected a number, e.g. 2.5 (a device 2.5 times as fast as one of speed 1)".into()
+    })
 }
 
-impl SpeedList {
-    /// The list as the user typed it, for errors.
-    pub fn as_str(&self) -> &str {
-        &self.text
+/// One fault of `cobalt schedule --fail DEVICE@TIME[,…]`: the device stops at a time in the
+/// costs' unit, finite and non-negative. Whether the device exists depends on `--speeds`;
+/// the simulation checks it.
+pub fn fault_time(text: &str) -> Result<Fault, String> {
+    let (device, at) = text
+        .trim()
+        .split_once('@')
+        .ok_or("expected DEVICE@TIME, e.g. 1@0.5 (device 1 stops at time 0.5)")?;
+    let device = device
+        .trim()
+        .parse()
+        .map_err(|_| format!("{device:?} is not a device index"))?;
+    let at: f64 = at
+        .trim()
+        .parse()
+        .map_err(|_| format!("{at:?} is not a time"))?;
+    if !(at.is_finite() && at >= 0.0) {
+        return Err(format!("the time {at} is not finite and non-negative"));
     }
-
-    /// The speeds, one per device.
-    pub fn speeds(&self) -> &Speeds {
-        &self.speeds
-    }
-}
-
-impl FromStr for SpeedList {
-    type Err = String;
-    fn from_str(text: &str) -> Result<Self, String> {
-        let speeds = text
-            .split(',')
-            .map(|item| {
-                item.trim()
-                    .parse::<f64>()
-                    .map_err(|_| format!("{:?} is not a number", item.trim()))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        Ok(Self {
-            text: text.to_string(),
-            speeds: Speeds::new(speeds).map_err(|e| e.to_string())?,
-        })
-    }
-}
-
-/// `--fail DEVICE@TIME[,…]` of `cobalt schedule`: each device stops at a time in the costs'
-/// unit, finite and non-negative. Whether each device exists depends on `--speeds`; the
-/// simulation checks it.
-#[derive(Debug, Clone)]
-pub struct FaultTimes(pub Vec<Fault>);
-
-impl FromStr for FaultTimes {
-    type Err = String;
-    fn from_str(text: &str) -> Result<Self, String> {
-        text.split(',')
-            .map(|item| {
-                let item = item.trim();
-                let bad = |message: &str| format!("{item:?} {message}");
-                let (device, at) = item
-                    .split_once('@')
-                    .ok_or_else(|| bad("is not DEVICE@TIME"))?;
-                let device = device
-                    .parse()
-                    .map_err(|_| bad("does not start with a device index"))?;
-                let at: f64 = at.parse().map_err(|_| bad("does not end with a time"))?;
-                if !(at.is_finite() && at >= 0.0) {
-                    return Err(bad("has a time that is not finite and non-negative"));
-                }
-                Ok(Fault { device, at })
-            })
-            .collect::<Result<_, _>>()
-            .map(Self)
-    }
+    Ok(Fault { device, at })
 }
 
 /// The scene and how its BVH is built.
@@ -436,6 +378,28 @@ impl ShaderArgs {
     }
 }
 
+/// How a render's frames are made: the `--pipeline` of `cobalt render` and `cobalt bench`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Pipeline {
+    /// Every frame scheduled over `--devices` by `--policy` as tasks of whole paths, each
+    /// made, traced and shaded on the device that runs it.
+    Paths,
+    /// Every generation of rays scheduled over `--devices` by `--policy` on its own, the rays
+    /// made and shaded on the host (per-generation statistics and calibration).
+    #[value(alias = "scheduled")]
+    Generations,
+}
+
+impl Pipeline {
+    /// The name reports, records and tables use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Paths => "paths",
+            Self::Generations => "generations",
+        }
+    }
+}
+
 /// The devices, and how tasks are cut, costed and planned over them.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ScheduleArgs {
@@ -492,29 +456,26 @@ mod tests {
 
     #[test]
     fn faults_are_checked_against_the_devices() {
-        let f: Faults = "1@3".parse().expect("valid");
-        assert!(f.check(2).is_ok());
-        let err = f.check(1).expect_err("no device 1").to_string();
+        let f = [fail_after("1@3").expect("valid")];
+        assert!(check_faults(&f, 2).is_ok());
+        let err = check_faults(&f, 1).expect_err("no device 1").to_string();
         assert!(
             err.contains("--fail \"1@3\"") && err.contains("no device 1"),
             "{err}"
         );
         for bad in ["1", "0@x", "x@1"] {
-            assert!(bad.parse::<Faults>().is_err(), "{bad}");
+            assert!(fail_after(bad).is_err(), "{bad}");
         }
     }
 
     #[test]
-    fn schedule_lists_and_counts_are_checked_item_by_item() {
-        let s: SpeedList = "1, 2.5".parse().expect("valid");
-        assert_eq!(s.speeds().as_slice(), [1.0, 2.5]);
-        for bad in ["1,,2", "1,0", "x"] {
-            assert!(bad.parse::<SpeedList>().is_err(), "{bad}");
-        }
-        let f: FaultTimes = "1@0.5, 0@2".parse().expect("valid");
-        assert_eq!(f.0.len(), 2);
+    fn schedule_list_items_and_counts_are_checked() {
+        assert_eq!(speed(" 2.5"), Ok(2.5));
+        assert!(speed("").is_err() && speed("x").is_err());
+        let f = fault_time(" 1@0.5").expect("valid");
+        assert_eq!((f.device, f.at), (1, 0.5));
         for bad in ["1", "x@1", "1@-1", "1@inf"] {
-            assert!(bad.parse::<FaultTimes>().is_err(), "{bad}");
+            assert!(fault_time(bad).is_err(), "{bad}");
         }
         assert_eq!(count::<4>("4"), Ok(4));
         assert!(count::<4>("5").is_err() && count::<4>("0").is_err());

@@ -4,10 +4,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use sched::bounds::{guarantee, lower_bound};
-use sched::{Costs, Policy, Simulation};
+use sched::{Costs, Fault, Policy, Simulation, Speeds};
 use serde::Serialize;
 
-use crate::args::{FaultTimes, SpeedList};
+use crate::args::{fault_time, speed};
 use crate::error::CliError;
 use crate::input::read_costs;
 
@@ -18,8 +18,8 @@ pub struct Args {
     #[arg(long)]
     costs: PathBuf,
     /// Relative device speeds, comma-separated: `1,1,2.5` is two devices and one 2.5× faster.
-    #[arg(long, default_value = "1")]
-    speeds: SpeedList,
+    #[arg(long, default_value = "1", value_delimiter = ',', value_parser = speed)]
+    speeds: Vec<f64>,
     /// static-equal, static-lpt (lpt), queue-fifo (fifo), queue-sorted (sorted) or hybrid.
     #[arg(long, default_value = "static-lpt")]
     policy: Policy,
@@ -30,8 +30,8 @@ pub struct Args {
     #[arg(long)]
     actual: Option<PathBuf>,
     /// Device failures, `DEVICE@TIME`, comma-separated: `1@0.5` stops device 1 at time 0.5.
-    #[arg(long)]
-    fail: Option<FaultTimes>,
+    #[arg(long, value_delimiter = ',', value_parser = fault_time)]
+    fail: Vec<Fault>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -81,12 +81,20 @@ pub fn run(args: Args) -> Result<(), CliError> {
         Some(path) => Costs::new(read_costs(path)?).map_err(named(path))?,
         None => estimated.clone(),
     };
-    let speeds = args.speeds.speeds().clone();
-    let faults = args.fail.clone().map_or(Vec::new(), |f| f.0);
+    let speeds_typed = || {
+        let text: Vec<String> = args.speeds.iter().map(f64::to_string).collect();
+        text.join(",")
+    };
+    let speeds = Speeds::new(args.speeds.clone()).map_err(|e| CliError::Arg {
+        flag: "speeds",
+        value: speeds_typed(),
+        message: e.to_string(),
+    })?;
+    let faults = &args.fail;
     // The proven factors hold for exact estimates, no latency and no failures.
     let ideal = faults.is_empty() && args.latency == 0.0 && estimated == actual;
     let mut sim = Simulation::new(args.policy, speeds.clone()).latency(args.latency);
-    for fault in faults {
+    for &fault in faults {
         sim = sim.fault(fault);
     }
 
@@ -104,7 +112,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if !finite {
         return Err(CliError::Arg {
             flag: "speeds",
-            value: args.speeds.as_str().to_string(),
+            value: speeds_typed(),
             message: format!(
                 "the costs divided by these speeds (plus --latency {}) overflow: a makespan \
                  of {makespan:e} cannot be reported; scale the costs down",

@@ -2,7 +2,7 @@
 //!
 //! Two tables:
 //! - BVH build preset: build time and SAH cost against trace throughput (primary rays of the
-//!   four thesis cameras, closest hit; AO probes, any hit), all on the same rays;
+//!   four orbit cameras, closest hit; AO probes, any hit), all on the same rays;
 //! - AO sample count: image error against a high-sample reference (its own Halton
 //!   scrambling seed, so the reference's noise is independent of the estimate's) against render
 //!   time.
@@ -15,7 +15,7 @@ use raytrace::traverse::{any_hits, closest_hits};
 use raytrace::{BuildPreset, Bvh, Camera, SceneSource, workload};
 use serde::Serialize;
 
-use crate::args::{Size, camera_index};
+use crate::args::{MAX_AO_SAMPLES, Size, camera_index};
 use crate::error::CliError;
 
 /// Arguments of `cobalt tradeoff`.
@@ -30,14 +30,16 @@ pub struct Args {
     /// Orbit camera of the AO images, 0..3.
     #[arg(long, default_value = "0", value_parser = camera_index)]
     camera: usize,
-    /// Presets to compare (comma-separated; default all six).
-    #[arg(long)]
-    presets: Option<String>,
-    /// AO sample counts to compare with the reference.
-    #[arg(long, default_value = "1,2,4,8,16,32,64,128")]
-    ao_samples: String,
-    /// Samples of the reference image.
-    #[arg(long, default_value_t = 1024)]
+    /// Presets to compare, comma-separated: fastest, very-fast, fast, medium, slow, very-slow
+    /// (default all six).
+    #[arg(long, value_delimiter = ',', value_parser = preset)]
+    presets: Option<Vec<BuildPreset>>,
+    /// AO sample counts to compare with the reference, comma-separated, each 1..=4096.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32,64,128",
+          value_parser = ao_sample_count)]
+    ao_samples: Vec<u32>,
+    /// Samples of the reference image, 1..=4096.
+    #[arg(long, default_value_t = 1024, value_parser = ao_sample_count)]
     reference: u32,
     /// Also write the records as JSON to this file.
     #[arg(long)]
@@ -80,51 +82,28 @@ struct Report {
     ao: Vec<SampleRecord>,
 }
 
-/// A comma-separated list; an error names the bad item and says what `valid` items are.
-fn list<T: std::str::FromStr>(
-    flag: &'static str,
-    text: &str,
-    valid: &str,
-) -> Result<Vec<T>, CliError> {
-    text.split(',')
-        .map(|item| {
-            item.trim().parse::<T>().map_err(|_| CliError::Arg {
-                flag,
-                value: text.into(),
-                message: format!("{:?} is not valid: expected {valid}", item.trim()),
-            })
-        })
-        .collect()
+/// One BVH preset of `--presets`.
+fn preset(text: &str) -> Result<BuildPreset, String> {
+    text.trim().parse()
+}
+
+/// One AO sample count, `1..=MAX_AO_SAMPLES`.
+fn ao_sample_count(text: &str) -> Result<u32, String> {
+    match text.trim().parse::<u32>() {
+        Ok(n) if (1..=MAX_AO_SAMPLES).contains(&n) => Ok(n),
+        _ => Err(format!("expected a sample count in 1..={MAX_AO_SAMPLES}")),
+    }
 }
 
 /// Runs both measurements and prints the tables.
 pub fn run(args: Args) -> Result<(), CliError> {
     let Size { width, height } = args.size;
     let camera = args.camera;
-    let presets: Vec<BuildPreset> = match &args.presets {
-        None => BuildPreset::ALL.to_vec(),
-        Some(p) => list(
-            "presets",
-            p,
-            "fastest, very-fast, fast, medium, slow or very-slow",
-        )?,
-    };
-    let counts: Vec<u32> = list("ao-samples", &args.ao_samples, "whole numbers in 1..=4096")?;
-    let bad_count = |n: &u32| !(1..=4096).contains(n);
-    if let Some(n) = counts.iter().find(|n| bad_count(n)) {
-        return Err(CliError::Arg {
-            flag: "ao-samples",
-            value: args.ao_samples.clone(),
-            message: format!("{n} is not a sample count in 1..=4096"),
-        });
-    }
-    if bad_count(&args.reference) {
-        return Err(CliError::Arg {
-            flag: "reference",
-            value: args.reference.to_string(),
-            message: "expected a sample count in 1..=4096".into(),
-        });
-    }
+    let presets = args
+        .presets
+        .clone()
+        .unwrap_or_else(|| BuildPreset::ALL.to_vec());
+    let counts = &args.ao_samples;
     let outputs = crate::output::Outputs::check(
         &[("json", args.json.as_deref())],
         &[("scene", Path::new(&args.scene))],
@@ -176,7 +155,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     };
     let reference = ao_render(args.reference, 0x5EED);
     let mut ao_records = Vec::new();
-    for &samples in &counts {
+    for &samples in counts {
         let r = ao_render(samples, 0);
         let (mut sq, mut max) = (0f64, 0f64);
         for (a, b) in r.film.pixels().iter().zip(reference.film.pixels()) {

@@ -476,11 +476,11 @@ fn errors_blame_the_right_flag_and_list_the_valid_values() {
     assert!(!err.contains("--ao-samples"), "{err}");
     refused(
         &cobalt(&["tradeoff", "--presets", "fast,bogus"]),
-        &["--presets", "\"bogus\"", "very-slow"],
+        &["--presets", "'bogus'", "very-slow"],
     );
     refused(
         &cobalt(&["tradeoff", "--ao-samples", "4,x,8"]),
-        &["--ao-samples", "\"x\""],
+        &["--ao-samples", "'x'"],
     );
     refused(
         &cobalt(&[

@@ -36,5 +36,5 @@ fn tradeoff_reports_both_tables_and_error_falls_with_samples() {
 
     let bad = crate::testkit::cobalt(&["tradeoff", "--ao-samples", "1,zero"]);
     assert_eq!(bad.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("1,zero"));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("'zero' for '--ao-samples"));
 }

@@ -24,28 +24,29 @@ pub fn radical_inverse(mut i: u32, base: u32) -> f32 {
 /// Cosine-weighted direction on the hemisphere around `n` from a point `(u1, u2)` of the unit
 /// square (Malley's method: uniform disk, projected up).
 pub fn cosine_hemisphere(n: Vec3, u1: f32, u2: f32) -> Vec3 {
-    cosine_hemisphere_in(Frame::around(n), u1, u2)
+    cosine_hemisphere_in(Basis::around(n), u1, u2)
 }
 
-/// A unit vector `n` and two unit vectors orthogonal to it and to each other: the frame
-/// [`cosine_hemisphere`] builds around `n`, built once for all of a hit's probes.
+/// A unit vector `n` and two unit vectors orthogonal to it and to each other: the
+/// orthonormal basis [`cosine_hemisphere`] builds around `n`, built once for all of a hit's
+/// probes. (A basis, not a frame: in this crate a frame is one image of a render.)
 #[derive(Clone, Copy, Debug)]
-pub struct Frame {
+pub struct Basis {
     t: Vec3,
     b: Vec3,
     n: Vec3,
 }
 
-impl Frame {
-    /// The frame around unit vector `n`.
+impl Basis {
+    /// The basis around unit vector `n`.
     pub fn around(n: Vec3) -> Self {
         let (t, b) = n.any_orthonormal_pair();
         Self { t, b, n }
     }
 }
 
-/// [`cosine_hemisphere`] around a frame built beforehand: the same direction, bit for bit.
-pub fn cosine_hemisphere_in(f: Frame, u1: f32, u2: f32) -> Vec3 {
+/// [`cosine_hemisphere`] around a basis built beforehand: the same direction, bit for bit.
+pub fn cosine_hemisphere_in(f: Basis, u1: f32, u2: f32) -> Vec3 {
     let r = u1.sqrt();
     let phi = std::f32::consts::TAU * u2;
     let z = (1.0 - u1).max(0.0).sqrt();
@@ -72,7 +73,7 @@ const CHUNK: usize = 1024;
 /// Runs in the caller's rayon pool, in chunks of hits whose parts are joined in order, so the
 /// rays are the same however many threads made them: on one thread, the host's work between
 /// an AO render's two generations can take most of the render beside a GPU. Each hit's probes
-/// share its frame and their two possible origins, computed once.
+/// share its basis and their two possible origins, computed once.
 pub fn ao_rays(
     scene: &Scene,
     primary: &RayBatch,
@@ -172,12 +173,12 @@ impl Probes<'_> {
         let rank = self.ranks.map_or(i as u64, |r| u64::from(r[i]));
         let mut rng = Rng::new(self.seed ^ rank.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let (s1, s2) = (rng.f32(), rng.f32());
-        // What every probe of this hit shares, computed once: the frame, and the two origins
+        // What every probe of this hit shares, computed once: the basis, and the two origins
         // `spawn_ray` chooses between by the side of the surface a direction leaves to.
-        let frame = Frame::around(facing);
+        let basis = Basis::around(facing);
         let origins = [offset_ray_origin(&sp, n), offset_ray_origin(&sp, -n)];
         for &(h1, h2) in self.halton {
-            let d = cosine_hemisphere_in(frame, (h1 + s1).fract(), (h2 + s2).fract());
+            let d = cosine_hemisphere_in(basis, (h1 + s1).fract(), (h2 + s2).fract());
             let o = origins[usize::from(d.dot(n) < 0.0)];
             out.rays
                 .push(&Ray::with_range(o, d, 0.0, self.max_distance));
@@ -214,8 +215,8 @@ mod tests {
         assert!(one.source.len() > 4 * CHUNK);
     }
 
-    /// A hit's shared frame and origins give exactly the rays of spawning every probe on its
-    /// own (`cosine_hemisphere`, then `spawn_ray`), as before they were shared.
+    /// A hit's shared basis and origins give exactly the rays of spawning every probe on its
+    /// own (`cosine_hemisphere`, then `spawn_ray`).
     #[test]
     fn probes_are_the_rays_spawned_one_by_one() {
         use crate::{Camera, testkit, traverse};

@@ -1,10 +1,10 @@
 //! What a run learnt about the machine, kept for the next run: per host, device class and
-//! workload, the device's relative speed and its cost model's `kB`, `kT`, so that the first
-//! plan of a run is made with what the last one measured rather than with equal speeds.
+//! workload, the device's relative speed and its cost model's `kR`, `kB`, `kT`, so that the
+//! first plan of a run is made with what the last one measured rather than with equal speeds.
 //!
 //! The file is JSON: `{"version": 1, "entries": [{"host", "device", "workload", "speed",
-//! "kb", "kt", "samples", "spikes"}, …]}`. By default it lives in the user's cache directory
-//! ([`default_path`]).
+//! "kr", "kb", "kt", "samples", "spikes"}, …]}` (`kr` may be absent, read as 0). By default
+//! it lives in the user's cache directory ([`default_path`]).
 //!
 //! A missing file is an empty calibration. A file that cannot be parsed, or holds a value no
 //! plan can use, is a [`CalibrationError`] naming the file and the line or entry: the caller
@@ -153,6 +153,9 @@ struct Record {
     #[serde(flatten)]
     key: Key,
     speed: f64,
+    /// Absent in files written before the per-ray term: read as 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    kr: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     kb: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -228,9 +231,15 @@ impl Calibration {
                 return Err(bad("speed", r.speed, "is not a finite number > 0"));
             }
             let model = match (r.kb, r.kt) {
-                (None, None) => None,
+                (None, None) => {
+                    if let Some(v) = r.kr {
+                        return Err(bad("kr", v, "comes without kb and kt"));
+                    }
+                    None
+                }
                 (Some(kb), Some(kt)) => {
-                    for (field, v) in [("kb", kb), ("kt", kt)] {
+                    let kr = r.kr.unwrap_or(0.0);
+                    for (field, v) in [("kr", kr), ("kb", kb), ("kt", kt)] {
                         if !(v.is_finite() && v >= 0.0) {
                             return Err(bad(field, v, "is not a finite number >= 0"));
                         }
@@ -238,7 +247,7 @@ impl Calibration {
                     if kb + kt <= 0.0 {
                         return Err(bad("kb + kt", kb + kt, "is not > 0"));
                     }
-                    Some(CostModel { kb, kt })
+                    Some(CostModel { kr, kb, kt })
                 }
                 (Some(v), None) => return Err(bad("kb", v, "comes without kt")),
                 (None, Some(v)) => return Err(bad("kt", v, "comes without kb")),
@@ -264,6 +273,7 @@ impl Calibration {
                 .map(|(key, e)| Record {
                     key: key.clone(),
                     speed: e.speed,
+                    kr: e.model.map(|m| m.kr),
                     kb: e.model.map(|m| m.kb),
                     kt: e.model.map(|m| m.kt),
                     samples: e.samples,
@@ -323,9 +333,7 @@ impl Calibration {
     /// recorded: returns whether it was.
     pub fn insert(&mut self, key: Key, entry: Entry) -> bool {
         let speed_ok = entry.speed.is_finite() && entry.speed > 0.0;
-        let model_ok = entry.model.is_none_or(|m| {
-            m.kb.is_finite() && m.kt.is_finite() && m.kb >= 0.0 && m.kt >= 0.0 && m.kb + m.kt > 0.0
-        });
+        let model_ok = entry.model.is_none_or(|m| m.can_plan());
         if speed_ok && model_ok {
             self.entries.insert(key, entry);
         }
@@ -387,7 +395,7 @@ fn default_path_from(xdg_cache_home: Option<OsString>, home: Option<OsString>) -
     Some(cache.join("cobalt").join("calibration.json"))
 }
 
-/// This machine's name, for the entries' keys: the kernel's host name, else `/etc/hostname`,
+/// The host's name, for the entries' keys: the kernel's host name, else `/etc/hostname`,
 /// else `$HOSTNAME`, else `unknown` (entries then still separate devices and workloads).
 pub fn host_name() -> String {
     let from_file = |p: &str| fs::read_to_string(p).ok();
@@ -413,7 +421,15 @@ mod tests {
         };
         assert!(c.insert(
             Key::new("box", "cpu/1", "builtin:cornell whitted"),
-            entry(0.25, Some(CostModel { kb: 1e-8, kt: 3e-9 }), 12),
+            entry(
+                0.25,
+                Some(CostModel {
+                    kr: 4e-8,
+                    kb: 1e-8,
+                    kt: 3e-9,
+                }),
+                12
+            ),
         ));
         assert!(c.insert(
             Key::new("box", "gpu0 (lavapipe)", "builtin:cornell whitted"),
@@ -501,6 +517,19 @@ mod tests {
         let err = Calibration::parse(path, &negative).unwrap_err().to_string();
         assert!(err.contains("kt = -1"), "{err}");
 
+        let negative = sample()
+            .to_json()
+            .replacen("\"kr\": 4e-8", "\"kr\": -1.0", 1);
+        let err = Calibration::parse(path, &negative).unwrap_err().to_string();
+        assert!(err.contains("kr = -1"), "{err}");
+
+        // A file written before the per-ray term reads as kR = 0.
+        let older = sample().to_json().replacen("\"kr\": 4e-8,", "", 1);
+        assert_ne!(older, sample().to_json());
+        let read = Calibration::parse(path, &older).expect("a file without kr");
+        let models: Vec<_> = read.entries.values().filter_map(|e| e.model).collect();
+        assert!(!models.is_empty() && models.iter().all(|m| m.kr == 0.0 && m.kb > 0.0));
+
         let future = sample()
             .to_json()
             .replacen("\"version\": 1", "\"version\": 7", 1);
@@ -517,7 +546,7 @@ mod tests {
         let key = Key::new("h", "d", "w");
         let entry = |speed, kb| Entry {
             speed,
-            model: Some(CostModel { kb, kt: 0.0 }),
+            model: Some(CostModel::thesis(kb, 0.0)),
             samples: 1,
             spikes: 0,
         };

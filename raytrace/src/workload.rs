@@ -1,6 +1,6 @@
 //! The thesis's ray workloads, built the same way for benches, `cobalt` reports and tests:
-//! primary rays of its four cameras (Morton order), and ambient-occlusion rays from the hits of
-//! one camera (Halton order).
+//! primary rays of the four orbit cameras ([`Camera::orbit`], Morton order), and
+//! ambient-occlusion rays from the hits of one of them (Halton order).
 
 use crate::{Bvh, Camera, RayBatch, Scene, ao, traverse};
 
@@ -26,7 +26,7 @@ pub fn thesis_primary(
     out
 }
 
-/// `samples` AO rays per primary hit of thesis camera `camera` at `width x height`, with the
+/// `samples` AO rays per primary hit of orbit camera `camera` at `width x height`, with the
 /// default length ([`ao_radius`]).
 pub fn thesis_ao(
     scene: &Scene,

@@ -98,3 +98,9 @@ pub use simulate::{Fault, SimReport, Simulation};
 pub use speeds::Speeds;
 pub use task::{Task, split_ranges};
 pub use timeline::{Metrics, Span, Timeline};
+
+/// The Rust code of the workspace's `README.md`, run as doctests so that the example a user
+/// copies first keeps compiling.
+#[cfg(doctest)]
+#[doc = include_str!("../../README.md")]
+pub struct ReadmeDoctests;

@@ -20,7 +20,7 @@ use serde::Serialize;
 use super::prediction::{ErrorSums, PredictionTracer};
 use super::repeats;
 use super::replay::{Replayed, RunDevice};
-use crate::args::ShaderKind;
+use crate::args::{Pipeline, ShaderKind};
 use crate::error::CliError;
 
 /// The two workloads of the thesis.
@@ -61,26 +61,6 @@ impl Workload {
         match self {
             Self::Whitted => true,
             Self::Ao => kind == RayKind::Ao,
-        }
-    }
-}
-
-/// How a cell's frames are rendered.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Pipeline {
-    /// Frames of whole paths, each task's paths made, traced and shaded on the device that
-    /// runs it.
-    Paths,
-    /// Each generation of rays scheduled on its own, the rays made and shaded on the host.
-    Generations,
-}
-
-impl Pipeline {
-    /// The name records and tables use.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Paths => "paths",
-            Self::Generations => "generations",
         }
     }
 }
@@ -161,13 +141,13 @@ pub struct Record {
 }
 
 impl Record {
-    /// A record of one run of `plan`'s cell (`w`, `settings`) on `devices` devices, its
+    /// A record of one run of `matrix`'s cell (`w`, `settings`) on `devices` devices, its
     /// figures still zero.
-    pub fn new(plan: &Plan<'_>, w: Workload, settings: Settings, devices: usize) -> Self {
+    pub fn new(matrix: &SceneMatrix<'_>, w: Workload, settings: Settings, devices: usize) -> Self {
         Self {
             source: "measured",
             pipeline: "generations",
-            scene: plan.scene_name.to_string(),
+            scene: matrix.scene_name.to_string(),
             shader: w.name(),
             ray_kind: w.ray_kind(),
             policy: settings.policy.name(),
@@ -175,10 +155,10 @@ impl Record {
             walk: settings.walk.name(),
             task_size: settings.task_size.get(),
             devices,
-            device_list: plan.device_list.to_string(),
-            cameras: plan.cameras,
-            width: plan.width,
-            height: plan.height,
+            device_list: matrix.device_list.to_string(),
+            cameras: matrix.cameras,
+            width: matrix.width,
+            height: matrix.height,
             rays: 0,
             seconds: 0.0,
             mrays_per_s: 0.0,
@@ -236,8 +216,8 @@ pub struct Replays {
     pub gens: Vec<Replay>,
 }
 
-/// What to run on one scene.
-pub struct Plan<'a> {
+/// What to run on one scene: every cell (workload, task size, policy, mode) of its matrix.
+pub struct SceneMatrix<'a> {
     pub scene_name: &'a str,
     pub scene: &'a Scene,
     pub bvh: &'a Bvh,
@@ -263,7 +243,7 @@ pub struct Plan<'a> {
     pub calibration: Option<&'a std::cell::RefCell<crate::calibration::Store>>,
 }
 
-impl Plan<'_> {
+impl SceneMatrix<'_> {
     /// Runs in the matrix, repeats included.
     pub fn runs(&self) -> usize {
         self.workloads.len()

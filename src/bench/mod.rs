@@ -29,9 +29,9 @@ use raytrace::shade::{AoSettings, CpuTracer, RenderOptions, Shader, render};
 use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
 use sched::Policy;
 
-use crate::args::{Devices, MAX_AO_SAMPLES, ShaderKind, Size, sample_rate, task_size};
+use crate::args::{Devices, MAX_AO_SAMPLES, Pipeline, ShaderKind, Size, sample_rate, task_size};
 use crate::error::CliError;
-use matrix::{Pipeline, Plan, Workload};
+use matrix::{SceneMatrix, Workload};
 
 /// Arguments of `cobalt bench`.
 #[derive(Debug, clap::Args)]
@@ -64,10 +64,9 @@ pub struct Args {
     /// Share of each task's rays traced to estimate it (cost mode).
     #[arg(long, default_value = "0.125", value_parser = sample_rate)]
     sample_rate: SampleRate,
-    /// How each cell renders: `paths` (frames of whole paths on path-resident devices; the
-    /// default) or `generations` (each generation of rays scheduled on its own, made and
-    /// shaded on the host, as the thesis measures them). Under `--mpi` too: by paths every
-    /// other rank is a path device of rank 0's renderer.
+    /// How each cell renders: `paths` (the default) or `generations` (as the thesis measures
+    /// it), as for `cobalt render`. Under `--mpi` too: by paths every other rank is a path
+    /// device of rank 0's renderer.
     #[arg(long, value_enum)]
     pipeline: Option<Pipeline>,
     /// Where cost mode's estimate runs: `cpu` (the host's cores; the default) or `gpu` (the
@@ -228,7 +227,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let mut cost_png = None;
     for (name, scene) in scenes.iter().zip(&loaded) {
         let bvh = Bvh::build(scene, preset)?;
-        let plan = Plan {
+        let matrix = SceneMatrix {
             scene_name: name,
             scene,
             bvh: &bvh,
@@ -248,21 +247,21 @@ pub fn run(args: Args) -> Result<(), CliError> {
             pipeline,
             calibration: store.as_ref(),
         };
-        let bar = ProgressBar::new(plan.runs() as u64);
+        let bar = ProgressBar::new(matrix.runs() as u64);
         bar.set_style(
             ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
                 .map_err(|e| CliError::Write(e.to_string()))?
                 .progress_chars("=> "),
         );
         bar.set_prefix(name.clone());
-        let (mut recs, replays) = plan.run(|msg| {
+        let (mut recs, replays) = matrix.run(|msg| {
             bar.set_message(msg.to_string());
             bar.inc(1);
         })?;
         bar.finish_and_clear();
         let error_bar = table::replay_error(&recs).map(|(median, _, _)| median);
         sims.extend(simulate::simulate(name, &replays, &simulate, error_bar)?);
-        points.extend(trade::sampling_trade(&plan)?);
+        points.extend(trade::sampling_trade(&matrix)?);
         if args.plots.is_some() && cost_png.is_none() {
             cost_png = Some(cost_image(scene, &bvh, width, height)?);
         }
@@ -384,10 +383,10 @@ fn run_mpi(
         })
         .collect();
     let loaded = cluster.agree("loading the scenes", loaded)?;
-    let plans: Vec<mpi::Plan<'_>> = scenes
+    let matrices: Vec<mpi::SceneMatrix<'_>> = scenes
         .iter()
         .zip(&loaded)
-        .map(|(name, (scene, bvh))| mpi::Plan {
+        .map(|(name, (scene, bvh))| mpi::SceneMatrix {
             scene_name: name,
             scene,
             bvh,
@@ -404,7 +403,7 @@ fn run_mpi(
             pipeline: s.pipeline,
         })
         .collect();
-    let Some((mut text, json)) = mpi::bench(&cluster, &plans)? else {
+    let Some((mut text, json)) = mpi::bench(&cluster, &matrices)? else {
         return Ok(());
     };
     text = format!(

@@ -22,8 +22,9 @@ use sched::mpi::Cluster;
 use sched::{Costs, Policy, Simulation, Speeds};
 use serde::Serialize;
 
-use super::matrix::{Pipeline, Replay, Workload, replay};
+use super::matrix::{Replay, Workload, replay};
 use super::paths::replay_frame;
+use crate::args::Pipeline;
 use crate::error::CliError;
 
 /// Node counts of the simulated clusters.
@@ -32,8 +33,8 @@ pub const SIMULATED_NODES: [usize; 2] = [16, 64];
 /// Round trips timed for the latency.
 const PINGS: usize = 200;
 
-/// What to run.
-pub struct Plan<'a> {
+/// What to run on one scene over the ranks: its workloads, task sizes and policies.
+pub struct SceneMatrix<'a> {
     pub scene_name: &'a str,
     pub scene: &'a Scene,
     pub bvh: &'a Bvh,
@@ -102,7 +103,7 @@ pub struct ClusterSimRecord {
     pub launches: u64,
 }
 
-impl Plan<'_> {
+impl SceneMatrix<'_> {
     fn shader(&self, w: Workload) -> Shader {
         match w {
             Workload::Whitted => Shader::Whitted(WhittedSettings::default()),
@@ -213,7 +214,7 @@ impl Plan<'_> {
         }
     }
 
-    /// [`Plan::render_once`] by paths: on rank 0 the other ranks are path devices beside its
+    /// [`SceneMatrix::render_once`] by paths: on rank 0 the other ranks are path devices beside its
     /// own; they render the task ranges they are sent until rank 0 ends the frame.
     fn render_paths_once(
         &self,
@@ -237,7 +238,7 @@ impl Plan<'_> {
         }))
     }
 
-    /// [`Plan::render_once`] by generations: the ranks trace each generation together.
+    /// [`SceneMatrix::render_once`] by generations: the ranks trace each generation together.
     fn render_generations_once(
         &self,
         cluster: &Cluster,
@@ -320,15 +321,15 @@ impl Plan<'_> {
 /// as JSON values, the other ranks `None`.
 pub fn bench(
     cluster: &Cluster,
-    plans: &[Plan<'_>],
+    matrices: &[SceneMatrix<'_>],
 ) -> Result<Option<(String, Vec<serde_json::Value>)>, CliError> {
     let latencies = cluster.latency(PINGS);
     // The slowest link is the one a queue waits on.
     let latency = latencies.iter().copied().fold(0.0, f64::max);
     let mut records = Vec::new();
     let mut sims = Vec::new();
-    for plan in plans {
-        let runs = plan.run(cluster)?;
+    for matrix in matrices {
+        let runs = matrix.run(cluster)?;
         // What a batch really cost beyond its work, over every run so far: the latency of
         // this implementation's dispatch, polling and (de)serialising included.
         let batches: u64 = runs.iter().map(|r| r.batches).sum();
@@ -341,7 +342,7 @@ pub fn bench(
         records.extend(runs);
         // Rank 0 measures alone; the others sleep until it is done.
         let simulated = if cluster.is_root() {
-            plan.simulate(&[("ping-pong", latency), ("dispatch", dispatch)])
+            matrix.simulate(&[("ping-pong", latency), ("dispatch", dispatch)])
         } else {
             Ok(Vec::new())
         };
@@ -353,9 +354,9 @@ pub fn bench(
     }
     let mut text = format!(
         "Over MPI by {}: {} rank(s), devices per rank {}, one-way latency {:.1} µs (median of {PINGS} ping-pongs, slowest rank)\n\n",
-        plans.first().map_or("paths", |p| p.pipeline.name()),
+        matrices.first().map_or("paths", |p| p.pipeline.name()),
         cluster.size(),
-        plans.first().map_or("", |p| p.device_list),
+        matrices.first().map_or("", |p| p.device_list),
         latency * 1e6,
     );
     text += "| scene | shader | task size | policy | MRays/s | balance | MPI s | MPI share | dispatch overhead s | batches |\n";

@@ -9,12 +9,12 @@ use raytrace::scheduled::Settings;
 use raytrace::shade::RenderOptions;
 use raytrace::{Bvh, Scene};
 
-use super::matrix::{CellRun, Plan, Record, Replay, Totals, Workload};
+use super::matrix::{CellRun, Record, Replay, SceneMatrix, Totals, Workload};
 use super::prediction::ErrorSums;
 use super::replay::{Replayed, RunDevice};
 use crate::error::CliError;
 
-impl Plan<'_> {
+impl SceneMatrix<'_> {
     /// Renders every camera once with `settings` through one path renderer (each frame plans
     /// with the device speeds measured on the frames before it); when `measure_error`, also the
     /// prediction error of each frame's estimate against every path counted.

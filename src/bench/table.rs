@@ -1,4 +1,4 @@
-//! The readable side of `cobalt bench`: Markdown tables of the runs, the targets
+//! The readable side of `cobalt bench`: Markdown tables of the runs, the balance targets
 //! checked against them, the simulated machines and the sampling trade.
 
 use super::matrix::Record;
@@ -84,7 +84,7 @@ pub fn runs(records: &[Record]) -> String {
     s
 }
 
-/// The two-device targets, per scene, shader and task size: cost-based StaticLpt
+/// The balance targets on two devices, per scene, shader and task size: cost-based StaticLpt
 /// balance ≥ 97 %, Hybrid ≥ 99 %, and LPT (cost) at least as fast as Equal and FIFO (regular).
 /// Each is judged on the cells' medians; with several runs, also in how many runs it held
 /// (for the speeds, run `i` of each cell against run `i` of the others: the same round).

@@ -333,6 +333,7 @@ pub(super) fn measure(
         trace_nodes_per_ray: per_ray(trace_nodes),
         trace_tris_per_ray: per_ray(trace_tris),
         default_model: Model {
+            kr: model.kr,
             kb: model.kb,
             kt: model.kt,
         },

@@ -39,6 +39,7 @@ pub(super) struct WalkFigures {
 #[derive(Debug, Serialize)]
 pub(super) struct Calibration {
     pub(super) device: &'static str,
+    pub(super) kr: f64,
     pub(super) kb: f64,
     pub(super) kt: f64,
     pub(super) r2: f64,
@@ -51,6 +52,7 @@ impl From<Fit> for Calibration {
     fn from(f: Fit) -> Self {
         Self {
             device: DEVICE,
+            kr: f.model.kr,
             kb: f.model.kb,
             kt: f.model.kt,
             r2: f.r2,
@@ -149,6 +151,7 @@ pub(super) struct Report {
 
 #[derive(Debug, Serialize)]
 pub(super) struct Model {
+    pub(super) kr: f64,
     pub(super) kb: f64,
     pub(super) kt: f64,
 }
@@ -170,8 +173,8 @@ impl Report {
         let num = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.3}"));
         let cal = r.calibration.as_ref().map_or("n/a".to_string(), |c| {
             format!(
-                "kB = {:.3e} s, kT = {:.3e} s ({}), R² = {:.3}",
-                c.kb, c.kt, c.form, c.r2
+                "kR = {:.3e} s, kB = {:.3e} s, kT = {:.3e} s ({}), R² = {:.3}",
+                c.kr, c.kb, c.kt, c.form, c.r2
             )
         });
         let rows = [

@@ -22,32 +22,57 @@ use raytrace::shade::{RenderOptions, Shader};
 use raytrace::{Bvh, Camera, Scene, SceneSource, Walk};
 
 use crate::args::{
-    CameraArgs, CameraChoice, Faults, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs, Size,
+    CameraArgs, CameraChoice, Pipeline, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs, Size,
 };
 use crate::error::CliError;
 use crate::output::Outputs;
 use header::{Drawn, Header};
 
-/// Where a render runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum PipelineArg {
-    /// Every frame scheduled over `--devices` by `--policy` as tasks of whole paths, each
-    /// made, traced and shaded on the device that runs it.
-    Paths,
-    /// Every generation of rays scheduled over `--devices` by `--policy` on its own, the rays
-    /// made and shaded on the host (per-generation statistics and calibration).
-    #[value(alias = "scheduled")]
-    Generations,
-    /// `paths` on `--devices gpu:0` (software adapters only with `COBALT_GPU_SOFTWARE=1`).
+/// What `cobalt render --pipeline` takes: a [`Pipeline`], or `gpu`, the path pipeline on the
+/// first GPU alone. One type for the pipelines both `render` and `bench` take; `gpu` is
+/// render's shorthand for a device list, so it wraps them rather than being one more.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RenderPipeline {
+    /// One of the pipelines, on `--devices`.
+    Of(Pipeline),
+    /// `paths` on `--devices gpu:0`.
     Gpu,
 }
 
-impl PipelineArg {
+impl RenderPipeline {
+    /// The pipeline that renders.
+    fn pipeline(self) -> Pipeline {
+        match self {
+            Self::Of(pipeline) => pipeline,
+            Self::Gpu => Pipeline::Paths,
+        }
+    }
+
+    /// The name the report gives: the pipeline's, or `gpu`.
     fn name(self) -> &'static str {
         match self {
-            Self::Paths => "paths",
-            Self::Generations => "generations",
+            Self::Of(pipeline) => pipeline.name(),
             Self::Gpu => "gpu",
+        }
+    }
+}
+
+impl clap::ValueEnum for RenderPipeline {
+    fn value_variants<'a>() -> &'a [Self] {
+        &[
+            Self::Of(Pipeline::Paths),
+            Self::Of(Pipeline::Generations),
+            Self::Gpu,
+        ]
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        match self {
+            Self::Of(pipeline) => pipeline.to_possible_value(),
+            Self::Gpu => Some(clap::builder::PossibleValue::new("gpu").help(
+                "`paths` on `--devices gpu:0` (software adapters only with \
+                 `COBALT_GPU_SOFTWARE=1`)",
+            )),
         }
     }
 }
@@ -66,12 +91,10 @@ pub struct Args {
     camera: CameraArgs,
     #[command(flatten)]
     schedule: ScheduleArgs,
-    /// `paths` (every frame over `--devices` as tasks of whole paths, rendered where they
-    /// run; the default), `generations` (every generation of rays over `--devices` on its
-    /// own, made and shaded on the host), or `gpu` (`paths` on `--devices gpu:0`). Under
+    /// How the frame is rendered: `paths` (the default), `generations` or `gpu`. Under
     /// `mpirun`, `paths` makes every other rank a path device of rank 0.
     #[arg(long, value_enum)]
-    pipeline: Option<PipelineArg>,
+    pipeline: Option<RenderPipeline>,
     /// With `--pipeline paths` or `gpu`: render this many frames through one renderer (each
     /// plans with the speeds measured on the ones before) and report the fastest.
     #[arg(long, default_value = "1", value_parser = clap::value_parser!(u32).range(1..=1000))]
@@ -91,8 +114,8 @@ pub struct Args {
     /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order, a
     /// GPU included) fails after completing TASKS tasks; its unfinished tasks are re-run
     /// elsewhere.
-    #[arg(long)]
-    fail: Option<Faults>,
+    #[arg(long, value_delimiter = ',', value_parser = crate::args::fail_after)]
+    fail: Vec<FailAfter>,
     /// When every device of `--devices` fails, finish the frame on the host's threads and say
     /// so, instead of exiting with status 3 and writing nothing.
     #[arg(long)]
@@ -133,7 +156,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
         return mpi(&args, shader, camera, &faults, settings);
     }
 
-    let pipeline = args.pipeline.unwrap_or(PipelineArg::Paths);
+    let chosen = args.pipeline.unwrap_or(RenderPipeline::Of(Pipeline::Paths));
+    let pipeline = chosen.pipeline();
     check_pipeline_flags(&args, pipeline)?;
     let outputs = Outputs::check(
         &[
@@ -145,16 +169,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
     )?;
     // Read before the scene, so that a calibration file that cannot be used fails first.
     let store = match pipeline {
-        PipelineArg::Generations => None,
-        PipelineArg::Paths | PipelineArg::Gpu => {
-            crate::calibration::Store::open(&args.calibration)?
-        }
+        Pipeline::Generations => None,
+        Pipeline::Paths => crate::calibration::Store::open(&args.calibration)?,
     };
     let (scene, bvh, view, header) = load(&args, &shader, camera)?;
     let workload = crate::calibration::workload(&args.scene.scene, &shader);
     let mut options = RenderOptions::new(args.size.width, args.size.height, view, shader);
     let json = args.output.json;
-    if pipeline == PipelineArg::Generations {
+    if pipeline == Pipeline::Generations {
         options.count_primary = args.cost_image.is_some();
         let devices = (&args.schedule.devices, &faults[..]);
         let rendered = generations::render_generations(
@@ -170,15 +192,15 @@ pub fn run(args: Args) -> Result<(), CliError> {
         return rendered.write(&outputs, json, &summary);
     }
     let gpu0 = [DeviceSpec::Gpu(GpuSelect::Index(0))];
-    let (devices, specs) = match pipeline {
-        PipelineArg::Gpu => ("gpu:0", &gpu0[..]),
+    let (devices, specs) = match chosen {
+        RenderPipeline::Gpu => ("gpu:0", &gpu0[..]),
         _ => (
             args.schedule.devices.as_str(),
             args.schedule.devices.specs(),
         ),
     };
     let job = paths::PathJob {
-        pipeline: pipeline.name(),
+        pipeline: chosen.name(),
         devices,
         specs,
         faults: &faults,
@@ -221,15 +243,16 @@ fn load(
 /// exist: their indices are checked once the devices are built (naming the fault).
 fn faults(args: &Args) -> Result<Vec<FailAfter>, CliError> {
     let devices = &args.schedule.devices;
-    match &args.fail {
-        Some(faults) if devices.has_gpu() => faults.check(usize::MAX),
-        Some(faults) => faults.check(devices.cpu_devices()),
-        None => Ok(Vec::new()),
-    }
+    let known = if devices.has_gpu() {
+        usize::MAX
+    } else {
+        devices.cpu_devices()
+    };
+    crate::args::check_faults(&args.fail, known)
 }
 
 /// Refuses the flags that do not apply to `pipeline`, naming the one they apply to.
-fn check_pipeline_flags(args: &Args, pipeline: PipelineArg) -> Result<(), CliError> {
+fn check_pipeline_flags(args: &Args, pipeline: Pipeline) -> Result<(), CliError> {
     let refuse = |flag: &'static str, value: &str, why: &str| {
         Err(CliError::Arg {
             flag,
@@ -239,12 +262,12 @@ fn check_pipeline_flags(args: &Args, pipeline: PipelineArg) -> Result<(), CliErr
     };
     let generations = "it applies to --pipeline generations";
     match pipeline {
-        PipelineArg::Generations if args.repeats != 1 => refuse(
+        Pipeline::Generations if args.repeats != 1 => refuse(
             "repeats",
             &args.repeats.to_string(),
             "only with --pipeline paths or gpu",
         ),
-        PipelineArg::Generations => match &args.calibration.calibration {
+        Pipeline::Generations => match &args.calibration.calibration {
             Some(file) => refuse(
                 "calibration",
                 &file.display().to_string(),
@@ -253,7 +276,7 @@ fn check_pipeline_flags(args: &Args, pipeline: PipelineArg) -> Result<(), CliErr
             ),
             None => Ok(()),
         },
-        _ => match (args.estimate_on, args.walk) {
+        Pipeline::Paths => match (args.estimate_on, args.walk) {
             (Some(on), _) => refuse(
                 "estimate-on",
                 on.name(),
@@ -289,7 +312,7 @@ fn mpi(
             message: why.to_string(),
         })
     };
-    let pipeline = args.pipeline.unwrap_or(PipelineArg::Paths);
+    let chosen = args.pipeline.unwrap_or(RenderPipeline::Of(Pipeline::Paths));
     if let Some(path) = &args.cost_image {
         let why = "not available under mpirun; render the cost image in one process";
         return refuse("cost-image", path.display().to_string(), why);
@@ -298,11 +321,12 @@ fn mpi(
         let why = "not available under mpirun: every rank estimates its slice on its host";
         return refuse("estimate-on", "gpu".into(), why);
     }
-    if pipeline == PipelineArg::Gpu {
+    if chosen == RenderPipeline::Gpu {
         let why = "not available under mpirun; give each rank `--devices …,gpu:all` instead";
         return refuse("pipeline", "gpu".into(), why);
     }
-    if let (PipelineArg::Paths, Some(walk)) = (pipeline, args.walk) {
+    let pipeline = chosen.pipeline();
+    if let (Pipeline::Paths, Some(walk)) = (pipeline, args.walk) {
         let why = "the path pipeline renders its sampled paths for real; it applies to \
                    --pipeline generations";
         return refuse("walk", walk.name().to_string(), why);
@@ -322,7 +346,7 @@ fn mpi(
         json: args.output.json,
         host_fallback: args.host_fallback,
     };
-    if pipeline == PipelineArg::Paths {
+    if pipeline == Pipeline::Paths {
         crate::cluster::render_paths(job)
     } else {
         crate::cluster::render(job)

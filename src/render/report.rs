@@ -75,6 +75,7 @@ struct ScheduleReport {
 struct FitReport {
     device: String,
     kind: &'static str,
+    kr: f64,
     kb: f64,
     kt: f64,
     form: &'static str,
@@ -230,6 +231,7 @@ fn fit_report(f: &raytrace::scheduled::DeviceFit) -> FitReport {
     FitReport {
         device: f.device.clone(),
         kind: f.kind.name(),
+        kr: f.fit.model.kr,
         kb: f.fit.model.kb,
         kt: f.fit.model.kt,
         form: f.fit.form.name(),
@@ -323,8 +325,8 @@ impl Report {
         }
         for c in &r.calibration {
             s += &format!(
-                "  calibration {:<6} {:<10} kB {:.3e} s  kT {:.3e} s  ({}, R² {:.3}, {} tasks)\n",
-                c.device, c.kind, c.kb, c.kt, c.form, c.r2, c.tasks
+                "  calibration {:<6} {:<10} kR {:.3e} s  kB {:.3e} s  kT {:.3e} s  ({}, R² {:.3}, {} tasks)\n",
+                c.device, c.kind, c.kr, c.kb, c.kt, c.form, c.r2, c.tasks
             );
         }
         s

@@ -1,33 +1,39 @@
-//! Least-squares calibration of `kB`, `kT ≥ 0` from measured task times: the step that turns
-//! node and triangle counts into seconds on one device for one kind of ray.
+//! Least-squares calibration of `kR`, `kB`, `kT ≥ 0` from measured task times: the step that
+//! turns ray, node and triangle counts into seconds on one device for one kind of ray.
 //!
-//! Two unknowns, so the normal equations are 2×2 and solved in closed form, on columns
-//! scaled to unit length (counts are ~1e5, times ~1e-4 s: unscaled, the Gram matrix would mix
-//! magnitudes 1e10 apart). `B` and `T` are strongly correlated in a BVH, so the system can be
-//! singular, and the unconstrained optimum can put a negative weight on one of them. For two
-//! non-negative unknowns the constrained optimum then lies on an axis, so the better of the
-//! two one-parameter fits is the non-negative least-squares answer.
+//! Three non-negative unknowns: the constrained optimum is the unconstrained least-squares
+//! fit on the terms it keeps, so every non-empty subset of the three terms is solved (normal
+//! equations of at most 3×3, on columns scaled to unit length: counts are ~1e5, times ~1e-4
+//! s, and unscaled the Gram matrix would mix magnitudes 1e10 apart) and the feasible one with
+//! the least residual wins. `R`, `B` and `T` are strongly correlated in a BVH (tasks of equal
+//! length make `R` a constant), so many subsets are singular and are skipped. `R` alone is
+//! not a model: it would rank tasks by length and ignore what the estimate counted.
 
 use super::{CostError, CostModel, Work};
 
-/// Which parameters the fit kept.
+/// Which terms of `kR·R + kB·B + kT·T` the fit kept (the others are 0).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FitForm {
-    /// Both `kB` and `kT` are positive.
-    Both,
-    /// `kT = 0`: time is explained by node visits alone.
-    NodesOnly,
-    /// `kB = 0`: time is explained by triangle tests alone.
-    TrianglesOnly,
+pub struct FitForm {
+    /// `kR > 0`.
+    pub rays: bool,
+    /// `kB > 0`.
+    pub nodes: bool,
+    /// `kT > 0`.
+    pub tris: bool,
 }
 
 impl FitForm {
-    /// Lower-case name for reports.
+    /// The terms kept, for reports: e.g. `rays+nodes`, `nodes+triangles`, or `none`.
     pub fn name(self) -> &'static str {
-        match self {
-            Self::Both => "both",
-            Self::NodesOnly => "nodes-only",
-            Self::TrianglesOnly => "triangles-only",
+        match (self.rays, self.nodes, self.tris) {
+            (true, true, true) => "rays+nodes+triangles",
+            (true, true, false) => "rays+nodes",
+            (true, false, true) => "rays+triangles",
+            (false, true, true) => "nodes+triangles",
+            (true, false, false) => "rays",
+            (false, true, false) => "nodes",
+            (false, false, true) => "triangles",
+            (false, false, false) => "none",
         }
     }
 }
@@ -35,12 +41,12 @@ impl FitForm {
 /// A calibrated model and how well it explains the measurements.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fit {
-    /// `kB`, `kT` in seconds per node visit and per triangle test.
+    /// `kR`, `kB`, `kT` in seconds per ray, node visit and triangle test.
     pub model: CostModel,
-    /// Which parameters were kept.
+    /// Which terms were kept.
     pub form: FitForm,
     /// Coefficient of determination `1 − SSres / SStot` (can be negative: the model has no
-    /// intercept); 1 when the times are constant and fitted exactly.
+    /// free intercept); 1 when the times are constant and fitted exactly.
     pub r2: f64,
     /// Root-mean-square residual, in seconds.
     pub rms_residual: f64,
@@ -48,7 +54,8 @@ pub struct Fit {
     pub n: usize,
 }
 
-/// Fits `seconds[i] ≈ kB·work[i].nodes + kT·work[i].tris` with `kB, kT ≥ 0`.
+/// Fits `seconds[i] ≈ kR·work[i].rays + kB·work[i].nodes + kT·work[i].tris` with every
+/// constant `≥ 0`.
 pub fn calibrate(work: &[Work], seconds: &[f64]) -> Result<Fit, CostError> {
     if work.len() != seconds.len() {
         return Err(CostError::LengthMismatch {
@@ -68,73 +75,101 @@ pub fn calibrate(work: &[Work], seconds: &[f64]) -> Result<Fit, CostError> {
         (!(value.is_finite() && value >= 0.0)).then_some(CostError::BadValue { what, task, value })
     };
     for (i, (w, &y)) in work.iter().zip(seconds).enumerate() {
-        if let Some(e) = bad("node count", i, w.nodes)
+        if let Some(e) = bad("ray count", i, w.rays)
+            .or_else(|| bad("node count", i, w.nodes))
             .or_else(|| bad("triangle count", i, w.tris))
             .or_else(|| bad("measured time", i, y))
         {
             return Err(e);
         }
     }
-    let dot = |f: &dyn Fn(usize) -> f64, g: &dyn Fn(usize) -> f64| -> f64 {
-        (0..work.len()).map(|i| f(i) * g(i)).sum()
-    };
-    let b = |i: usize| work[i].nodes;
-    let t = |i: usize| work[i].tris;
-    let y = |i: usize| seconds[i];
-    let (bb, tt, bt, by, ty) = (
-        dot(&b, &b),
-        dot(&t, &t),
-        dot(&b, &t),
-        dot(&b, &y),
-        dot(&t, &y),
-    );
-    if bb == 0.0 && tt == 0.0 {
+    let column = |k: usize, w: &Work| [w.rays, w.nodes, w.tris][k];
+    let norms: [f64; 3] = std::array::from_fn(|k| {
+        work.iter()
+            .map(|w| column(k, w).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    });
+    if norms[1] == 0.0 && norms[2] == 0.0 {
         return Err(CostError::Degenerate {
             what: "calibration",
             why: "every task has zero nodes and zero triangles",
         });
     }
-
-    let nodes_only = CostModel {
-        kb: if bb > 0.0 { by / bb } else { 0.0 },
-        kt: 0.0,
-    };
-    let tris_only = CostModel {
-        kb: 0.0,
-        kt: if tt > 0.0 { ty / tt } else { 0.0 },
-    };
     let ssr = |m: &CostModel| -> f64 {
         work.iter()
             .zip(seconds)
             .map(|(&w, &y)| (m.cost(w) - y).powi(2))
             .sum()
     };
-    let (mut model, mut form) = if ssr(&nodes_only) <= ssr(&tris_only) {
-        (nodes_only, FitForm::NodesOnly)
-    } else {
-        (tris_only, FitForm::TrianglesOnly)
-    };
-    if bb > 0.0 && tt > 0.0 {
-        // Unit-length columns: the Gram matrix is [[1, c], [c, 1]] with c the cosine between
-        // B and T (in [0, 1], counts are non-negative).
-        let (sb, st) = (bb.sqrt(), tt.sqrt());
-        let c = bt / (sb * st);
-        let det = 1.0 - c * c;
-        if det > 1e-12 {
-            let (u, v) = (by / sb, ty / st);
-            let (p, q) = ((u - c * v) / det, (v - c * u) / det);
-            if p > 0.0 && q > 0.0 {
-                model = CostModel {
-                    kb: p / sb,
-                    kt: q / st,
-                };
-                form = FitForm::Both;
+    // Scaled columns' Gram matrix and right-hand side.
+    let gram: [[f64; 3]; 3] = std::array::from_fn(|a| {
+        std::array::from_fn(|b| {
+            if norms[a] == 0.0 || norms[b] == 0.0 {
+                return 0.0;
             }
+            work.iter()
+                .map(|w| column(a, w) * column(b, w))
+                .sum::<f64>()
+                / (norms[a] * norms[b])
+        })
+    });
+    let rhs: [f64; 3] = std::array::from_fn(|a| {
+        if norms[a] == 0.0 {
+            return 0.0;
+        }
+        work.iter()
+            .zip(seconds)
+            .map(|(w, y)| column(a, w) * y)
+            .sum::<f64>()
+            / norms[a]
+    });
+    let mut best: Option<(f64, CostModel, FitForm)> = None;
+    // Every subset that keeps `B` or `T`: a fit by ray count alone would ignore the estimate.
+    for subset in 2u8..8 {
+        let keep: Vec<usize> = (0..3).filter(|k| subset & (1 << k) != 0).collect();
+        if keep.iter().any(|&k| norms[k] == 0.0) {
+            continue;
+        }
+        let Some(scaled) = solve(&gram, &rhs, &keep) else {
+            continue;
+        };
+        if scaled.iter().any(|&c| c < 0.0) {
+            continue;
+        }
+        let mut k = [0.0; 3];
+        for (&term, c) in keep.iter().zip(&scaled) {
+            k[term] = c / norms[term];
+        }
+        let model = CostModel {
+            kr: k[0],
+            kb: k[1],
+            kt: k[2],
+        };
+        let form = FitForm {
+            rays: k[0] > 0.0,
+            nodes: k[1] > 0.0,
+            tris: k[2] > 0.0,
+        };
+        let res = ssr(&model);
+        // Ties go to the subset found first, the one with fewer terms among equals.
+        if best.as_ref().is_none_or(|(r, _, _)| res < *r) {
+            best = Some((res, model, form));
         }
     }
+    // A single column with a non-negative right-hand side always solves, so `best` is set
+    // whenever `B` or `T` is non-zero somewhere; the fallback is for safety only.
+    let (res, model, form) = best.unwrap_or((
+        ssr(&CostModel::thesis(0.0, 0.0)),
+        CostModel::thesis(0.0, 0.0),
+        FitForm {
+            rays: false,
+            nodes: false,
+            tris: false,
+        },
+    ));
 
     let n = work.len();
-    let res = ssr(&model);
     let mean = seconds.iter().sum::<f64>() / n as f64;
     let tot: f64 = seconds.iter().map(|y| (y - mean).powi(2)).sum();
     let r2 = if tot > 0.0 {
@@ -151,6 +186,39 @@ pub fn calibrate(work: &[Work], seconds: &[f64]) -> Result<Fit, CostError> {
         rms_residual: (res / n as f64).sqrt(),
         n,
     })
+}
+
+/// The least-squares coefficients of the terms `keep` (unit-scaled), from the full Gram
+/// matrix and right-hand side, by Gaussian elimination with partial pivoting; `None` when the
+/// kept columns are (nearly) dependent.
+fn solve(gram: &[[f64; 3]; 3], rhs: &[f64; 3], keep: &[usize]) -> Option<Vec<f64>> {
+    let n = keep.len();
+    let mut a: Vec<Vec<f64>> = keep
+        .iter()
+        .map(|&i| {
+            let mut row: Vec<f64> = keep.iter().map(|&j| gram[i][j]).collect();
+            row.push(rhs[i]);
+            row
+        })
+        .collect();
+    for col in 0..n {
+        let pivot = (col..n).max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs()))?;
+        // Unit columns: a pivot this small means the kept columns are nearly parallel.
+        if a[pivot][col].abs() < 1e-10 {
+            return None;
+        }
+        a.swap(col, pivot);
+        let lead = a[col].clone();
+        for (r, row) in a.iter_mut().enumerate() {
+            if r != col {
+                let f = row[col] / lead[col];
+                for (x, l) in row.iter_mut().zip(&lead).skip(col) {
+                    *x -= f * l;
+                }
+            }
+        }
+    }
+    Some((0..n).map(|i| a[i][n] / a[i][i]).collect())
 }
 
 #[cfg(test)]
@@ -170,24 +238,35 @@ mod tests {
             .map(|_| Work {
                 nodes: 1e4 + 2e5 * next(),
                 tris: 5e3 + 1e5 * next(),
+                rays: (256.0 + 3840.0 * next()).round(),
             })
             .collect()
     }
 
     #[test]
     fn recovers_known_constants_without_noise() {
-        let truth = CostModel { kb: 2e-9, kt: 7e-9 };
+        let truth = CostModel {
+            kr: 5e-8,
+            kb: 2e-9,
+            kt: 7e-9,
+        };
         let work = synthetic(50);
         let fit = calibrate(&work, &truth.costs(&work)).unwrap();
-        assert_eq!(fit.form, FitForm::Both);
+        assert_eq!(fit.form.name(), "rays+nodes+triangles");
+        assert!((fit.model.kr / truth.kr - 1.0).abs() < 1e-9, "{fit:?}");
         assert!((fit.model.kb / truth.kb - 1.0).abs() < 1e-9, "{fit:?}");
         assert!((fit.model.kt / truth.kt - 1.0).abs() < 1e-9, "{fit:?}");
         assert!(fit.r2 > 1.0 - 1e-12 && fit.rms_residual < 1e-15 && fit.n == 50);
+        // Without a per-ray cost, none is found.
+        let thesis = CostModel::thesis(2e-9, 7e-9);
+        let fit = calibrate(&work, &thesis.costs(&work)).unwrap();
+        assert_eq!(fit.form.name(), "nodes+triangles");
+        assert!((fit.model.kb / thesis.kb - 1.0).abs() < 1e-9, "{fit:?}");
     }
 
     #[test]
     fn recovers_known_constants_approximately_with_noise() {
-        let truth = CostModel { kb: 3e-9, kt: 1e-8 };
+        let truth = CostModel::thesis(3e-9, 1e-8);
         let work = synthetic(400);
         // ±5 % deterministic noise.
         let y: Vec<f64> = truth
@@ -209,23 +288,26 @@ mod tests {
             .map(|i| Work {
                 nodes: i as f64,
                 tris: 3.0 * i as f64,
+                rays: 64.0,
             })
             .collect();
         let y: Vec<f64> = work.iter().map(|w| 2.0 * w.nodes).collect();
         let fit = calibrate(&work, &y).unwrap();
-        assert_ne!(fit.form, FitForm::Both);
+        assert!(!(fit.form.nodes && fit.form.tris), "{fit:?}");
         assert!(fit.rms_residual < 1e-12 && fit.model.kb >= 0.0 && fit.model.kt >= 0.0);
         // Time falls as T grows at fixed B: the unconstrained kT would be negative.
         let work: Vec<Work> = (0..20)
             .map(|i| Work {
                 nodes: 10.0 + i as f64,
                 tris: 30.0 - i as f64,
+                rays: 1.0 + (i % 3) as f64,
             })
             .collect();
         let y: Vec<f64> = work.iter().map(|w| w.nodes - 0.2 * w.tris).collect();
         let fit = calibrate(&work, &y).unwrap();
-        assert_eq!(fit.form, FitForm::NodesOnly);
+        assert!(!fit.form.tris, "{fit:?}");
         assert_eq!(fit.model.kt, 0.0);
+        assert!(fit.model.kr >= 0.0 && fit.model.kb > 0.0, "{fit:?}");
     }
 
     #[test]
@@ -233,6 +315,7 @@ mod tests {
         let w = [Work {
             nodes: 1.0,
             tris: 1.0,
+            rays: 1.0,
         }];
         assert!(matches!(
             calibrate(&w, &[]),

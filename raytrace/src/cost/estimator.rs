@@ -202,6 +202,7 @@ pub fn full_work(
             Work {
                 nodes: b as f64,
                 tris: t as f64,
+                rays: r.len() as f64,
             }
         })
         .collect())

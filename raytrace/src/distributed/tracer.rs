@@ -80,21 +80,25 @@ impl<'a, 'c> ClusterTracer<'a, 'c> {
         let estimator = ReducedTraversal::new(self.bvh, rays, self.settings.sample_rate)
             .with_walk(self.settings.walk.for_kind(kind));
         let flat: Vec<f64> = match estimator.try_work(mine) {
-            Ok(work) => work.iter().flat_map(|w| [w.nodes, w.tris]).collect(),
-            Err(_) => vec![f64::NAN; 2 * mine.len()],
+            Ok(work) => work
+                .iter()
+                .flat_map(|w| [w.nodes, w.tris, w.rays])
+                .collect(),
+            Err(_) => vec![f64::NAN; 3 * mine.len()],
         };
         let all = self.cluster.all_gather_f64(&flat);
         let work: Vec<Work> = all
-            .chunks_exact(2)
+            .chunks_exact(3)
             .map(|c| Work {
                 nodes: c[0],
                 tris: c[1],
+                rays: c[2],
             })
             .collect();
         let usable = work.len() == tasks.len()
             && work
                 .iter()
-                .all(|w| w.nodes.is_finite() && w.tris.is_finite());
+                .all(|w| w.nodes.is_finite() && w.tris.is_finite() && w.rays.is_finite());
         usable.then_some(work)
     }
 

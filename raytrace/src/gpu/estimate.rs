@@ -43,6 +43,7 @@ impl SampledCounts {
         Work {
             nodes: self.nodes as f64,
             tris: self.tris as f64,
+            rays: self.sampled as f64,
         }
         .scaled(self.len, self.sampled)
     }

@@ -70,7 +70,7 @@ fn launch_kit(ctx: &GpuContext, name: &str, seed: u64) -> (TraceKernels, SceneBu
     (kernels, scene, rays_for(name, seed))
 }
 
-/// Camera rays of the four thesis cameras, AO rays from camera 0's hits, and random rays
+/// Camera rays of the four orbit cameras, AO rays from camera 0's hits, and random rays
 /// (origins in and around the scene, random directions, some with a finite range), plus a few
 /// degenerate ones (NaN, zero direction, empty range).
 fn rays_for(name: &str, seed: u64) -> RayBatch {
@@ -542,8 +542,8 @@ fn a_launch_of_three_passes_is_timed_and_traced_whole() {
 
 /// Whether `ctx` must reproduce the CPU's arithmetic bit for bit. Software adapters (lavapipe)
 /// do; a hardware driver may fuse `a * b + c` into one rounding (naga marks no operation
-/// `NoContraction`), so there results agree within rounding: an H100 moved 45–62 % of a
-/// Whitted image's pixels by about 1e-7.
+/// `NoContraction`), so there results agree only within rounding: about half of a Whitted
+/// image's pixels may move by about 1e-7.
 fn bit_exact(ctx: &GpuContext) -> bool {
     ctx.info.device_type == wgpu::DeviceType::Cpu
 }

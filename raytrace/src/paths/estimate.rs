@@ -29,21 +29,13 @@ struct Counting<'a> {
     probes: Work,
 }
 
-/// `a + b`, component by component.
-fn plus(a: Work, b: Work) -> Work {
-    Work {
-        nodes: a.nodes + b.nodes,
-        tris: a.tris + b.tris,
-    }
-}
-
 impl Tracer for Counting<'_> {
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
         let (hits, counts) = hits_counted_in(self.bvh, rays, kind.is_occlusion(), self.layout);
         let work = Work::sum(&counts);
         match kind {
-            RayKind::Ao => self.probes = plus(self.probes, work),
-            _ => self.paths = plus(self.paths, work),
+            RayKind::Ao => self.probes = self.probes.plus(work),
+            _ => self.paths = self.paths.plus(work),
         }
         hits
     }
@@ -68,19 +60,19 @@ pub fn sampled_options(options: &RenderOptions, rate: SampleRate) -> (RenderOpti
 }
 
 /// A task of `len` paths' work from its `sampled` paths' counts: those of their paths'
-/// rays, and of their kept AO probes (scaled by `probe_scale` to every probe).
+/// rays, and of their kept AO probes (scaled by `probe_scale` to every probe). Its `R` is
+/// its paths, whatever rays they trace: the GPU, which counts the same `B` and `T`, does not
+/// count the rays a path spawns.
 pub fn task_work(paths: Work, probes: Work, len: usize, sampled: usize, probe_scale: f64) -> Work {
     if sampled == 0 {
         return Work::default();
     }
-    let probes = probes.scaled(len, sampled);
-    plus(
-        paths.scaled(len, sampled),
-        Work {
-            nodes: probes.nodes * probe_scale,
-            tris: probes.tris * probe_scale,
-        },
-    )
+    let (paths, probes) = (paths.scaled(len, sampled), probes.scaled(len, sampled));
+    Work {
+        nodes: paths.nodes + probes.nodes * probe_scale,
+        tris: paths.tris + probes.tris * probe_scale,
+        rays: len as f64,
+    }
 }
 
 /// The estimated work of each of `tasks` (ranges of `frame`'s paths), sampling at `rate`,

@@ -82,9 +82,11 @@ impl PathDevice for GpuPaths {
         let sampled = self
             .renderer
             .sample_paths(&params, tasks, &options.shader, stride)?;
+        // `task_work` sets the task's `R`.
         let work = |[nodes, tris]: [u64; 2]| Work {
             nodes: nodes as f64,
             tris: tris as f64,
+            rays: 0.0,
         };
         Ok(Estimate {
             work: tasks

@@ -153,7 +153,8 @@ mod tests {
         let work = vec![
             Work {
                 nodes: 1.0,
-                tris: 2.0
+                tris: 2.0,
+                rays: 0.0,
             };
             5
         ];
@@ -186,6 +187,7 @@ mod tests {
                     work: Work {
                         nodes: cost,
                         tris: 0.0,
+                        rays: 0.0,
                     },
                     seconds,
                 }

@@ -53,8 +53,7 @@ impl History {
         }
         let (work, seconds): (Vec<Work>, Vec<f64>) = self.fit.iter().copied().unzip();
         let m = calibrate(&work, &seconds).ok()?.model;
-        let usable = m.kb.is_finite() && m.kt.is_finite() && m.kb >= 0.0 && m.kt >= 0.0;
-        (usable && m.kb + m.kt > 0.0).then_some(m)
+        m.can_plan().then_some(m)
     }
 }
 

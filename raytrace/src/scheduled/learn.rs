@@ -112,9 +112,7 @@ pub(crate) fn fit_devices(
         .zip(per_device)
         .filter_map(|(name, (w, y))| {
             let fit = calibrate(&w, &y).ok()?;
-            let (kb, kt) = (fit.model.kb, fit.model.kt);
-            let usable = kb.is_finite() && kt.is_finite() && kb >= 0.0 && kt >= 0.0;
-            (usable && kb + kt > 0.0).then(|| DeviceFit {
+            fit.model.can_plan().then(|| DeviceFit {
                 device: name.clone(),
                 kind,
                 fit,

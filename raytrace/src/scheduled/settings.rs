@@ -9,14 +9,16 @@ use sched::Policy;
 use crate::Walk;
 use crate::cost::SampleRate;
 
-/// Where a generation's task costs come from.
+/// Where the task costs of a frame (or of a generation) come from: `--mode` on the command
+/// line, and the `mode` of every report.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Mode {
     /// Every task costs the same (`sched::Costs::uniform`): the thesis's regular mode, no
     /// estimation overhead.
     Regular,
-    /// The reduced traversal of a sample of each task's rays, weighed by the calibrated
-    /// `C = kB·B + kT·T` (thesis, chapter 3).
+    /// Each task's nodes `B` and triangle tests `T`, counted on a sample of its rays (walked
+    /// as [`Settings::walk`] says) or of its paths (rendered for real), weighed by the
+    /// calibrated `C = kB·B + kT·T` (thesis, chapter 3).
     #[default]
     Cost,
 }
@@ -122,12 +124,11 @@ impl Settings {
     /// when that gives every device [`Self::MIN_TASKS_PER_DEVICE`] tasks, else a size that
     /// gives each [`Self::SMALL_TASKS_PER_DEVICE`].
     ///
-    /// Whitted's later bounces are a few thousand rays: at 4096 rays per task they were one
-    /// task, which one device traced while the other waited (balance ≤ 50 % by construction).
-    /// Cut into 4 tasks per device they still lost 10–40 % of two CPUs' time to the last
-    /// task (forest, 512×512: reflection rays 72–92 %, their shadow rays 48–91 % balanced,
-    /// hybrid and LPT), and 16 brought both to 91–96 %. The main generations keep the wanted
-    /// size: they are the experiment.
+    /// Whitted's later bounces are a few thousand rays: at 4096 rays per task they would be
+    /// one task, which one device traces while the others wait (on two devices, a balance of
+    /// at most 50 % by construction). Four tasks per device still leave the last task a large
+    /// share of the devices' time; sixteen give LPT and Hybrid enough small tasks to even
+    /// out. The main generations keep the wanted size: they are the experiment.
     pub fn task_size_for(&self, rays: usize, devices: usize) -> usize {
         let wanted = self.task_size.get();
         let devices = devices.max(1);
