@@ -60,6 +60,8 @@ mod tests;
 mod traffic;
 pub mod traverse;
 #[cfg(target_arch = "x86_64")]
+mod traverse_coherent;
+#[cfg(target_arch = "x86_64")]
 mod traverse_shared;
 mod traverse_wide;
 mod triangle;

@@ -143,6 +143,18 @@ pub(crate) unsafe fn min_entry(acc: &mut [f32; WIDTH], mask: u32, near: &[f32; W
     unsafe { x86::min_entry_avx2(acc, mask, near) }
 }
 
+/// The lanes whose `bound` is at or beyond `t`, as a bit each: the rays of a packet whose
+/// nearest hit so far does not rule out a node entered at `t`.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) unsafe fn within(t: f32, bound: &[f32; WIDTH]) -> u32 {
+    // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
+    unsafe { x86::within_avx2(t, bound) }
+}
+
 /// [`nearest`] slot by slot.
 #[inline(always)]
 pub(crate) fn nearest_scalar(mask: u32, near: &[f32; WIDTH]) -> usize {
@@ -391,6 +403,18 @@ mod x86 {
     fn lanes(mask: u32) -> __m256i {
         let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
         _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(mask as i32), bits), bits)
+    }
+
+    /// [`super::within`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn within_avx2(t: f32, bound: &[f32; WIDTH]) -> u32 {
+        // SAFETY: `bound` is eight readable floats.
+        let b = unsafe { _mm256_loadu_ps(bound.as_ptr()) };
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_set1_ps(t), b)) as u32
     }
 
     /// [`super::min_entry`].

@@ -28,7 +28,7 @@ pub(crate) const PACKET: usize = 8;
 /// `rows` with byte `r` bit `k` moved to byte `k` bit `r`: the rays that hit child `k`, from
 /// the children each ray hits (three delta swaps, Hacker's Delight 7-3).
 #[inline(always)]
-fn transpose8(mut x: u64) -> u64 {
+pub(crate) fn transpose8(mut x: u64) -> u64 {
     let t = (x ^ (x >> 7)) & 0x00AA_00AA_00AA_00AA;
     x ^= t ^ (t << 7);
     let t = (x ^ (x >> 14)) & 0x0000_CCCC_0000_CCCC;
@@ -39,7 +39,7 @@ fn transpose8(mut x: u64) -> u64 {
 
 /// A bit per non-zero byte of `x`.
 #[inline(always)]
-fn nonzero_bytes(x: u64) -> u32 {
+pub(crate) fn nonzero_bytes(x: u64) -> u32 {
     let mut t = x | (x >> 4);
     t |= t >> 2;
     t |= t >> 1;
@@ -103,6 +103,7 @@ impl Bvh {
                             s,
                             tmin[r],
                             tmax[r],
+                            None,
                             (child, count),
                         )
                     };
