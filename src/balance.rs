@@ -42,7 +42,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn exact_estimates_balance_best_and_a_reversed_order_worse_than_none() {
+    fn exact_estimates_balance_better_than_none_and_than_inverted_ones() {
         // 16 tasks, one big one and a tail: LPT by the truth places the big task alone.
         let measured: Vec<f64> = (0..16)
             .map(|i| if i == 5 { 8.0 } else { 1.0 + i as f64 * 0.1 })
