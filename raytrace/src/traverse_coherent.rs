@@ -248,7 +248,7 @@ mod tests {
     fn rays_walked_together_hit_as_each_alone() {
         for scene in ["builtin:forest:0.05", "builtin:hairball:0.05"] {
             let (scene, bvh) = testkit::builtin_with_bvh(scene).unwrap();
-            let primary = workload::thesis_primary(&scene, 40, 40, 0..2);
+            let primary = workload::orbit_primary(&scene, 40, 40, 0..2);
             let mut rng = crate::Rng::new(testkit::seed(31));
             let b = scene.bounds();
             let ext = (b.max - b.min).max_element();
