@@ -22,10 +22,10 @@ use std::mem::MaybeUninit;
 use crate::bvh::Bvh;
 use crate::bvh::wide::{Tri4, WIDTH};
 use crate::simd::{self, Box8Ray, Shear4};
-use crate::traverse::{CLOSEST, better, cull_bound};
+use crate::traverse::{CLOSEST, COUNTED, better, cull_bound};
 use crate::traverse_shared::{PACKET, nonzero_bytes, transpose8};
 use crate::triangle::RayShear;
-use crate::{Hit, Ray};
+use crate::{Counts, Hit, Ray};
 
 impl Bvh {
     /// Closest hits of `rays` (one to [`PACKET`] of them, which should share an origin for the
@@ -41,7 +41,13 @@ impl Bvh {
         &self,
         rays: &[Ray],
         out: &mut [Option<Hit>; PACKET],
+        counted: Option<&mut [Counts; PACKET]>,
     ) {
+        // Counts as the single walk keeps them: every node a ray enters, the root only if
+        // one of its children's boxes is hit, and every triangle of the leaves it enters.
+        let mut none = [Counts::default(); PACKET];
+        let counting = counted.is_some();
+        let counts = counted.unwrap_or(&mut none);
         let n = rays.len().min(PACKET);
         let wide = &self.wide;
         if wide.nodes.is_empty() || n == 0 {
@@ -82,16 +88,31 @@ impl Bvh {
                 if let Some(s) = &shears[r] {
                     // SAFETY: the CPU has AVX2 (see `# Safety`), and `(child, count)` is the
                     // root or a child reference read from the tree.
-                    let (hit, _) = unsafe {
-                        self.walk_from::<CLOSEST, true, STACK>(
-                            &boxes[r],
-                            s,
-                            tmin[r],
-                            tmax[r],
-                            best[r],
-                            (child, count),
-                        )
+                    let (hit, c) = unsafe {
+                        if counting {
+                            self.walk_from::<COUNTED, true, STACK>(
+                                &boxes[r],
+                                s,
+                                tmin[r],
+                                tmax[r],
+                                best[r],
+                                (child, count),
+                            )
+                        } else {
+                            self.walk_from::<CLOSEST, true, STACK>(
+                                &boxes[r],
+                                s,
+                                tmin[r],
+                                tmax[r],
+                                best[r],
+                                (child, count),
+                            )
+                        }
                     };
+                    if counting {
+                        counts[r].nodes += c.nodes;
+                        counts[r].tris += c.tris;
+                    }
                     if let Some(h) = hit {
                         best[r] = Some(h);
                         cull[r] = cull_bound(h.t);
@@ -111,6 +132,9 @@ impl Bvh {
                     // SAFETY: the CPU has AVX2 (see `# Safety`).
                     let (hit, t) = unsafe { boxes[r].hit8::<true>(node, tmin[r], cull[r]) };
                     rows |= u64::from(hit) << (8 * r);
+                    if counting && (child != 0 || hit != 0) {
+                        counts[r].nodes += 1;
+                    }
                     // SAFETY: the CPU has AVX2 (see `# Safety`).
                     unsafe { simd::min_entry(&mut near, hit, &t) };
                 }
@@ -156,6 +180,10 @@ impl Bvh {
                     let r = each.trailing_zeros() as usize;
                     each &= each - 1;
                     let Some(s) = &shears[r] else { continue };
+                    if counting {
+                        counts[r].nodes += 1;
+                        counts[r].tris += count;
+                    }
                     // SAFETY: the CPU has AVX2 (see `# Safety`).
                     if unsafe { leaf_closest(s, leaf, tmin[r], tmax[r], &mut best[r]) } {
                         cull[r] = cull_bound(best[r].map_or(tmax[r], |h| h.t));

@@ -18,9 +18,9 @@ use std::mem::MaybeUninit;
 use crate::bvh::Bvh;
 use crate::bvh::wide::WIDTH;
 use crate::simd::{self, Box8Ray, Shear4};
-use crate::traverse::{ANY, cull_bound};
+use crate::traverse::{ANY, ANY_COUNTED, cull_bound};
 use crate::triangle::RayShear;
-use crate::{Hit, Ray};
+use crate::{Counts, Hit, Ray};
 
 /// Rays walked together at most: one bit each in a byte of a node's masks.
 pub(crate) const PACKET: usize = 8;
@@ -58,7 +58,13 @@ impl Bvh {
         &self,
         rays: &[Ray],
         out: &mut [Option<Hit>; PACKET],
+        counted: Option<&mut [Counts; PACKET]>,
     ) {
+        // Counts as the single walk keeps them: every node a ray enters, the root only if
+        // one of its children's boxes is hit, and the triangles it tests until its hit.
+        let mut none = [Counts::default(); PACKET];
+        let counting = counted.is_some();
+        let counts = counted.unwrap_or(&mut none);
         let n = rays.len().min(PACKET);
         let wide = &self.wide;
         if wide.nodes.is_empty() || n == 0 {
@@ -97,16 +103,31 @@ impl Bvh {
                 if let Some(s) = &shears[r] {
                     // SAFETY: the CPU has AVX2 (see `# Safety`), and `(child, count)` is the
                     // root or a child reference read from the tree.
-                    let (hit, _) = unsafe {
-                        self.walk_from::<ANY, true, STACK>(
-                            &boxes[r],
-                            s,
-                            tmin[r],
-                            tmax[r],
-                            None,
-                            (child, count),
-                        )
+                    let (hit, c) = unsafe {
+                        if counting {
+                            self.walk_from::<ANY_COUNTED, true, STACK>(
+                                &boxes[r],
+                                s,
+                                tmin[r],
+                                tmax[r],
+                                None,
+                                (child, count),
+                            )
+                        } else {
+                            self.walk_from::<ANY, true, STACK>(
+                                &boxes[r],
+                                s,
+                                tmin[r],
+                                tmax[r],
+                                None,
+                                (child, count),
+                            )
+                        }
                     };
+                    if counting {
+                        counts[r].nodes += c.nodes;
+                        counts[r].tris += c.tris;
+                    }
                     if let Some(hit) = hit {
                         out[r] = Some(hit);
                         live &= !(1 << r);
@@ -128,6 +149,9 @@ impl Bvh {
                     // SAFETY: the CPU has AVX2 (see `# Safety`).
                     let (hit, t) = unsafe { boxes[r].hit8::<true>(node, tmin[r], cull[r]) };
                     rows |= u64::from(hit) << (8 * r);
+                    if counting && (child != 0 || hit != 0) {
+                        counts[r].nodes += 1;
+                    }
                     // SAFETY: the CPU has AVX2 (see `# Safety`).
                     unsafe { simd::min_entry(&mut near, hit, &t) };
                 }
@@ -164,7 +188,12 @@ impl Bvh {
                     each &= each - 1;
                     let Some(s) = &shears[r] else { continue };
                     // SAFETY: the CPU has AVX2 (see `# Safety`).
-                    if let Some(hit) = unsafe { leaf_any(s, leaf, tmin[r], tmax[r]) } {
+                    let (found, tested) = unsafe { leaf_any(s, leaf, tmin[r], tmax[r], count) };
+                    if counting {
+                        counts[r].nodes += 1;
+                        counts[r].tris += tested;
+                    }
+                    if let Some(hit) = found {
                         out[r] = Some(hit);
                         live &= !(1 << r);
                     }
@@ -188,8 +217,9 @@ impl Bvh {
     }
 }
 
-/// The first hit among a leaf's triangles (lowest group, then lowest lane), as the single
-/// any-hit walk takes it.
+/// The first hit among a leaf's `count` triangles (lowest group, then lowest lane), as the
+/// single any-hit walk takes it, and how many triangles were tested to find it (the single
+/// walk's `T`: the groups tested, not the repeats that fill the last one).
 ///
 /// # Safety
 /// The CPU must have AVX2.
@@ -199,37 +229,42 @@ unsafe fn leaf_any(
     leaf: &[crate::bvh::wide::Tri4],
     tmin: f32,
     tmax: f32,
-) -> Option<Hit> {
+    count: u32,
+) -> (Option<Hit>, u32) {
+    let mut tested = 0;
     let mut j = 0;
     while j < leaf.len() {
         if j + 1 < leaf.len() {
             let (a, b) = (&leaf[j], &leaf[j + 1]);
+            tested += (count - 4 * j as u32).min(8);
             // SAFETY: the CPU has AVX2 (see `# Safety`).
             let h = unsafe { s.intersect8(a, b, tmin, tmax) };
             if h.mask != 0 {
                 let k = h.mask.trailing_zeros() as usize;
                 let prim = if k < 4 { a.prim[k] } else { b.prim[k - 4] };
                 let (t, u, v) = h.hit(k);
-                return Some(Hit { t, prim, u, v });
+                return (Some(Hit { t, prim, u, v }), tested);
             }
             j += 2;
             continue;
         }
         let g = &leaf[j];
+        tested += (count - 4 * j as u32).min(4);
         let h = s.intersect4(g, tmin, tmax);
         if h.mask != 0 {
             let k = h.mask.trailing_zeros() as usize;
             let (t, u, v) = h.hit(k);
-            return Some(Hit {
+            let hit = Hit {
                 t,
                 prim: g.prim[k],
                 u,
                 v,
-            });
+            };
+            return (Some(hit), tested);
         }
         j += 1;
     }
-    None
+    (None, tested)
 }
 
 #[cfg(test)]

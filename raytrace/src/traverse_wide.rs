@@ -26,15 +26,18 @@
 //!
 //! `B` counts nodes entered as in the binary traversal: the root, if one of its children's
 //! boxes is hit, and every child (inner or leaf) taken from the stack, whose boxes are the
-//! binary tree's; `T` counts the
-//! triangles of the leaves tested (not the repeats that fill a leaf's last group).
+//! binary tree's; `T` counts the triangles of the leaves tested (not the repeats that fill a
+//! leaf's last group). Counted batches walk in packets as the uncounted ones do, and count
+//! what each ray did there: the estimate's sample is counted as the trace it stands for walks
+//! it. A closest-hit ray in a packet may enter a node its single walk would have culled, so
+//! its counts can differ from [`Bvh::closest_hit_counted`]'s; its hit does not.
 
 use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
 use crate::bvh::wide::WIDTH;
 use crate::simd::{self, Box8Ray, Shear4};
-use crate::traverse::{ANY, ANY_COUNTED, CLOSEST, COUNTED, Counts, better, cull_bound};
+use crate::traverse::{ANY, ANY_COUNTED, COUNTED, Counts, better, cull_bound};
 #[cfg(target_arch = "x86_64")]
 use crate::traverse_shared::PACKET;
 use crate::triangle::RayShear;
@@ -126,11 +129,14 @@ impl Bvh {
         at: impl FnMut(usize) -> Option<usize>,
         put: impl FnMut(usize, Option<Hit>, Counts),
     ) {
+        // Every query, the counted ones too, so that an estimate's sample is traced (and
+        // counted) as the trace it stands for.
         #[cfg(target_arch = "x86_64")]
-        if MODE == ANY || MODE == CLOSEST {
-            // SAFETY: as the caller states (see `# Safety`).
-            return unsafe { self.shared_runs::<MODE>(rays, n, at, put) };
+        // SAFETY: as the caller states (see `# Safety`).
+        unsafe {
+            self.shared_runs::<MODE>(rays, n, at, put)
         }
+        #[cfg(not(target_arch = "x86_64"))]
         each(n, at, put, |i| {
             // SAFETY: as the caller states (see `# Safety`).
             unsafe { self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&rays.get(i)) }
@@ -152,6 +158,8 @@ impl Bvh {
         mut at: impl FnMut(usize) -> Option<usize>,
         mut put: impl FnMut(usize, Option<Hit>, Counts),
     ) {
+        let any = MODE == ANY || MODE == ANY_COUNTED;
+        let counting = MODE == COUNTED || MODE == ANY_COUNTED;
         // The run so far: its rays and the queries they answer.
         let mut run = [Ray::new(glam::Vec3::ZERO, glam::Vec3::ZERO); PACKET];
         let mut slot = [0usize; PACKET];
@@ -162,23 +170,33 @@ impl Bvh {
             () => {
                 if len == 1 {
                     // SAFETY: as the caller states (see `# Safety`).
-                    let (hit, _) = unsafe {
+                    let (hit, counts) = unsafe {
                         self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&run[0])
                     };
-                    put(slot[0], hit, Counts::default());
+                    put(slot[0], hit, counts);
                 } else {
                     let mut out = [None; PACKET];
+                    let mut counts = [Counts::default(); PACKET];
+                    let counted = counting.then_some(&mut counts);
                     // SAFETY: as the caller states; the stack is sized as the single walk's,
                     // and a closest-hit run's rays have `tmin`s with the sign bit clear.
                     unsafe {
-                        if MODE == ANY {
-                            self.any_shared::<{ stack_for(SHALLOW) }>(&run[..len], &mut out)
+                        if any {
+                            self.any_shared::<{ stack_for(SHALLOW) }>(
+                                &run[..len],
+                                &mut out,
+                                counted,
+                            )
                         } else {
-                            self.closest_shared::<{ stack_for(SHALLOW) }>(&run[..len], &mut out)
+                            self.closest_shared::<{ stack_for(SHALLOW) }>(
+                                &run[..len],
+                                &mut out,
+                                counted,
+                            )
                         }
                     };
                     for r in 0..len {
-                        put(slot[r], out[r], Counts::default());
+                        put(slot[r], out[r], counts[r]);
                     }
                 }
             };
@@ -189,15 +207,15 @@ impl Bvh {
             // A closest-hit packet culls the nodes it leaves waiting by the entry distances'
             // bits, which order as the floats only where they are not negative: a ray that
             // starts behind its origin (or at -0) walks alone.
-            if MODE == CLOSEST && (ray.tmin.is_sign_negative()) {
+            if !any && ray.tmin.is_sign_negative() {
                 if len > 0 {
                     flush!();
                     len = 0;
                 }
                 // SAFETY: as the caller states (see `# Safety`).
-                let (hit, _) =
+                let (hit, counts) =
                     unsafe { self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&ray) };
-                put(k, hit, Counts::default());
+                put(k, hit, counts);
                 continue;
             }
             if len == PACKET || (len > 0 && !same_origin(&run[0], &ray)) {
