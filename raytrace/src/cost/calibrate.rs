@@ -2,12 +2,13 @@
 //! turns ray, node and triangle counts into seconds on one device for one kind of ray.
 //!
 //! Three non-negative unknowns: the constrained optimum is the unconstrained least-squares
-//! fit on the terms it keeps, so every non-empty subset of the three terms is solved (normal
-//! equations of at most 3×3, on columns scaled to unit length: counts are ~1e5, times ~1e-4
-//! s, and unscaled the Gram matrix would mix magnitudes 1e10 apart) and the feasible one with
-//! the least residual wins. `R`, `B` and `T` are strongly correlated in a BVH (tasks of equal
-//! length make `R` a constant), so many subsets are singular and are skipped. `R` alone is
-//! not a model: it would rank tasks by length and ignore what the estimate counted.
+//! fit on the terms it keeps, so every subset of the three terms that keeps `B` or `T` is
+//! solved (normal equations of at most 3×3, on columns scaled to unit length: counts are
+//! ~1e5, times ~1e-4 s, and unscaled the Gram matrix would mix magnitudes 1e10 apart) and the
+//! feasible one with the least residual wins. `R` alone is not a model: it would rank tasks
+//! by length and ignore what the estimate counted. `R`, `B` and `T` are strongly correlated
+//! in a BVH (tasks of equal length make `R` a constant), so many subsets are singular and are
+//! skipped.
 
 use super::{CostError, CostModel, Work};
 
