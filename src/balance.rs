@@ -1,9 +1,35 @@
-//! What an estimate buys a plan: the balance of a static LPT plan made from the estimates,
-//! judged by the measured task times. It puts a plan's view beside `error_vs_time`: an error
-//! that leaves the tasks' order intact costs a plan little, one that swaps big and small
-//! tasks costs it much.
+//! Estimates judged by measured task times ([`judge`], for `cobalt estimate` and the bench's
+//! sampling trade), and what an estimate buys a plan: the balance of a static LPT plan made
+//! from the estimates, judged by the measured task times. It puts a plan's view beside
+//! `error_vs_time`: an error that leaves the tasks' order intact costs a plan little, one
+//! that swaps big and small tasks costs it much.
 
+use raytrace::cost::{Fit, Work, calibrate, error_vs_time, spearman};
 use sched::{Costs, Speeds, plan_equal, plan_lpt};
+
+/// Estimates judged by measured task times: calibrated to them, then their error, rank
+/// correlation and the balance they buy a plan (each `None` where it cannot be had).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Judged {
+    pub(crate) fit: Option<Fit>,
+    pub(crate) error_vs_time: Option<f64>,
+    pub(crate) spearman_vs_time: Option<f64>,
+    pub(crate) lpt_balance: Option<f64>,
+}
+
+/// `work` calibrated against `measured` (one time per task) and judged by it.
+pub(crate) fn judge(work: &[Work], measured: &[f64]) -> Judged {
+    let Ok(fit) = calibrate(work, measured) else {
+        return Judged::default();
+    };
+    let costs = fit.model.costs(work);
+    Judged {
+        fit: Some(fit),
+        error_vs_time: error_vs_time(&costs, measured).ok(),
+        spearman_vs_time: spearman(&costs, measured).ok(),
+        lpt_balance: lpt(&costs, measured),
+    }
+}
 
 /// Equal devices the plans are made for: with tasks of 4096 rays a 512² frame gives each of
 /// them 8 tasks, few enough that where each big task goes shows in the balance.

@@ -7,8 +7,8 @@
 use std::time::Instant;
 
 use raytrace::cost::{
-    Compacted, CostModel, ReducedTraversal, SampleRate, Work, calibrate, error_vs_time, full_work,
-    measure_seconds, prediction_error, spearman,
+    Compacted, CostModel, ReducedTraversal, SampleRate, Work, full_work, measure_seconds,
+    prediction_error,
 };
 use raytrace::{Bvh, RayBatch, RayKind, Walk, traverse, workload};
 use serde::Serialize;
@@ -125,20 +125,6 @@ fn regroup(per: &[f64], unit: usize, size: usize) -> Vec<f64> {
     per.chunks(size / unit).map(|c| c.iter().sum()).collect()
 }
 
-/// Calibrated `work` against `seconds`: error, rank correlation and the LPT balance the
-/// calibrated costs buy.
-fn vs_time(work: &[Work], seconds: &[f64]) -> (Option<f64>, Option<f64>, Option<f64>) {
-    let Ok(fit) = calibrate(work, seconds) else {
-        return (None, None, None);
-    };
-    let costs = fit.model.costs(work);
-    (
-        error_vs_time(&costs, seconds).ok(),
-        spearman(&costs, seconds).ok(),
-        crate::balance::lpt(&costs, seconds),
-    )
-}
-
 fn points(
     scene: &str,
     bvh: &Bvh,
@@ -187,7 +173,9 @@ fn points(
             .chunks(task_size / unit)
             .map(|c| c.iter().fold(Work::default(), |a, &w| a.plus(w)))
             .collect();
-        let (error_vs_time_trace, spearman_trace_vs_time, _) = vs_time(&trace_work, &seconds);
+        let trace_judged = crate::balance::judge(&trace_work, &seconds);
+        let (error_vs_time_trace, spearman_trace_vs_time) =
+            (trace_judged.error_vs_time, trace_judged.spearman_vs_time);
         let traced = Walk::Trace { any: occlusion };
         let runs = RATES
             .iter()
@@ -221,7 +209,9 @@ fn points(
             } else {
                 overhead
             };
-            let (error_vs_time, spearman_vs_time, lpt_balance) = vs_time(&work, &seconds);
+            let judged = crate::balance::judge(&work, &seconds);
+            let (error_vs_time, spearman_vs_time) = (judged.error_vs_time, judged.spearman_vs_time);
+            let lpt_balance = judged.lpt_balance;
             let thesis_at = thesis
                 .filter(|_| p != traced)
                 .and_then(|t| t.iter().find(|x| x.rate == rate.get()));

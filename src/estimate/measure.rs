@@ -5,8 +5,8 @@
 use std::time::Instant;
 
 use raytrace::cost::{
-    Compacted, CostModel, Fit, ReducedTraversal, SampleRate, SampleRun, Work, calibrate,
-    error_vs_time, full_work, measure_seconds, prediction_error, spearman,
+    Compacted, CostModel, ReducedTraversal, SampleRate, SampleRun, Work, full_work,
+    measure_seconds, prediction_error,
 };
 use raytrace::{Bvh, RayBatch, RayKind, Scene, Walk, traverse};
 
@@ -65,16 +65,7 @@ pub(super) fn measure(
             args.clock,
         )?);
     }
-    // `work` weighed by `fit` against the measured times: error and Spearman correlation.
-    let vs_time = |fit: Option<Fit>, work: &[Work]| {
-        let predicted = fit.map(|f| f.model.costs(work));
-        (
-            predicted
-                .as_ref()
-                .and_then(|p| error_vs_time(p, &measured).ok()),
-            predicted.as_ref().and_then(|p| spearman(p, &measured).ok()),
-        )
-    };
+    let judge = |work: &[Work]| crate::balance::judge(work, &measured);
     let full_of = |walk: Walk| -> Result<Vec<Work>, CliError> {
         let mut full = Vec::with_capacity(tasks.len());
         for (range, kind) in &parts {
@@ -130,7 +121,8 @@ pub(super) fn measure(
             let mut best = (f64::INFINITY, Walk::Reduced, Vec::new());
             for p in Walk::ALL {
                 let full = full_of(p)?;
-                let (error, spearman_vs_time) = vs_time(calibrate(&full, &measured).ok(), &full);
+                let j = judge(&full);
+                let (error, spearman_vs_time) = (j.error_vs_time, j.spearman_vs_time);
                 fits.push(WalkFit {
                     walk: p.name(),
                     error_vs_time: error,
@@ -226,15 +218,14 @@ pub(super) fn measure(
                 .map(|((&p, est), &seconds)| {
                     let reused = matches!(p, Walk::Trace { .. });
                     let rest = if reused { rest_seconds } else { trace_seconds };
-                    let (error, rho) = vs_time(calibrate(est, &measured).ok(), est);
+                    let judged = judge(est);
                     let full = full_of(p).ok();
                     let model = CostModel::default();
-                    let costs = calibrate(est, &measured).ok().map(|f| f.model.costs(est));
                     WalkFigures {
                         walk: p.name(),
-                        lpt_balance: costs.and_then(|c| crate::balance::lpt(&c, &measured)),
-                        error_vs_time: error,
-                        spearman_vs_time: rho,
+                        lpt_balance: judged.lpt_balance,
+                        error_vs_time: judged.error_vs_time,
+                        spearman_vs_time: judged.spearman_vs_time,
                         prediction_error: full.and_then(|f| {
                             prediction_error(&model.costs(est), &model.costs(&f)).ok()
                         }),
@@ -276,12 +267,15 @@ pub(super) fn measure(
     };
     let (est_b, full_b) = part(|w| w.nodes);
     let (est_t, full_t) = part(|w| w.tris);
-    let fit = calibrate(&est, &measured).ok();
-    let fit_full = calibrate(&full, &measured).ok();
-    let (error_vs_time, spearman_vs_time) = vs_time(fit, &est);
-    let (error_vs_time_full, spearman_full_vs_time) = vs_time(fit_full, &full);
+    let judged = judge(&est);
+    let fit = judged.fit;
+    let (error_vs_time, spearman_vs_time) = (judged.error_vs_time, judged.spearman_vs_time);
+    let full_judged = judge(&full);
+    let (error_vs_time_full, spearman_full_vs_time) =
+        (full_judged.error_vs_time, full_judged.spearman_vs_time);
+    let trace_judged = judge(&trace_work);
     let (error_vs_time_trace, spearman_trace_vs_time) =
-        vs_time(calibrate(&trace_work, &measured).ok(), &trace_work);
+        (trace_judged.error_vs_time, trace_judged.spearman_vs_time);
 
     Ok(Report {
         scene: args.scene.scene.clone(),
