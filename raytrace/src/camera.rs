@@ -2,6 +2,7 @@
 //! the tasks cut from them) cover compact image regions and stay coherent.
 
 use glam::Vec3;
+use rayon::slice::ParallelSliceMut;
 
 use crate::{Aabb, Ray, RayBatch};
 
@@ -167,11 +168,25 @@ fn spread(v: u32) -> u32 {
 /// Panics if a side exceeds 65536.
 pub fn morton_order(width: u32, height: u32) -> Vec<u32> {
     assert!(width <= 1 << 16 && height <= 1 << 16, "image too large");
-    let mut keyed: Vec<(u32, u32)> = (0..height)
-        .flat_map(|y| (0..width).map(move |x| (spread(x) | (spread(y) << 1), y * width + x)))
-        .collect();
-    keyed.sort_unstable_by_key(|&(k, _)| k);
-    keyed.into_iter().map(|(_, p)| p).collect()
+    let side = u64::from(width.max(height).next_power_of_two());
+    let pixels = u64::from(width) * u64::from(height);
+    if side * side <= 4 * pixels {
+        // The curve's keys in order, walked directly: a sort of a megapixel image's keys took
+        // longer than tracing its primary rays on a GPU.
+        (0..side * side)
+            .filter_map(|k| {
+                let (x, y) = (compact(k as u32), compact((k >> 1) as u32));
+                (x < width && y < height).then_some(y * width + x)
+            })
+            .collect()
+    } else {
+        // A long, thin image: its enclosing square is mostly outside it.
+        let mut keyed: Vec<(u32, u32)> = (0..height)
+            .flat_map(|y| (0..width).map(move |x| (spread(x) | (spread(y) << 1), y * width + x)))
+            .collect();
+        keyed.par_sort_unstable_by_key(|&(k, _)| k);
+        keyed.into_iter().map(|(_, p)| p).collect()
+    }
 }
 
 /// The inverse of `spread`: the even bits of `k`, packed.
@@ -229,6 +244,29 @@ mod tests {
         let mut o = morton_order(13, 7);
         o.sort_unstable();
         assert_eq!(o, (0..91).collect::<Vec<_>>());
+    }
+
+    /// The walk of the enclosing square and the sort of the keys give one order, for square,
+    /// wide, tall and thin images.
+    #[test]
+    fn morton_order_walks_as_the_keys_sort() {
+        for (w, h) in [
+            (1, 1),
+            (3, 3),
+            (13, 7),
+            (100, 37),
+            (300, 200),
+            (5, 300),
+            (64, 1),
+            (1, 33),
+        ] {
+            let mut keyed: Vec<(u32, u32)> = (0..h)
+                .flat_map(|y| (0..w).map(move |x| (spread(x) | (spread(y) << 1), y * w + x)))
+                .collect();
+            keyed.sort_unstable();
+            let sorted: Vec<u32> = keyed.into_iter().map(|(_, p)| p).collect();
+            assert_eq!(morton_order(w, h), sorted, "{w}x{h}");
+        }
     }
 
     /// The image's rays, made with its frame computed once, are each pixel's `ray`, bit for

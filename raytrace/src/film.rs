@@ -36,6 +36,23 @@ impl Film {
         }
     }
 
+    /// A `width x height` image of `pixels`, row-major.
+    ///
+    /// # Panics
+    /// Panics if `pixels` does not hold `width · height` values.
+    pub fn from_pixels(width: u32, height: u32, pixels: Vec<Vec3>) -> Self {
+        assert_eq!(
+            pixels.len(),
+            width as usize * height as usize,
+            "pixels for a {width}x{height} film"
+        );
+        Self {
+            width,
+            height,
+            pixels,
+        }
+    }
+
     /// Width in pixels.
     pub fn width(&self) -> u32 {
         self.width

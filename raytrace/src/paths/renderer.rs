@@ -6,6 +6,7 @@ use std::ops::Range;
 use std::time::Instant;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use sched::{Costs, Runtime, SchedError, split_ranges};
 
@@ -45,6 +46,8 @@ pub struct PathRenderer<'a> {
     pub(super) history: HashMap<String, History>,
     pub(super) retired: Vec<bool>,
     log: Vec<FrameStats>,
+    /// [`PathRenderer::ranks`]' last image: its size and each pixel's path.
+    ranks: Option<(u32, u32, Vec<u32>)>,
 }
 
 impl<'a> PathRenderer<'a> {
@@ -70,7 +73,13 @@ impl<'a> PathRenderer<'a> {
             history: HashMap::new(),
             retired: vec![false; m],
             log: Vec::new(),
+            ranks: None,
         })
+    }
+
+    /// The devices, for another renderer, unless one of them failed.
+    pub fn into_devices(self) -> Option<Vec<Box<dyn PathDevice + 'a>>> {
+        (!self.retired.contains(&true)).then_some(self.devices)
     }
 
     /// The settings.
@@ -121,16 +130,32 @@ impl<'a> PathRenderer<'a> {
         let active = self.devices.len() - self.retired.iter().filter(|r| **r).count();
         let tasks = split_ranges(paths, self.settings.task_size_for(paths, active.max(1)));
         let (outputs, mut stats) = self.run_tasks(&frame, &tasks)?;
-        let order = crate::camera::morton_order(options.width, options.height);
-        let mut film = Film::new(options.width, options.height);
-        for (task, values) in tasks.iter().zip(&outputs) {
-            for (rank, &v) in task.clone().zip(values) {
-                film.set(order[rank] as usize, v);
-            }
-        }
+        // `tasks` cut the paths in order, so their values end to end are in path order.
+        let values = outputs.concat();
+        let ranks = self.ranks(options.width, options.height);
+        let pixels = ranks.par_iter().map(|&r| values[r as usize]).collect();
+        let film = Film::from_pixels(options.width, options.height, pixels);
         stats.seconds = start.elapsed().as_secs_f64();
         self.log.push(stats.clone());
         Ok(FrameRendering { film, stats })
+    }
+
+    /// The path (rank in Morton order) of each pixel of a `width x height` image, kept for
+    /// the frames that follow: ordering a megapixel image anew cost a GPU frame's time.
+    fn ranks(&mut self, width: u32, height: u32) -> &[u32] {
+        if self
+            .ranks
+            .as_ref()
+            .is_none_or(|(w, h, _)| (*w, *h) != (width, height))
+        {
+            let order = crate::camera::morton_order(width, height);
+            let mut ranks = vec![0; order.len()];
+            for (rank, &p) in order.iter().enumerate() {
+                ranks[p as usize] = rank as u32;
+            }
+            self.ranks = Some((width, height, ranks));
+        }
+        self.ranks.as_ref().map_or(&[], |(_, _, r)| r)
     }
 
     /// Renders the paths of `tasks` (ranges of `options`' paths in Morton order) as one
