@@ -1,9 +1,11 @@
 //! What a run learnt about the machine, kept for the next run: per host, device class and
-//! workload, the device's relative speed and its cost model's `kR`, `kB`, `kT`, so that the
-//! first plan of a run is made with what the last one measured rather than with equal speeds.
+//! workload, the device's speed (relative, and in paths per second) and its cost model's `kR`,
+//! `kB`, `kT`, so that the first plan of a run is made with what the last one measured rather
+//! than with equal speeds.
 //!
 //! The file is JSON: `{"version": 1, "entries": [{"host", "device", "workload", "speed",
-//! "kr", "kb", "kt", "samples", "spikes"}, …]}` (`kr` may be absent, read as 0). By default
+//! "paths_per_second", "kr", "kb", "kt", "samples", "spikes"}, …]}` (`paths_per_second` may be
+//! absent; `kr` too, read as 0). By default
 //! it lives in the user's cache directory ([`default_path`]).
 //!
 //! A missing file is an empty calibration. A file that cannot be parsed, or holds a value no
@@ -57,6 +59,10 @@ impl Key {
 pub struct Entry {
     /// Speed relative to the fastest device of the run that measured it (finite, > 0).
     pub speed: f64,
+    /// Paths one device of the class rendered per second over the run's launches (finite and
+    /// positive): unlike `speed`, comparable across runs, so the first plan takes its speeds
+    /// from these. Absent in older files.
+    pub paths_per_second: Option<f64>,
     /// `kB`, `kT` fitted to the device's measured launch times, if a fit was made.
     pub model: Option<CostModel>,
     /// Launches learnt from, over every run that updated the entry.
@@ -153,6 +159,8 @@ struct Record {
     #[serde(flatten)]
     key: Key,
     speed: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    paths_per_second: Option<f64>,
     /// Absent in files written before the per-ray term: read as 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     kr: Option<f64>,
@@ -230,6 +238,9 @@ impl Calibration {
             if !(r.speed.is_finite() && r.speed > 0.0) {
                 return Err(bad("speed", r.speed, "is not a finite number > 0"));
             }
+            if let Some(v) = r.paths_per_second.filter(|v| !(v.is_finite() && *v > 0.0)) {
+                return Err(bad("paths_per_second", v, "is not a finite number > 0"));
+            }
             let model = match (r.kb, r.kt) {
                 (None, None) => {
                     if let Some(v) = r.kr {
@@ -254,6 +265,7 @@ impl Calibration {
             };
             let entry = Entry {
                 speed: r.speed,
+                paths_per_second: r.paths_per_second,
                 model,
                 samples: r.samples,
                 spikes: r.spikes,
@@ -273,6 +285,7 @@ impl Calibration {
                 .map(|(key, e)| Record {
                     key: key.clone(),
                     speed: e.speed,
+                    paths_per_second: e.paths_per_second,
                     kr: e.model.map(|m| m.kr),
                     kb: e.model.map(|m| m.kb),
                     kt: e.model.map(|m| m.kt),
@@ -332,7 +345,8 @@ impl Calibration {
     /// not finite and positive, or a model with a negative or non-finite coefficient) is not
     /// recorded: returns whether it was.
     pub fn insert(&mut self, key: Key, entry: Entry) -> bool {
-        let speed_ok = entry.speed.is_finite() && entry.speed > 0.0;
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        let speed_ok = positive(entry.speed) && entry.paths_per_second.is_none_or(positive);
         let model_ok = entry.model.is_none_or(|m| m.can_plan());
         if speed_ok && model_ok {
             self.entries.insert(key, entry);
@@ -415,6 +429,7 @@ mod tests {
         let mut c = Calibration::new();
         let entry = |speed, model, samples| Entry {
             speed,
+            paths_per_second: Some(1.5e6 * speed),
             model,
             samples,
             spikes: 1,
@@ -511,6 +526,13 @@ mod tests {
         assert!(err.contains("entry 0 (cpu/1 on box"), "{err}");
         assert!(err.contains("speed = 0"), "{err}");
 
+        let rate = sample()
+            .to_json()
+            .replacen("\"paths_per_second\": 375000.0", "\"paths_per_second\": -2.0", 1);
+        let err = Calibration::parse(path, &rate).unwrap_err().to_string();
+        assert!(err.contains("entry 0 (cpu/1 on box"), "{err}");
+        assert!(err.contains("paths_per_second = -2"), "{err}");
+
         let negative = sample()
             .to_json()
             .replacen("\"kt\": 3e-9", "\"kt\": -1.0", 1);
@@ -546,6 +568,7 @@ mod tests {
         let key = Key::new("h", "d", "w");
         let entry = |speed, kb| Entry {
             speed,
+            paths_per_second: None,
             model: Some(CostModel::counts_only(kb, 0.0)),
             samples: 1,
             spikes: 0,

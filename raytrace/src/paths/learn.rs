@@ -25,14 +25,18 @@ pub(crate) struct LaunchSample {
     pub work: Work,
     /// Wall seconds from its start to its last task's delivery.
     pub seconds: f64,
+    /// Paths of its tasks.
+    pub paths: f64,
 }
 
 /// The launches of `timeline`: each device's spans, in order, cut where `opens[task]` says a
-/// task's output opened a launch. `costs` and `work` are per task; `work` may be empty.
+/// task's output opened a launch. `costs`, `work` and `paths` are per task; `work` may be
+/// empty.
 pub(crate) fn launches(
     timeline: &Timeline,
     costs: &[f64],
     work: &[Work],
+    paths: &[usize],
     opens: &[bool],
 ) -> Vec<LaunchSample> {
     let mut samples: Vec<LaunchSample> = Vec::new();
@@ -56,6 +60,7 @@ pub(crate) fn launches(
         };
         let l = &mut samples[at];
         l.cost += costs.get(t).copied().unwrap_or(0.0);
+        l.paths += paths.get(t).copied().unwrap_or(0) as f64;
         if let Some(w) = work.get(t) {
             l.work.nodes += w.nodes;
             l.work.tris += w.tris;
@@ -72,6 +77,8 @@ pub(crate) struct Learnt {
     pub cost: f64,
     /// Their seconds.
     pub seconds: f64,
+    /// Their paths.
+    pub paths: f64,
     /// The launches kept, for a fit of `kB`, `kT`.
     pub kept: Vec<LaunchSample>,
     /// Launches left out as timing spikes.
@@ -101,6 +108,7 @@ pub(crate) fn learn(samples: &[LaunchSample], class: &[usize], classes: usize) -
             if keep {
                 l.cost += s.cost;
                 l.seconds += s.seconds;
+                l.paths += s.paths;
                 l.kept.push(**s);
             } else {
                 l.spikes += 1;
@@ -158,9 +166,10 @@ mod tests {
             };
             5
         ];
-        let l = launches(&t, &[1.0, 2.0, 3.0, 4.0, 5.0], &work, &opens);
+        let l = launches(&t, &[1.0, 2.0, 3.0, 4.0, 5.0], &work, &[10; 5], &opens);
         assert_eq!(l.len(), 3);
         assert_eq!((l[0].device, l[0].cost, l[0].seconds), (0, 6.0, 3.0));
+        assert_eq!((l[0].paths, l[1].paths), (30.0, 10.0));
         assert_eq!(l[0].work.nodes, 3.0);
         assert_eq!((l[1].device, l[1].cost, l[1].seconds), (1, 4.0, 1.0));
         assert_eq!((l[2].device, l[2].cost, l[2].seconds), (1, 5.0, 2.0));
@@ -190,6 +199,7 @@ mod tests {
                         rays: 0.0,
                     },
                     seconds,
+                    paths: cost,
                 }
             })
             .collect()

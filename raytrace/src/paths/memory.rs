@@ -2,8 +2,11 @@
 //! plan its first frame ([`PathRenderer::recall`]), and what its frames measured goes back
 //! into one ([`PathRenderer::remember`]).
 //!
-//! Speeds are relative, so one recalled for a class plans against the others as it did in
-//! the run that measured it. A class's model costs the frames only when that class estimates
+//! Speeds are relative to the fastest device of a run, so a run keeps each class's paths per
+//! second as well, which compare across runs: a class measured alone is the fastest of its
+//! run, and its relative speed of 1 planned against another class measured alone gave a GPU
+//! and a CPU core equal shares. A first frame plans with the paths per second of its classes
+//! where every class has one, and at equal speeds otherwise. A class's model costs the frames only when that class estimates
 //! them (the first device's), and is fitted only on frames it estimated, since work is
 //! counted differently by each kind of device. Within a run the model stays the one the run
 //! started with, so that its frames are costed in one unit and compare.
@@ -27,6 +30,9 @@ pub(crate) struct History {
     samples: u64,
     /// Launches left out as timing spikes.
     spikes: u64,
+    /// Paths and seconds of the launches kept.
+    paths: f64,
+    seconds: f64,
 }
 
 impl History {
@@ -35,6 +41,8 @@ impl History {
     pub(crate) fn add(&mut self, learnt: &Learnt, fitted: bool) {
         self.samples += learnt.kept.len() as u64;
         self.spikes += learnt.spikes as u64;
+        self.paths += learnt.paths;
+        self.seconds += learnt.seconds;
         if fitted {
             self.fit.extend(
                 learnt
@@ -44,6 +52,12 @@ impl History {
                     .map(|l| (l.work, l.seconds)),
             );
         }
+    }
+
+    /// Paths per second over the run's launches kept, if any were.
+    fn paths_per_second(&self) -> Option<f64> {
+        let r = self.paths / self.seconds;
+        (r.is_finite() && r > 0.0).then_some(r)
     }
 
     /// `kB`, `kT` in seconds, if enough launches were kept and the fit can plan.
@@ -59,23 +73,34 @@ impl History {
 
 impl PathRenderer<'_> {
     /// Plans the next frame with what `calibration` holds for this renderer's device classes
-    /// on `host` for `workload`: their speeds, and the estimating class's `kB`, `kT`. Returns
-    /// how many entries were used. Frames already rendered are not undone; call it first.
+    /// on `host` for `workload`: their speeds (from their paths per second, where every class
+    /// has an entry that holds them), and the estimating class's `kB`, `kT`. Returns how many
+    /// entries were used. Frames already rendered are not undone; call it first.
     pub fn recall(&mut self, calibration: &Calibration, host: &str, workload: &str) -> usize {
         let mut classes: Vec<String> = self.devices.iter().map(|d| d.class()).collect();
         classes.sort();
         classes.dedup();
-        let mut used = 0;
-        for class in classes {
-            if let Some(e) = calibration.get(&Key::new(host, &class, workload)) {
-                self.speeds.insert(class.clone(), e.speed);
-                if let Some(m) = e.model {
-                    self.models.insert(class, m);
-                }
-                used += 1;
+        let wanted = classes.len();
+        let entries: Vec<(String, Entry)> = classes
+            .into_iter()
+            .filter_map(|class| {
+                let e = calibration.get(&Key::new(host, &class, workload))?;
+                Some((class, *e))
+            })
+            .collect();
+        let rates: Option<Vec<f64>> = entries.iter().map(|(_, e)| e.paths_per_second).collect();
+        if let Some(rates) = rates.filter(|_| entries.len() == wanted) {
+            let fastest = rates.iter().copied().fold(0.0, f64::max);
+            for ((class, _), rate) in entries.iter().zip(rates) {
+                self.speeds.insert(class.clone(), rate / fastest);
             }
         }
-        used
+        for (class, e) in &entries {
+            if let Some(m) = e.model {
+                self.models.insert(class.clone(), m);
+            }
+        }
+        entries.len()
     }
 
     /// Records in `calibration`, for `host` and `workload`, each device class's speed as the
@@ -96,6 +121,9 @@ impl PathRenderer<'_> {
             let old = calibration.get(&key).copied();
             let entry = Entry {
                 speed,
+                paths_per_second: h
+                    .paths_per_second()
+                    .or(old.and_then(|e| e.paths_per_second)),
                 model: h.model().or(old.and_then(|e| e.model)),
                 samples: old.map_or(0, |e| e.samples) + h.samples,
                 spikes: old.map_or(0, |e| e.spikes) + h.spikes,
@@ -110,7 +138,7 @@ impl PathRenderer<'_> {
 
 #[cfg(test)]
 mod tests {
-    use crate::calibration::{Calibration, Key};
+    use crate::calibration::{Calibration, Entry, Key};
     use crate::devices::parse_devices;
     use crate::paths::{PathRenderer, build_path_devices};
     use crate::scheduled::Settings;
@@ -144,10 +172,50 @@ mod tests {
         assert_eq!(second.recall(&calibration, "h", "other workload"), 0);
         assert_eq!(second.speed(2), 1.0);
         assert_eq!(second.recall(&calibration, "h", "w"), 2);
-        for d in 0..3 {
-            assert_eq!(second.speed(d), first.speed(d), "device {d}");
+        let rate = |class| {
+            let e = calibration.get(&Key::new("h", class, "w")).unwrap();
+            e.paths_per_second.unwrap()
+        };
+        let (one, two) = (rate("cpu/1"), rate("cpu/2"));
+        let fastest = one.max(two);
+        for (d, rate) in [(0, one), (1, one), (2, two)] {
+            assert_eq!(second.speed(d), rate / fastest, "device {d}");
         }
         let frame = second.render(&scene, &bvh, &options).unwrap();
-        assert_eq!(frame.stats.devices[2].speed, first.speed(2));
+        assert_eq!(frame.stats.devices[2].speed, two / fastest);
+    }
+
+    /// Each class measured alone is the fastest of its run (speed 1); planned together, they
+    /// take their speeds from their paths per second, and from nothing where a class has none.
+    #[test]
+    fn classes_measured_in_separate_runs_plan_by_their_paths_per_second() {
+        let scene = SceneSource::parse("builtin:cornell:0.2")
+            .unwrap()
+            .load(Shader::Whitted(Default::default()).needs())
+            .unwrap();
+        let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
+        let specs = parse_devices("cpu:2,cpu:1/2").unwrap();
+        let entry = |paths_per_second| Entry {
+            speed: 1.0,
+            paths_per_second,
+            model: None,
+            samples: 4,
+            spikes: 0,
+        };
+        let mut calibration = Calibration::new();
+        calibration.insert(Key::new("h", "cpu/1", "w"), entry(Some(1000.0)));
+        calibration.insert(Key::new("h", "cpu/2", "w"), entry(Some(4000.0)));
+        let devices = build_path_devices(&scene, &bvh, &specs, &[]).unwrap();
+        let mut r = PathRenderer::new(devices, Settings::default()).unwrap();
+        assert_eq!(r.recall(&calibration, "h", "w"), 2);
+        assert_eq!([r.speed(0), r.speed(1), r.speed(2)], [0.25, 0.25, 1.0]);
+
+        // An older entry without paths per second: its relative speed of 1 would plan a
+        // class against one it never ran beside, so both start at equal speeds.
+        calibration.insert(Key::new("h", "cpu/2", "w"), entry(None));
+        let devices = build_path_devices(&scene, &bvh, &specs, &[]).unwrap();
+        let mut r = PathRenderer::new(devices, Settings::default()).unwrap();
+        assert_eq!(r.recall(&calibration, "h", "w"), 2);
+        assert_eq!([r.speed(0), r.speed(1), r.speed(2)], [1.0; 3]);
     }
 }

@@ -295,7 +295,14 @@ impl<'a> PathRenderer<'a> {
             }
         }
         let opens: Vec<bool> = report.outputs.iter().map(|o| o.launch.is_some()).collect();
-        let spikes = self.learn(&active, &report.timeline, costs.as_slice(), &work, &opens);
+        let spikes = self.learn(
+            &active,
+            &report.timeline,
+            tasks,
+            costs.as_slice(),
+            &work,
+            &opens,
+        );
 
         let stats = FrameStats {
             paths,
@@ -417,12 +424,13 @@ impl<'a> PathRenderer<'a> {
     /// launches that were not timing spikes, relative to the fastest class) for the next
     /// frame's plan, and keeps what the launches taught for [`PathRenderer::remember`]. A
     /// class that did no work keeps its speed. `active[k]` is the renderer's index of the
-    /// timeline's device `k`; `costs` and `work` (empty when not estimated) are per task, and
+    /// timeline's device `k`; `tasks`, `costs` and `work` (empty when not estimated) are per task, and
     /// `opens[t]` says whether task `t` opened a launch. Returns the spikes left out.
     fn learn(
         &mut self,
         active: &[usize],
         timeline: &sched::Timeline,
+        tasks: &[Range<usize>],
         costs: &[f64],
         work: &[Work],
         opens: &[bool],
@@ -442,7 +450,8 @@ impl<'a> PathRenderer<'a> {
             })
             .collect();
         // A device retired during the frame measured its failure, not its speed.
-        let samples: Vec<_> = launches(timeline, costs, work, opens)
+        let paths: Vec<usize> = tasks.iter().map(ExactSizeIterator::len).collect();
+        let samples: Vec<_> = launches(timeline, costs, work, &paths, opens)
             .into_iter()
             .filter(|l| !self.retired[active[l.device]])
             .collect();
