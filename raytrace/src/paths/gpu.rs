@@ -2,7 +2,9 @@
 //! Primary rays are made on the device, every generation is traced and shaded there, and the
 //! paths' values are read back once, at the end of the launch.
 
+use std::collections::VecDeque;
 use std::ops::Range;
+use std::time::Instant;
 
 use sched::{DeviceError, SampleRate};
 
@@ -17,7 +19,13 @@ use crate::{Bvh, Scene};
 pub struct GpuPaths {
     renderer: GpuRenderer,
     name: String,
+    /// The latest launches' seconds beyond their kernels (submission, read-back, unpacking).
+    overheads: VecDeque<f64>,
 }
+
+/// Launches whose overhead the median is taken over: recent enough to follow the frames,
+/// enough that one slow read-back does not decide it.
+const OVERHEADS_KEPT: usize = 9;
 
 impl GpuPaths {
     /// The adapter of `ctx` with `scene` and its `bvh` uploaded and the kernels compiled,
@@ -30,6 +38,7 @@ impl GpuPaths {
         Ok(Self {
             renderer: GpuRenderer::new(ctx, scene, bvh)?,
             name,
+            overheads: VecDeque::new(),
         })
     }
 
@@ -45,6 +54,7 @@ impl PathDevice for GpuPaths {
         frame: &Frame<'_>,
         tasks: &[&Range<usize>],
     ) -> Result<Launch, DeviceError> {
+        let started = Instant::now();
         let o = frame.options;
         let params = FrameParams {
             width: o.width,
@@ -55,6 +65,13 @@ impl PathDevice for GpuPaths {
             Shader::Ao(s) => self.renderer.render_ao(&params, tasks, &s),
             Shader::Whitted(s) => self.renderer.render_whitted(&params, tasks, &s),
         }?;
+        if let Some(kernels) = out.kernel_seconds {
+            let beyond = started.elapsed().as_secs_f64() - kernels;
+            if self.overheads.len() == OVERHEADS_KEPT {
+                self.overheads.pop_front();
+            }
+            self.overheads.push_back(beyond.max(0.0));
+        }
         Ok(Launch {
             values: out.values,
             rays: out.rays,
@@ -113,6 +130,17 @@ impl PathDevice for GpuPaths {
 
     fn name(&self) -> String {
         self.name.clone()
+    }
+
+    /// The median of the latest launches' time beyond their kernels, where the adapter times
+    /// its kernels and a launch has been made: known, it lets a policy launch most of a
+    /// device's list at once instead of halving it launch after launch, which on a GPU that
+    /// traces a frame in less time than a dozen read-backs take cost more than the imbalance
+    /// it saved.
+    fn launch_overhead(&self) -> Option<f64> {
+        let mut seen: Vec<f64> = self.overheads.iter().copied().collect();
+        seen.sort_by(f64::total_cmp);
+        seen.get(seen.len() / 2).copied()
     }
 
     fn class(&self) -> String {
