@@ -241,6 +241,10 @@ pub struct SceneMatrix<'a> {
     pub pipeline: Pipeline,
     /// The calibration that plans each path cell's first frame and keeps what it learnt.
     pub calibration: Option<&'a std::cell::RefCell<crate::calibration::Store>>,
+    /// The path devices, kept from cell to cell (empty before the first): a GPU keeps its
+    /// context, compiled kernels, buffers and measured launch overhead, so a cell's frame is
+    /// not its first on the device.
+    pub path_devices: std::cell::RefCell<Vec<Box<dyn raytrace::paths::PathDevice + 'a>>>,
 }
 
 impl SceneMatrix<'_> {

@@ -101,6 +101,10 @@ pub struct Args {
     /// Draw charts (PNG) into this directory: MRays/s, balance, sampling trade, cost image.
     #[arg(long)]
     plots: Option<PathBuf>,
+    /// Leave out the sampling-rate table, which traces every ray of a frame on the host once
+    /// per rate and task size: on a megapixel AO frame it takes longer than the matrix.
+    #[arg(long)]
+    no_trade: bool,
     /// Under `mpirun`: every rank is a node with the `--devices` of its own; compares the
     /// policies (default static-lpt, queue-fifo, queue-sorted, hybrid) over the nodes in cost mode,
     /// with balance over nodes and the time spent in MPI, then simulates 16 and 64 nodes
@@ -246,6 +250,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             repeats,
             pipeline,
             calibration: store.as_ref(),
+            path_devices: Default::default(),
         };
         let bar = ProgressBar::new(matrix.runs() as u64);
         bar.set_style(
@@ -261,7 +266,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         bar.finish_and_clear();
         let error_bar = table::replay_error(&recs).map(|(median, _, _)| median);
         sims.extend(simulate::simulate(name, &replays, &simulate, error_bar)?);
-        points.extend(trade::sampling_trade(&matrix)?);
+        if !args.no_trade {
+            points.extend(trade::sampling_trade(&matrix)?);
+        }
         if args.plots.is_some() && cost_png.is_none() {
             cost_png = Some(cost_image(scene, &bvh, width, height)?);
         }
@@ -300,8 +307,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
     out += &table::replays(&records);
     out += "\nTargets on these devices:\n\n";
     out += &table::targets(&records);
-    out += "\nSampling rate (thesis Table 4.1):\n\n";
-    out += &table::trade(&points);
+    if !args.no_trade {
+        out += "\nSampling rate (thesis Table 4.1):\n\n";
+        out += &table::trade(&points);
+    }
     if !sims.is_empty() {
         let shown = task_sizes
             .iter()

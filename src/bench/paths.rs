@@ -24,7 +24,12 @@ impl SceneMatrix<'_> {
         settings: Settings,
         measure_error: bool,
     ) -> Result<CellRun, CliError> {
-        let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
+        let kept = std::mem::take(&mut *self.path_devices.borrow_mut());
+        let devices = if kept.is_empty() {
+            build_path_devices(self.scene, self.bvh, self.devices, &[])?
+        } else {
+            kept
+        };
         let mut renderer = PathRenderer::new(devices, settings)?;
         let workload = crate::calibration::workload(self.scene_name, &self.shader(w));
         let recalled = self.calibration.map(|store| {
@@ -65,6 +70,10 @@ impl SceneMatrix<'_> {
         }
         if let Some(store) = self.calibration {
             store.borrow_mut().remember(&renderer, &workload);
+        }
+        // A device that failed is built anew for the next cell.
+        if let Some(devices) = renderer.into_devices() {
+            *self.path_devices.borrow_mut() = devices;
         }
         let error = measure_error.then(|| sums.ratio());
         let mut record = self.frames_record(w, settings, &frames);
