@@ -69,6 +69,9 @@ pub struct PathRun {
     pub host_waits: u64,
     /// Bytes of the paths' values sent to the host.
     pub film_bytes: u64,
+    /// Devices the reported frame left idle: the fastest class alone had rendered frames
+    /// faster than every device together.
+    pub left_idle: Vec<String>,
     pub devices: Vec<DeviceReport>,
 }
 
@@ -99,6 +102,12 @@ impl PathRun {
         for f in &self.failures {
             text += &format!("  failed: {f}\n");
         }
+        if !self.left_idle.is_empty() {
+            text += &format!(
+                "left idle: {} (the fastest devices alone rendered frames faster)\n",
+                self.left_idle.join(", ")
+            );
+        }
         text
     }
 
@@ -125,6 +134,7 @@ impl PathRun {
             device_to_host_bytes: t.device_to_host_bytes,
             host_waits: t.host_waits,
             film_bytes: s.film_bytes(),
+            left_idle: s.left_idle.clone(),
             devices: s
                 .devices
                 .iter()

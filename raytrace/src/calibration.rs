@@ -526,9 +526,11 @@ mod tests {
         assert!(err.contains("entry 0 (cpu/1 on box"), "{err}");
         assert!(err.contains("speed = 0"), "{err}");
 
-        let rate = sample()
-            .to_json()
-            .replacen("\"paths_per_second\": 375000.0", "\"paths_per_second\": -2.0", 1);
+        let rate = sample().to_json().replacen(
+            "\"paths_per_second\": 375000.0",
+            "\"paths_per_second\": -2.0",
+            1,
+        );
         let err = Calibration::parse(path, &rate).unwrap_err().to_string();
         assert!(err.contains("entry 0 (cpu/1 on box"), "{err}");
         assert!(err.contains("paths_per_second = -2"), "{err}");

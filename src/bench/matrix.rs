@@ -138,6 +138,10 @@ pub struct Record {
     /// the entries the bench wrote back (path pipeline, unless `--no-calibration`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub calibration: Option<crate::calibration::CalibrationReport>,
+    /// Devices a frame of the cell left idle because the fastest class alone had rendered
+    /// frames faster (path pipeline; absent when none was).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub left_idle: Vec<String>,
 }
 
 impl Record {
@@ -183,6 +187,7 @@ impl Record {
             fractional_bound_seconds: None,
             makespan_over_bound: None,
             calibration: None,
+            left_idle: Vec::new(),
         }
     }
 }
@@ -241,10 +246,11 @@ pub struct SceneMatrix<'a> {
     pub pipeline: Pipeline,
     /// The calibration that plans each path cell's first frame and keeps what it learnt.
     pub calibration: Option<&'a std::cell::RefCell<crate::calibration::Store>>,
-    /// The path devices, kept from cell to cell (empty before the first): a GPU keeps its
+    /// The path devices, kept from cell to cell (`None` before the first): a GPU keeps its
     /// context, compiled kernels, buffers and measured launch overhead, so a cell's frame is
-    /// not its first on the device.
-    pub path_devices: std::cell::RefCell<Vec<Box<dyn raytrace::paths::PathDevice + 'a>>>,
+    /// not its first on the device, and a cell runs on every device or on the fastest class
+    /// alone by what the cells before it measured.
+    pub path_devices: std::cell::RefCell<Option<raytrace::paths::KeptDevices<'a>>>,
 }
 
 impl SceneMatrix<'_> {

@@ -24,13 +24,14 @@ impl SceneMatrix<'_> {
         settings: Settings,
         measure_error: bool,
     ) -> Result<CellRun, CliError> {
-        let kept = std::mem::take(&mut *self.path_devices.borrow_mut());
-        let devices = if kept.is_empty() {
-            build_path_devices(self.scene, self.bvh, self.devices, &[])?
-        } else {
-            kept
+        let kept = self.path_devices.borrow_mut().take();
+        let mut renderer = match kept {
+            Some(kept) => PathRenderer::from_kept(kept, settings)?,
+            None => {
+                let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
+                PathRenderer::new(devices, settings)?
+            }
         };
-        let mut renderer = PathRenderer::new(devices, settings)?;
         let workload = crate::calibration::workload(self.scene_name, &self.shader(w));
         let recalled = self.calibration.map(|store| {
             let mut store = store.borrow_mut();
@@ -72,9 +73,7 @@ impl SceneMatrix<'_> {
             store.borrow_mut().remember(&renderer, &workload);
         }
         // A device that failed is built anew for the next cell.
-        if let Some(devices) = renderer.into_devices() {
-            *self.path_devices.borrow_mut() = devices;
-        }
+        *self.path_devices.borrow_mut() = renderer.into_kept();
         let error = measure_error.then(|| sums.ratio());
         let mut record = self.frames_record(w, settings, &frames);
         record.calibration = recalled;
@@ -112,6 +111,9 @@ impl SceneMatrix<'_> {
         r.device_to_host_bytes = Some(traffic.device_to_host_bytes);
         r.host_waits = Some(traffic.host_waits);
         r.film_bytes = Some(film_bytes);
+        r.left_idle = frames.iter().flat_map(|f| f.left_idle.clone()).collect();
+        r.left_idle.sort();
+        r.left_idle.dedup();
         r
     }
 

@@ -101,6 +101,7 @@ mod tests {
             fractional_bound_seconds: Some(0.4 * seconds),
             makespan_over_bound: Some(2.0),
             calibration: None,
+            left_idle: Vec::new(),
         }
     }
 

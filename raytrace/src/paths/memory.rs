@@ -178,11 +178,16 @@ mod tests {
         };
         let (one, two) = (rate("cpu/1"), rate("cpu/2"));
         let fastest = one.max(two);
-        for (d, rate) in [(0, one), (1, one), (2, two)] {
-            assert_eq!(second.speed(d), rate / fastest, "device {d}");
+        let planned = [one / fastest, one / fastest, two / fastest];
+        for (d, &speed) in planned.iter().enumerate() {
+            assert_eq!(second.speed(d), speed, "device {d}");
         }
+        // The first frame may leave the slower class idle (see `choice.rs`); the devices it
+        // runs on plan with the recalled speeds.
         let frame = second.render(&scene, &bvh, &options).unwrap();
-        assert_eq!(frame.stats.devices[2].speed, two / fastest);
+        for d in &frame.stats.devices {
+            assert_eq!(d.speed, planned[d.index], "{}", d.name);
+        }
     }
 
     /// Each class measured alone is the fastest of its run (speed 1); planned together, they

@@ -40,6 +40,7 @@
 //! ```
 
 mod build;
+mod choice;
 mod cpu;
 mod device;
 mod estimate;
@@ -59,5 +60,5 @@ pub use estimate::{estimate_paths, estimate_paths_in, sampled_options, task_work
 pub use fault::FailingPaths;
 #[cfg(feature = "gpu")]
 pub use gpu::GpuPaths;
-pub use renderer::{FrameRendering, PathRenderer};
+pub use renderer::{FrameRendering, KeptDevices, PathRenderer};
 pub use stats::{FrameStats, PathDeviceStats};

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use sched::{Costs, Runtime, SchedError, split_ranges};
 
+use super::choice::{ChoiceKey, SetTimes, choice_key};
 use super::learn::{Learnt, launches, learn, relative_speeds};
 use super::memory::History;
 use super::{
@@ -19,6 +20,13 @@ use crate::cost::{CostModel, Work};
 use crate::scheduled::{Mode, Settings, TaskStats};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene};
+
+/// A renderer's devices and what its frames measured of running them together and apart:
+/// see [`PathRenderer::into_kept`].
+pub struct KeptDevices<'a> {
+    devices: Vec<Box<dyn PathDevice + 'a>>,
+    choices: HashMap<ChoiceKey, SetTimes>,
+}
 
 /// A rendered frame: the image and how it was made.
 #[derive(Clone, Debug)]
@@ -45,6 +53,11 @@ pub struct PathRenderer<'a> {
     /// What the frames taught, per device class, for the next run's calibration.
     pub(super) history: HashMap<String, History>,
     pub(super) retired: Vec<bool>,
+    /// Devices the frame being rendered leaves idle: the fastest class renders it alone.
+    idle: Vec<bool>,
+    /// Per shader and mode, the seconds per path of frames on every device and on the fastest
+    /// class alone (see `choice.rs`).
+    choices: HashMap<ChoiceKey, SetTimes>,
     log: Vec<FrameStats>,
     /// [`PathRenderer::ranks`]' last image: its size and each pixel's path.
     ranks: Option<(u32, u32, Vec<u32>)>,
@@ -72,14 +85,31 @@ impl<'a> PathRenderer<'a> {
             models: HashMap::new(),
             history: HashMap::new(),
             retired: vec![false; m],
+            idle: vec![false; m],
+            choices: HashMap::new(),
             log: Vec::new(),
             ranks: None,
         })
     }
 
-    /// The devices, for another renderer, unless one of them failed.
-    pub fn into_devices(self) -> Option<Vec<Box<dyn PathDevice + 'a>>> {
-        (!self.retired.contains(&true)).then_some(self.devices)
+    /// The devices, with what the frames measured of running them together and apart, for
+    /// another renderer ([`PathRenderer::from_kept`]); `None` if a device failed.
+    pub fn into_kept(self) -> Option<KeptDevices<'a>> {
+        (!self.retired.contains(&true)).then_some(KeptDevices {
+            devices: self.devices,
+            choices: self.choices,
+        })
+    }
+
+    /// A renderer over `kept` devices, as [`PathRenderer::new`] but choosing which devices run
+    /// a frame from what the renderer they come from measured.
+    ///
+    /// # Errors
+    /// As [`PathRenderer::new`].
+    pub fn from_kept(kept: KeptDevices<'a>, settings: Settings) -> Result<Self, SchedError> {
+        let mut renderer = Self::new(kept.devices, settings)?;
+        renderer.choices = kept.choices;
+        Ok(renderer)
     }
 
     /// The settings.
@@ -111,6 +141,12 @@ impl<'a> PathRenderer<'a> {
     /// A device that fails is retired for this frame and the next, and its tasks are
     /// rendered by the others.
     ///
+    /// Where the devices are of more than one class, a frame runs either on all of them or
+    /// on the fastest class alone, whichever rendered this shader and mode faster per path
+    /// on the latest frame of each (each is tried once first), so that adding a device
+    /// never makes frames slower for long; `FrameStats::left_idle` names the devices left
+    /// out.
+    ///
     /// # Errors
     /// [`SchedError::AllDevicesFailed`] (naming each failure) when no device is left to
     /// finish the frame, or [`SchedError::NoDevices`] when every device had failed before.
@@ -127,17 +163,87 @@ impl<'a> PathRenderer<'a> {
             options,
         };
         let paths = frame.paths();
-        let active = self.devices.len() - self.retired.iter().filter(|r| **r).count();
+        let key = choice_key(&options.shader, self.settings.mode);
+        let alone = self.choose(key);
+        let active = (0..self.devices.len()).filter(|&d| self.runs(d)).count();
         let tasks = split_ranges(paths, self.settings.task_size_for(paths, active.max(1)));
-        let (outputs, mut stats) = self.run_tasks(&frame, &tasks)?;
+        let ran = self.run_tasks(&frame, &tasks);
+        self.idle.fill(false);
+        let (outputs, mut stats) = ran?;
         // `tasks` cut the paths in order, so their values end to end are in path order.
         let values = outputs.concat();
         let ranks = self.ranks(options.width, options.height);
         let pixels = ranks.par_iter().map(|&r| values[r as usize]).collect();
         let film = Film::from_pixels(options.width, options.height, pixels);
         stats.seconds = start.elapsed().as_secs_f64();
+        if let Some(alone) = alone {
+            let per_path = stats.seconds / paths as f64;
+            let fastest = self.fastest_class();
+            let times = self.choices.entry(key).or_default();
+            times.record(alone, per_path);
+            times.fastest = fastest.or(times.fastest.take());
+        }
         self.log.push(stats.clone());
         Ok(FrameRendering { film, stats })
+    }
+
+    /// The class of the highest speed measured or recalled among the devices not retired,
+    /// if every one of their classes has a speed.
+    fn fastest_class(&self) -> Option<String> {
+        let live = (0..self.devices.len()).filter(|&d| !self.retired[d]);
+        let mut best: Option<(String, f64)> = None;
+        for d in live {
+            let class = self.devices[d].class();
+            let speed = *self.speeds.get(&class)?;
+            if best.as_ref().is_none_or(|(_, s)| speed > *s) {
+                best = Some((class, speed));
+            }
+        }
+        best.map(|(class, _)| class)
+    }
+
+    /// Whether device `d` takes part in the frame being rendered.
+    fn runs(&self, d: usize) -> bool {
+        !self.retired[d] && !self.idle[d]
+    }
+
+    /// Decides whether the next frame of `key` runs on the fastest class alone (see
+    /// `choice.rs`) and leaves the other devices idle if so; `None` when the devices left are
+    /// of one class, and there is nothing to choose.
+    fn choose(&mut self, key: ChoiceKey) -> Option<bool> {
+        let live: Vec<usize> = (0..self.devices.len())
+            .filter(|&d| !self.retired[d])
+            .collect();
+        let class: Vec<String> = self.devices.iter().map(|d| d.class()).collect();
+        let first = live.first().map(|&d| &class[d])?;
+        if live.iter().all(|&d| class[d] == *first) {
+            return None;
+        }
+        let times = self.choices.get(&key).cloned().unwrap_or_default();
+        // The class earlier frames found fastest (of this shader and mode, else of any), else
+        // the fastest by the speeds known; a class no frame has measured is not taken for
+        // it, and the first of equals is.
+        let speed = |c: &String| self.speeds.get(c).copied().unwrap_or(0.0);
+        let fastest = times
+            .fastest
+            .clone()
+            .or_else(|| self.choices.values().find_map(|t| t.fastest.clone()))
+            .filter(|f| live.iter().any(|&d| class[d] == *f))
+            .or_else(|| {
+                let known = live.iter().all(|&d| self.speeds.contains_key(&class[d]));
+                let by_speed = live
+                    .iter()
+                    .map(|&d| &class[d])
+                    .reduce(|a, b| if speed(b) > speed(a) { b } else { a });
+                by_speed.filter(|_| known).cloned()
+            });
+        let alone = times.alone_next(fastest.is_some());
+        if let (true, Some(fastest)) = (alone, &fastest) {
+            for &d in &live {
+                self.idle[d] = class[d] != *fastest;
+            }
+        }
+        Some(alone && fastest.is_some())
     }
 
     /// The path (rank in Morton order) of each pixel of a `width x height` image, kept for
@@ -190,9 +296,7 @@ impl<'a> PathRenderer<'a> {
     ) -> Result<(Vec<Vec<Vec3>>, FrameStats), SchedError> {
         let start = Instant::now();
         let paths = frame.paths();
-        let active: Vec<usize> = (0..self.devices.len())
-            .filter(|&d| !self.retired[d])
-            .collect();
+        let active: Vec<usize> = (0..self.devices.len()).filter(|&d| self.runs(d)).collect();
         if active.is_empty() {
             return Err(SchedError::NoDevices);
         }
@@ -222,12 +326,12 @@ impl<'a> PathRenderer<'a> {
             0.0
         };
 
-        let retired = &self.retired;
+        let runs: Vec<bool> = (0..self.devices.len()).map(|d| self.runs(d)).collect();
         let mut bound: Vec<BoundPaths<'_, 'a>> = self
             .devices
             .iter_mut()
             .enumerate()
-            .filter(|(d, _)| !retired[*d])
+            .filter(|(d, _)| runs[*d])
             .zip(&speeds)
             .map(|((_, device), &speed)| BoundPaths::new(device.as_mut(), frame, speed))
             .collect();
@@ -331,6 +435,10 @@ impl<'a> PathRenderer<'a> {
                 .collect(),
             cost_model: model,
             spikes,
+            left_idle: (0..self.devices.len())
+                .filter(|&d| self.idle[d])
+                .map(|d| self.devices[d].name())
+                .collect(),
         };
         let outputs = report.outputs.into_iter().map(|o| o.values).collect();
         Ok((outputs, stats))
@@ -363,12 +471,12 @@ impl<'a> PathRenderer<'a> {
             })
             .collect();
         let shares = shares(tasks.len(), &estimating);
-        let retired = &self.retired;
+        let runs: Vec<bool> = (0..self.devices.len()).map(|d| self.runs(d)).collect();
         let mine: Vec<&mut Box<dyn PathDevice + 'a>> = self
             .devices
             .iter_mut()
             .enumerate()
-            .filter(|(d, _)| !retired[*d])
+            .filter(|(d, _)| runs[*d])
             .map(|(_, device)| device)
             .collect();
         debug_assert_eq!(mine.len(), active.len());

@@ -72,6 +72,9 @@ pub struct FrameStats {
     pub reruns: u64,
     /// Devices that failed during the frame.
     pub failures: Vec<DeviceFailure>,
+    /// Devices left idle because the fastest class alone rendered frames faster (see
+    /// [`crate::paths::PathRenderer::render`]).
+    pub left_idle: Vec<String>,
     /// The model that turned the estimated work into the planned costs.
     pub cost_model: CostModel,
     /// Launches whose time was far off their planned cost (timing spikes), left out of what

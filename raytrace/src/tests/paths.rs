@@ -104,6 +104,88 @@ impl PathDevice for Slow {
     }
 }
 
+/// A device of its own class that waits 40 ms before each launch: every frame it takes part
+/// in is slower than one without it, whatever the plan.
+struct Laggard(Box<dyn PathDevice>);
+
+impl PathDevice for Laggard {
+    fn render(
+        &mut self,
+        frame: &crate::paths::Frame<'_>,
+        tasks: &[&std::ops::Range<usize>],
+    ) -> Result<crate::paths::Launch, sched::DeviceError> {
+        std::thread::sleep(std::time::Duration::from_millis(40));
+        self.0.render(frame, tasks)
+    }
+
+    fn name(&self) -> String {
+        self.0.name()
+    }
+
+    fn class(&self) -> String {
+        "laggard".into()
+    }
+}
+
+/// A device whose presence slows every frame is left idle once both ways were measured, in
+/// this renderer and in one that takes over its devices (a bench's next cell), and the image
+/// does not change.
+#[test]
+fn a_device_that_slows_frames_is_left_idle() {
+    let shader = SHADERS[0];
+    let (scene, bvh) = scene("builtin:forest:0.05", &shader);
+    let options = RenderOptions::new(48, 40, Camera::orbit(&scene.bounds(), 0), shader);
+    let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
+    let mut devices = cpus(2);
+    let lagging = devices.remove(1);
+    devices.push(Box::new(Laggard(lagging)));
+    let mut r = PathRenderer::new(devices, settings(Policy::Hybrid, Mode::Regular, 64)).unwrap();
+    let idle: Vec<Vec<String>> = (0..4)
+        .map(|_| {
+            let frame = r.render(&scene, &bvh, &options).expect("frame");
+            assert_eq!(bits(&frame.film), reference);
+            frame.stats.left_idle
+        })
+        .collect();
+    let laggard = vec!["cpu1".to_string()];
+    assert_eq!(
+        idle[0],
+        Vec::<String>::new(),
+        "speeds unknown: every device first"
+    );
+    assert_eq!(
+        idle[1..],
+        [laggard.clone(), laggard.clone(), laggard.clone()]
+    );
+    let frames = r.stats();
+    assert!(frames[1].seconds < frames[0].seconds, "{frames:?}");
+
+    let kept = r.into_kept().expect("no device failed");
+    let mut next = PathRenderer::from_kept(kept, settings(Policy::Hybrid, Mode::Regular, 128));
+    let frame = next
+        .as_mut()
+        .unwrap()
+        .render(&scene, &bvh, &options)
+        .unwrap();
+    assert_eq!(
+        frame.stats.left_idle, laggard,
+        "the choice is kept with the devices"
+    );
+    assert_eq!(bits(&frame.film), reference);
+    // Another mode's frames cost otherwise and are measured afresh: the fastest class alone
+    // first, as the other mode found it, then every device.
+    let mut cost = PathRenderer::from_kept(
+        next.unwrap().into_kept().unwrap(),
+        settings(Policy::Hybrid, Mode::Cost, 64),
+    )
+    .unwrap();
+    let frame = cost.render(&scene, &bvh, &options).unwrap();
+    assert_eq!(frame.stats.left_idle, laggard);
+    let frame = cost.render(&scene, &bvh, &options).unwrap();
+    assert!(frame.stats.left_idle.is_empty());
+    assert_eq!(bits(&frame.film), reference);
+}
+
 /// A device that fails mid-frame has its paths rendered by the other: the same image, the
 /// failure and the re-runs reported, and the device left out of the next frame.
 #[test]
