@@ -1,12 +1,14 @@
 //! What a run learnt about the machine, kept for the next run: per host, device class and
 //! workload, the device's speed (relative, and in paths per second) and its cost model's `kR`,
 //! `kB`, `kT`, so that the first plan of a run is made with what the last one measured rather
-//! than with equal speeds.
+//! than with equal speeds; and per set of device classes, workload and mode, whether frames
+//! ran faster on every device or on the fastest class alone.
 //!
 //! The file is JSON: `{"version": 1, "entries": [{"host", "device", "workload", "speed",
-//! "paths_per_second", "kr", "kb", "kt", "samples", "spikes"}, …]}` (`paths_per_second` may be
-//! absent; `kr` too, read as 0). By default
-//! it lives in the user's cache directory ([`default_path`]).
+//! "paths_per_second", "kr", "kb", "kt", "samples", "spikes"}, …], "choices": [{"host",
+//! "devices", "workload", "mode", "shader", "all_seconds_per_path", "alone_seconds_per_path",
+//! "fastest"}, …]}` (`paths_per_second`, `choices` and a choice's figures may be absent; `kr`
+//! too, read as 0). By default it lives in the user's cache directory ([`default_path`]).
 //!
 //! A missing file is an empty calibration. A file that cannot be parsed, or holds a value no
 //! plan can use, is a [`CalibrationError`] naming the file and the line or entry: the caller
@@ -118,9 +120,9 @@ pub enum CalibrationError {
     BadValue {
         /// The file.
         path: PathBuf,
-        /// 0-based index of the entry in the file.
+        /// 0-based index of the entry (or of the choice) in the file.
         entry: usize,
-        /// Its key: `DEVICE on HOST, WORKLOAD`.
+        /// Its key: `DEVICE on HOST, WORKLOAD` (`choice of DEVICES on HOST, WORKLOAD`).
         key: String,
         /// The field.
         field: &'static str,
@@ -139,10 +141,37 @@ pub enum CalibrationError {
     },
 }
 
+/// What frames on one set of device classes measured of running on every device or on the
+/// fastest class alone (see [`crate::paths::PathRenderer::render`]), for one workload and mode.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Choice {
+    /// The shader's name (`ao`, `whitted`): the renderer keeps its choices per shader.
+    pub shader: String,
+    /// Seconds per path of the latest frame on every device (finite and positive).
+    pub all: Option<f64>,
+    /// Seconds per path of the latest frame on the fastest class alone (finite and positive).
+    pub alone: Option<f64>,
+    /// The class that rendered alone.
+    pub fastest: Option<String>,
+}
+
+/// Where a [`Choice`] applies: a [`Key`] whose `device` is the set's classes, sorted and
+/// joined by ` + ` ([`device_set`]), and the mode's name (`regular`, `cost`).
+pub type ChoiceKey = (Key, String);
+
+/// The name of a set of device classes in a [`ChoiceKey`].
+pub fn device_set<'c>(classes: impl IntoIterator<Item = &'c str>) -> String {
+    let mut names: Vec<&str> = classes.into_iter().collect();
+    names.sort_unstable();
+    names.dedup();
+    names.join(" + ")
+}
+
 /// The entries of a calibration file, in memory.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Calibration {
     entries: BTreeMap<Key, Entry>,
+    choices: BTreeMap<ChoiceKey, Choice>,
 }
 
 /// The file as written: a version, and the entries with their keys spelled out.
@@ -151,6 +180,30 @@ pub struct Calibration {
 struct File {
     version: u32,
     entries: Vec<Record>,
+    /// Absent in files written before the renderer chose its devices.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    choices: Vec<ChoiceRecord>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ChoiceRecord {
+    host: String,
+    devices: String,
+    workload: String,
+    mode: String,
+    shader: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    all_seconds_per_path: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    alone_seconds_per_path: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    fastest: Option<String>,
+}
+
+/// `v` where it is absent or a finite number > 0.
+fn positive_or_absent(v: Option<f64>) -> bool {
+    v.is_none_or(|v| v.is_finite() && v > 0.0)
 }
 
 #[derive(Serialize, Deserialize)]
@@ -272,7 +325,34 @@ impl Calibration {
             };
             entries.insert(r.key, entry);
         }
-        Ok(Self { entries })
+        let mut choices = BTreeMap::new();
+        for (i, r) in file.choices.into_iter().enumerate() {
+            let bad = |field, value| CalibrationError::BadValue {
+                path: path.to_owned(),
+                entry: i,
+                key: format!("choice of {} on {}, {}", r.devices, r.host, r.workload),
+                field,
+                value,
+                why: "is not a finite number > 0",
+            };
+            for (field, v) in [
+                ("all_seconds_per_path", r.all_seconds_per_path),
+                ("alone_seconds_per_path", r.alone_seconds_per_path),
+            ] {
+                if let Some(v) = v.filter(|&v| !positive_or_absent(Some(v))) {
+                    return Err(bad(field, v));
+                }
+            }
+            let key = (Key::new(&r.host, &r.devices, &r.workload), r.mode);
+            let choice = Choice {
+                shader: r.shader,
+                all: r.all_seconds_per_path,
+                alone: r.alone_seconds_per_path,
+                fastest: r.fastest,
+            };
+            choices.insert(key, choice);
+        }
+        Ok(Self { entries, choices })
     }
 
     /// The file's text: entries in key order, so that equal calibrations write equal files.
@@ -291,6 +371,20 @@ impl Calibration {
                     kt: e.model.map(|m| m.kt),
                     samples: e.samples,
                     spikes: e.spikes,
+                })
+                .collect(),
+            choices: self
+                .choices
+                .iter()
+                .map(|((key, mode), c)| ChoiceRecord {
+                    host: key.host.clone(),
+                    devices: key.device.clone(),
+                    workload: key.workload.clone(),
+                    mode: mode.clone(),
+                    shader: c.shader.clone(),
+                    all_seconds_per_path: c.all,
+                    alone_seconds_per_path: c.alone,
+                    fastest: c.fastest.clone(),
                 })
                 .collect(),
         };
@@ -352,6 +446,21 @@ impl Calibration {
             self.entries.insert(key, entry);
         }
         speed_ok && model_ok
+    }
+
+    /// The choice kept for `key`, if there is one.
+    pub fn choice(&self, key: &ChoiceKey) -> Option<&Choice> {
+        self.choices.get(key)
+    }
+
+    /// Records (or replaces) the choice of `key`; one with a time that is not finite and
+    /// positive is not recorded: returns whether it was.
+    pub fn insert_choice(&mut self, key: ChoiceKey, choice: Choice) -> bool {
+        let ok = positive_or_absent(choice.all) && positive_or_absent(choice.alone);
+        if ok {
+            self.choices.insert(key, choice);
+        }
+        ok
     }
 
     /// Every entry, in key order.
@@ -454,6 +563,29 @@ mod tests {
             Key::new("other", "cpu/1", "scene.obj ao"),
             entry(0.1 + 0.2, None, 0)
         ));
+        let set = device_set(["gpu0 (lavapipe)", "cpu/1", "cpu/1"]);
+        assert_eq!(set, "cpu/1 + gpu0 (lavapipe)");
+        assert!(c.insert_choice(
+            (
+                Key::new("box", &set, "builtin:cornell whitted"),
+                "cost".into()
+            ),
+            Choice {
+                shader: "whitted".into(),
+                all: Some(2.5e-7),
+                alone: Some(1.0 / 3.0 * 1e-6),
+                fastest: Some("cpu/1".into()),
+            },
+        ));
+        assert!(!c.insert_choice(
+            (Key::new("box", &set, "w"), "regular".into()),
+            Choice {
+                shader: "ao".into(),
+                all: Some(f64::INFINITY),
+                alone: None,
+                fastest: None,
+            },
+        ));
         c
     }
 
@@ -525,6 +657,18 @@ mod tests {
         let err = Calibration::parse(path, &zero).unwrap_err().to_string();
         assert!(err.contains("entry 0 (cpu/1 on box"), "{err}");
         assert!(err.contains("speed = 0"), "{err}");
+
+        let slow = sample().to_json().replacen(
+            "\"all_seconds_per_path\": 2.5e-7",
+            "\"all_seconds_per_path\": 0.0",
+            1,
+        );
+        let err = Calibration::parse(path, &slow).unwrap_err().to_string();
+        assert!(
+            err.contains("(choice of cpu/1 + gpu0 (lavapipe) on box"),
+            "{err}"
+        );
+        assert!(err.contains("all_seconds_per_path = 0"), "{err}");
 
         let rate = sample().to_json().replacen(
             "\"paths_per_second\": 375000.0",

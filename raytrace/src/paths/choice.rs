@@ -9,21 +9,46 @@
 //! per path of the latest frame rendered on every device and of the latest on the fastest
 //! class alone, and renders the next frame the way that was faster. The way in use is
 //! measured again on every frame, so when it slows down past the other's figure the other is
-//! tried again.
+//! tried again. The figures travel with the devices to the next renderer over them
+//! ([`crate::paths::PathRenderer::into_kept`]) and, through a calibration file, to the next
+//! run ([`crate::paths::PathRenderer::remember`]).
 
+use crate::calibration::Choice;
 use crate::scheduled::Mode;
 use crate::shade::Shader;
 
-/// Which frames a figure belongs to: a shader's name and the mode.
+/// Which frames a figure belongs to: a shader's name ([`Shader::name`]) and the mode.
 pub(crate) type ChoiceKey = (&'static str, Mode);
 
 /// The key of frames of `shader` in `mode`.
 pub(crate) fn choice_key(shader: &Shader, mode: Mode) -> ChoiceKey {
-    let name = match shader {
-        Shader::Ao(_) => "ao",
-        Shader::Whitted(_) => "whitted",
-    };
-    (name, mode)
+    (shader.name(), mode)
+}
+
+/// The shader named `name` in a calibration file, as a key's; `None` for another name.
+pub(crate) fn shader_named(name: &str) -> Option<&'static str> {
+    ["ao", "whitted"].into_iter().find(|&n| n == name)
+}
+
+impl SetTimes {
+    /// What a calibration file keeps of these times for frames of `shader`.
+    pub fn to_choice(&self, shader: &str) -> Choice {
+        Choice {
+            shader: shader.to_owned(),
+            all: self.all,
+            alone: self.alone,
+            fastest: self.fastest.clone(),
+        }
+    }
+
+    /// The times a calibration file kept.
+    pub fn from_choice(c: &Choice) -> Self {
+        Self {
+            all: c.all,
+            alone: c.alone,
+            fastest: c.fastest.clone(),
+        }
+    }
 }
 
 /// Seconds per path of the latest frame rendered each way, where one was, and the class that

@@ -11,10 +11,12 @@
 //! counted differently by each kind of device. Within a run the model stays the one the run
 //! started with, so that its frames are costed in one unit and compare.
 
-use crate::calibration::{Calibration, Entry, Key};
+use crate::calibration::{Calibration, ChoiceKey, Entry, Key, device_set};
 use crate::cost::{CostModel, Work, calibrate};
+use crate::scheduled::Mode;
 
 use super::PathRenderer;
+use super::choice::{SetTimes, shader_named};
 use super::learn::Learnt;
 
 /// Fewer launches than this fit no model worth planning with: with two unknowns, a handful
@@ -100,7 +102,27 @@ impl PathRenderer<'_> {
                 self.models.insert(class.clone(), m);
             }
         }
+        // What frames on these classes measured of leaving some idle; the renderer's own
+        // measurements (a bench cell's devices kept from the cell before) are fresher.
+        for mode in [Mode::Regular, Mode::Cost] {
+            let Some(c) = calibration.choice(&self.choice_key(host, workload, mode)) else {
+                continue;
+            };
+            if let Some(shader) = shader_named(&c.shader) {
+                self.choices
+                    .entry((shader, mode))
+                    .or_insert_with(|| SetTimes::from_choice(c));
+            }
+        }
         entries.len()
+    }
+
+    /// Where the calibration keeps the choices of frames of `workload` in `mode` on this
+    /// renderer's device classes.
+    fn choice_key(&self, host: &str, workload: &str, mode: Mode) -> ChoiceKey {
+        let classes: Vec<String> = self.devices.iter().map(|d| d.class()).collect();
+        let set = device_set(classes.iter().map(String::as_str));
+        (Key::new(host, &set, workload), mode.name().to_owned())
     }
 
     /// Records in `calibration`, for `host` and `workload`, each device class's speed as the
@@ -130,6 +152,17 @@ impl PathRenderer<'_> {
             };
             if calibration.insert(key, entry) {
                 written += 1;
+            }
+        }
+        if let Some(shader) = self.last_shader {
+            for mode in [Mode::Regular, Mode::Cost] {
+                let Some(times) = self.choices.get(&(shader, mode)) else {
+                    continue;
+                };
+                let key = self.choice_key(host, workload, mode);
+                if calibration.insert_choice(key, times.to_choice(shader)) {
+                    written += 1;
+                }
             }
         }
         written
@@ -163,8 +196,8 @@ mod tests {
         let mut calibration = Calibration::new();
         assert_eq!(first.recall(&calibration, "h", "w"), 0);
         first.render(&scene, &bvh, &options).unwrap();
-        // Two classes, `cpu/1` and `cpu/2`, each measured.
-        assert_eq!(first.remember(&mut calibration, "h", "w"), 2);
+        // Two classes, `cpu/1` and `cpu/2`, each measured, and the frame's choice of devices.
+        assert_eq!(first.remember(&mut calibration, "h", "w"), 3);
         let stored = calibration.get(&Key::new("h", "cpu/2", "w")).unwrap();
         assert!(stored.samples >= 1, "{stored:?}");
 
@@ -188,6 +221,45 @@ mod tests {
         for d in &frame.stats.devices {
             assert_eq!(d.speed, planned[d.index], "{}", d.name);
         }
+    }
+
+    /// What frames measured of running on every device or on the fastest class alone is kept
+    /// per device set, workload and mode, and a later renderer over the same classes starts
+    /// from it.
+    #[test]
+    fn the_choice_of_devices_is_remembered() {
+        let shader = Shader::Whitted(Default::default());
+        let scene = SceneSource::parse("builtin:cornell:0.2")
+            .unwrap()
+            .load(shader.needs())
+            .unwrap();
+        let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
+        let options = RenderOptions::new(32, 32, Camera::orbit(&scene.bounds(), 0), shader);
+        let specs = parse_devices("cpu:2,cpu:1/2").unwrap();
+        let renderer = || {
+            let devices = build_path_devices(&scene, &bvh, &specs, &[]).unwrap();
+            PathRenderer::new(devices, Settings::default()).unwrap()
+        };
+        let mut first = renderer();
+        for _ in 0..2 {
+            first.render(&scene, &bvh, &options).unwrap();
+        }
+        let key = ("whitted", Settings::default().mode);
+        let measured = first.choices[&key].clone();
+        assert!(
+            measured.all.is_some() && measured.alone.is_some(),
+            "{measured:?}"
+        );
+        let mut calibration = Calibration::new();
+        // Two classes' entries and one choice.
+        assert_eq!(first.remember(&mut calibration, "h", "w"), 3);
+
+        let mut second = renderer();
+        second.recall(&calibration, "h", "w");
+        assert_eq!(second.choices[&key], measured);
+        let mut other = renderer();
+        other.recall(&calibration, "h", "another workload");
+        assert!(other.choices.is_empty());
     }
 
     /// Each class measured alone is the fastest of its run (speed 1); planned together, they

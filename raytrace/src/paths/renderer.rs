@@ -57,7 +57,9 @@ pub struct PathRenderer<'a> {
     idle: Vec<bool>,
     /// Per shader and mode, the seconds per path of frames on every device and on the fastest
     /// class alone (see `choice.rs`).
-    choices: HashMap<ChoiceKey, SetTimes>,
+    pub(super) choices: HashMap<ChoiceKey, SetTimes>,
+    /// The shader of the latest frame rendered, whose choices a calibration keeps.
+    pub(super) last_shader: Option<&'static str>,
     log: Vec<FrameStats>,
     /// [`PathRenderer::ranks`]' last image: its size and each pixel's path.
     ranks: Option<(u32, u32, Vec<u32>)>,
@@ -87,6 +89,7 @@ impl<'a> PathRenderer<'a> {
             retired: vec![false; m],
             idle: vec![false; m],
             choices: HashMap::new(),
+            last_shader: None,
             log: Vec::new(),
             ranks: None,
         })
@@ -164,6 +167,7 @@ impl<'a> PathRenderer<'a> {
         };
         let paths = frame.paths();
         let key = choice_key(&options.shader, self.settings.mode);
+        self.last_shader = Some(key.0);
         let alone = self.choose(key);
         let active = (0..self.devices.len()).filter(|&d| self.runs(d)).count();
         let tasks = split_ranges(paths, self.settings.task_size_for(paths, active.max(1)));
