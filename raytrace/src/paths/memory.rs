@@ -176,10 +176,10 @@ mod tests {
     use crate::paths::{PathRenderer, build_path_devices};
     use crate::scheduled::Settings;
     use crate::shade::{RenderOptions, Shader};
-    use crate::{BuildPreset, Bvh, Camera, SceneSource};
+    use crate::{BuildPreset, Bvh, Camera, Scene, SceneSource};
 
-    #[test]
-    fn what_one_renderer_remembers_plans_the_next_ones_first_frame() {
+    /// A small Whitted frame of the Cornell box.
+    fn cornell() -> (Scene, Bvh, RenderOptions) {
         let shader = Shader::Whitted(Default::default());
         let scene = SceneSource::parse("builtin:cornell:0.2")
             .unwrap()
@@ -187,12 +187,20 @@ mod tests {
             .unwrap();
         let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
         let options = RenderOptions::new(32, 32, Camera::orbit(&scene.bounds(), 0), shader);
+        (scene, bvh, options)
+    }
+
+    /// A renderer over two classes: two `cpu/1` devices and one `cpu/2`.
+    fn renderer<'a>(scene: &'a Scene, bvh: &'a Bvh) -> PathRenderer<'a> {
         let specs = parse_devices("cpu:2,cpu:1/2").unwrap();
-        let renderer = || {
-            let devices = build_path_devices(&scene, &bvh, &specs, &[]).unwrap();
-            PathRenderer::new(devices, Settings::default()).unwrap()
-        };
-        let mut first = renderer();
+        let devices = build_path_devices(scene, bvh, &specs, &[]).unwrap();
+        PathRenderer::new(devices, Settings::default()).unwrap()
+    }
+
+    #[test]
+    fn what_one_renderer_remembers_plans_the_next_ones_first_frame() {
+        let (scene, bvh, options) = cornell();
+        let mut first = renderer(&scene, &bvh);
         let mut calibration = Calibration::new();
         assert_eq!(first.recall(&calibration, "h", "w"), 0);
         first.render(&scene, &bvh, &options).unwrap();
@@ -201,7 +209,7 @@ mod tests {
         let stored = calibration.get(&Key::new("h", "cpu/2", "w")).unwrap();
         assert!(stored.samples >= 1, "{stored:?}");
 
-        let mut second = renderer();
+        let mut second = renderer(&scene, &bvh);
         assert_eq!(second.recall(&calibration, "h", "other workload"), 0);
         assert_eq!(second.speed(2), 1.0);
         assert_eq!(second.recall(&calibration, "h", "w"), 2);
@@ -228,19 +236,8 @@ mod tests {
     /// from it.
     #[test]
     fn the_choice_of_devices_is_remembered() {
-        let shader = Shader::Whitted(Default::default());
-        let scene = SceneSource::parse("builtin:cornell:0.2")
-            .unwrap()
-            .load(shader.needs())
-            .unwrap();
-        let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
-        let options = RenderOptions::new(32, 32, Camera::orbit(&scene.bounds(), 0), shader);
-        let specs = parse_devices("cpu:2,cpu:1/2").unwrap();
-        let renderer = || {
-            let devices = build_path_devices(&scene, &bvh, &specs, &[]).unwrap();
-            PathRenderer::new(devices, Settings::default()).unwrap()
-        };
-        let mut first = renderer();
+        let (scene, bvh, options) = cornell();
+        let mut first = renderer(&scene, &bvh);
         for _ in 0..2 {
             first.render(&scene, &bvh, &options).unwrap();
         }
@@ -254,10 +251,10 @@ mod tests {
         // Two classes' entries and one choice.
         assert_eq!(first.remember(&mut calibration, "h", "w"), 3);
 
-        let mut second = renderer();
+        let mut second = renderer(&scene, &bvh);
         second.recall(&calibration, "h", "w");
         assert_eq!(second.choices[&key], measured);
-        let mut other = renderer();
+        let mut other = renderer(&scene, &bvh);
         other.recall(&calibration, "h", "another workload");
         assert!(other.choices.is_empty());
     }
@@ -266,12 +263,7 @@ mod tests {
     /// take their speeds from their paths per second, and from nothing where a class has none.
     #[test]
     fn classes_measured_in_separate_runs_plan_by_their_paths_per_second() {
-        let scene = SceneSource::parse("builtin:cornell:0.2")
-            .unwrap()
-            .load(Shader::Whitted(Default::default()).needs())
-            .unwrap();
-        let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
-        let specs = parse_devices("cpu:2,cpu:1/2").unwrap();
+        let (scene, bvh, _) = cornell();
         let entry = |paths_per_second| Entry {
             speed: 1.0,
             paths_per_second,
@@ -282,16 +274,14 @@ mod tests {
         let mut calibration = Calibration::new();
         calibration.insert(Key::new("h", "cpu/1", "w"), entry(Some(1000.0)));
         calibration.insert(Key::new("h", "cpu/2", "w"), entry(Some(4000.0)));
-        let devices = build_path_devices(&scene, &bvh, &specs, &[]).unwrap();
-        let mut r = PathRenderer::new(devices, Settings::default()).unwrap();
+        let mut r = renderer(&scene, &bvh);
         assert_eq!(r.recall(&calibration, "h", "w"), 2);
         assert_eq!([r.speed(0), r.speed(1), r.speed(2)], [0.25, 0.25, 1.0]);
 
         // An older entry without paths per second: its relative speed of 1 would plan a
         // class against one it never ran beside, so both start at equal speeds.
         calibration.insert(Key::new("h", "cpu/2", "w"), entry(None));
-        let devices = build_path_devices(&scene, &bvh, &specs, &[]).unwrap();
-        let mut r = PathRenderer::new(devices, Settings::default()).unwrap();
+        let mut r = renderer(&scene, &bvh);
         assert_eq!(r.recall(&calibration, "h", "w"), 2);
         assert_eq!([r.speed(0), r.speed(1), r.speed(2)], [1.0; 3]);
     }

@@ -81,49 +81,29 @@ fn every_plan_renders_the_reference_image() {
     }
 }
 
-/// A device that takes a millisecond more per launch: under a queue policy the other device
-/// then gets tasks of its own, however the threads are scheduled on a loaded machine.
-struct Slow(Box<dyn PathDevice>);
-
-impl PathDevice for Slow {
-    fn render(
-        &mut self,
-        frame: &crate::paths::Frame<'_>,
-        tasks: &[&std::ops::Range<usize>],
-    ) -> Result<crate::paths::Launch, sched::DeviceError> {
-        std::thread::sleep(std::time::Duration::from_millis(1));
-        self.0.render(frame, tasks)
-    }
-
-    fn name(&self) -> String {
-        self.0.name()
-    }
-
-    fn class(&self) -> String {
-        self.0.class()
-    }
+/// A device that waits before each launch, of its own class where `class` names one.
+struct Delayed {
+    inner: Box<dyn PathDevice>,
+    millis: u64,
+    class: Option<&'static str>,
 }
 
-/// A device of its own class that waits 40 ms before each launch: every frame it takes part
-/// in is slower than one without it, whatever the plan.
-struct Laggard(Box<dyn PathDevice>);
-
-impl PathDevice for Laggard {
+impl PathDevice for Delayed {
     fn render(
         &mut self,
         frame: &crate::paths::Frame<'_>,
         tasks: &[&std::ops::Range<usize>],
     ) -> Result<crate::paths::Launch, sched::DeviceError> {
-        std::thread::sleep(std::time::Duration::from_millis(40));
-        self.0.render(frame, tasks)
+        std::thread::sleep(std::time::Duration::from_millis(self.millis));
+        self.inner.render(frame, tasks)
     }
 
     fn name(&self) -> String {
-        self.0.name()
+        self.inner.name()
     }
 
     fn class(&self) -> String {
-        "laggard".into()
+        self.class.map_or_else(|| self.inner.class(), str::to_owned)
     }
 }
 
@@ -138,7 +118,13 @@ fn a_device_that_slows_frames_is_left_idle() {
     let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
     let mut devices = cpus(2);
     let lagging = devices.remove(1);
-    devices.push(Box::new(Laggard(lagging)));
+    // A device of its own class that waits 40 ms before each launch: every frame it takes
+    // part in is slower than one without it, whatever the plan.
+    devices.push(Box::new(Delayed {
+        inner: lagging,
+        millis: 40,
+        class: Some("laggard"),
+    }));
     let mut r = PathRenderer::new(devices, settings(Policy::Hybrid, Mode::Regular, 64)).unwrap();
     let idle: Vec<Vec<String>> = (0..4)
         .map(|_| {
@@ -198,7 +184,13 @@ fn a_device_lost_mid_frame_changes_nothing() {
             let mut devices = cpus(2);
             let failing = devices.remove(1);
             let healthy = devices.remove(0);
-            devices.push(Box::new(Slow(healthy)));
+            // A millisecond more per launch: under a queue policy the other device then gets
+            // tasks of its own, however the threads are scheduled on a loaded machine.
+            devices.push(Box::new(Delayed {
+                inner: healthy,
+                millis: 1,
+                class: None,
+            }));
             devices.push(Box::new(FailingPaths::new(failing, 2)));
             let mut r = PathRenderer::new(devices, settings(policy, Mode::Cost, 64)).expect("r");
             let out = r.render(&scene, &bvh, &options).expect("frame");
