@@ -486,9 +486,11 @@ impl GpuRenderer {
         if !done.drained {
             return Ok(None);
         }
-        let values: Vec<f32> = bytemuck::pod_collect_to_vec(&done.values);
+        // One pass from the bytes read back: a megapixel frame's copies in between cost
+        // more than its kernels' read-back.
+        let value = |c: &[u8]| Vec3::splat(bytemuck::pod_read_unaligned::<f32>(c));
         Ok(Some(PathValues {
-            values: values.into_iter().map(Vec3::splat).collect(),
+            values: done.values.chunks_exact(4).map(value).collect(),
             rays: n as usize * (1 + samples as usize),
             kernel_seconds: done.kernel_seconds,
             traffic,

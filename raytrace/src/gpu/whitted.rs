@@ -192,9 +192,13 @@ impl GpuRenderer {
         if !done.drained {
             return Ok(None);
         }
-        let values: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&done.values);
+        // One pass from the bytes read back, as for AO.
+        let value = |c: &[u8]| {
+            let v: [f32; 4] = bytemuck::pod_read_unaligned(c);
+            Vec3::new(v[0], v[1], v[2])
+        };
         Ok(Some(PathValues {
-            values: values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect(),
+            values: done.values.chunks_exact(16).map(value).collect(),
             rays: traced,
             kernel_seconds: done.kernel_seconds,
             traffic,

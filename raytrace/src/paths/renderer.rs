@@ -170,14 +170,16 @@ impl<'a> PathRenderer<'a> {
         self.last_shader = Some(key.0);
         let alone = self.choose(key);
         let active = (0..self.devices.len()).filter(|&d| self.runs(d)).count();
-        let tasks = split_ranges(paths, self.settings.task_size_for(paths, active.max(1)));
+        let size = self.settings.task_size_for(paths, active.max(1));
+        let tasks = split_ranges(paths, size);
         let ran = self.run_tasks(&frame, &tasks);
         self.idle.fill(false);
         let (outputs, mut stats) = ran?;
-        // `tasks` cut the paths in order, so their values end to end are in path order.
-        let values = outputs.concat();
+        // `tasks` cut the paths in order into runs of `size`: path `r` is value `r % size` of
+        // task `r / size` (each task's values are checked to be one per path).
         let ranks = self.ranks(options.width, options.height);
-        let pixels = ranks.par_iter().map(|&r| values[r as usize]).collect();
+        let value = |r: u32| outputs[r as usize / size][r as usize % size];
+        let pixels = ranks.par_iter().map(|&r| value(r)).collect();
         let film = Film::from_pixels(options.width, options.height, pixels);
         stats.seconds = start.elapsed().as_secs_f64();
         if let Some(alone) = alone {
