@@ -1,8 +1,8 @@
 //! `cobalt bench --plots DIR`: charts in the manner of the thesis: Figure 4.1 (rendering
 //! efficiency, MRays/s) and Figure 4.2 (balance efficiency) as bars of regular and cost-based
 //! runs per policy and task size, the estimators' trade of Table 4.1 judged by time (error
-//! against measured task times over net overhead, per walk and sampling rate), and the cost
-//! image of Figure 3.2.
+//! against measured task times over net overhead, per walk and sampling rate, with the LPT
+//! balance each buys), and the cost image of Figure 3.2.
 //!
 //! Text is drawn from a TrueType font read at run time (`$COBALT_FONT`, else DejaVu Sans from
 //! Debian's `fonts-dejavu-core`), so no font library is linked; without one, `--plots` says
@@ -184,8 +184,9 @@ fn bars(
 }
 
 /// The estimators' trade: error against measured time over net overhead, one line per ray kind
-/// and walk, points labelled by sampling rate: the first scene's, at tasks of 4096 rays if
-/// measured (else the first size).
+/// and walk, points labelled by sampling rate and by the balance an LPT plan on 8 devices by
+/// those estimates reaches (judged by the measured task times): the first scene's, at tasks of
+/// 4096 rays if measured (else the first size).
 fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
     let Some(first) = points.first() else {
         return Ok(());
@@ -260,15 +261,16 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
             } else {
                 base
             };
-            let pts: Vec<(f64, f64, f64)> = points
+            let pts: Vec<(f64, f64, String)> = points
                 .iter()
                 .filter(|p| p.ray_kind == kind && p.walk == walk)
                 .filter_map(|p| {
-                    Some((
-                        100.0 * p.net_overhead,
-                        100.0 * p.error_vs_time?,
-                        p.sample_rate,
-                    ))
+                    let rate = format!("{:.1} %", 100.0 * p.sample_rate);
+                    let label = match p.lpt_balance {
+                        Some(b) => format!("{rate}, LPT {:.1} %", 100.0 * b),
+                        None => rate,
+                    };
+                    Some((100.0 * p.net_overhead, 100.0 * p.error_vs_time?, label))
                 })
                 .collect();
             if pts.is_empty() {
@@ -276,7 +278,7 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
             }
             chart
                 .draw_series(LineSeries::new(
-                    pts.iter().map(|&(x, y, _)| (x, y)),
+                    pts.iter().map(|(x, y, _)| (*x, *y)),
                     colour.stroke_width(2),
                 ))
                 .map_err(draw_err)?
@@ -285,14 +287,10 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
                     PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
                 });
             chart
-                .draw_series(pts.iter().map(|&(x, y, rate)| {
-                    EmptyElement::at((x, y))
+                .draw_series(pts.iter().map(|(x, y, label)| {
+                    EmptyElement::at((*x, *y))
                         + Circle::new((0, 0), 4, colour.filled())
-                        + Text::new(
-                            format!("{:.1} %", 100.0 * rate),
-                            (6, -16),
-                            ("sans-serif", 13),
-                        )
+                        + Text::new(label.clone(), (6, -16), ("sans-serif", 13))
                 }))
                 .map_err(draw_err)?;
         }
