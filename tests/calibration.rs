@@ -24,8 +24,8 @@ fn report(o: &std::process::Output) -> Value {
     serde_json::from_slice(&o.stdout).expect("a JSON report")
 }
 
-/// Two renders with one `--calibration` file: the first writes an entry per device class,
-/// the second plans its first frame with them, and the image does not change (where a task
+/// Two renders with one `--calibration` file: the first writes an entry per device class and
+/// what its frame measured of running on both, the second plans its first frame with them, and the image does not change (where a task
 /// runs never changes what its paths render). The user's cache is left alone.
 #[test]
 fn a_second_render_plans_with_what_the_first_learnt() {
@@ -40,7 +40,10 @@ fn a_second_render_plans_with_what_the_first_learnt() {
     let c = &first["calibration"];
     assert_eq!(c["file"].as_str(), file.to_str(), "{c}");
     assert_eq!(c["loaded_entries"], 0, "{c}");
-    assert_eq!(c["written_entries"], 2, "one entry per device class: {c}");
+    assert_eq!(
+        c["written_entries"], 3,
+        "one entry per device class and the frame's choice of devices: {c}"
+    );
     let stored: Value = serde_json::from_slice(&std::fs::read(&file).expect("the file"))
         .expect("the calibration is JSON");
     assert_eq!(stored["version"], 1);
@@ -51,6 +54,15 @@ fn a_second_render_plans_with_what_the_first_learnt() {
         .map(|e| e["device"].as_str().expect("a device"))
         .collect();
     assert_eq!(devices, ["cpu/1", "cpu/2"]);
+    let choices = stored["choices"].as_array().expect("choices");
+    assert_eq!(choices.len(), 1, "{stored}");
+    assert_eq!(choices[0]["devices"], "cpu/1 + cpu/2");
+    assert_eq!(choices[0]["mode"], "cost");
+    assert!(
+        choices[0]["all_seconds_per_path"]
+            .as_f64()
+            .is_some_and(|s| s > 0.0)
+    );
 
     let second = report(&render(&dir, "second", &cache, &flag));
     assert_eq!(second["calibration"]["loaded_entries"], 2, "{second}");
