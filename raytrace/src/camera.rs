@@ -171,8 +171,8 @@ pub fn morton_order(width: u32, height: u32) -> Vec<u32> {
     let side = u64::from(width.max(height).next_power_of_two());
     let pixels = u64::from(width) * u64::from(height);
     if side * side <= 4 * pixels {
-        // The curve's keys in order, walked directly: a sort of a megapixel image's keys took
-        // longer than tracing its primary rays on a GPU.
+        // The curve's keys in order, walked directly: linear, where sorting the keys is not,
+        // and the renderer orders every image it draws.
         (0..side * side)
             .filter_map(|k| {
                 let (x, y) = (compact(k as u32), compact((k >> 1) as u32));

@@ -486,8 +486,8 @@ impl GpuRenderer {
         if !done.drained {
             return Ok(None);
         }
-        // One pass from the bytes read back: a megapixel frame's copies in between cost
-        // more than its kernels' read-back.
+        // One pass from the bytes read back: each copy of a frame's values is a pass over
+        // fresh pages.
         let value = |c: &[u8]| Vec3::splat(bytemuck::pod_read_unaligned::<f32>(c));
         Ok(Some(PathValues {
             values: done.values.chunks_exact(4).map(value).collect(),

@@ -2,12 +2,12 @@
 //!
 //! Adding a device must never make a render slower, and a plan cannot promise that by itself:
 //! a device far slower than another still holds up the frame with the one task it started,
-//! its share of the estimate is slow, and its threads take the cores that feed a GPU. On a
-//! GPU that rendered a megapixel AO frame in 23 ms, fifteen CPU cores beside it made frames
-//! three to seven times slower. So the renderer measures both ways and keeps the faster: per
-//! shader and mode (which decide what a frame costs on every device), it keeps the seconds
-//! per path of the latest frame rendered on every device and of the latest on the fastest
-//! class alone, and renders the next frame the way that was faster. The way in use is
+//! its share of the estimate is slow, and its threads take the cores that feed a GPU
+//! (`docs/measurements.md` has what CPU cores cost a GPU's frames). So the renderer measures
+//! both ways and keeps the faster: per shader and mode (which decide what a frame costs on
+//! every device), it keeps the seconds per path of the latest frame rendered on every device
+//! and of the latest on the fastest class alone, and renders the next frame the way that was
+//! faster. The way in use is
 //! measured again on every frame, so when it slows down past the other's figure the other is
 //! tried again. The figures travel with the devices to the next renderer over them
 //! ([`crate::paths::PathRenderer::into_kept`]) and, through a calibration file, to the next

@@ -172,8 +172,18 @@ impl<'a> PathRenderer<'a> {
         let active = (0..self.devices.len()).filter(|&d| self.runs(d)).count();
         let size = self.settings.task_size_for(paths, active.max(1));
         let tasks = split_ranges(paths, size);
-        let ran = self.run_tasks(&frame, &tasks);
+        let mut ran = self.run_tasks(&frame, &tasks);
         self.idle.fill(false);
+        // Every device of the fastest class failed: the devices it left idle render the frame.
+        if let (Some(true), Err(SchedError::AllDevicesFailed { failures, .. })) = (alone, &ran)
+            && self.retired.contains(&false)
+        {
+            let lost = failures.clone();
+            ran = self.run_tasks(&frame, &tasks).map(|(outputs, mut stats)| {
+                stats.failures.splice(0..0, lost);
+                (outputs, stats)
+            });
+        }
         let (outputs, mut stats) = ran?;
         // `tasks` cut the paths in order into runs of `size`: path `r` is value `r % size` of
         // task `r / size` (each task's values are checked to be one per path).
@@ -253,7 +263,7 @@ impl<'a> PathRenderer<'a> {
     }
 
     /// The path (rank in Morton order) of each pixel of a `width x height` image, kept for
-    /// the frames that follow: ordering a megapixel image anew cost a GPU frame's time.
+    /// the frames that follow, so that a frame's host work is the gather alone.
     fn ranks(&mut self, width: u32, height: u32) -> &[u32] {
         if self
             .ranks
@@ -347,9 +357,15 @@ impl<'a> PathRenderer<'a> {
         drop(bound);
         let report = match result {
             Ok(report) => report,
-            Err(e) => {
+            Err(mut e) => {
                 for &d in &active {
                     self.retired[d] = true;
+                }
+                // Failures name devices among the frame's; the renderer's index is kept.
+                if let SchedError::AllDevicesFailed { failures, .. } = &mut e {
+                    for f in failures {
+                        f.device = active.get(f.device).copied().unwrap_or(f.device);
+                    }
                 }
                 return Err(e);
             }

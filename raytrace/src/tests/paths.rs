@@ -172,6 +172,49 @@ fn a_device_that_slows_frames_is_left_idle() {
     assert_eq!(bits(&frame.film), reference);
 }
 
+/// When every device of the class rendering alone fails, the devices it left idle render the
+/// frame: the same image, and the failure reported under the renderer's index.
+#[test]
+fn the_idle_devices_take_over_when_the_fastest_fail() {
+    let shader = SHADERS[0];
+    let (scene, bvh) = scene("builtin:forest:0.05", &shader);
+    let options = RenderOptions::new(48, 40, Camera::orbit(&scene.bounds(), 0), shader);
+    let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
+    let mut devices = cpus(2);
+    let lagging = devices.remove(1);
+    // 30 tasks a frame: the fast device renders most of the first (the laggard holds its
+    // launch 40 ms) and fails during the second, which it renders alone.
+    let fast = FailingPaths::new(devices.remove(0), 30);
+    let devices: Vec<Box<dyn PathDevice>> = vec![
+        Box::new(fast),
+        Box::new(Delayed {
+            inner: lagging,
+            millis: 40,
+            class: Some("laggard"),
+        }),
+    ];
+    let mut r = PathRenderer::new(devices, settings(Policy::Hybrid, Mode::Regular, 64)).unwrap();
+    let first = r.render(&scene, &bvh, &options).expect("first frame");
+    assert!(
+        first.stats.failures.is_empty(),
+        "{:?}",
+        first.stats.failures
+    );
+    let second = r
+        .render(&scene, &bvh, &options)
+        .expect("the laggard takes over");
+    assert_eq!(bits(&second.film), reference);
+    assert_eq!(
+        second.stats.failures.len(),
+        1,
+        "{:?}",
+        second.stats.failures
+    );
+    assert_eq!(second.stats.failures[0].device, 0);
+    assert_eq!(second.stats.devices.len(), 1);
+    assert_eq!(second.stats.devices[0].name, "cpu1");
+}
+
 /// A device that fails mid-frame has its paths rendered by the other: the same image, the
 /// failure and the re-runs reported, and the device left out of the next frame.
 #[test]
