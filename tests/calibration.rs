@@ -25,8 +25,9 @@ fn report(o: &std::process::Output) -> Value {
 }
 
 /// Two renders with one `--calibration` file: the first writes an entry per device class and
-/// what its frame measured of running on both, the second plans its first frame with them, and the image does not change (where a task
-/// runs never changes what its paths render). The user's cache is left alone.
+/// what its frame measured of running on both, the second plans its first frame with them,
+/// and the image does not change (where a task runs never changes what its paths render).
+/// The user's cache is left alone.
 #[test]
 fn a_second_render_plans_with_what_the_first_learnt() {
     let dir = temp_dir("calibration");

@@ -1,15 +1,17 @@
 //! What a path renderer keeps between runs: the speeds and `kB`, `kT` of a [`Calibration`]
 //! plan its first frame ([`PathRenderer::recall`]), and what its frames measured goes back
-//! into one ([`PathRenderer::remember`]).
+//! into one ([`PathRenderer::remember`]), with what they measured of leaving devices idle
+//! (see `choice.rs`).
 //!
 //! Speeds are relative to the fastest device of a run, so a run keeps each class's paths per
 //! second as well, which compare across runs: a class measured alone is the fastest of its
 //! run, and its relative speed of 1 planned against another class measured alone gave a GPU
 //! and a CPU core equal shares. A first frame plans with the paths per second of its classes
-//! where every class has one, and at equal speeds otherwise. A class's model costs the frames only when that class estimates
-//! them (the first device's), and is fitted only on frames it estimated, since work is
-//! counted differently by each kind of device. Within a run the model stays the one the run
-//! started with, so that its frames are costed in one unit and compare.
+//! where every class has one, and at equal speeds otherwise. A class's model costs the frames
+//! only when that class estimates them (the first device's), and is fitted only on frames it
+//! estimated, since work is counted differently by each kind of device. Within a run the
+//! model stays the one the run started with, so that its frames are costed in one unit and
+//! compare.
 
 use crate::calibration::{Calibration, ChoiceKey, Entry, Key, device_set};
 use crate::cost::{CostModel, Work, calibrate};

@@ -554,8 +554,8 @@ impl<'a> PathRenderer<'a> {
     /// launches that were not timing spikes, relative to the fastest class) for the next
     /// frame's plan, and keeps what the launches taught for [`PathRenderer::remember`]. A
     /// class that did no work keeps its speed. `active[k]` is the renderer's index of the
-    /// timeline's device `k`; `tasks`, `costs` and `work` (empty when not estimated) are per task, and
-    /// `opens[t]` says whether task `t` opened a launch. Returns the spikes left out.
+    /// timeline's device `k`; `tasks`, `costs` and `work` (empty when not estimated) are per
+    /// task, and `opens[t]` says whether task `t` opened a launch. Returns the spikes left out.
     fn learn(
         &mut self,
         active: &[usize],
