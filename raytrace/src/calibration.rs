@@ -201,9 +201,9 @@ struct ChoiceRecord {
     fastest: Option<String>,
 }
 
-/// `v` where it is absent or a finite number > 0.
-fn positive_or_absent(v: Option<f64>) -> bool {
-    v.is_none_or(|v| v.is_finite() && v > 0.0)
+/// Whether `v` is a finite number > 0, as speeds and times must be.
+fn positive(v: f64) -> bool {
+    v.is_finite() && v > 0.0
 }
 
 #[derive(Serialize, Deserialize)]
@@ -288,10 +288,10 @@ impl Calibration {
                 value,
                 why,
             };
-            if !(r.speed.is_finite() && r.speed > 0.0) {
+            if !positive(r.speed) {
                 return Err(bad("speed", r.speed, "is not a finite number > 0"));
             }
-            if let Some(v) = r.paths_per_second.filter(|v| !(v.is_finite() && *v > 0.0)) {
+            if let Some(v) = r.paths_per_second.filter(|&v| !positive(v)) {
                 return Err(bad("paths_per_second", v, "is not a finite number > 0"));
             }
             let model = match (r.kb, r.kt) {
@@ -339,7 +339,7 @@ impl Calibration {
                 ("all_seconds_per_path", r.all_seconds_per_path),
                 ("alone_seconds_per_path", r.alone_seconds_per_path),
             ] {
-                if let Some(v) = v.filter(|&v| !positive_or_absent(Some(v))) {
+                if let Some(v) = v.filter(|&v| !positive(v)) {
                     return Err(bad(field, v));
                 }
             }
@@ -439,7 +439,6 @@ impl Calibration {
     /// not finite and positive, or a model with a negative or non-finite coefficient) is not
     /// recorded: returns whether it was.
     pub fn insert(&mut self, key: Key, entry: Entry) -> bool {
-        let positive = |v: f64| v.is_finite() && v > 0.0;
         let speed_ok = positive(entry.speed) && entry.paths_per_second.is_none_or(positive);
         let model_ok = entry.model.is_none_or(|m| m.can_plan());
         if speed_ok && model_ok {
@@ -456,7 +455,7 @@ impl Calibration {
     /// Records (or replaces) the choice of `key`; one with a time that is not finite and
     /// positive is not recorded: returns whether it was.
     pub fn insert_choice(&mut self, key: ChoiceKey, choice: Choice) -> bool {
-        let ok = positive_or_absent(choice.all) && positive_or_absent(choice.alone);
+        let ok = choice.all.is_none_or(positive) && choice.alone.is_none_or(positive);
         if ok {
             self.choices.insert(key, choice);
         }

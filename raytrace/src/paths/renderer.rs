@@ -203,8 +203,9 @@ impl<'a> PathRenderer<'a> {
         Ok(FrameRendering { film, stats })
     }
 
-    /// The class of the highest speed measured or recalled among the devices not retired,
-    /// if every one of their classes has a speed.
+    /// The class of the highest speed measured or recalled among the devices not retired
+    /// (the first of equals), if every one of their classes has a speed: a class no frame has
+    /// measured is not taken for the fastest.
     fn fastest_class(&self) -> Option<String> {
         let live = (0..self.devices.len()).filter(|&d| !self.retired[d]);
         let mut best: Option<(String, f64)> = None;
@@ -237,22 +238,13 @@ impl<'a> PathRenderer<'a> {
         }
         let times = self.choices.get(&key).cloned().unwrap_or_default();
         // The class earlier frames found fastest (of this shader and mode, else of any), else
-        // the fastest by the speeds known; a class no frame has measured is not taken for
-        // it, and the first of equals is.
-        let speed = |c: &String| self.speeds.get(c).copied().unwrap_or(0.0);
+        // the fastest by the speeds known.
         let fastest = times
             .fastest
             .clone()
             .or_else(|| self.choices.values().find_map(|t| t.fastest.clone()))
             .filter(|f| live.iter().any(|&d| class[d] == *f))
-            .or_else(|| {
-                let known = live.iter().all(|&d| self.speeds.contains_key(&class[d]));
-                let by_speed = live
-                    .iter()
-                    .map(|&d| &class[d])
-                    .reduce(|a, b| if speed(b) > speed(a) { b } else { a });
-                by_speed.filter(|_| known).cloned()
-            });
+            .or_else(|| self.fastest_class());
         let alone = times.alone_next(fastest.is_some());
         if let (true, Some(fastest)) = (alone, &fastest) {
             for &d in &live {

@@ -107,24 +107,34 @@ impl PathDevice for Delayed {
     }
 }
 
+/// `inner` as a device of its own class that waits 40 ms before each launch: every frame it
+/// takes part in is slower than one without it, whatever the plan.
+fn laggard(inner: Box<dyn PathDevice>) -> Box<dyn PathDevice> {
+    Box::new(Delayed {
+        inner,
+        millis: 40,
+        class: Some("laggard"),
+    })
+}
+
+/// A small forest frame of `shader` (48x40): the scene, its BVH, the options and the CPU
+/// reference image's bits.
+fn small_forest(shader: Shader) -> (Scene, Bvh, RenderOptions, Vec<[u32; 3]>) {
+    let (scene, bvh) = scene("builtin:forest:0.05", &shader);
+    let options = RenderOptions::new(48, 40, Camera::orbit(&scene.bounds(), 0), shader);
+    let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
+    (scene, bvh, options, reference)
+}
+
 /// A device whose presence slows every frame is left idle once both ways were measured, in
 /// this renderer and in one that takes over its devices (a bench's next cell), and the image
 /// does not change.
 #[test]
 fn a_device_that_slows_frames_is_left_idle() {
-    let shader = SHADERS[0];
-    let (scene, bvh) = scene("builtin:forest:0.05", &shader);
-    let options = RenderOptions::new(48, 40, Camera::orbit(&scene.bounds(), 0), shader);
-    let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
+    let (scene, bvh, options, reference) = small_forest(SHADERS[0]);
     let mut devices = cpus(2);
     let lagging = devices.remove(1);
-    // A device of its own class that waits 40 ms before each launch: every frame it takes
-    // part in is slower than one without it, whatever the plan.
-    devices.push(Box::new(Delayed {
-        inner: lagging,
-        millis: 40,
-        class: Some("laggard"),
-    }));
+    devices.push(laggard(lagging));
     let mut r = PathRenderer::new(devices, settings(Policy::Hybrid, Mode::Regular, 64)).unwrap();
     let idle: Vec<Vec<String>> = (0..4)
         .map(|_| {
@@ -176,23 +186,13 @@ fn a_device_that_slows_frames_is_left_idle() {
 /// frame: the same image, and the failure reported under the renderer's index.
 #[test]
 fn the_idle_devices_take_over_when_the_fastest_fail() {
-    let shader = SHADERS[0];
-    let (scene, bvh) = scene("builtin:forest:0.05", &shader);
-    let options = RenderOptions::new(48, 40, Camera::orbit(&scene.bounds(), 0), shader);
-    let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
+    let (scene, bvh, options, reference) = small_forest(SHADERS[0]);
     let mut devices = cpus(2);
     let lagging = devices.remove(1);
     // 30 tasks a frame: the fast device renders most of the first (the laggard holds its
     // launch 40 ms) and fails during the second, which it renders alone.
     let fast = FailingPaths::new(devices.remove(0), 30);
-    let devices: Vec<Box<dyn PathDevice>> = vec![
-        Box::new(fast),
-        Box::new(Delayed {
-            inner: lagging,
-            millis: 40,
-            class: Some("laggard"),
-        }),
-    ];
+    let devices: Vec<Box<dyn PathDevice>> = vec![Box::new(fast), laggard(lagging)];
     let mut r = PathRenderer::new(devices, settings(Policy::Hybrid, Mode::Regular, 64)).unwrap();
     let first = r.render(&scene, &bvh, &options).expect("first frame");
     assert!(
@@ -220,9 +220,7 @@ fn the_idle_devices_take_over_when_the_fastest_fail() {
 #[test]
 fn a_device_lost_mid_frame_changes_nothing() {
     for shader in SHADERS {
-        let (scene, bvh) = scene("builtin:forest:0.05", &shader);
-        let options = RenderOptions::new(48, 40, Camera::orbit(&scene.bounds(), 0), shader);
-        let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
+        let (scene, bvh, options, reference) = small_forest(shader);
         for policy in [Policy::StaticLpt, Policy::QueueFifo, Policy::Hybrid] {
             let mut devices = cpus(2);
             let failing = devices.remove(1);
