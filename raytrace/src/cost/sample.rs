@@ -26,7 +26,7 @@ pub struct SampleRun(std::num::NonZeroUsize);
 
 impl SampleRun {
     /// The run every estimator uses unless told otherwise.
-    pub const DEFAULT: Self = Self(std::num::NonZeroUsize::new(2).unwrap());
+    pub const DEFAULT: Self = Self(std::num::NonZeroUsize::new(8).unwrap());
 
     /// A run of `n` adjacent rays; `None` for zero.
     pub fn new(n: usize) -> Option<Self> {
@@ -63,8 +63,9 @@ impl std::str::FromStr for SampleRun {
 }
 
 /// Indices (within a task of `len` rays) of its `k` samples, `0 < k <= len`, in order: all of
-/// them when `k == len`, else runs of up to `run` adjacent rays centred in `ceil(k / run)`
-/// equal strata. Where the strata would be narrower than the run (a sample of nearly the whole
+/// them when `k == len`, else runs of up to `run` adjacent rays near the middle of each of
+/// `ceil(k / run)` equal strata, starting on a multiple of `run` where the stratum has one
+/// before its middle. Where the strata would be narrower than the run (a sample of nearly the whole
 /// task), the run is shortened until each fits its stratum, so runs never overlap. The GPU
 /// estimator uploads exactly these samples.
 fn sample_indices(k: usize, len: usize, run: SampleRun) -> impl Iterator<Item = usize> {
@@ -79,7 +80,12 @@ fn sample_indices(k: usize, len: usize, run: SampleRun) -> impl Iterator<Item = 
         // Integer strata bounds, never past the task: `(j + 1)·len <= len²` does not overflow
         // for tasks below 2^32 rays.
         let (lo, hi) = (j * len / runs, (j + 1) * len / runs);
-        let start = lo + (hi - lo - width) / 2;
+        let middle = lo + (hi - lo - width) / 2;
+        // On a multiple of the run where the stratum allows: a tracer that walks eight
+        // neighbours at a time then finds whole groups in the sample and in the rays it
+        // leaves, instead of groups cut across a gap.
+        let aligned = middle / run * run;
+        let start = if aligned >= lo { aligned } else { middle };
         start..start + width
     })
 }
@@ -223,12 +229,15 @@ mod tests {
     }
 
     #[test]
-    fn samples_are_pairs_at_a_uniform_stride_and_rate_one_keeps_everything() {
+    fn samples_are_runs_at_a_uniform_stride_and_rate_one_keeps_everything() {
         let rays = batch(64);
-        let c = Compacted::gather(&rays, &[0..32, 32..64], SampleRate::THESIS).unwrap();
+        let pairs = SampleRun::new(2).unwrap();
+        let c =
+            Compacted::gather_in_runs(&rays, &[0..32, 32..64], SampleRate::THESIS, pairs).unwrap();
+        // Each pair starts on the even ray just before its stratum's middle.
         assert_eq!(
             c.rays(&rays).ox,
-            vec![7.0, 8.0, 23.0, 24.0, 39.0, 40.0, 55.0, 56.0]
+            vec![6.0, 7.0, 22.0, 23.0, 38.0, 39.0, 54.0, 55.0]
         );
         assert_eq!(c.offsets, vec![0, 4, 8]);
         let all = Compacted::gather(&rays, &[0..40, 40..64], SampleRate::FULL).unwrap();
@@ -263,12 +272,26 @@ mod tests {
         let run = SampleRun::new(8).unwrap();
         let c =
             Compacted::gather_in_runs(&rays, &[0..128, 128..256], SampleRate::THESIS, run).unwrap();
-        // 16 samples a task: two runs of 8, each centred in a stratum of 64.
-        let first: Vec<f32> = (28..36).chain(92..100).map(|i| i as f32).collect();
+        // 16 samples a task: two runs of 8, each in the middle of a stratum of 64, on the
+        // multiple of 8 before it.
+        let first: Vec<f32> = (24..32).chain(88..96).map(|i| i as f32).collect();
         let second: Vec<f32> = first.iter().map(|x| x + 128.0).collect();
         assert_eq!(c.rays(&rays).ox, [first, second].concat());
         assert!("0".parse::<SampleRun>().is_err() && "x".parse::<SampleRun>().is_err());
         assert_eq!("16".parse::<SampleRun>(), Ok(SampleRun::new(16).unwrap()));
+    }
+
+    #[test]
+    fn default_runs_fill_whole_groups_of_eight_in_tasks_of_a_multiple_of_eight() {
+        let rays = batch(3 * 4096);
+        let tasks = sched::split_ranges(rays.len(), 4096);
+        let c = Compacted::gather(&rays, &tasks, SampleRate::THESIS).unwrap();
+        assert_eq!(SampleRun::DEFAULT.get(), 8);
+        assert_eq!(c.index.len(), 3 * 512);
+        for run in c.index.chunks(8) {
+            assert_eq!(run[0] % 8, 0, "{run:?}");
+            assert!(run.windows(2).all(|w| w[1] == w[0] + 1), "{run:?}");
+        }
     }
 
     #[test]
