@@ -1,20 +1,86 @@
 //! The CPU path device: one worker of a `--devices cpu:N[/T]` list, rendering its tasks'
 //! paths with the host's shading ([`crate::shade::render_paths`]) in a rayon pool of its own.
 //! Its paths live in the host's memory, so nothing crosses a link.
+//!
+//! Its estimate renders a sample of each task's paths for real ([`sample_paths`]). Where
+//! that sample rendered the frame's own options (a Whitted frame; not an AO one, whose sample
+//! keeps fewer probes), the sampled paths' values are kept in the host's memory, shared by the
+//! devices of one `cpu:N` entry, and the launch of a task takes them instead of rendering
+//! those paths again: the estimate then costs a frame only what its counted, scattered sample
+//! costs beyond the render's own work.
 
 use std::ops::Range;
+use std::sync::{Arc, Mutex};
 
 use sched::{DeviceError, SampleRate};
 
-use super::{Estimate, Frame, Launch, PathDevice, Traffic, estimate_paths};
+use super::{Estimate, Frame, Launch, PathDevice, SampledTask, Traffic, sample_paths};
 use crate::Result;
-use crate::shade::{CpuTracer, render_paths};
+use crate::shade::{CpuTracer, RenderOptions, render_paths};
 
 /// One CPU device. See the module documentation.
 pub struct CpuPaths {
     index: usize,
     threads: usize,
     pool: rayon::ThreadPool,
+    /// Samples with final values, not yet taken by a launch.
+    kept: Arc<Mutex<Kept>>,
+}
+
+/// The samples of one frame's tasks whose values are the image's, shared by devices.
+#[derive(Debug, Default)]
+struct Kept {
+    frame: Option<FrameKey>,
+    tasks: Vec<SampledTask>,
+}
+
+impl Kept {
+    /// Keeps `sampled`'s final samples for `frame`, in place of those of the same tasks and
+    /// of every other frame.
+    fn keep(&mut self, frame: FrameKey, sampled: Vec<SampledTask>) {
+        if self.frame != Some(frame) {
+            self.tasks.clear();
+            self.frame = Some(frame);
+        }
+        for s in sampled.into_iter().filter(|s| s.is_final) {
+            self.tasks.retain(|k| k.task != s.task);
+            self.tasks.push(s);
+        }
+    }
+
+    /// Takes the samples of `tasks` of `frame`, in the order of `tasks` (`None` for a task
+    /// without one).
+    fn take(&mut self, frame: FrameKey, tasks: &[&Range<usize>]) -> Vec<Option<SampledTask>> {
+        if self.frame != Some(frame) {
+            self.tasks.clear();
+            return vec![None; tasks.len()];
+        }
+        tasks
+            .iter()
+            .map(|&t| {
+                let at = self.tasks.iter().position(|k| k.task == *t)?;
+                Some(self.tasks.swap_remove(at))
+            })
+            .collect()
+    }
+}
+
+/// What tells one frame's paths from another's: its scene and tree (by address) and options.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct FrameKey {
+    scene: usize,
+    bvh: usize,
+    options: RenderOptions,
+}
+
+impl FrameKey {
+    fn of(frame: &Frame<'_>) -> Self {
+        Self {
+            scene: std::ptr::from_ref(frame.scene).addr(),
+            bvh: std::ptr::from_ref(frame.bvh).addr(),
+            options: *frame.options,
+        }
+    }
 }
 
 impl CpuPaths {
@@ -25,23 +91,38 @@ impl CpuPaths {
     /// # Errors
     /// [`crate::Error::ThreadPool`] when the threads cannot be started.
     pub fn new(index: usize, threads: usize) -> Result<Self> {
+        Self::sharing(index, threads, Arc::default())
+    }
+
+    fn sharing(index: usize, threads: usize, kept: Arc<Mutex<Kept>>) -> Result<Self> {
         let threads = threads.max(1);
         let pool = crate::cpu::thread_pool(format!("cobalt-cpu{index}"), threads)?;
         Ok(Self {
             index,
             threads,
             pool,
+            kept,
         })
     }
 
-    /// `count` devices of `threads` threads, numbered from `first`.
+    /// `count` devices of `threads` threads, numbered from `first`, sharing the samples
+    /// their estimates render (see the module documentation).
     ///
     /// # Errors
     /// As [`CpuPaths::new`].
     pub fn many(first: usize, count: usize, threads: usize) -> Result<Vec<Self>> {
+        let kept = Arc::default();
         (first..first + count)
-            .map(|i| Self::new(i, threads))
+            .map(|i| Self::sharing(i, threads, Arc::clone(&kept)))
             .collect()
+    }
+
+    /// The shared samples, usable whether or not a device panicked while holding them
+    /// (each change to them is whole before the lock is let go).
+    fn kept(&self) -> std::sync::MutexGuard<'_, Kept> {
+        self.kept
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// Threads of the device.
@@ -65,12 +146,17 @@ impl PathDevice for CpuPaths {
                 t.end
             )));
         }
+        // A task's sample serves one launch of it, in the frame it was made for.
+        let kept = self.kept().take(FrameKey::of(frame), tasks);
         // Ranks are below the image's pixels, which fit a u32 (sides of at most 65536).
-        let ranks: Vec<u32> = tasks
-            .iter()
-            .flat_map(|&t| t.clone())
-            .map(|r| r as u32)
-            .collect();
+        let mut ranks: Vec<u32> = Vec::with_capacity(tasks.iter().map(|t| t.len()).sum());
+        for (&t, k) in tasks.iter().zip(&kept) {
+            let all = t.clone().map(|r| r as u32);
+            match k {
+                Some(k) => ranks.extend(all.filter(|r| k.ranks.binary_search(r).is_err())),
+                None => ranks.extend(all),
+            }
+        }
         let rendered = self.pool.install(|| {
             render_paths(
                 frame.scene,
@@ -79,9 +165,34 @@ impl PathDevice for CpuPaths {
                 &ranks,
             )
         });
+        let mut rays: usize = rendered.generations.iter().map(|g| g.rays).sum();
+        if kept.iter().all(Option::is_none) {
+            return Ok(Launch {
+                values: rendered.values,
+                rays,
+                ..Launch::default()
+            });
+        }
+        // Task after task, each path's value from the render or from the sample.
+        let mut values = Vec::with_capacity(tasks.iter().map(|t| t.len()).sum());
+        let mut fresh = rendered.values.into_iter();
+        for (&t, k) in tasks.iter().zip(&kept) {
+            let Some(k) = k else {
+                values.extend(fresh.by_ref().take(t.len()));
+                continue;
+            };
+            rays += k.rays;
+            let mut sampled = k.ranks.iter().zip(&k.values).peekable();
+            for r in t.clone() {
+                match sampled.next_if(|(s, _)| **s as usize == r) {
+                    Some((_, v)) => values.push(*v),
+                    None => values.extend(fresh.next()),
+                }
+            }
+        }
         Ok(Launch {
-            values: rendered.values,
-            rays: rendered.generations.iter().map(|g| g.rays).sum(),
+            values,
+            rays,
             ..Launch::default()
         })
     }
@@ -93,8 +204,11 @@ impl PathDevice for CpuPaths {
         tasks: &[&Range<usize>],
         rate: SampleRate,
     ) -> std::result::Result<Estimate, DeviceError> {
+        let sampled = self.pool.install(|| sample_paths(frame, tasks, rate));
+        let work = sampled.iter().map(|s| s.work).collect();
+        self.kept().keep(FrameKey::of(frame), sampled);
         Ok(Estimate {
-            work: self.pool.install(|| estimate_paths(frame, tasks, rate)),
+            work,
             traffic: Traffic::default(),
         })
     }
@@ -105,5 +219,100 @@ impl PathDevice for CpuPaths {
 
     fn class(&self) -> String {
         format!("cpu/{}", self.threads)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shade::{AoSettings, Shader, WhittedSettings};
+    use crate::{BuildPreset, Bvh, Camera, Scene, SceneSource};
+
+    fn forest(shader: &Shader) -> (Scene, Bvh) {
+        let scene = SceneSource::parse("builtin:forest:0.05")
+            .and_then(|s| s.load(shader.needs()))
+            .expect("built-in scene");
+        let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+        (scene, bvh)
+    }
+
+    fn bits(values: &[glam::Vec3]) -> Vec<[u32; 3]> {
+        values
+            .iter()
+            .map(|v| v.to_array().map(f32::to_bits))
+            .collect()
+    }
+
+    /// A Whitted task whose sample another device of the entry rendered is launched with the
+    /// sample's values in place, bit for bit the values of a launch without it; the sample
+    /// serves one launch, and an AO sample (fewer probes) is not kept.
+    #[test]
+    fn a_sampled_whitted_task_reuses_its_sample_once_and_an_ao_one_never() {
+        let whitted = Shader::Whitted(WhittedSettings { bounces: 2 });
+        let (scene, bvh) = forest(&whitted);
+        let options = RenderOptions::new(32, 32, Camera::orbit(&scene.bounds(), 0), whitted);
+        let frame = Frame {
+            scene: &scene,
+            bvh: &bvh,
+            options: &options,
+        };
+        let tasks = sched::split_ranges(32 * 32, 128);
+        let all: Vec<&Range<usize>> = tasks.iter().collect();
+        let want = CpuPaths::new(9, 1)
+            .expect("cpu")
+            .render(&frame, &all)
+            .expect("render");
+
+        let mut pair = CpuPaths::many(0, 2, 1).expect("cpu");
+        let (first, second) = pair.split_at_mut(1);
+        let held: Vec<&Range<usize>> = tasks[..4].iter().collect();
+        let estimate = first[0]
+            .estimate(&frame, &held, SampleRate::THESIS)
+            .expect("estimate");
+        assert_eq!(estimate.work.len(), 4);
+        assert_eq!(second[0].kept().tasks.len(), 4, "kept for the entry");
+        let got = second[0].render(&frame, &all).expect("render");
+        assert_eq!(bits(&got.values), bits(&want.values));
+        assert_eq!(
+            got.rays, want.rays,
+            "the sample's rays count as the launch's"
+        );
+        assert!(first[0].kept().tasks.is_empty(), "taken by the launch");
+        let again = first[0].render(&frame, &all).expect("render");
+        assert_eq!(bits(&again.values), bits(&want.values));
+
+        // Another frame's launch finds nothing of this one's.
+        first[0]
+            .estimate(&frame, &held, SampleRate::THESIS)
+            .expect("estimate");
+        let moved = RenderOptions::new(32, 32, Camera::orbit(&scene.bounds(), 1), whitted);
+        let other = Frame {
+            options: &moved,
+            ..frame
+        };
+        let elsewhere = CpuPaths::new(9, 1)
+            .expect("cpu")
+            .render(&other, &all)
+            .expect("render");
+        let got = second[0].render(&other, &all).expect("render");
+        assert_eq!(bits(&got.values), bits(&elsewhere.values));
+        assert!(first[0].kept().tasks.is_empty());
+
+        let ao = Shader::Ao(AoSettings {
+            samples: 8,
+            ..Default::default()
+        });
+        let ao_options = RenderOptions::new(32, 32, Camera::orbit(&scene.bounds(), 0), ao);
+        let ao_frame = Frame {
+            options: &ao_options,
+            ..frame
+        };
+        first[0]
+            .estimate(&ao_frame, &held, SampleRate::THESIS)
+            .expect("estimate");
+        assert!(
+            first[0].kept().tasks.is_empty(),
+            "an AO sample's values are not the image's"
+        );
     }
 }

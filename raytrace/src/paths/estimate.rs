@@ -95,15 +95,63 @@ pub fn estimate_paths_in<T>(
 where
     T: Borrow<Range<usize>> + Sync,
 {
+    sampled_paths(frame, tasks, rate, layout)
+        .into_iter()
+        .map(|s| s.work)
+        .collect()
+}
+
+/// One task's sample: its estimated work, and the paths rendered for it with their values
+/// and rays, which are the render's own where the sample renders the frame's options
+/// ([`SampledTask::is_final`]).
+#[derive(Clone, Debug, Default)]
+pub struct SampledTask {
+    /// The task's paths.
+    pub task: Range<usize>,
+    /// Its estimated work.
+    pub work: Work,
+    /// The sampled paths, ascending.
+    pub ranks: Vec<u32>,
+    /// Their values, in the order of `ranks`.
+    pub values: Vec<glam::Vec3>,
+    /// Rays their paths traced.
+    pub rays: usize,
+    /// Whether the sample rendered the frame's own options, so that `values` are the
+    /// image's (an AO sample keeps only its rate's share of each path's probes: not final).
+    pub is_final: bool,
+}
+
+/// [`estimate_paths`], keeping what each task's sample rendered ([`SampledTask`]): on the
+/// wide tree, in the caller's rayon pool.
+pub fn sample_paths<T>(frame: &Frame<'_>, tasks: &[T], rate: SampleRate) -> Vec<SampledTask>
+where
+    T: Borrow<Range<usize>> + Sync,
+{
+    sampled_paths(frame, tasks, rate, Layout::Wide)
+}
+
+fn sampled_paths<T>(
+    frame: &Frame<'_>,
+    tasks: &[T],
+    rate: SampleRate,
+    layout: Layout,
+) -> Vec<SampledTask>
+where
+    T: Borrow<Range<usize>> + Sync,
+{
     let stride = rate.stride();
     let (options, probe_scale) = sampled_options(frame.options, rate);
+    let is_final = options == *frame.options;
     tasks
         .par_iter()
         .map(|task| {
             let task: &Range<usize> = task.borrow();
             let ranks: Vec<u32> = task.clone().step_by(stride).map(|r| r as u32).collect();
             if ranks.is_empty() {
-                return Work::default();
+                return SampledTask {
+                    task: task.clone(),
+                    ..SampledTask::default()
+                };
             }
             let mut tracer = Counting {
                 bvh: frame.bvh,
@@ -111,14 +159,21 @@ where
                 paths: Work::default(),
                 probes: Work::default(),
             };
-            render_paths(frame.scene, &mut tracer, &options, &ranks);
-            task_work(
-                tracer.paths,
-                tracer.probes,
-                task.len(),
-                ranks.len(),
-                probe_scale,
-            )
+            let rendered = render_paths(frame.scene, &mut tracer, &options, &ranks);
+            SampledTask {
+                task: task.clone(),
+                work: task_work(
+                    tracer.paths,
+                    tracer.probes,
+                    task.len(),
+                    ranks.len(),
+                    probe_scale,
+                ),
+                values: rendered.values,
+                rays: rendered.generations.iter().map(|g| g.rays).sum(),
+                ranks,
+                is_final,
+            }
         })
         .collect()
 }

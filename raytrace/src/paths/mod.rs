@@ -56,7 +56,9 @@ pub use crate::traffic::Traffic;
 pub use build::build_path_devices;
 pub use cpu::CpuPaths;
 pub use device::{BoundPaths, Estimate, Frame, Launch, PathDevice, TaskValues};
-pub use estimate::{estimate_paths, estimate_paths_in, sampled_options, task_work};
+pub use estimate::{
+    SampledTask, estimate_paths, estimate_paths_in, sample_paths, sampled_options, task_work,
+};
 pub use fault::FailingPaths;
 #[cfg(feature = "gpu")]
 pub use gpu::GpuPaths;
