@@ -213,6 +213,13 @@ impl PathDevice for CpuPaths {
         })
     }
 
+    /// The entry's kept samples go: a launch of a later frame renders every path it is given.
+    fn end_frame(&mut self) {
+        let mut kept = self.kept();
+        kept.tasks.clear();
+        kept.frame = None;
+    }
+
     fn name(&self) -> String {
         format!("cpu{}", self.index)
     }
@@ -281,7 +288,13 @@ mod tests {
         let again = first[0].render(&frame, &all).expect("render");
         assert_eq!(bits(&again.values), bits(&want.values));
 
-        // Another frame's launch finds nothing of this one's.
+        // The frame's end drops what is left; another frame's launch finds nothing of this
+        // one's.
+        first[0]
+            .estimate(&frame, &held, SampleRate::THESIS)
+            .expect("estimate");
+        second[0].end_frame();
+        assert!(first[0].kept().tasks.is_empty());
         first[0]
             .estimate(&frame, &held, SampleRate::THESIS)
             .expect("estimate");

@@ -111,6 +111,10 @@ pub trait PathDevice: Send {
     fn launch_overhead(&self) -> Option<f64> {
         None
     }
+
+    /// The frame is done: what the device kept for it (a sample's values) is of no further
+    /// use, so that no later frame renders faster for this one's work. Nothing by default.
+    fn end_frame(&mut self) {}
 }
 
 /// One task's share of a launch: its paths' values, and, on the first task of a launch, the

@@ -58,4 +58,8 @@ impl PathDevice for FailingPaths<'_> {
     fn launch_overhead(&self) -> Option<f64> {
         self.inner.launch_overhead()
     }
+
+    fn end_frame(&mut self) {
+        self.inner.end_frame();
+    }
 }

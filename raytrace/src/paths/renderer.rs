@@ -184,6 +184,9 @@ impl<'a> PathRenderer<'a> {
                 (outputs, stats)
             });
         }
+        for device in &mut self.devices {
+            device.end_frame();
+        }
         let (outputs, mut stats) = ran?;
         // `tasks` cut the paths in order into runs of `size`: path `r` is value `r % size` of
         // task `r / size` (each task's values are checked to be one per path).
