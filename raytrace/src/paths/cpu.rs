@@ -5,10 +5,11 @@
 //! Its estimate renders a sample of each task's paths for real ([`sample_paths`]). Where
 //! that sample rendered the frame's own options (a Whitted frame; not an AO one, whose sample
 //! keeps fewer probes), the sampled paths' values are kept in the host's memory, shared by the
-//! devices of one `cpu:N` entry, and the launch of a task takes them instead of rendering
-//! those paths again: the estimate then costs a frame only what its counted, scattered sample
-//! costs beyond the render's own work.
+//! devices of one `cpu:N` entry, and the entry's launch of a task takes them instead of
+//! rendering those paths again: for such a task the estimate costs the frame only what its
+//! counted, scattered sample costs beyond the render's own work.
 
+use std::collections::HashMap;
 use std::ops::Range;
 use std::sync::{Arc, Mutex};
 
@@ -27,11 +28,12 @@ pub struct CpuPaths {
     kept: Arc<Mutex<Kept>>,
 }
 
-/// The samples of one frame's tasks whose values are the image's, shared by devices.
+/// The samples of one frame's tasks whose values are the image's, shared by devices, by
+/// task (its first and past-the-last path).
 #[derive(Debug, Default)]
 struct Kept {
     frame: Option<FrameKey>,
-    tasks: Vec<SampledTask>,
+    tasks: HashMap<(usize, usize), SampledTask>,
 }
 
 impl Kept {
@@ -39,12 +41,11 @@ impl Kept {
     /// of every other frame.
     fn keep(&mut self, frame: FrameKey, sampled: Vec<SampledTask>) {
         if self.frame != Some(frame) {
-            self.tasks.clear();
+            self.clear();
             self.frame = Some(frame);
         }
         for s in sampled.into_iter().filter(|s| s.is_final) {
-            self.tasks.retain(|k| k.task != s.task);
-            self.tasks.push(s);
+            self.tasks.insert((s.task.start, s.task.end), s);
         }
     }
 
@@ -52,16 +53,18 @@ impl Kept {
     /// without one).
     fn take(&mut self, frame: FrameKey, tasks: &[&Range<usize>]) -> Vec<Option<SampledTask>> {
         if self.frame != Some(frame) {
-            self.tasks.clear();
+            self.clear();
             return vec![None; tasks.len()];
         }
         tasks
             .iter()
-            .map(|&t| {
-                let at = self.tasks.iter().position(|k| k.task == *t)?;
-                Some(self.tasks.swap_remove(at))
-            })
+            .map(|t| self.tasks.remove(&(t.start, t.end)))
             .collect()
+    }
+
+    fn clear(&mut self) {
+        self.tasks.clear();
+        self.frame = None;
     }
 }
 
@@ -215,9 +218,7 @@ impl PathDevice for CpuPaths {
 
     /// The entry's kept samples go: a launch of a later frame renders every path it is given.
     fn end_frame(&mut self) {
-        let mut kept = self.kept();
-        kept.tasks.clear();
-        kept.frame = None;
+        self.kept().clear();
     }
 
     fn name(&self) -> String {
