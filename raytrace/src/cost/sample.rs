@@ -65,9 +65,9 @@ impl std::str::FromStr for SampleRun {
 /// Indices (within a task of `len` rays) of its `k` samples, `0 < k <= len`, in order: all of
 /// them when `k == len`, else runs of up to `run` adjacent rays near the middle of each of
 /// `ceil(k / run)` equal strata, starting on a multiple of `run` where the stratum has one
-/// before its middle. Where the strata would be narrower than the run (a sample of nearly the whole
-/// task), the run is shortened until each fits its stratum, so runs never overlap. The GPU
-/// estimator uploads exactly these samples.
+/// before its middle. Where the strata would be narrower than the run (a sample of nearly the
+/// whole task), the run is shortened until each fits its stratum, so runs never overlap. The
+/// GPU estimator uploads exactly these samples.
 fn sample_indices(k: usize, len: usize, run: SampleRun) -> impl Iterator<Item = usize> {
     // A run of 1 always fits: `len / k >= 1`.
     let run = (1..=run.get().min(k))
