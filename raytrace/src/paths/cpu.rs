@@ -15,7 +15,9 @@ use std::sync::{Arc, Mutex};
 
 use sched::{DeviceError, SampleRate};
 
-use super::{Estimate, Frame, Launch, PathDevice, SampledTask, Traffic, sample_paths};
+use super::{
+    Estimate, Frame, Launch, PathDevice, SampledTask, Traffic, sample_paths, sampled_options,
+};
 use crate::Result;
 use crate::shade::{CpuTracer, RenderOptions, render_paths};
 
@@ -37,14 +39,14 @@ struct Kept {
 }
 
 impl Kept {
-    /// Keeps `sampled`'s final samples for `frame`, in place of those of the same tasks and
-    /// of every other frame.
+    /// Keeps `sampled` for `frame`, in place of the samples of the same tasks and of every
+    /// other frame.
     fn keep(&mut self, frame: FrameKey, sampled: Vec<SampledTask>) {
         if self.frame != Some(frame) {
             self.clear();
             self.frame = Some(frame);
         }
-        for s in sampled.into_iter().filter(|s| s.is_final) {
+        for s in sampled {
             self.tasks.insert((s.task.start, s.task.end), s);
         }
     }
@@ -209,7 +211,10 @@ impl PathDevice for CpuPaths {
     ) -> std::result::Result<Estimate, DeviceError> {
         let sampled = self.pool.install(|| sample_paths(frame, tasks, rate));
         let work = sampled.iter().map(|s| s.work).collect();
-        self.kept().keep(FrameKey::of(frame), sampled);
+        // The sample's values are the image's only where it rendered the frame's options.
+        let is_final = sampled_options(frame.options, rate).0 == *frame.options;
+        let kept = if is_final { sampled } else { Vec::new() };
+        self.kept().keep(FrameKey::of(frame), kept);
         Ok(Estimate {
             work,
             traffic: Traffic::default(),

@@ -103,7 +103,8 @@ where
 
 /// One task's sample: its estimated work, and the paths rendered for it with their values
 /// and rays, which are the render's own where the sample renders the frame's options
-/// ([`SampledTask::is_final`]).
+/// ([`sampled_options`] left them as they were: a Whitted frame, not an AO one, whose sample
+/// keeps only its rate's share of each path's probes).
 #[derive(Clone, Debug, Default)]
 pub struct SampledTask {
     /// The task's paths.
@@ -116,9 +117,6 @@ pub struct SampledTask {
     pub values: Vec<glam::Vec3>,
     /// Rays their paths traced.
     pub rays: usize,
-    /// Whether the sample rendered the frame's own options, so that `values` are the
-    /// image's (an AO sample keeps only its rate's share of each path's probes: not final).
-    pub is_final: bool,
 }
 
 /// [`estimate_paths`], keeping what each task's sample rendered ([`SampledTask`]): on the
@@ -141,7 +139,6 @@ where
 {
     let stride = rate.stride();
     let (options, probe_scale) = sampled_options(frame.options, rate);
-    let is_final = options == *frame.options;
     tasks
         .par_iter()
         .map(|task| {
@@ -172,7 +169,6 @@ where
                 values: rendered.values,
                 rays: rendered.generations.iter().map(|g| g.rays).sum(),
                 ranks,
-                is_final,
             }
         })
         .collect()
