@@ -187,3 +187,50 @@ fn wide_tree_holds_the_binary_leaves() {
     }
     assert!(nw < nb, "wide entered {nw} nodes, binary {nb}");
 }
+
+/// The trace left after a sample answers every other ray as the full trace does (the closest
+/// hit bit for bit, any hit the same occlusion) and leaves the known rays as misses, whatever
+/// their pattern: none, all, a chunk's edges, long and single gaps.
+#[test]
+fn tracing_all_but_known_rays_answers_the_rest_as_the_full_trace() {
+    let (scene, bvh) = load("builtin:forest:0.05", BuildPreset::Medium);
+    let mut rng = Rng::new(testkit::seed(24));
+    // Camera rays (packets of one origin) then random ones, across several batch chunks.
+    let mut batch = crate::Camera::orbit(&scene.bounds(), 0)
+        .primary_rays(32, 24)
+        .rays;
+    for r in rays(&scene, &mut rng, 700) {
+        batch.push(&r);
+    }
+    let n = batch.len();
+    let mut every_seventh: Vec<usize> = (3..n).step_by(7).collect();
+    every_seventh.push(n - 1);
+    let patterns: Vec<Vec<usize>> = vec![
+        vec![],
+        (0..n).collect(),
+        vec![0, 255, 256, 257, 511, 512, n - 1],
+        (100..164).chain(600..608).chain(1000..1300).collect(),
+        every_seventh,
+    ];
+    for any in [false, true] {
+        let full = if any {
+            crate::traverse::any_hits(&bvh, &batch)
+        } else {
+            crate::traverse::closest_hits(&bvh, &batch)
+        };
+        for known in &patterns {
+            let rest = crate::traverse::hits_skipping(&bvh, &batch, any, known);
+            for i in 0..n {
+                let got = rest.get(i).map(|(t, p)| (t.to_bits(), p));
+                let want = full.get(i).map(|(t, p)| (t.to_bits(), p));
+                if known.binary_search(&i).is_ok() {
+                    assert_eq!(got, None, "known ray {i} (any {any}) stays a miss");
+                } else if any {
+                    assert_eq!(got.is_some(), want.is_some(), "any-hit ray {i}");
+                } else {
+                    assert_eq!(got, want, "closest-hit ray {i}");
+                }
+            }
+        }
+    }
+}
