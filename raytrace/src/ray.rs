@@ -117,6 +117,19 @@ impl RayBatch {
         self.tmax.push(r.tmax);
     }
 
+    /// Starts loading ray `i` into the cache for a reader that takes rays out of order (a
+    /// sample read in place), so that its loads overlap the work on the rays before it. Does
+    /// nothing where `i` is beyond the batch.
+    #[inline(always)]
+    pub fn prefetch(&self, i: usize) {
+        let columns = [
+            &self.ox, &self.oy, &self.oz, &self.dx, &self.dy, &self.dz, &self.tmin, &self.tmax,
+        ];
+        for c in columns {
+            prefetch(c, i);
+        }
+    }
+
     /// Appends all rays of `other`.
     pub fn extend(&mut self, other: &RayBatch) {
         self.ox.extend_from_slice(&other.ox);
@@ -258,4 +271,19 @@ impl std::str::FromStr for RayKind {
                 format!("unknown ray kind `{s}` (expected primary, shadow, reflection or ao)")
             })
     }
+}
+
+/// Starts loading `column[i]` into the cache; nothing where `i` is beyond the column or the
+/// CPU has no prefetch instruction.
+#[inline(always)]
+pub(crate) fn prefetch<T>(column: &[T], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(x) = column.get(i) {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: the address is of an element of the column; a prefetch only hints the cache
+        // and never reads or faults.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(std::ptr::from_ref(x).cast()) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (column, i);
 }
