@@ -543,23 +543,41 @@ pub fn fill_skipping(
     ts: &mut [f32],
     ps: &mut [u32],
 ) {
-    // The rays between two known ones are traced as a plain batch, one call per gap, so the
-    // walk's loop is the full trace's own and checks no ray against the known list.
-    let end = first + ts.len();
-    let known = &known[known.partition_point(|&k| k < first)..];
-    let gaps_end = known.iter().copied().take_while(|&k| k < end);
-    let mut from = first;
-    for k in gaps_end.chain(std::iter::once(end)) {
-        if k > from {
-            let (a, b) = (from - first, k - first);
-            if any {
-                bvh.wide_hits::<ANY>(rays, from, &mut ts[a..b], &mut ps[a..b]);
-            } else {
-                bvh.wide_hits::<CLOSEST>(rays, from, &mut ts[a..b], &mut ps[a..b]);
-            }
-        }
-        from = from.max(k + 1);
+    // One loop per query, each with its traversal inlined, as the batch functions have: with
+    // the choice made per ray inside one loop, tracing all but the sample took as long as
+    // tracing everything (Conference AO, 1.04-1.05 of the full trace in one run each).
+    if any {
+        fill_with::<ANY>(bvh, rays, first, known, ts, ps);
+    } else {
+        fill_with::<CLOSEST>(bvh, rays, first, known, ts, ps);
     }
+}
+
+#[inline(always)]
+fn fill_with<const MODE: u8>(
+    bvh: &Bvh,
+    rays: &RayBatch,
+    first: usize,
+    known: &[usize],
+    ts: &mut [f32],
+    ps: &mut [u32],
+) {
+    let mut skip = known[known.partition_point(|&k| k < first)..]
+        .iter()
+        .peekable();
+    bvh.wide_each::<MODE>(
+        rays,
+        ts.len(),
+        |k| {
+            let i = first + k;
+            skip.next_if_eq(&&i).is_none().then_some(i)
+        },
+        |k, hit, _| {
+            if let Some(h) = hit {
+                (ts[k], ps[k]) = (h.t, h.prim);
+            }
+        },
+    );
 }
 
 /// [`fill_skipping`] over the whole batch, in parallel: the trace that is left once the rays
