@@ -121,7 +121,7 @@ impl RayBatch {
     /// sample read in place), so that its loads overlap the work on the rays before it. Does
     /// nothing where `i` is beyond the batch.
     #[inline(always)]
-    pub fn prefetch(&self, i: usize) {
+    pub(crate) fn prefetch(&self, i: usize) {
         let columns = [
             &self.ox, &self.oy, &self.oz, &self.dx, &self.dy, &self.dz, &self.tmin, &self.tmax,
         ];

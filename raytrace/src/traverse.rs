@@ -637,13 +637,7 @@ pub fn reduced_counts_at(bvh: &Bvh, rays: &RayBatch, walk: Walk, index: &[usize]
         .enumerate()
         .for_each(|(c, cs)| {
             let part = &index[c * CHUNK..];
-            let at = |j: usize| {
-                if let Some(&ahead) = part.get(j + SAMPLE_AHEAD) {
-                    rays.prefetch(ahead);
-                }
-                part[j]
-            };
-            crate::packet::reduced_lanes(bvh, rays, walk, at, cs);
+            crate::packet::reduced_lanes(bvh, rays, walk, |j| part[j], cs);
         });
     counts
 }

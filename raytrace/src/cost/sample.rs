@@ -159,8 +159,9 @@ impl Compacted {
 }
 
 /// `rays[index[i]]` for every `i`, column by column: each pass reads one source column and
-/// writes one destination column, which is what the hardware prefetchers like best. The eight
-/// columns are gathered in parallel (this copy is part of the estimation overhead).
+/// writes one destination column, and asks for the source it reads a few runs ahead, since the
+/// runs lie too far apart for the hardware's stream prefetchers. The eight columns are gathered
+/// in parallel (this copy is part of the estimation overhead).
 fn gather_columns(rays: &RayBatch, index: &[usize]) -> RayBatch {
     /// Rays ahead of the one copied whose cache line is asked for.
     const GATHER_AHEAD: usize = 64;
@@ -171,8 +172,6 @@ fn gather_columns(rays: &RayBatch, index: &[usize]) -> RayBatch {
     let mut cols: Vec<Vec<f32>> = src
         .par_iter()
         .map(|c| {
-            // The runs lie apart, so the stream prefetchers miss them: the copy waited on
-            // every run's load.
             (0..index.len())
                 .map(|j| {
                     if let Some(&ahead) = index.get(j + GATHER_AHEAD) {
