@@ -122,12 +122,16 @@ impl RayBatch {
     /// nothing where `i` is beyond the batch.
     #[inline(always)]
     pub(crate) fn prefetch(&self, i: usize) {
-        let columns = [
-            &self.ox, &self.oy, &self.oz, &self.dx, &self.dy, &self.dz, &self.tmin, &self.tmax,
-        ];
-        for c in columns {
+        for c in self.columns() {
             prefetch(c, i);
         }
+    }
+
+    /// The eight columns, in the order of the fields.
+    pub(crate) fn columns(&self) -> [&Vec<f32>; 8] {
+        [
+            &self.ox, &self.oy, &self.oz, &self.dx, &self.dy, &self.dz, &self.tmin, &self.tmax,
+        ]
     }
 
     /// Appends all rays of `other`.
@@ -159,11 +163,7 @@ impl RayBatch {
     /// True when all eight columns have the same length (batch functions panic otherwise).
     pub fn is_consistent(&self) -> bool {
         let n = self.ox.len();
-        [
-            &self.oy, &self.oz, &self.dx, &self.dy, &self.dz, &self.tmin, &self.tmax,
-        ]
-        .iter()
-        .all(|c| c.len() == n)
+        self.columns().iter().all(|c| c.len() == n)
     }
 }
 

@@ -166,10 +166,8 @@ fn gather_columns(rays: &RayBatch, index: &[usize]) -> RayBatch {
     /// Rays ahead of the one copied whose cache line is asked for.
     const GATHER_AHEAD: usize = 64;
     use rayon::prelude::*;
-    let src = [
-        &rays.ox, &rays.oy, &rays.oz, &rays.dx, &rays.dy, &rays.dz, &rays.tmin, &rays.tmax,
-    ];
-    let mut cols: Vec<Vec<f32>> = src
+    let mut cols: Vec<Vec<f32>> = rays
+        .columns()
         .par_iter()
         .map(|c| {
             (0..index.len())
