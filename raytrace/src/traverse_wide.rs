@@ -59,7 +59,7 @@ impl Bvh {
     ///
     /// One ray at a time takes no AVX2: that needs a call into a function compiled for it
     /// per ray, which measured slower than the SSE test inlined. Batches take it a chunk of
-    /// rays per call ([`Bvh::wide_hits`]).
+    /// rays per call ([`Bvh::wide_each`]).
     #[inline(always)]
     pub(crate) fn run_wide<const MODE: u8>(&self, ray: &Ray) -> (Option<Hit>, Counts) {
         if self.wide.depth > SHALLOW {
@@ -75,27 +75,6 @@ impl Bvh {
     fn run_wide_deep<const MODE: u8>(&self, ray: &Ray) -> (Option<Hit>, Counts) {
         // SAFETY: the SSE kernels need nothing beyond the x86_64 baseline.
         unsafe { self.traverse_wide::<MODE, false, { stack_for(crate::bvh::MAX_DEPTH) }>(ray) }
-    }
-
-    /// The hits of rays `first ..` of `rays` (as many as `t` has room for) into `t` and
-    /// `prim`, left as they are on a miss.
-    pub(crate) fn wide_hits<const MODE: u8>(
-        &self,
-        rays: &RayBatch,
-        first: usize,
-        t: &mut [f32],
-        prim: &mut [u32],
-    ) {
-        self.wide_each::<MODE>(
-            rays,
-            t.len(),
-            |k| Some(first + k),
-            |k, hit, _| {
-                if let Some(h) = hit {
-                    (t[k], prim[k]) = (h.t, h.prim);
-                }
-            },
-        );
     }
 
     /// `MODE`'s query of rays `at(0), …, at(n - 1)` of `rays` (`None`: skipped), each answer
