@@ -117,6 +117,37 @@ pub fn sample_rate(text: &str) -> Result<SampleRate, String> {
     }
 }
 
+/// `--sample-error`: how far a CPU estimate's sample refines (see
+/// `ReducedTraversal::with_sample_error`): the disagreement of its two halves it stops at, or
+/// `off` for the whole sample at `--sample-rate`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SampleError(pub Option<f64>);
+
+impl std::str::FromStr for SampleError {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        let text = text.trim();
+        if text == "off" {
+            return Ok(Self(None));
+        }
+        match text.parse::<f64>() {
+            Ok(e) if e > 0.0 && e < 1.0 => Ok(Self(Some(e))),
+            _ => Err(format!(
+                "sample error `{text}` is neither `off` nor a fraction in (0, 1), e.g. 0.06"
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for SampleError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(e) => e.fmt(f),
+            None => f.write_str("off"),
+        }
+    }
+}
+
 /// A length: finite and above zero.
 pub fn positive_length(text: &str) -> Result<f32, String> {
     match text.trim().parse::<f32>() {

@@ -87,17 +87,18 @@ fn bench_writes_one_record_per_run_and_the_charts() {
     // 2 shaders × 1 size × 2 device counts × 2 links × 5 policies × 2 modes.
     assert_eq!(simulated, 80);
     // Table 4.1's trade: 2 ray kinds × 1 task size × 6 rates of the bench's walk, beside the
-    // thesis where it has the rate, and full sampling exact; and the trace walk's 4 rates.
+    // thesis where it has the rate, and full sampling exact; the trace walk's 4 rates, and its
+    // sample refined as `cobalt estimate` takes it.
     let trade: Vec<_> = runs
         .iter()
         .filter(|r| r["source"] == "sampling_trade")
         .collect();
-    assert_eq!(trade.len(), 20);
+    assert_eq!(trade.len(), 22);
     let traced = trade
         .iter()
         .filter(|p| p["walk"].as_str().is_some_and(|n| n.starts_with("trace")))
         .count();
-    assert_eq!(traced, 8);
+    assert_eq!(traced, 10);
     for p in &trade {
         let rate = p["sample_rate"].as_f64().expect("rate");
         let error = p["prediction_error"].as_f64().expect("error");

@@ -201,8 +201,10 @@ fn the_first_leaf_walk_is_reported_and_enters_fewer_nodes() {
 
 #[test]
 fn bad_arguments_exit_2_naming_flag_and_value() {
-    let cases: [(&[&str], &[&str]); 12] = [
+    let cases: [(&[&str], &[&str]); 14] = [
         (&["--walk", "deepest"], &["--walk", "deepest", "first-leaf"]),
+        (&["--sample-error", "1"], &["--sample-error", "`1`", "off"]),
+        (&["--sample-error", "some"], &["--sample-error", "`some`"]),
         (&["--sample-run", "0"], &["--sample-run", "0"]),
         (
             &["--clock", "sundial"],
@@ -259,6 +261,8 @@ fn gpu_estimates_equal_cpu_estimates() {
                 ["--task-size", "300"],
                 ["--ao-samples", "4"],
                 ["--repeats", "1"],
+                // The GPU estimator samples every task at its rate: so does the CPU's here.
+                ["--sample-error", "off"],
             ],
         );
         let mut cmd = crate::testkit::command();
@@ -373,8 +377,22 @@ fn the_trace_walk_reports_its_net_overhead() {
 /// the process's CPU time; both are reported.
 #[test]
 fn the_sample_run_and_the_clock_are_reported() {
-    let pairs = json(&["--rays", "primary", "--sample-run", "2"]);
-    let runs = json(&["--rays", "primary", "--clock", "cpu"]);
+    let pairs = json(&[
+        "--rays",
+        "primary",
+        "--sample-run",
+        "2",
+        "--sample-error",
+        "off",
+    ]);
+    let runs = json(&[
+        "--rays",
+        "primary",
+        "--clock",
+        "cpu",
+        "--sample-error",
+        "off",
+    ]);
     assert_eq!(
         (pairs["sample_run"].as_u64(), runs["sample_run"].as_u64()),
         (Some(2), Some(8))
@@ -410,6 +428,37 @@ fn the_sample_run_and_the_clock_are_reported() {
         assert!(b > 0.0 && b <= 1.0 + 1e-12, "{w}");
     }
     assert_eq!(pairs["balance_devices"], 8);
+}
+
+/// `--sample-error` refines the sample: on tasks of 4096 rays it starts at a quarter of the
+/// rate and stops there when its halves agree within a loose target, grows to the whole rate
+/// for a target no sample meets, and is reported; `off` takes the whole sample at once.
+#[test]
+fn a_refined_sample_is_reported_with_the_rays_it_took() {
+    let run = |error: &str| {
+        json(&[
+            "--rays",
+            "primary",
+            "--size",
+            "128x128",
+            "--task-size",
+            "4096",
+            "--sample-error",
+            error,
+        ])
+    };
+    let (loose, tight, off) = (run("0.99"), run("0.000001"), run("off"));
+    assert_eq!(num(&loose, "sample_error"), 0.99);
+    assert!(off["sample_error"].is_null(), "{off}");
+    // Four tasks of 512 samples: 128 each at a quarter. A target no sample meets grows every
+    // task whose halves disagree at all (a task of sky, every ray alike, does not grow).
+    assert_eq!(num(&loose, "sampled_rays"), 512.0);
+    assert_eq!(num(&off, "sampled_rays"), 2048.0);
+    let grown = num(&tight, "sampled_rays");
+    assert!(grown > 512.0 && grown <= 2048.0, "{tight}");
+    for v in [&loose, &tight] {
+        assert!(num(v, "net_overhead").is_finite(), "{v}");
+    }
 }
 
 /// On the CPU the trace walk is the default, the report leads with the figures judged by

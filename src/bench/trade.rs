@@ -7,8 +7,7 @@
 use std::time::Instant;
 
 use raytrace::cost::{
-    Compacted, CostModel, ReducedTraversal, SampleRate, Work, full_work, measure_seconds,
-    prediction_error,
+    CostModel, ReducedTraversal, SampleRate, Work, full_work, measure_seconds, prediction_error,
 };
 use raytrace::{Bvh, RayBatch, RayKind, Walk, traverse, workload};
 use serde::Serialize;
@@ -72,8 +71,13 @@ pub struct TradePoint {
     pub ray_kind: &'static str,
     pub task_size: usize,
     pub rays: usize,
+    /// The share of the rays the estimate traced.
     pub sample_rate: f64,
-    /// How the sample was traced: `reduced`, `first-leaf` or `trace` (the real trace).
+    /// With walk `trace-refined`: the halves' disagreement its sample refined to, up to the
+    /// thesis's rate (`ReducedTraversal::with_sample_error`).
+    pub sample_error: Option<f64>,
+    /// How the sample was traced: `reduced`, `first-leaf`, `trace` (the real trace) or
+    /// `trace-refined` (the real trace of a sample refined only as far as it needs).
     pub walk: &'static str,
     /// The estimates, calibrated (`kB`, `kT`), against each task's measured single-thread
     /// trace time: what a plan needs of them.
@@ -177,12 +181,16 @@ fn points(
         let (error_vs_time_trace, spearman_trace_vs_time) =
             (trace_judged.error_vs_time, trace_judged.spearman_vs_time);
         let traced = Walk::Trace { any: occlusion };
+        // Every rate fixed, and the trace walk's sample refined up to the thesis's rate as
+        // `cobalt estimate` takes it by default.
+        let refined = Some(ReducedTraversal::DEFAULT_SAMPLE_ERROR);
         let runs = RATES
             .iter()
-            .map(|&r| (walk, r))
-            .chain(TRACE_RATES.iter().map(|&r| (traced, r)));
+            .map(|&r| (walk, r, None))
+            .chain(TRACE_RATES.iter().map(|&r| (traced, r, None)))
+            .chain(std::iter::once((traced, SampleRate::THESIS.get(), refined)));
         let mut fulls: Vec<(&'static str, Vec<f64>)> = Vec::new();
-        for (p, rate) in runs {
+        for (p, rate, sample_error) in runs {
             let full = match fulls.iter().find(|(name, _)| *name == p.name()) {
                 Some((_, f)) => f.clone(),
                 None => {
@@ -192,16 +200,17 @@ fn points(
                 }
             };
             let rate = SampleRate::new(rate).map_err(|e| cost_err(e.into()))?;
-            let estimator = ReducedTraversal::new(bvh, rays, rate).with_walk(p);
+            let estimator = ReducedTraversal::new(bvh, rays, rate)
+                .with_walk(p)
+                .with_sample_error(sample_error);
             let mut work = Vec::new();
             let est_seconds = best_of_3(|| work = estimator.try_work(&tasks).unwrap_or_default());
             let est = model.costs(&work);
             let prediction_error = prediction_error(&est, &full).map_err(cost_err)?;
             let overhead = est_seconds / trace.max(1e-12);
+            let sample = estimator.try_sample(&tasks).map_err(cost_err)?;
             let net_overhead = if p == traced {
-                let known = Compacted::gather(rays, &tasks, rate)
-                    .map_err(cost_err)?
-                    .index;
+                let known = sample.traced.map(|t| t.index).unwrap_or_default();
                 let rest = best_of_3(|| {
                     std::hint::black_box(traverse::hits_skipping(bvh, rays, occlusion, &known));
                 });
@@ -221,8 +230,13 @@ fn points(
                 ray_kind: kind,
                 task_size,
                 rays: rays.len(),
-                sample_rate: rate.get(),
-                walk: p.name(),
+                sample_rate: sample.sampled as f64 / rays.len().max(1) as f64,
+                sample_error,
+                walk: if sample_error.is_some() {
+                    "trace-refined"
+                } else {
+                    p.name()
+                },
                 error_vs_time,
                 spearman_vs_time,
                 error_vs_time_trace,

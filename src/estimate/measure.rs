@@ -5,8 +5,8 @@
 use std::time::Instant;
 
 use raytrace::cost::{
-    Compacted, CostModel, ReducedTraversal, SampleRate, SampleRun, Work, full_work,
-    measure_seconds, prediction_error,
+    CostModel, ReducedTraversal, SampleRate, SampleRun, Work, full_work, measure_seconds,
+    prediction_error,
 };
 use raytrace::{Bvh, RayBatch, RayKind, Scene, Walk, traverse};
 
@@ -145,105 +145,129 @@ pub(super) fn measure(
             .collect()
     };
     let jobs = jobs_of(walk);
-    let (estimate_seconds, est, trace_seconds, rest_seconds, adapter, walks) = match args.device {
-        DeviceArg::Cpu => {
-            // Every walk is timed, the asked one among them, so that the trade is one table.
-            let mut candidates = vec![Walk::Trace { any: false }, Walk::Reduced, Walk::FirstLeaf];
-            let chosen = candidates
-                .iter()
-                .position(|p| p.name() == walk.name())
-                .unwrap_or_else(|| {
-                    candidates.push(walk);
-                    candidates.len() - 1
-                });
-            // A render does not trace the trace walk's sampled rays again (their hits are
-            // the estimate's), so what is left of the trace is timed too: per generation, its
-            // sample.
-            let known: Vec<Vec<usize>> = segments
-                .iter()
-                .map(|(batch, _)| {
-                    let own = sched::split_ranges(batch.len(), task_size);
-                    Compacted::gather_in_runs(batch, &own, rate, args.sample_run).map(|c| c.index)
-                })
-                .collect::<Result<_, _>>()?;
-            let estimator = ReducedTraversal::new(bvh, &rays, rate).with_run(args.sample_run);
-            let mut ests: Vec<Vec<Work>> = vec![Vec::new(); candidates.len()];
-            let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CliError> + '_>> = ests
-                .iter_mut()
-                .zip(&candidates)
-                .map(|(est, &p)| {
-                    let jobs = jobs_of(p);
-                    Box::new(move || -> Result<(), CliError> {
-                        est.clear();
-                        for &(own, p) in &jobs {
-                            est.extend(estimator.with_walk(p).try_work(own)?);
-                        }
-                        Ok(())
-                    }) as Box<dyn FnMut() -> Result<(), CliError> + '_>
-                })
-                .collect();
-            let mut trace = || -> Result<(), CliError> {
-                for (batch, kind) in &segments {
-                    let hits = if kind.is_occlusion() {
-                        traverse::any_hits(bvh, batch)
-                    } else {
-                        traverse::closest_hits(bvh, batch)
-                    };
-                    std::hint::black_box(hits);
-                }
-                Ok(())
-            };
-            let mut rest = || -> Result<(), CliError> {
-                for ((batch, kind), known) in segments.iter().zip(&known) {
-                    let any = kind.is_occlusion();
-                    std::hint::black_box(traverse::hits_skipping(bvh, batch, any, known));
-                }
-                Ok(())
-            };
-            // Taken in turns, so that a noisy moment of a shared machine falls on all of
-            // them alike rather than on one.
-            let mut steps: Vec<&mut dyn FnMut() -> Result<(), CliError>> =
-                vec![&mut trace, &mut rest];
-            for e in &mut estimates {
-                steps.push(e.as_mut());
-            }
-            let best = min_times(args.repeats, args.clock, &mut steps)?;
-            drop(steps);
-            drop(estimates);
-            let (trace_seconds, rest_seconds) = (best[0], best[1]);
-            let figures: Vec<WalkFigures> = candidates
-                .iter()
-                .zip(&ests)
-                .zip(&best[2..])
-                .map(|((&p, est), &seconds)| {
-                    let reused = matches!(p, Walk::Trace { .. });
-                    let rest = if reused { rest_seconds } else { trace_seconds };
-                    let judged = judge(est);
-                    let full = full_of(p).ok();
-                    let model = CostModel::default();
-                    WalkFigures {
-                        walk: p.name(),
-                        lpt_balance: judged.lpt_balance,
-                        error_vs_time: judged.error_vs_time,
-                        spearman_vs_time: judged.spearman_vs_time,
-                        prediction_error: full.and_then(|f| {
-                            prediction_error(&model.costs(est), &model.costs(&f)).ok()
-                        }),
-                        estimate_seconds: seconds,
-                        overhead: seconds / trace_seconds.max(1e-12),
-                        net_overhead: (seconds + rest - trace_seconds) / trace_seconds.max(1e-12),
+    let (estimate_seconds, est, trace_seconds, rest_seconds, adapter, walks, sampled_rays) =
+        match args.device {
+            DeviceArg::Cpu => {
+                // Every walk is timed, the asked one among them, so that the trade is one table.
+                let mut candidates =
+                    vec![Walk::Trace { any: false }, Walk::Reduced, Walk::FirstLeaf];
+                let chosen = candidates
+                    .iter()
+                    .position(|p| p.name() == walk.name())
+                    .unwrap_or_else(|| {
+                        candidates.push(walk);
+                        candidates.len() - 1
+                    });
+                let estimator = ReducedTraversal::new(bvh, &rays, rate)
+                    .with_run(args.sample_run)
+                    .with_sample_error(args.sample_error.0);
+                // A render does not trace the trace walk's sampled rays again (their hits are
+                // the estimate's), so what is left of the trace is timed too: per generation, its
+                // sample, as indices into the generation's own batch.
+                let known: Vec<Vec<usize>> = parts
+                    .iter()
+                    .map(|(range, kind)| {
+                        let own = &tasks[range.clone()];
+                        let base = own.first().map_or(0, |t| t.start);
+                        let walk = Walk::Trace { any: false }.for_kind(*kind);
+                        let traced = estimator.with_walk(walk).try_sample(own)?.traced;
+                        Ok(traced.map_or_else(Vec::new, |t| {
+                            t.index.into_iter().map(|i| i - base).collect()
+                        }))
+                    })
+                    .collect::<Result<_, CliError>>()?;
+                let mut ests: Vec<Vec<Work>> = vec![Vec::new(); candidates.len()];
+                let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CliError> + '_>> = ests
+                    .iter_mut()
+                    .zip(&candidates)
+                    .map(|(est, &p)| {
+                        let jobs = jobs_of(p);
+                        Box::new(move || -> Result<(), CliError> {
+                            est.clear();
+                            for &(own, p) in &jobs {
+                                est.extend(estimator.with_walk(p).try_work(own)?);
+                            }
+                            Ok(())
+                        }) as Box<dyn FnMut() -> Result<(), CliError> + '_>
+                    })
+                    .collect();
+                let mut trace = || -> Result<(), CliError> {
+                    for (batch, kind) in &segments {
+                        let hits = if kind.is_occlusion() {
+                            traverse::any_hits(bvh, batch)
+                        } else {
+                            traverse::closest_hits(bvh, batch)
+                        };
+                        std::hint::black_box(hits);
                     }
-                })
-                .collect();
-            let est = std::mem::take(&mut ests[chosen]);
-            let rest = matches!(walk, Walk::Trace { .. }).then_some(rest_seconds);
-            (best[2 + chosen], est, trace_seconds, rest, None, figures)
-        }
-        DeviceArg::Gpu => {
-            let (e, est, t, name) = gpu_estimate(bvh, &rays, &segments, &jobs, rate, args.repeats)?;
-            (e, est, t, None, Some(name), Vec::new())
-        }
-    };
+                    Ok(())
+                };
+                let mut rest = || -> Result<(), CliError> {
+                    for ((batch, kind), known) in segments.iter().zip(&known) {
+                        let any = kind.is_occlusion();
+                        std::hint::black_box(traverse::hits_skipping(bvh, batch, any, known));
+                    }
+                    Ok(())
+                };
+                // Taken in turns, so that a noisy moment of a shared machine falls on all of
+                // them alike rather than on one.
+                let mut steps: Vec<&mut dyn FnMut() -> Result<(), CliError>> =
+                    vec![&mut trace, &mut rest];
+                for e in &mut estimates {
+                    steps.push(e.as_mut());
+                }
+                let best = min_times(args.repeats, args.clock, &mut steps)?;
+                drop(steps);
+                drop(estimates);
+                let (trace_seconds, rest_seconds) = (best[0], best[1]);
+                let figures: Vec<WalkFigures> = candidates
+                    .iter()
+                    .zip(&ests)
+                    .zip(&best[2..])
+                    .map(|((&p, est), &seconds)| {
+                        let reused = matches!(p, Walk::Trace { .. });
+                        let rest = if reused { rest_seconds } else { trace_seconds };
+                        let judged = judge(est);
+                        let full = full_of(p).ok();
+                        let model = CostModel::default();
+                        WalkFigures {
+                            walk: p.name(),
+                            lpt_balance: judged.lpt_balance,
+                            error_vs_time: judged.error_vs_time,
+                            spearman_vs_time: judged.spearman_vs_time,
+                            prediction_error: full.and_then(|f| {
+                                prediction_error(&model.costs(est), &model.costs(&f)).ok()
+                            }),
+                            estimate_seconds: seconds,
+                            overhead: seconds / trace_seconds.max(1e-12),
+                            net_overhead: (seconds + rest - trace_seconds)
+                                / trace_seconds.max(1e-12),
+                        }
+                    })
+                    .collect();
+                let est = std::mem::take(&mut ests[chosen]);
+                let rest = matches!(walk, Walk::Trace { .. }).then_some(rest_seconds);
+                let mut sampled = 0;
+                for &(own, p) in &jobs {
+                    sampled += estimator.with_walk(p).try_sample(own)?.sampled;
+                }
+                (
+                    best[2 + chosen],
+                    est,
+                    trace_seconds,
+                    rest,
+                    None,
+                    figures,
+                    sampled,
+                )
+            }
+            DeviceArg::Gpu => {
+                let (e, est, t, name) =
+                    gpu_estimate(bvh, &rays, &segments, &jobs, rate, args.repeats)?;
+                let sampled = tasks.iter().map(|t| rate.samples(t.len())).sum();
+                (e, est, t, None, Some(name), Vec::new(), sampled)
+            }
+        };
 
     let per_ray = |total: f64| total / rays.len() as f64;
     // Each task's counts of the real trace, traced as the generation is (closest or any hit).
@@ -288,13 +312,17 @@ pub(super) fn measure(
         tasks: tasks.len(),
         sample_rate: rate.get(),
         sample_run: args.sample_run.get(),
+        sample_error: match args.device {
+            DeviceArg::Cpu => args.sample_error.0,
+            DeviceArg::Gpu => None,
+        },
         walk: walk.name(),
         walk_fits,
         walks,
         balance_devices: crate::balance::DEVICES,
         balance_measured: crate::balance::lpt(&measured, &measured),
         balance_uniform: crate::balance::uniform(&measured),
-        sampled_rays: tasks.iter().map(|t| rate.samples(t.len())).sum(),
+        sampled_rays,
         threads: rayon::current_num_threads(),
         repeats: args.repeats,
         clock: args.clock.name(),

@@ -48,6 +48,14 @@ pub struct Args {
     /// the sample over more of each task (CPU only).
     #[arg(long, default_value_t = SampleRun::DEFAULT)]
     sample_run: SampleRun,
+    /// How far the CPU estimate's sample refines: it starts at a quarter of --sample-rate and
+    /// doubles, up to it, while its two interleaved halves disagree by more than this share
+    /// of the tasks' cost (the sample's expected part of `error_vs_time`); `off` samples every
+    /// task at --sample-rate. The GPU estimator always samples at --sample-rate.
+    #[arg(long, default_value_t = crate::args::SampleError(
+        Some(raytrace::cost::ReducedTraversal::DEFAULT_SAMPLE_ERROR)
+    ))]
+    sample_error: crate::args::SampleError,
     /// What times are taken on: `wall` time, or `cpu`, the CPU time of the whole process,
     /// which other work on a shared machine disturbs far less (CPU only; Linux).
     #[arg(long, default_value_t = sched::Clock::Wall)]

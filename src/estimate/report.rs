@@ -91,6 +91,9 @@ pub(super) struct Report {
     pub(super) sample_rate: f64,
     /// Adjacent rays the sample keeps together.
     pub(super) sample_run: usize,
+    /// The halves' disagreement the sample refined to; `None` where it was taken whole at
+    /// `sample_rate` (`--sample-error off`, or the GPU estimator).
+    pub(super) sample_error: Option<f64>,
     /// `trace`, `reduced` or `first-leaf` (applied to closest-hit generations only): the one
     /// asked for, or the better fit with `--walk auto`.
     pub(super) walk: &'static str,
@@ -223,13 +226,24 @@ impl Report {
             ("tasks", format!("{} of {} rays", r.tasks, r.task_size)),
             (
                 "sampled",
-                format!(
-                    "{:.1} % ({} rays, in runs of {}), {} walk",
-                    100.0 * r.sample_rate,
-                    r.sampled_rays,
-                    r.sample_run,
-                    r.walk
-                ),
+                match r.sample_error {
+                    None => format!(
+                        "{:.1} % ({} rays, in runs of {}), {} walk",
+                        100.0 * r.sample_rate,
+                        r.sampled_rays,
+                        r.sample_run,
+                        r.walk
+                    ),
+                    Some(e) => format!(
+                        "{:.1} % ({} rays, in runs of {}; refined up to {:.1} % until its \
+                         halves agreed within {e}), {} walk",
+                        100.0 * r.sampled_rays as f64 / r.rays.max(1) as f64,
+                        r.sampled_rays,
+                        r.sample_run,
+                        100.0 * r.sample_rate,
+                        r.walk
+                    ),
+                },
             ),
             (
                 "estimate",

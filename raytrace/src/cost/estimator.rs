@@ -6,6 +6,7 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
+use super::refine::refine;
 use super::sample::{Compacted, check_tasks};
 use super::{CostError, CostModel, SampleRate, SampleRun, Work};
 use crate::{Bvh, HitBatch, RayBatch, Walk, traverse};
@@ -23,9 +24,15 @@ pub struct ReducedTraversal<'a> {
     run: SampleRun,
     model: CostModel,
     walk: Walk,
+    sample_error: Option<f64>,
 }
 
 impl<'a> ReducedTraversal<'a> {
+    /// The halves' disagreement `cobalt estimate` refines its sample to unless told otherwise
+    /// (see [`ReducedTraversal::with_sample_error`]; docs/measurements.md has the figures
+    /// that chose it).
+    pub const DEFAULT_SAMPLE_ERROR: f64 = 0.06;
+
     /// An estimator of tasks of `rays` sampling at `rate`, with the default [`CostModel`].
     pub fn new(bvh: &'a Bvh, rays: &'a RayBatch, rate: SampleRate) -> Self {
         Self {
@@ -35,7 +42,25 @@ impl<'a> ReducedTraversal<'a> {
             run: SampleRun::DEFAULT,
             model: CostModel::default(),
             walk: Walk::Reduced,
+            sample_error: None,
         }
+    }
+
+    /// The same estimator with a sample that grows only as far as it needs (see
+    /// `cost/refine.rs`): it starts at a quarter of the rate and doubles, up to the rate,
+    /// while its two interleaved halves disagree by more than `target` (`Σ|A − B| / Σ(A + B)`
+    /// over the tasks, the sample's expected share of `error_vs_time`). `None` takes the
+    /// whole sample at the rate, as the thesis does and as the GPU estimator always does.
+    pub fn with_sample_error(self, target: Option<f64>) -> Self {
+        Self {
+            sample_error: target,
+            ..self
+        }
+    }
+
+    /// The target the sample refines to, if it refines.
+    pub fn sample_error(&self) -> Option<f64> {
+        self.sample_error
     }
 
     /// The same estimator keeping its samples in runs of `run` adjacent rays.
@@ -84,32 +109,53 @@ impl<'a> ReducedTraversal<'a> {
         &self,
         tasks: &[Range<usize>],
     ) -> Result<(Vec<Work>, Option<Traced>), CostError> {
-        let sample = Compacted::gather_in_runs(self.rays, tasks, self.rate, self.run)?;
-        // One parallel loop over the whole compacted batch (rayon chunks of it), not one per
+        let s = self.try_sample(tasks)?;
+        Ok((s.work, s.traced))
+    }
+
+    /// Every task's estimated work, the rays sampled, and with [`Walk::Trace`] their hits.
+    pub fn try_sample(&self, tasks: &[Range<usize>]) -> Result<Sample, CostError> {
+        // One parallel pass over the whole compacted list (rayon chunks of it), not one per
         // task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
-        let (counts, traced) = match self.walk {
+        let trace = |index: &[usize]| match self.walk {
             Walk::Trace { any } => {
-                let (hits, counts) = traverse::traced_at(self.bvh, self.rays, any, &sample.index);
-                (counts, Some(hits))
+                let (hits, counts) = traverse::traced_at(self.bvh, self.rays, any, index);
+                (Some(hits), counts)
             }
             walk => (
-                traverse::reduced_counts_at(self.bvh, self.rays, walk, &sample.index),
                 None,
+                traverse::reduced_counts_at(self.bvh, self.rays, walk, index),
             ),
         };
+        // A sample of every ray is asked for exactly; nothing is left to refine towards.
+        if let Some(target) = self.sample_error.filter(|_| self.rate < SampleRate::FULL) {
+            check_tasks(self.rays, tasks)?;
+            let r = refine(tasks, self.rate, self.run, self.model, target, trace);
+            return Ok(Sample {
+                sampled: r.index.len(),
+                work: r.work,
+                traced: r.hits.map(|hits| Traced {
+                    index: r.index,
+                    hits,
+                }),
+            });
+        }
+        let sample = Compacted::gather_in_runs(self.rays, tasks, self.rate, self.run)?;
+        let (traced, counts) = trace(&sample.index);
         let work = sample
             .offsets
             .windows(2)
             .zip(&sample.lens)
             .map(|(w, &len)| Work::sum(&counts[w[0]..w[1]]).scaled(len, w[1] - w[0]))
             .collect();
-        Ok((
+        Ok(Sample {
+            sampled: sample.index.len(),
             work,
-            traced.map(|hits| Traced {
+            traced: traced.map(|hits| Traced {
                 index: sample.index,
                 hits,
             }),
-        ))
+        })
     }
 
     /// Estimated cost of every task, or why there is none.
@@ -143,6 +189,17 @@ impl sched::CostEstimator<Range<usize>> for ReducedTraversal<'_> {
             }
         }
     }
+}
+
+/// What an estimate's sample found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Sample {
+    /// Each task's estimated work.
+    pub work: Vec<Work>,
+    /// Rays traced by the estimate, over all tasks.
+    pub sampled: usize,
+    /// The sampled rays' hits, with [`Walk::Trace`].
+    pub traced: Option<Traced>,
 }
 
 /// The hits of a sample traced for real ([`Walk::Trace`]): ray `index[k]` of the batch hit

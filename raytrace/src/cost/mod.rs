@@ -40,11 +40,12 @@ mod estimator;
 mod measure;
 mod metrics;
 mod model;
+mod refine;
 mod sample;
 
 pub use calibrate::{Fit, FitForm, calibrate};
 pub use error::CostError;
-pub use estimator::{ReducedTraversal, Traced, full_work};
+pub use estimator::{ReducedTraversal, Sample, Traced, full_work};
 pub use measure::measure_seconds;
 pub use metrics::{error_vs_time, prediction_error, spearman};
 pub use model::{Calibrations, CostModel, Work};

@@ -62,20 +62,30 @@ impl std::str::FromStr for SampleRun {
     }
 }
 
-/// Indices (within a task of `len` rays) of its `k` samples, `0 < k <= len`, in order: all of
-/// them when `k == len`, else runs of up to `run` adjacent rays near the middle of each of
-/// `ceil(k / run)` equal strata, starting on a multiple of `run` where the stratum has one
-/// before its middle. Where the strata would be narrower than the run (a sample of nearly the
-/// whole task), the run is shortened until each fits its stratum, so runs never overlap. The
-/// GPU estimator uploads exactly these samples.
+/// Indices (within a task of `len` rays) of its `k` samples, `0 < k <= len`, in order: the
+/// rays of its [`sample_runs`].
 fn sample_indices(k: usize, len: usize, run: SampleRun) -> impl Iterator<Item = usize> {
+    sample_runs(k, len, run).flatten()
+}
+
+/// The runs (ranges within a task of `len` rays) that hold its `k` samples, `0 < k <= len`,
+/// in order: every ray alone when `k == len`, else runs of up to `run` adjacent rays near the
+/// middle of each of `ceil(k / run)` equal strata, starting on a multiple of `run` where the
+/// stratum has one before its middle. Where the strata would be narrower than the run (a
+/// sample of nearly the whole task), the run is shortened until each fits its stratum, so runs
+/// never overlap. The GPU estimator uploads exactly these samples.
+pub(super) fn sample_runs(
+    k: usize,
+    len: usize,
+    run: SampleRun,
+) -> impl Iterator<Item = Range<usize>> {
     // A run of 1 always fits: `len / k >= 1`.
     let run = (1..=run.get().min(k))
         .rev()
         .find(|&r| len / k.div_ceil(r) >= r)
         .unwrap_or(1);
     let runs = if k == len { len } else { k.div_ceil(run) };
-    (0..runs).flat_map(move |j| {
+    (0..runs).map(move |j| {
         let width = if k == len { 1 } else { run.min(k - run * j) };
         // Integer strata bounds, never past the task: `(j + 1)·len <= len²` does not overflow
         // for tasks below 2^32 rays.
