@@ -235,8 +235,8 @@ impl Report {
                         r.walk
                     ),
                     Some(e) => format!(
-                        "{:.1} % ({} rays, in runs of {}; refined up to {:.1} % until its \
-                         halves agreed within {e}), {} walk",
+                        "{:.1} % ({} rays, in runs of {}; refined by --sample-error {e}, \
+                         at most {:.1} %), {} walk",
                         100.0 * r.sampled_rays as f64 / r.rays.max(1) as f64,
                         r.sampled_rays,
                         r.sample_run,

@@ -99,20 +99,21 @@ pub(super) fn refine(
     };
     take(&|t, j| j % stride[t] == 0, &mut found);
     loop {
-        let halves: Vec<(usize, f64, f64)> = (0..tasks.len())
+        // Each task that can still grow: `|A − B|` and `A + B`. Tasks already whole are left
+        // out of both sums, which only makes the target harder to meet.
+        let mut by_gap: Vec<(usize, f64, f64)> = (0..tasks.len())
             .filter(|&t| stride[t] > 1)
             .map(|t| {
                 let (a, b) = halves(&found[t], stride[t], model, tasks[t].len());
                 (t, (a - b).abs(), a + b)
             })
             .collect();
-        let total: f64 = halves.iter().map(|h| h.2).sum();
-        let mut apart: f64 = halves.iter().map(|h| h.1).sum();
-        if halves.is_empty() || apart <= target * total {
+        let total: f64 = by_gap.iter().map(|h| h.2).sum();
+        let mut apart: f64 = by_gap.iter().map(|h| h.1).sum();
+        if by_gap.is_empty() || apart <= target * total {
             break;
         }
         // The tasks whose halves disagree most grow first (see the module docs).
-        let mut by_gap = halves;
         by_gap.sort_by(|x, y| y.1.total_cmp(&x.1));
         let mut grow = vec![false; tasks.len()];
         for &(t, gap, _) in &by_gap {
