@@ -142,17 +142,8 @@ impl Bvh {
                 let mut kids = nonzero_bytes(cols);
                 if kids != 0 {
                     if counting {
-                        // A counted packet is an estimate's sample, far from the packet walked
-                        // before it: the nodes and triangles it enters are cold, so every
-                        // child it will enter is asked for at once instead of each waiting in
-                        // turn. The trace's packets find them warm from their neighbours, and
-                        // there the requests only cost (docs/measurements.md).
-                        let mut all = kids;
-                        while all != 0 {
-                            let k = all.trailing_zeros() as usize;
-                            all &= all - 1;
-                            wide.prefetch_child(node.child[k], node.count[k]);
-                        }
+                        // A counted packet is an estimate's sample: its children are cold.
+                        wide.prefetch_children(node, kids);
                     }
                     // Nearest first, as in the single walk: the others wait, farthest
                     // pushed first. Keys are compared as bits, as `min_entry` made them.

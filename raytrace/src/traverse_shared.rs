@@ -159,17 +159,8 @@ impl Bvh {
                 let kids = nonzero_bytes(cols);
                 if kids != 0 {
                     if counting {
-                        // A counted packet is an estimate's sample, far from the packet walked
-                        // before it: the nodes and triangles it enters are cold, so every
-                        // child it will enter is asked for at once instead of each waiting in
-                        // turn. The trace's packets find them warm from their neighbours, and
-                        // there the requests only cost (docs/measurements.md).
-                        let mut all = kids;
-                        while all != 0 {
-                            let k = all.trailing_zeros() as usize;
-                            all &= all - 1;
-                            wide.prefetch_child(node.child[k], node.count[k]);
-                        }
+                        // A counted packet is an estimate's sample: its children are cold.
+                        wide.prefetch_children(node, kids);
                     }
                     // The child nearest to the rays next, as in the single walk, the others
                     // pushed unsorted.
