@@ -7,7 +7,8 @@
 use std::time::Instant;
 
 use raytrace::cost::{
-    CostModel, ReducedTraversal, SampleRate, Work, full_work, measure_seconds, prediction_error,
+    CostModel, ReducedTraversal, Sample, SampleRate, Work, full_work, measure_seconds,
+    prediction_error,
 };
 use raytrace::{Bvh, RayBatch, RayKind, Walk, traverse, workload};
 use serde::Serialize;
@@ -203,14 +204,18 @@ fn points(
             let estimator = ReducedTraversal::new(bvh, rays, rate)
                 .with_walk(p)
                 .with_sample_error(sample_error);
-            let mut work = Vec::new();
-            let est_seconds = best_of_3(|| work = estimator.try_work(&tasks).unwrap_or_default());
+            let mut sample = Ok(Sample::default());
+            let est_seconds = best_of_3(|| sample = estimator.try_sample(&tasks));
+            let Sample {
+                work,
+                sampled,
+                traced: traced_sample,
+            } = sample.map_err(cost_err)?;
             let est = model.costs(&work);
             let prediction_error = prediction_error(&est, &full).map_err(cost_err)?;
             let overhead = est_seconds / trace.max(1e-12);
-            let sample = estimator.try_sample(&tasks).map_err(cost_err)?;
             let net_overhead = if p == traced {
-                let known = sample.traced.map(|t| t.index).unwrap_or_default();
+                let known = traced_sample.map(|t| t.index).unwrap_or_default();
                 let rest = best_of_3(|| {
                     std::hint::black_box(traverse::hits_skipping(bvh, rays, occlusion, &known));
                 });
@@ -230,7 +235,7 @@ fn points(
                 ray_kind: kind,
                 task_size,
                 rays: rays.len(),
-                sample_rate: sample.sampled as f64 / rays.len().max(1) as f64,
+                sample_rate: sampled as f64 / rays.len().max(1) as f64,
                 sample_error,
                 walk: if sample_error.is_some() {
                     "trace-refined"

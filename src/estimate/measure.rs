@@ -176,16 +176,20 @@ pub(super) fn measure(
                         }))
                     })
                     .collect::<Result<_, CliError>>()?;
-                let mut ests: Vec<Vec<Work>> = vec![Vec::new(); candidates.len()];
+                // Each walk's estimates and the rays its samples traced.
+                let mut ests: Vec<(Vec<Work>, usize)> = vec![(Vec::new(), 0); candidates.len()];
                 let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CliError> + '_>> = ests
                     .iter_mut()
                     .zip(&candidates)
-                    .map(|(est, &p)| {
+                    .map(|((est, sampled), &p)| {
                         let jobs = jobs_of(p);
                         Box::new(move || -> Result<(), CliError> {
                             est.clear();
+                            *sampled = 0;
                             for &(own, p) in &jobs {
-                                est.extend(estimator.with_walk(p).try_work(own)?);
+                                let s = estimator.with_walk(p).try_sample(own)?;
+                                est.extend(s.work);
+                                *sampled += s.sampled;
                             }
                             Ok(())
                         }) as Box<dyn FnMut() -> Result<(), CliError> + '_>
@@ -224,7 +228,7 @@ pub(super) fn measure(
                     .iter()
                     .zip(&ests)
                     .zip(&best[2..])
-                    .map(|((&p, est), &seconds)| {
+                    .map(|((&p, (est, _)), &seconds)| {
                         let reused = matches!(p, Walk::Trace { .. });
                         let rest = if reused { rest_seconds } else { trace_seconds };
                         let judged = judge(est);
@@ -245,12 +249,8 @@ pub(super) fn measure(
                         }
                     })
                     .collect();
-                let est = std::mem::take(&mut ests[chosen]);
+                let (est, sampled) = std::mem::take(&mut ests[chosen]);
                 let rest = matches!(walk, Walk::Trace { .. }).then_some(rest_seconds);
-                let mut sampled = 0;
-                for &(own, p) in &jobs {
-                    sampled += estimator.with_walk(p).try_sample(own)?.sampled;
-                }
                 (
                     best[2 + chosen],
                     est,
