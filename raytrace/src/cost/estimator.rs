@@ -266,7 +266,7 @@ pub fn full_work(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use glam::Vec3;
     use sched::CostEstimator;
 
@@ -274,13 +274,20 @@ mod tests {
     use crate::cost::prediction_error;
     use crate::{BuildPreset, Camera, Ray, SceneNeeds, SceneSource};
 
-    fn forest() -> (Bvh, RayBatch) {
+    /// A small forest and its camera rays, `size`² of them, for the estimator's tests.
+    pub(in crate::cost) fn forest_of(size: u32) -> (Bvh, RayBatch) {
         let scene = SceneSource::parse("builtin:forest:0.02")
             .and_then(|s| s.load(SceneNeeds::AO))
             .expect("builtin scene");
         let bvh = Bvh::build(&scene, BuildPreset::Fast).expect("bvh");
-        let rays = Camera::orbit(&scene.bounds(), 1).primary_rays(48, 48).rays;
+        let rays = Camera::orbit(&scene.bounds(), 1)
+            .primary_rays(size, size)
+            .rays;
         (bvh, rays)
+    }
+
+    fn forest() -> (Bvh, RayBatch) {
+        forest_of(48)
     }
 
     #[test]

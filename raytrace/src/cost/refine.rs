@@ -189,18 +189,13 @@ mod tests {
     use glam::Vec3;
 
     use crate::cost::{Compacted, ReducedTraversal, SampleRate, SampleRun, Work};
-    use crate::{BuildPreset, Bvh, Camera, Ray, RayBatch, SceneNeeds, SceneSource, Walk};
+    use crate::{Bvh, Ray, RayBatch, Walk};
 
     /// Runs of 8 at a quarter: a task of 1024 rays has 32 runs, 8 at the first level.
     const RATE: f64 = 0.25;
 
     fn forest() -> (Bvh, RayBatch) {
-        let scene = SceneSource::parse("builtin:forest:0.02")
-            .and_then(|s| s.load(SceneNeeds::AO))
-            .expect("builtin scene");
-        let bvh = Bvh::build(&scene, BuildPreset::Fast).expect("bvh");
-        let rays = Camera::orbit(&scene.bounds(), 1).primary_rays(96, 96).rays;
-        (bvh, rays)
+        crate::cost::estimator::tests::forest_of(96)
     }
 
     fn estimator<'a>(bvh: &'a Bvh, rays: &'a RayBatch, walk: Walk) -> ReducedTraversal<'a> {
