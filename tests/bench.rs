@@ -125,13 +125,20 @@ fn bench_writes_one_record_per_run_and_the_charts() {
 }
 
 /// The generation pipeline, as the thesis measures it: an AO record counts the AO rays only,
-/// fewer than the path pipeline's, which counts every ray of the frame.
+/// fewer than the path pipeline's, which counts every ray of the frame. Its records say how
+/// far the estimate refined its sample (`--sample-error`; null for the path pipeline's).
 #[test]
 fn bench_runs_the_generation_pipeline_on_request() {
     let dir = temp_dir("bench-generations");
     let rays = |pipeline: &str| {
         let json = dir.join(format!("{pipeline}.json"));
-        let o = cobalt(&[
+        let refined: &[&str] = if pipeline == "generations" {
+            &["--sample-error", "0.05"]
+        } else {
+            &[]
+        };
+        let json_arg = json.display().to_string();
+        let mut args = vec![
             "bench",
             "--scene",
             "builtin:cornell:0.2",
@@ -148,8 +155,10 @@ fn bench_runs_the_generation_pipeline_on_request() {
             "--pipeline",
             pipeline,
             "--json",
-            &json.display().to_string(),
-        ]);
+            &json_arg,
+        ];
+        args.extend_from_slice(refined);
+        let o = cobalt(&args);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let v: serde_json::Value =
             serde_json::from_slice(&std::fs::read(&json).expect("json")).expect("JSON");
@@ -159,6 +168,12 @@ fn bench_runs_the_generation_pipeline_on_request() {
             .cloned()
             .expect("a measured record");
         assert_eq!(r["pipeline"], pipeline, "{r}");
+        let error = if pipeline == "generations" {
+            Some(0.05)
+        } else {
+            None
+        };
+        assert_eq!(r["sample_error"].as_f64(), error, "{r}");
         assert_eq!(
             r["host_to_device_bytes"].is_null(),
             pipeline == "generations"
@@ -188,6 +203,8 @@ fn bench_rejects_bad_values_naming_them() {
         // Flags of the generation pipeline, given without it.
         ("--walk", "trace", "trace"),
         ("--estimate-on", "gpu", "gpu"),
+        ("--sample-error", "0.06", "0.06"),
+        ("--sample-error", "none", "none"),
     ] {
         let o = cobalt(&["bench", flag, value]);
         assert_eq!(o.status.code(), Some(2), "{flag} {value}");

@@ -117,6 +117,9 @@ fn bad_arguments_exit_2_naming_the_value_and_write_nothing() {
         ("--task-size", "many"),
         ("--sample-rate", "0"),
         ("--sample-rate", "1.5"),
+        ("--sample-error", "1.5"),
+        // The generations pipeline's, given to the path pipeline (the default).
+        ("--sample-error", "0.06"),
         ("--devices", "cpu:1,gpu"),
         ("--devices", "cpu:2/0"),
         ("--fail", "2@1"),
@@ -261,12 +264,17 @@ fn every_walk_renders_the_same_image() {
         let base = ["--devices", "cpu:2", "--policy", "hybrid"];
         let (want, thesis) = render_with(&format!("{shader}-thesis"), shader, &base);
         assert_eq!(thesis["walk"], "reduced");
-        for walk in ["first-leaf", "trace"] {
+        assert!(thesis["sample_error"].is_null(), "{thesis}");
+        for (walk, error) in [("first-leaf", "off"), ("trace", "off"), ("trace", "0.06")] {
             let mut args = base.to_vec();
-            args.extend(["--walk", walk]);
-            let (png, got) = render_with(&format!("{shader}-{walk}"), shader, &args);
-            assert!(png == want, "{shader}, {walk}: the image differs");
+            args.extend(["--walk", walk, "--sample-error", error]);
+            let (png, got) = render_with(&format!("{shader}-{walk}-{error}"), shader, &args);
+            assert!(png == want, "{shader}, {walk}, {error}: the image differs");
             assert_eq!(got["walk"], walk);
+            match error {
+                "off" => assert!(got["sample_error"].is_null(), "{got}"),
+                e => assert_eq!(got["sample_error"].as_f64(), e.parse().ok()),
+            }
         }
     }
 }

@@ -79,6 +79,9 @@ pub struct Record {
     pub mode: &'static str,
     /// Cost mode's walk of closest-hit rays (`reduced` or `first-leaf`).
     pub walk: &'static str,
+    /// How far the host's estimate refined its sample (`--sample-error`); null: every task
+    /// at the sample rate (and always for the path pipeline).
+    pub sample_error: Option<f64>,
     pub task_size: usize,
     pub devices: usize,
     pub device_list: String,
@@ -157,6 +160,7 @@ impl Record {
             policy: settings.policy.name(),
             mode: settings.mode.name(),
             walk: settings.walk.name(),
+            sample_error: settings.sample_error,
             task_size: settings.task_size.get(),
             devices,
             device_list: matrix.device_list.to_string(),
@@ -240,6 +244,8 @@ pub struct SceneMatrix<'a> {
     pub estimate_on: raytrace::scheduled::EstimateOn,
     /// Cost mode's walk of closest-hit rays.
     pub walk: raytrace::Walk,
+    /// How far cost mode's estimate refines its sample on the host (generations).
+    pub sample_error: Option<f64>,
     /// Runs of every cell, in rounds that each run every cell of the matrix once.
     pub repeats: usize,
     /// How each cell's frames are rendered.
@@ -367,6 +373,7 @@ impl SceneMatrix<'_> {
                             sample_rate: self.sample_rate,
                             estimate_on: self.estimate_on,
                             walk: self.walk,
+                            sample_error: self.sample_error,
                         };
                         cells.push((w, settings));
                     }

@@ -78,6 +78,12 @@ pub struct Args {
     /// pipeline renders its sampled paths for real.
     #[arg(long, alias = "probe")]
     walk: Option<raytrace::Walk>,
+    /// How far cost mode's estimate refines its sample on the CPU: from a quarter of
+    /// --sample-rate, up to it, while its two interleaved halves disagree by more than this
+    /// share of the tasks' cost; `off` (the default, as the thesis does) samples every task at
+    /// --sample-rate. See `cobalt estimate --sample-error`. `--pipeline generations` only.
+    #[arg(long)]
+    sample_error: Option<crate::args::SampleError>,
     /// AO probes per primary hit, 1..=4096.
     #[arg(long, default_value_t = 32,
           value_parser = clap::value_parser!(u32).range(1..=MAX_AO_SAMPLES as i64))]
@@ -172,6 +178,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 "applies to --pipeline generations; the path pipeline estimates on its devices",
             ));
         }
+        if let Some(e) = args.sample_error {
+            return Err(bad(
+                "sample-error",
+                &e.to_string(),
+                "applies to --pipeline generations; the path pipeline samples its paths at --sample-rate",
+            ));
+        }
     } else if let Some(file) = &args.calibration.calibration {
         return Err(bad(
             "calibration",
@@ -180,6 +193,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ));
     }
     let walk = args.walk.unwrap_or(raytrace::Walk::Reduced);
+    let sample_error = args.sample_error.and_then(|e| e.0);
     let estimate_on = args.estimate_on.unwrap_or_default();
     let needs = if workloads.contains(&Workload::Whitted) {
         SceneNeeds::WHITTED
@@ -206,6 +220,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             policies: &policies,
             rate,
             walk,
+            sample_error,
             preset,
             pipeline,
         };
@@ -247,6 +262,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             sample_rate: rate,
             estimate_on,
             walk,
+            sample_error,
             repeats,
             pipeline,
             calibration: store.as_ref(),
@@ -285,7 +301,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
 
     let mut out = format!(
-        "cobalt bench: {} at {}x{}, {} camera(s), devices {}, {} pipeline, sample rate {}{}\n\n",
+        "cobalt bench: {} at {}x{}, {} camera(s), devices {}, {} pipeline, sample rate {}{}{}\n\n",
         scenes.join(", "),
         width,
         height,
@@ -293,6 +309,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         args.devices.as_str(),
         pipeline.name(),
         rate.get(),
+        sample_error.map_or(String::new(), |e| format!(
+            " (refined while its halves disagree by more than {e})"
+        )),
         if repeats > 1 {
             format!(
                 ", {} runs of every cell (medians; MRays/s and balance show the runs' range)",
@@ -368,6 +387,7 @@ struct MpiSettings<'a> {
     policies: &'a [Policy],
     rate: SampleRate,
     walk: raytrace::Walk,
+    sample_error: Option<f64>,
     preset: BuildPreset,
     pipeline: Pipeline,
 }
@@ -409,6 +429,7 @@ fn run_mpi(
             ao_samples: args.ao_samples,
             sample_rate: s.rate,
             walk: s.walk,
+            sample_error: s.sample_error,
             pipeline: s.pipeline,
         })
         .collect();

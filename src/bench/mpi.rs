@@ -49,6 +49,8 @@ pub struct SceneMatrix<'a> {
     pub sample_rate: SampleRate,
     /// Cost mode's walk of closest-hit rays (generations).
     pub walk: raytrace::Walk,
+    /// How far cost mode's estimate refines its sample on each rank (generations).
+    pub sample_error: Option<f64>,
     pub pipeline: Pipeline,
 }
 
@@ -123,6 +125,7 @@ impl SceneMatrix<'_> {
             // Each rank estimates its slice of the tasks on its own host.
             estimate_on: raytrace::scheduled::EstimateOn::Cpu,
             walk: self.walk,
+            sample_error: self.sample_error,
         }
     }
 

@@ -71,6 +71,7 @@ mod tests {
             policy: "static-lpt",
             mode: "cost",
             walk: "reduced",
+            sample_error: None,
             task_size: 512,
             devices: 2,
             device_list: "cpu:2".into(),

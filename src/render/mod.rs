@@ -111,6 +111,12 @@ pub struct Args {
     /// `--pipeline generations` only: the path pipeline renders its sampled paths for real.
     #[arg(long, alias = "probe")]
     walk: Option<Walk>,
+    /// How far cost mode's estimate refines its sample on the CPU: from a quarter of
+    /// --sample-rate, up to it, while its two interleaved halves disagree by more than this
+    /// share of the tasks' cost; `off` (the default, as the thesis does) samples every task at
+    /// --sample-rate. See `cobalt estimate --sample-error`. `--pipeline generations` only.
+    #[arg(long)]
+    sample_error: Option<crate::args::SampleError>,
     /// Fault injection, `DEVICE@TASKS[,…]`: device DEVICE (0-based, in `--devices` order, a
     /// GPU included) fails after completing TASKS tasks; its unfinished tasks are re-run
     /// elsewhere.
@@ -146,6 +152,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         sample_rate: args.schedule.sample_rate,
         estimate_on: args.estimate_on.unwrap_or_default(),
         walk: args.walk.unwrap_or(Walk::Reduced),
+        sample_error: args.sample_error.and_then(|e| e.0),
     };
     let camera = args.camera.choice()?;
     let shader = args.shader.shader();
@@ -276,8 +283,8 @@ fn check_pipeline_flags(args: &Args, pipeline: Pipeline) -> Result<(), CliError>
             ),
             None => Ok(()),
         },
-        Pipeline::Paths => match (args.estimate_on, args.walk) {
-            (Some(on), _) => refuse(
+        Pipeline::Paths => match (args.estimate_on, args.walk, args.sample_error) {
+            (Some(on), _, _) => refuse(
                 "estimate-on",
                 on.name(),
                 &format!(
@@ -285,10 +292,15 @@ fn check_pipeline_flags(args: &Args, pipeline: Pipeline) -> Result<(), CliError>
                      {generations}"
                 ),
             ),
-            (_, Some(walk)) => refuse(
+            (_, Some(walk), _) => refuse(
                 "walk",
                 walk.name(),
                 &format!("the path pipeline renders its sampled paths for real; {generations}"),
+            ),
+            (_, _, Some(e)) => refuse(
+                "sample-error",
+                &e.to_string(),
+                &format!("the path pipeline samples its paths at --sample-rate; {generations}"),
             ),
             _ => Ok(()),
         },
@@ -330,6 +342,11 @@ fn mpi(
         let why = "the path pipeline renders its sampled paths for real; it applies to \
                    --pipeline generations";
         return refuse("walk", walk.name().to_string(), why);
+    }
+    if let (Pipeline::Paths, Some(e)) = (pipeline, args.sample_error) {
+        let why = "the path pipeline samples its paths at --sample-rate; it applies to \
+                   --pipeline generations";
+        return refuse("sample-error", e.to_string(), why);
     }
     let job = crate::cluster::Job {
         scene: &args.scene.scene,

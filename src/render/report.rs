@@ -107,6 +107,9 @@ pub struct Report {
     mode: &'static str,
     task_size: usize,
     sample_rate: f64,
+    /// How far the host's estimate refined its sample (`--sample-error`); null: every task
+    /// at `sample_rate`.
+    sample_error: Option<f64>,
     /// Cost mode's walk of closest-hit generations.
     walk: &'static str,
     generations: Vec<GenerationReport>,
@@ -151,6 +154,7 @@ impl Report {
             mode: settings.mode.name(),
             task_size: settings.task_size.get(),
             sample_rate: settings.sample_rate.get(),
+            sample_error: settings.sample_error,
             walk: settings.walk.name(),
             generations: generation_reports(rendering, stats),
             total_rays: rendering.total_rays(),

@@ -78,7 +78,8 @@ impl<'a, 'c> ClusterTracer<'a, 'c> {
         let (rank, size) = (self.cluster.rank(), self.cluster.size());
         let mine = &tasks[tasks.len() * rank / size..tasks.len() * (rank + 1) / size];
         let estimator = ReducedTraversal::new(self.bvh, rays, self.settings.sample_rate)
-            .with_walk(self.settings.walk.for_kind(kind));
+            .with_walk(self.settings.walk.for_kind(kind))
+            .with_sample_error(self.settings.sample_error);
         let flat: Vec<f64> = match estimator.try_work(mine) {
             Ok(work) => work
                 .iter()

@@ -98,6 +98,12 @@ pub struct Settings {
     pub task_size: NonZeroUsize,
     /// Fraction of each task's rays the estimate traces (cost mode).
     pub sample_rate: SampleRate,
+    /// How far the host's estimate refines its sample (cost mode): from a quarter of
+    /// [`Self::sample_rate`], up to it, while its halves disagree by more than this share of
+    /// the tasks' cost (see [`crate::cost::ReducedTraversal::with_sample_error`]); `None`
+    /// samples every task at the rate, as the thesis does. An estimate on a GPU always
+    /// samples at the rate.
+    pub sample_error: Option<f64>,
     /// Where the estimate runs (cost mode).
     pub estimate_on: EstimateOn,
     /// How the estimate traces its sample (cost mode), per generation as
@@ -141,13 +147,15 @@ impl Settings {
 }
 
 impl Default for Settings {
-    /// Cost-based LPT on tasks of 4096 rays sampled at 12.5 %: the thesis's method.
+    /// Cost-based LPT on tasks of 4096 rays sampled at 12.5 %, every task at that rate: the
+    /// thesis's method.
     fn default() -> Self {
         Self {
             policy: Policy::StaticLpt,
             mode: Mode::Cost,
             task_size: Self::DEFAULT_TASK_SIZE,
             sample_rate: SampleRate::THESIS,
+            sample_error: None,
             estimate_on: EstimateOn::Cpu,
             walk: Walk::Reduced,
         }

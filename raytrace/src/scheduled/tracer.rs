@@ -170,6 +170,7 @@ impl<'a> ScheduledTracer<'a> {
         }
         let (work, traced) = ReducedTraversal::new(self.bvh, rays, rate)
             .with_walk(walk)
+            .with_sample_error(self.settings.sample_error)
             .try_work_traced(tasks)
             .map_err(|e| e.to_string())?;
         Ok((work, traced, on))

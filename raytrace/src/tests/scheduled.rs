@@ -244,6 +244,55 @@ fn the_trace_walk_hands_its_samples_hits_down_and_leaves_the_image_alone() {
     }
 }
 
+/// A refined sample (`Settings::sample_error`) hands its hits down as the whole sample does:
+/// the image is the reference's, and where the tasks are large enough to refine (the camera
+/// rays of a 128 × 128 frame in tasks of 2048) and the target is met at once, the devices are
+/// told of a quarter of the rays they would have been.
+#[test]
+fn a_refined_sample_hands_down_fewer_hits_and_leaves_the_image_alone() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    const SIZE: u32 = 128;
+    let shader = Shader::Whitted(WhittedSettings { bounces: 0 });
+    let (scene, bvh) = load("builtin:forest:0.05", shader);
+    let options = RenderOptions::new(SIZE, SIZE, Camera::orbit(&scene.bounds(), 1), shader);
+    let want = render(&scene, &mut CpuTracer::new(&bvh), &options);
+    let told_of = |sample_error: Option<f64>| {
+        let told = Arc::new(AtomicUsize::new(0));
+        let devices = build_devices(&bvh, &parse_devices("cpu:2").unwrap(), &[])
+            .unwrap()
+            .into_iter()
+            .map(|inner| {
+                Box::new(Spy {
+                    inner,
+                    skips: true,
+                    told: told.clone(),
+                }) as Box<dyn crate::scheduled::RayDevice>
+            })
+            .collect();
+        let settings = Settings {
+            walk: Walk::Trace { any: false },
+            sample_error,
+            ..settings(Policy::StaticLpt, Mode::Cost, 2048)
+        };
+        let mut tracer = ScheduledTracer::new(&bvh, devices, settings).unwrap();
+        let got = render(&scene, &mut tracer, &options);
+        assert_eq!(got.film, want.film, "{sample_error:?}");
+        let primary = tracer.stats().first().map(|g| g.rays);
+        assert_eq!(primary, Some((SIZE * SIZE) as usize));
+        told.load(Ordering::Relaxed)
+    };
+    let (whole, refined) = (told_of(None), told_of(Some(0.99)));
+    // The camera rays' sample: 1/8 of them whole, 1/32 refined; the shadow rays' tasks are
+    // cut too small to refine and are sampled whole in both.
+    let camera = (SIZE * SIZE) as usize;
+    assert_eq!(
+        whole - refined,
+        camera / 8 - camera / 32,
+        "{whole} {refined}"
+    );
+}
+
 #[test]
 fn a_device_that_fails_mid_render_leaves_the_image_complete() {
     let shader = whitted();
