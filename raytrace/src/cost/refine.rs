@@ -58,53 +58,61 @@ pub(super) fn refine(
     target: f64,
     mut trace: impl FnMut(&[usize]) -> (Option<HitBatch>, Vec<Counts>),
 ) -> Refined {
-    let runs: Vec<Vec<Range<usize>>> = tasks
-        .iter()
-        .map(|r| {
+    // Every task's runs in one list, task `t`'s at `runs[from[t]..from[t + 1]]`: this
+    // bookkeeping runs between parallel passes, on one thread, and with a list per task and a
+    // scan of all of a task's runs for each half it took 8–10 % of a camera-ray estimate.
+    let mut runs: Vec<Range<usize>> = Vec::new();
+    let mut from = Vec::with_capacity(tasks.len() + 1);
+    for r in tasks {
+        from.push(runs.len());
+        runs.extend(
             sample_runs(rate.samples(r.len()), r.len(), run)
-                .map(|s| r.start + s.start..r.start + s.end)
-                .collect()
-        })
-        .collect();
+                .map(|s| r.start + s.start..r.start + s.end),
+        );
+    }
+    from.push(runs.len());
     let first = 1usize << LEVELS;
-    let mut stride: Vec<usize> = runs
-        .iter()
-        .map(|r| {
-            if r.len() >= MIN_RUNS * first {
+    let mut stride: Vec<usize> = from
+        .windows(2)
+        .map(|w| {
+            if w[1] - w[0] >= MIN_RUNS * first {
                 first
             } else {
                 1
             }
         })
         .collect();
-    // Per task and run: the pass that traced it and where in that pass, and its counts' sum.
-    let mut found: Vec<Vec<Found>> = runs.iter().map(|r| vec![None; r.len()]).collect();
+    // Per run: the pass that traced it and where in that pass, and its counts' sum.
+    let mut found: Vec<Found> = vec![None; runs.len()];
     // Each pass's hits, where the walk traced for real.
     let mut passes: Vec<Option<HitBatch>> = Vec::new();
-    let mut take = |want: &dyn Fn(usize, usize) -> bool, found: &mut Vec<Vec<Found>>| {
+    // Traces, in one pass, every task's runs `j0, j0 + step, …` for its `pick(t) = (j0, step)`.
+    let mut take = |pick: &dyn Fn(usize) -> Option<(usize, usize)>, found: &mut [Found]| {
         let mut index = Vec::new();
-        let mut spans = Vec::new();
-        for (t, rs) in runs.iter().enumerate() {
-            for (j, r) in rs.iter().enumerate().filter(|&(j, _)| want(t, j)) {
-                spans.push((t, j, index.len()));
-                index.extend(r.clone());
+        let mut starts = Vec::new();
+        for t in 0..tasks.len() {
+            let Some((j0, step)) = pick(t) else { continue };
+            for k in (from[t] + j0..from[t + 1]).step_by(step) {
+                starts.push((k, index.len()));
+                index.extend(runs[k].clone());
             }
         }
         let (hits, counts) = trace(&index);
-        for &(t, j, at) in &spans {
-            let len = runs[t][j].len();
-            found[t][j] = Some((passes.len(), at, Work::sum(&counts[at..at + len])));
+        for (k, at) in starts {
+            let len = runs[k].len();
+            found[k] = Some((passes.len(), at, Work::sum(&counts[at..at + len])));
         }
         passes.push(hits);
     };
-    take(&|t, j| j % stride[t] == 0, &mut found);
+    take(&|t| Some((0, stride[t])), &mut found);
     loop {
         // Each task that can still grow: `|A − B|` and `A + B`. Tasks already whole are left
         // out of both sums, which only makes the target harder to meet.
         let mut by_gap: Vec<(usize, f64, f64)> = (0..tasks.len())
             .filter(|&t| stride[t] > 1)
             .map(|t| {
-                let (a, b) = halves(&found[t], stride[t], model, tasks[t].len());
+                let own = &found[from[t]..from[t + 1]];
+                let (a, b) = halves(own, stride[t], model, tasks[t].len());
                 (t, (a - b).abs(), a + b)
             })
             .collect();
@@ -124,54 +132,61 @@ pub(super) fn refine(
             grow[t] = true;
             apart -= gap * (1.0 - std::f64::consts::FRAC_1_SQRT_2);
         }
-        take(
-            &|t, j| grow[t] && j % stride[t] == stride[t] / 2,
-            &mut found,
-        );
+        take(&|t| grow[t].then(|| (stride[t] / 2, stride[t])), &mut found);
         for (t, g) in grow.into_iter().enumerate() {
             if g {
                 stride[t] /= 2;
             }
         }
     }
-    assemble(tasks, &runs, &found, &passes)
+    assemble(tasks, &from, &runs, &found, &passes)
 }
 
-/// A task's two halves at `stride` (see the module docs): each half's cost per ray, times the
-/// task's `len` rays.
+/// A task's two halves at `stride` (see the module docs), from its runs' `found`: each half's
+/// cost per ray, times the task's `len` rays.
 fn halves(found: &[Found], stride: usize, model: CostModel, len: usize) -> (f64, f64) {
-    let half = |phase: usize| {
-        let w = found
-            .iter()
-            .enumerate()
-            .filter(|&(j, _)| j % (2 * stride) == phase)
-            .filter_map(|(_, f)| f.map(|(_, _, w)| w))
-            .fold(Work::default(), Work::plus);
-        model.cost(w) / w.rays.max(1.0) * len as f64
-    };
-    (half(0), half(stride))
+    let mut half = [Work::default(); 2];
+    for (i, f) in found.iter().step_by(stride).enumerate() {
+        if let Some((_, _, w)) = *f {
+            half[i % 2] = half[i % 2].plus(w);
+        }
+    }
+    let per_task = |w: Work| model.cost(w) / w.rays.max(1.0) * len as f64;
+    (per_task(half[0]), per_task(half[1]))
 }
 
 /// Each task's runs in order, gathered from the passes that traced them.
 fn assemble(
     tasks: &[Range<usize>],
-    runs: &[Vec<Range<usize>>],
-    found: &[Vec<Found>],
+    from: &[usize],
+    runs: &[Range<usize>],
+    found: &[Found],
     passes: &[Option<HitBatch>],
 ) -> Refined {
     let traced = passes.iter().any(Option::is_some);
-    let mut index = Vec::new();
-    let mut hits = HitBatch::default();
+    let rays: usize = runs
+        .iter()
+        .zip(found)
+        .filter(|(_, f)| f.is_some())
+        .map(|(r, _)| r.len())
+        .sum();
+    let mut index = Vec::with_capacity(rays);
+    let mut hits = HitBatch {
+        t: Vec::with_capacity(if traced { rays } else { 0 }),
+        prim: Vec::with_capacity(if traced { rays } else { 0 }),
+    };
     let mut work = Vec::with_capacity(tasks.len());
     for (t, task) in tasks.iter().enumerate() {
         let mut sum = Work::default();
-        for (j, f) in found[t].iter().enumerate() {
-            let Some((pass, at, w)) = *f else { continue };
-            let len = runs[t][j].len();
-            index.extend(runs[t][j].clone());
+        for k in from[t]..from[t + 1] {
+            let Some((pass, at, w)) = found[k] else {
+                continue;
+            };
+            let r = &runs[k];
+            index.extend(r.clone());
             if let Some(h) = &passes[pass] {
-                hits.t.extend_from_slice(&h.t[at..at + len]);
-                hits.prim.extend_from_slice(&h.prim[at..at + len]);
+                hits.t.extend_from_slice(&h.t[at..at + r.len()]);
+                hits.prim.extend_from_slice(&h.prim[at..at + r.len()]);
             }
             sum = sum.plus(w);
         }
