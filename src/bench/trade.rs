@@ -105,14 +105,18 @@ pub struct TradePoint {
     pub lpt_balance: Option<f64>,
 }
 
-fn best_of_3(mut f: impl FnMut()) -> f64 {
-    (0..3)
-        .map(|_| {
-            let t = Instant::now();
-            f();
-            t.elapsed().as_secs_f64()
-        })
-        .fold(f64::MAX, f64::min)
+/// The least wall time of `f` over at least three runs, and more while they are short (as
+/// `cobalt estimate` times its rounds, see `crate::estimate::another_round`): a net overhead
+/// is the difference of two such times.
+fn least_time(mut f: impl FnMut()) -> f64 {
+    let (mut best, mut spent, mut runs) = (f64::MAX, 0.0, 0);
+    while crate::estimate::another_round(runs, 3, spent) {
+        let t = Instant::now();
+        f();
+        let seconds = t.elapsed().as_secs_f64();
+        (best, spent, runs) = (best.min(seconds), spent + seconds, runs + 1);
+    }
+    best
 }
 
 /// The rates the trace walk is measured at: its net overhead is what matters, and above
@@ -141,7 +145,7 @@ fn points(
 ) -> Result<Vec<TradePoint>, CliError> {
     let cost_err = |e: raytrace::cost::CostError| CliError::Write(format!("estimate: {e}"));
     let model = CostModel::default();
-    let trace = best_of_3(|| {
+    let trace = least_time(|| {
         let hits = if occlusion {
             traverse::any_hits(bvh, rays)
         } else {
@@ -205,7 +209,7 @@ fn points(
                 .with_walk(p)
                 .with_sample_error(sample_error);
             let mut sample = Ok(Sample::default());
-            let est_seconds = best_of_3(|| sample = estimator.try_sample(&tasks));
+            let est_seconds = least_time(|| sample = estimator.try_sample(&tasks));
             let Sample {
                 work,
                 sampled,
@@ -216,7 +220,7 @@ fn points(
             let overhead = est_seconds / trace.max(1e-12);
             let net_overhead = if p == traced {
                 let known = traced_sample.map(|t| t.index).unwrap_or_default();
-                let rest = best_of_3(|| {
+                let rest = least_time(|| {
                     std::hint::black_box(traverse::hits_skipping(bvh, rays, occlusion, &known));
                 });
                 (est_seconds + rest - trace) / trace.max(1e-12)

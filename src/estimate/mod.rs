@@ -13,6 +13,7 @@
 //! and prints them as a table or one JSON object.
 
 mod measure;
+pub(crate) use measure::another_round;
 mod rays;
 mod report;
 
@@ -77,7 +78,10 @@ pub struct Args {
     /// any-hit tracing.
     #[arg(long, default_value = "primary")]
     ray_kind: RayKind,
-    /// Every timing is repeated this many times, 1..=1000, and the least kept.
+    /// Every timing is repeated this many times, 1..=1000, and the least kept. On the CPU the
+    /// estimates, the full trace and the rest are timed in rounds, at least this many and more
+    /// while the full trace's rounds add up to less than half a second (at most 64): the JSON's
+    /// `rounds`.
     #[arg(long, default_value_t = 3, value_parser = count::<1000>)]
     repeats: usize,
     /// Where the estimator and the full trace run: `cpu` (all cores) or `gpu` (the first

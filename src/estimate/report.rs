@@ -111,6 +111,9 @@ pub(super) struct Report {
     pub(super) sampled_rays: usize,
     pub(super) threads: usize,
     pub(super) repeats: usize,
+    /// Rounds the estimates, the full trace and the rest were timed in: at least `repeats`,
+    /// more where the trace is short (see `--repeats`).
+    pub(super) rounds: usize,
     /// What the times were taken on: `wall` or `cpu` (the process's CPU time).
     pub(super) clock: &'static str,
     /// Where the estimate and the full trace ran: `cpu` or `gpu`.
