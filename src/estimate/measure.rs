@@ -424,8 +424,8 @@ fn gpu_estimate(
 
 /// Rounds are added past `--repeats` until the first step (the full trace) has taken this
 /// long in all. Five rounds of a 25 ms camera-ray trace put two identical traces up to 5 %
-/// apart by chance, as much as the whole net overhead they are to measure; twenty, 0.4 %
-/// (docs/measurements.md).
+/// apart by chance, as much as the whole net overhead they are to measure; twenty, within
+/// 1 % (docs/measurements.md).
 const MIN_TRACE_SECONDS: f64 = 0.5;
 
 /// Rounds at most, however short the trace.

@@ -59,8 +59,8 @@ pub(super) fn refine(
     mut trace: impl FnMut(&[usize]) -> (Option<HitBatch>, Vec<Counts>),
 ) -> Refined {
     // Every task's runs in one list, task `t`'s at `runs[from[t]..from[t + 1]]`: this
-    // bookkeeping runs between parallel passes, on one thread, and with a list per task and a
-    // scan of all of a task's runs for each half it took 8–10 % of a camera-ray estimate.
+    // bookkeeping runs on one thread between parallel passes, and with a list per task and a
+    // scan of all of a task's runs for each half, camera-ray estimates took 8–10 % longer.
     let mut runs: Vec<Range<usize>> = Vec::new();
     let mut from = Vec::with_capacity(tasks.len() + 1);
     for r in tasks {
