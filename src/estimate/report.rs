@@ -254,7 +254,12 @@ impl Report {
             ),
             (
                 "full trace",
-                format!("{:.4} s on {}", r.trace_seconds, ran_on(r)),
+                format!(
+                    "{:.4} s on {}, each time the least of {} rounds",
+                    r.trace_seconds,
+                    ran_on(r),
+                    r.rounds
+                ),
             ),
             (
                 "prediction error",
