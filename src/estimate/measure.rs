@@ -227,16 +227,23 @@ pub(super) fn measure(
                 drop(steps);
                 drop(estimates);
                 let (trace_seconds, rest_seconds) = (best[0], best[1]);
+                let model = CostModel::default();
                 let figures: Vec<WalkFigures> = candidates
                     .iter()
                     .zip(&ests)
                     .zip(&best[2..])
-                    .map(|((&p, (est, _)), &seconds)| {
+                    .enumerate()
+                    .map(|(i, ((&p, (est, _)), &seconds))| {
                         let reused = matches!(p, Walk::Trace { .. });
                         let rest = if reused { rest_seconds } else { trace_seconds };
                         let judged = judge(est);
-                        let full = full_of(p).ok();
-                        let model = CostModel::default();
+                        // The asked walk's full counts are at hand: each is a traversal of
+                        // every ray.
+                        let full = if i == chosen {
+                            Some(full.clone())
+                        } else {
+                            full_of(p).ok()
+                        };
                         WalkFigures {
                             walk: p.name(),
                             lpt_balance: judged.lpt_balance,
