@@ -16,6 +16,7 @@ mod output;
 mod path_run;
 mod render;
 mod render_gpu;
+mod rounds;
 mod schedule;
 mod spatial;
 mod trace;

@@ -357,10 +357,22 @@ fn the_trace_walk_reports_its_net_overhead() {
         assert_eq!(v["walk"], "trace");
         let (gross, net) = (num(&v, "overhead"), num(&v, "net_overhead"));
         let (full, rest) = (num(&v, "trace_seconds"), num(&v, "rest_seconds"));
-        let est = num(&v, "estimate_seconds");
-        assert!(gross > 0.0 && rest > 0.0, "{v}");
-        assert!(((est + rest - full) / full - net).abs() < 1e-9, "{v}");
+        assert!(
+            gross > 0.0 && rest > 0.0 && full > 0.0 && net.is_finite(),
+            "{v}"
+        );
+        // A sample of every ray leaves the rest nothing to trace: each round's net overhead
+        // is its overhead less the whole trace, plus the rest's walk over the known rays (at
+        // least nothing, at most a fraction of a trace), and so are their medians.
         let full_sample = json(&["--rays", rays, "--walk", "trace", "--sample-rate", "1"]);
+        let (gross, net) = (
+            num(&full_sample, "overhead"),
+            num(&full_sample, "net_overhead"),
+        );
+        assert!(
+            net >= gross - 1.0 - 1e-9 && net < gross - 0.5,
+            "{full_sample}"
+        );
         assert_eq!(num(&full_sample, "prediction_error"), 0.0);
         assert_eq!(
             full_sample["error_vs_time_full"], full_sample["error_vs_time_trace"],

@@ -4,8 +4,6 @@
 //! costs a far larger share of its trace than on the thesis's GPU, so the overhead target of
 //! [`meets_target`] (4 %) is met only at the lower rates (figures in `docs/measurements.md`).
 
-use std::time::Instant;
-
 use raytrace::cost::{
     CostModel, ReducedTraversal, Sample, SampleRate, Work, full_work, measure_seconds,
     prediction_error,
@@ -15,6 +13,7 @@ use serde::Serialize;
 
 use super::matrix::SceneMatrix;
 use crate::error::CliError;
+use crate::rounds::Rounds;
 
 /// The sampling rates measured: the thesis's four, and two below them.
 pub const RATES: [f64; 6] = [0.03125, 0.0625, 0.125, 0.25, 0.5, 1.0];
@@ -90,7 +89,8 @@ pub struct TradePoint {
     pub spearman_trace_vs_time: Option<f64>,
     /// The thesis's, against the walk's own full count (secondary: it does not see time).
     pub prediction_error: f64,
-    /// Estimation time over the full trace's time, both on all cores, best of three.
+    /// Estimation time over the full trace's time, both on all cores: the median over rounds
+    /// of each round's share (see `crate::rounds`).
     pub overhead: f64,
     /// What estimating costs a render: the overhead less the sample's trace, where the walk
     /// traced it for real and the render reuses its hits; else the overhead.
@@ -105,18 +105,49 @@ pub struct TradePoint {
     pub lpt_balance: Option<f64>,
 }
 
-/// The least wall time of `f` over at least three runs, and more while they are short (as
-/// `cobalt estimate` times its rounds, see `crate::estimate::another_round`): a net overhead
-/// is the difference of two such times.
-fn least_time(mut f: impl FnMut()) -> f64 {
-    let (mut best, mut spent, mut runs) = (f64::MAX, 0.0, 0);
-    while crate::estimate::another_round(runs, 3, spent) {
-        let t = Instant::now();
-        f();
-        let seconds = t.elapsed().as_secs_f64();
-        (best, spent, runs) = (best.min(seconds), spent + seconds, runs + 1);
-    }
-    best
+/// `estimator`'s overhead and net overhead on `tasks` of `rays` (traced for any hits with
+/// `any`, else closest hits): the trace, the trace left after the
+/// sample (where `known`, the sampled rays, are reused) and the estimate timed in rounds, each
+/// a median of its round's shares of the trace, as `cobalt estimate` times them (see
+/// `crate::rounds`).
+fn shares(
+    (bvh, rays, any): (&Bvh, &RayBatch, bool),
+    estimator: &ReducedTraversal<'_>,
+    tasks: &[std::ops::Range<usize>],
+    known: Option<Vec<usize>>,
+) -> Result<(f64, f64), CliError> {
+    let cost_err = |e: raytrace::cost::CostError| CliError::Write(format!("estimate: {e}"));
+    let mut trace = || -> Result<(), CliError> {
+        let hits = if any {
+            traverse::any_hits(bvh, rays)
+        } else {
+            traverse::closest_hits(bvh, rays)
+        };
+        std::hint::black_box(hits);
+        Ok(())
+    };
+    let mut estimate = || -> Result<(), CliError> {
+        std::hint::black_box(estimator.try_sample(tasks).map_err(cost_err)?);
+        Ok(())
+    };
+    let Some(known) = known else {
+        let timed = Rounds::time(3, sched::Clock::Wall, &mut [&mut trace, &mut estimate])?;
+        let overhead = timed.median_share(|r| r[1]);
+        return Ok((overhead, overhead));
+    };
+    let mut rest = || -> Result<(), CliError> {
+        std::hint::black_box(traverse::hits_skipping(bvh, rays, any, &known));
+        Ok(())
+    };
+    let timed = Rounds::time(
+        3,
+        sched::Clock::Wall,
+        &mut [&mut trace, &mut rest, &mut estimate],
+    )?;
+    Ok((
+        timed.median_share(|r| r[2]),
+        timed.median_share(|r| r[2] + r[1] - r[0]),
+    ))
 }
 
 /// The rates the trace walk is measured at: its net overhead is what matters, and above
@@ -145,14 +176,6 @@ fn points(
 ) -> Result<Vec<TradePoint>, CliError> {
     let cost_err = |e: raytrace::cost::CostError| CliError::Write(format!("estimate: {e}"));
     let model = CostModel::default();
-    let trace = least_time(|| {
-        let hits = if occlusion {
-            traverse::any_hits(bvh, rays)
-        } else {
-            traverse::closest_hits(bvh, rays)
-        };
-        std::hint::black_box(hits);
-    });
     // Each task's measured time and real-trace counts, from chunks of the finest size that
     // all task sizes are made of, so the rays are timed once.
     let unit = task_sizes.iter().copied().fold(0, gcd).max(1);
@@ -208,25 +231,19 @@ fn points(
             let estimator = ReducedTraversal::new(bvh, rays, rate)
                 .with_walk(p)
                 .with_sample_error(sample_error);
-            let mut sample = Ok(Sample::default());
-            let est_seconds = least_time(|| sample = estimator.try_sample(&tasks));
             let Sample {
                 work,
                 sampled,
                 traced: traced_sample,
-            } = sample.map_err(cost_err)?;
+            } = estimator.try_sample(&tasks).map_err(cost_err)?;
             let est = model.costs(&work);
             let prediction_error = prediction_error(&est, &full).map_err(cost_err)?;
-            let overhead = est_seconds / trace.max(1e-12);
-            let net_overhead = if p == traced {
-                let known = traced_sample.map(|t| t.index).unwrap_or_default();
-                let rest = least_time(|| {
-                    std::hint::black_box(traverse::hits_skipping(bvh, rays, occlusion, &known));
-                });
-                (est_seconds + rest - trace) / trace.max(1e-12)
-            } else {
-                overhead
-            };
+            let (overhead, net_overhead) = shares(
+                (bvh, rays, occlusion),
+                &estimator,
+                &tasks,
+                (p == traced).then(|| traced_sample.map(|t| t.index).unwrap_or_default()),
+            )?;
             let judged = crate::balance::judge(&work, &seconds);
             let (error_vs_time, spearman_vs_time) = (judged.error_vs_time, judged.spearman_vs_time);
             let lpt_balance = judged.lpt_balance;

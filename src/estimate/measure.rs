@@ -14,6 +14,7 @@ use super::rays::Generations;
 use super::report::{Calibration, Model, Report, WalkFigures, WalkFit};
 use super::{Args, DeviceArg, WalkArg};
 use crate::error::CliError;
+use crate::rounds::Rounds;
 
 /// Measures the estimates of `rays` against their tasks' times, as `args` asks.
 pub(super) fn measure(
@@ -145,9 +146,11 @@ pub(super) fn measure(
             .collect()
     };
     let jobs = jobs_of(walk);
-    // Rounds the CPU's steps were timed in (see `min_times`); the GPU's, `repeats`.
+    // Rounds the CPU's steps were timed in (see `crate::rounds`); the GPU's, `repeats`.
     let mut rounds = args.repeats;
-    let (estimate_seconds, est, trace_seconds, rest_seconds, adapter, walks, sampled_rays) =
+    // On the CPU, the asked walk's overhead and net overhead from the rounds' shares; on the
+    // GPU, from the least times (its estimate is not timed in the trace's rounds).
+    let (estimate_seconds, est, trace_seconds, rest_seconds, adapter, walks, sampled_rays, shares) =
         match args.device {
             DeviceArg::Cpu => {
                 // Every walk is timed, the asked one among them, so that the trade is one table.
@@ -222,11 +225,23 @@ pub(super) fn measure(
                 for e in &mut estimates {
                     steps.push(e.as_mut());
                 }
-                let best;
-                (best, rounds) = min_times(args.repeats, args.clock, &mut steps)?;
+                let timed = Rounds::time(args.repeats, args.clock, &mut steps)?;
                 drop(steps);
                 drop(estimates);
+                rounds = timed.len();
+                let best: Vec<f64> = (0..2 + candidates.len()).map(|i| timed.least(i)).collect();
                 let (trace_seconds, rest_seconds) = (best[0], best[1]);
+                // Walk `i`'s overhead and net overhead, each a median over the rounds of its
+                // round's shares of the trace (see `crate::rounds`).
+                let shares = |i: usize, reused: bool| {
+                    let overhead = timed.median_share(|r| r[2 + i]);
+                    let net = if reused {
+                        timed.median_share(|r| r[2 + i] + r[1] - r[0])
+                    } else {
+                        overhead
+                    };
+                    (overhead, net)
+                };
                 let model = CostModel::default();
                 let figures: Vec<WalkFigures> = candidates
                     .iter()
@@ -234,8 +249,7 @@ pub(super) fn measure(
                     .zip(&best[2..])
                     .enumerate()
                     .map(|(i, ((&p, (est, _)), &seconds))| {
-                        let reused = matches!(p, Walk::Trace { .. });
-                        let rest = if reused { rest_seconds } else { trace_seconds };
+                        let (overhead, net_overhead) = shares(i, matches!(p, Walk::Trace { .. }));
                         let judged = judge(est);
                         // The asked walk's full counts are at hand: each is a traversal of
                         // every ray.
@@ -253,14 +267,14 @@ pub(super) fn measure(
                                 prediction_error(&model.costs(est), &model.costs(&f)).ok()
                             }),
                             estimate_seconds: seconds,
-                            overhead: seconds / trace_seconds.max(1e-12),
-                            net_overhead: (seconds + rest - trace_seconds)
-                                / trace_seconds.max(1e-12),
+                            overhead,
+                            net_overhead,
                         }
                     })
                     .collect();
                 let (est, sampled) = std::mem::take(&mut ests[chosen]);
                 let rest = matches!(walk, Walk::Trace { .. }).then_some(rest_seconds);
+                let asked = shares(chosen, rest.is_some());
                 (
                     best[2 + chosen],
                     est,
@@ -269,13 +283,14 @@ pub(super) fn measure(
                     None,
                     figures,
                     sampled,
+                    Some(asked),
                 )
             }
             DeviceArg::Gpu => {
                 let (e, est, t, name) =
                     gpu_estimate(bvh, &rays, &segments, &jobs, rate, args.repeats)?;
                 let sampled = tasks.iter().map(|t| rate.samples(t.len())).sum();
-                (e, est, t, None, Some(name), Vec::new(), sampled)
+                (e, est, t, None, Some(name), Vec::new(), sampled, None)
             }
         };
 
@@ -347,13 +362,10 @@ pub(super) fn measure(
         prediction_error_tris: prediction_error(&est_t, &full_t).ok(),
         estimate_seconds,
         trace_seconds,
-        overhead: estimate_seconds / trace_seconds.max(1e-12),
+        overhead: shares.map_or(estimate_seconds / trace_seconds.max(1e-12), |s| s.0),
         rest_seconds,
         // A reduced walk's sample is wasted: its net overhead is its overhead, exactly.
-        net_overhead: match rest_seconds {
-            Some(rest) => (estimate_seconds + rest - trace_seconds) / trace_seconds.max(1e-12),
-            None => estimate_seconds / trace_seconds.max(1e-12),
-        },
+        net_overhead: shares.map_or(estimate_seconds / trace_seconds.max(1e-12), |s| s.1),
         error_vs_time,
         spearman_vs_time,
         error_vs_time_full,
@@ -427,45 +439,6 @@ fn gpu_estimate(
         value: "gpu".into(),
         message: "this cobalt was built without the `gpu` feature".into(),
     })
-}
-
-/// Rounds are added past `--repeats` until the first step (the full trace) has taken this
-/// long in all. Five rounds of a 25 ms camera-ray trace put two identical traces up to 5 %
-/// apart by chance, as much as the whole net overhead they are to measure; twenty, within
-/// 1 % (docs/measurements.md).
-const MIN_TRACE_SECONDS: f64 = 0.5;
-
-/// Rounds at most, however short the trace.
-const MAX_ROUNDS: usize = 64;
-
-/// Whether a timing that has taken `rounds` rounds, `spent` seconds of them on the trace,
-/// takes another: while fewer than `at_least`, and past that while `spent` is below
-/// [`MIN_TRACE_SECONDS`] (at most [`MAX_ROUNDS`]).
-pub(crate) fn another_round(rounds: usize, at_least: usize, spent: f64) -> bool {
-    rounds < at_least.max(1) || (spent < MIN_TRACE_SECONDS && rounds < MAX_ROUNDS)
-}
-
-/// The least time of each step on `clock`, the steps taken in turn each round, and the rounds
-/// taken (see [`another_round`]; the first step is the trace).
-fn min_times(
-    repeats: usize,
-    clock: sched::Clock,
-    steps: &mut [&mut dyn FnMut() -> Result<(), CliError>],
-) -> Result<(Vec<f64>, usize), CliError> {
-    let mut best = vec![f64::INFINITY; steps.len()];
-    let (mut rounds, mut first) = (0, 0.0);
-    while another_round(rounds, repeats, first) {
-        for (i, (step, best)) in steps.iter_mut().zip(&mut best).enumerate() {
-            let (seconds, done) = clock.time(&mut **step);
-            done?;
-            *best = best.min(seconds);
-            if i == 0 {
-                first += seconds;
-            }
-        }
-        rounds += 1;
-    }
-    Ok((best, rounds))
 }
 
 /// Runs `f` `repeats` times; the least wall time and the last result. The first run warms

@@ -13,7 +13,6 @@
 //! and prints them as a table or one JSON object.
 
 mod measure;
-pub(crate) use measure::another_round;
 mod rays;
 mod report;
 

@@ -78,7 +78,8 @@ pub(super) struct Report {
     pub(super) spearman_trace_vs_time: Option<f64>,
     /// `(estimate + rest − full trace) / full trace`, where `rest` is the full trace less
     /// the sampled rays when the walk traces them for real (a render takes their hits from
-    /// the estimate), else the full trace: what estimating costs a render.
+    /// the estimate), else the full trace: what estimating costs a render. On the CPU, the
+    /// median over the rounds of each round's own (see `crate::rounds`).
     pub(super) net_overhead: f64,
     pub(super) scene: String,
     pub(super) triangles: usize,
@@ -133,6 +134,7 @@ pub(super) struct Report {
     /// Full trace (closest or any hit, with triangle tests) of all rays, on all cores (or on
     /// the GPU, upload and read-back included).
     pub(super) trace_seconds: f64,
+    /// Estimate over full trace; on the CPU, the median over the rounds of each round's own.
     pub(super) overhead: f64,
     /// With `--walk trace` on the CPU: the full trace less the sampled rays, which a render
     /// takes from the estimate instead of tracing them again.

@@ -1,0 +1,141 @@
+//! Steps timed in rounds, in turn, and the ratios between steps of one round: how `cobalt
+//! estimate` and the bench's sampling trade time an estimate against the trace it saves.
+//!
+//! An overhead is a ratio of two steps, and a net overhead the difference of two nearly equal
+//! ones. On a shared machine the speed of the whole machine moves between rounds, not only
+//! within one (by as much as 1.6× from one round to the next, each side steady to 1 %:
+//! docs/measurements.md). The least time of each step may then come from different sides,
+//! and their difference measures the machine, not the estimate. Steps of one round run back
+//! to back, at one speed; so each ratio is taken within a round, and the median over the
+//! rounds is reported.
+
+use crate::error::CliError;
+
+/// Rounds are added past the asked number until the first step (the full trace) has taken
+/// this long in all. Five rounds of a 25 ms camera-ray trace put two identical traces up to
+/// 5 % apart by chance, as much as the whole net overhead they are to measure; twenty, within
+/// 1 % (docs/measurements.md).
+const MIN_TRACE_SECONDS: f64 = 0.5;
+
+/// Rounds at most, however short the trace.
+const MAX_ROUNDS: usize = 64;
+
+/// Whether a timing that has taken `rounds` rounds, `spent` seconds of them on the trace,
+/// takes another: while fewer than `at_least`, and past that while `spent` is below
+/// [`MIN_TRACE_SECONDS`] (at most [`MAX_ROUNDS`]).
+fn another_round(rounds: usize, at_least: usize, spent: f64) -> bool {
+    rounds < at_least.max(1) || (spent < MIN_TRACE_SECONDS && rounds < MAX_ROUNDS)
+}
+
+/// Every step's time in every round (`times[round][step]`; step 0 is the trace).
+#[derive(Clone, Debug)]
+pub(crate) struct Rounds {
+    times: Vec<Vec<f64>>,
+}
+
+impl Rounds {
+    /// Times `steps` in turn each round on `clock`, for at least `repeats` rounds and more
+    /// while the first step's rounds are short (see [`another_round`]).
+    pub(crate) fn time(
+        repeats: usize,
+        clock: sched::Clock,
+        steps: &mut [&mut dyn FnMut() -> Result<(), CliError>],
+    ) -> Result<Self, CliError> {
+        let mut times = Vec::new();
+        let mut spent = 0.0;
+        while another_round(times.len(), repeats, spent) {
+            let mut round = Vec::with_capacity(steps.len());
+            for step in steps.iter_mut() {
+                let (seconds, done) = clock.time(&mut **step);
+                done?;
+                round.push(seconds);
+            }
+            spent += round.first().copied().unwrap_or(0.0);
+            times.push(round);
+        }
+        Ok(Self { times })
+    }
+
+    /// Rounds taken.
+    pub(crate) fn len(&self) -> usize {
+        self.times.len()
+    }
+
+    /// The least time of step `step` over the rounds.
+    pub(crate) fn least(&self, step: usize) -> f64 {
+        self.times
+            .iter()
+            .map(|r| r[step])
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The median over the rounds of `part(round) / round[0]`: a share of the trace, each
+    /// round's steps against the trace of the same round.
+    pub(crate) fn median_share(&self, part: impl Fn(&[f64]) -> f64) -> f64 {
+        let mut shares: Vec<f64> = self
+            .times
+            .iter()
+            .map(|r| part(r) / r[0].max(1e-12))
+            .collect();
+        median(&mut shares)
+    }
+}
+
+/// The median of `v` (the mean of the middle two for an even count); NaN for none.
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rounds(times: &[[f64; 3]]) -> Rounds {
+        Rounds {
+            times: times.iter().map(|r| r.to_vec()).collect(),
+        }
+    }
+
+    /// The machine's speed changes between rounds: the least times pair a fast trace with a
+    /// slow rest, the rounds' own shares do not.
+    #[test]
+    fn a_change_of_speed_between_rounds_leaves_the_shares_alone() {
+        // (trace, rest, estimate): the rest is 0.97 of its round's trace and the estimate
+        // 0.05, but in one round of the fast side the rest met a slow moment.
+        let r = rounds(&[
+            [66.0, 64.02, 3.3],
+            [41.0, 50.0, 2.05],
+            [41.5, 40.255, 2.075],
+            [66.0, 64.02, 3.3],
+            [65.0, 63.05, 3.25],
+        ]);
+        let net = r.median_share(|t| t[2] + t[1] - t[0]);
+        assert!((net - 0.02).abs() < 1e-9, "{net}");
+        assert!((r.median_share(|t| t[2]) - 0.05).abs() < 1e-9);
+        // The least times pair the trace of one round with the rest of another.
+        let least = (r.least(2) + r.least(1) - r.least(0)) / r.least(0);
+        assert!((least - 0.0318).abs() < 1e-3, "{least}");
+        assert_eq!((r.least(0), r.least(1), r.len()), (41.0, 40.255, 5));
+    }
+
+    #[test]
+    fn medians_of_odd_even_and_no_rounds() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert!(median(&mut []).is_nan());
+    }
+
+    #[test]
+    fn rounds_go_on_while_the_trace_is_short() {
+        assert!(another_round(0, 0, 10.0), "at least one round");
+        assert!(another_round(4, 5, 10.0));
+        assert!(another_round(5, 5, 0.1));
+        assert!(!another_round(5, 5, 0.5));
+        assert!(!another_round(MAX_ROUNDS, 5, 0.0));
+    }
+}
