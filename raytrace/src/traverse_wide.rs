@@ -285,12 +285,6 @@ impl Bvh {
                     return (best, Counts::default());
                 }
                 if mask != 0 {
-                    if counted {
-                        // A counted walk is an estimate's sample, or a ray left alone in a
-                        // sampled packet's subtree: its children are cold, as they are for
-                        // the counted packet (`Bvh::closest_shared`), which asks for them too.
-                        wide.prefetch_children(node, mask);
-                    }
                     let first = mask.trailing_zeros() as usize;
                     if mask & (mask - 1) == 0 {
                         (child, count) = (node.child[first], node.count[first]);

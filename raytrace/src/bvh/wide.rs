@@ -94,11 +94,10 @@ pub struct WideBvh {
 impl WideBvh {
     /// Asks for the cache lines of every child of `node` whose bit is set in `kids`, at once.
     ///
-    /// For an estimate's sampled packets, and the single walks of the rays a packet leaves
-    /// alone in a subtree: each packet lies far from the one walked before it, so the nodes
-    /// and triangles it enters are cold, and asked for together they arrive together instead
-    /// of each waiting in turn. A packet of the full trace finds them warm from its
-    /// neighbours, and there the requests only cost (docs/measurements.md).
+    /// For an estimate's sampled packets: each lies far from the packet walked before it, so
+    /// the nodes and triangles it enters are cold, and asked for together they arrive
+    /// together instead of each waiting in turn. A packet of the full trace finds them warm
+    /// from its neighbours, and there the requests only cost (docs/measurements.md).
     #[inline(always)]
     pub(crate) fn prefetch_children(&self, node: &Node8, mut kids: u32) {
         while kids != 0 {
