@@ -257,10 +257,15 @@ impl Report {
             (
                 "full trace",
                 format!(
-                    "{:.4} s on {}, each time the least of {} rounds",
+                    "{:.4} s on {}, each time the least of {} rounds{}",
                     r.trace_seconds,
                     ran_on(r),
-                    r.rounds
+                    r.rounds,
+                    if r.device == "cpu" {
+                        "; overheads, the median of each round's own"
+                    } else {
+                        ""
+                    }
                 ),
             ),
             (
