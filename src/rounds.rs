@@ -72,23 +72,32 @@ impl Rounds {
     /// The median over the rounds of `part(round) / round[0]`: a share of the trace, each
     /// round's steps against the trace of the same round.
     pub(crate) fn median_share(&self, part: impl Fn(&[f64]) -> f64) -> f64 {
+        self.quartile_shares(part)[1]
+    }
+
+    /// The first quartile, the median and the third quartile over the rounds of
+    /// `part(round) / round[0]`: the middle half of the rounds tells how far the machine
+    /// moved the median's parts.
+    pub(crate) fn quartile_shares(&self, part: impl Fn(&[f64]) -> f64) -> [f64; 3] {
         let mut shares: Vec<f64> = self
             .times
             .iter()
             .map(|r| part(r) / r[0].max(1e-12))
             .collect();
-        median(&mut shares)
+        shares.sort_by(f64::total_cmp);
+        [0.25, 0.5, 0.75].map(|p| quantile(&shares, p))
     }
 }
 
-/// The median of `v` (the mean of the middle two for an even count); NaN for none.
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
+/// The `p`-quantile of `sorted`, interpolated between neighbours (the median of an even count
+/// is the mean of the middle two); NaN for none.
+fn quantile(sorted: &[f64], p: f64) -> f64 {
+    let Some(last) = sorted.len().checked_sub(1) else {
+        return f64::NAN;
+    };
+    let at = p * last as f64;
+    let (lo, hi) = (at.floor() as usize, at.ceil() as usize);
+    sorted[lo] + (sorted[hi] - sorted[lo]) * (at - lo as f64)
 }
 
 #[cfg(test)]
@@ -124,10 +133,18 @@ mod tests {
     }
 
     #[test]
-    fn medians_of_odd_even_and_no_rounds() {
-        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), 2.5);
-        assert!(median(&mut []).is_nan());
+    fn quantiles_of_odd_even_and_no_rounds() {
+        assert_eq!(quantile(&[1.0, 2.0, 3.0], 0.5), 2.0);
+        assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0], 0.5), 2.5);
+        assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0, 5.0], 0.25), 2.0);
+        assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0, 5.0], 0.75), 4.0);
+        assert_eq!(quantile(&[7.0], 0.25), 7.0);
+        assert!(quantile(&[], 0.5).is_nan());
+        let r = rounds(&[[10.0, 0.0, 1.0], [10.0, 0.0, 3.0], [10.0, 0.0, 2.0]]);
+        let q = r.quartile_shares(|t| t[2]);
+        for (got, want) in q.into_iter().zip([0.15, 0.2, 0.25]) {
+            assert!((got - want).abs() < 1e-12, "{q:?}");
+        }
     }
 
     #[test]

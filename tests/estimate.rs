@@ -361,6 +361,10 @@ fn the_trace_walk_reports_its_net_overhead() {
             gross > 0.0 && rest > 0.0 && full > 0.0 && net.is_finite(),
             "{v}"
         );
+        // The median lies in the rounds' middle half.
+        let q = &v["net_overhead_quartiles"];
+        let (q1, q3) = (q[0].as_f64().unwrap(), q[1].as_f64().unwrap());
+        assert!(q1 <= net && net <= q3, "{v}");
         // A sample of every ray leaves the rest nothing to trace: each round's net overhead
         // is its overhead less the whole trace, plus the rest's walk over the known rays (at
         // least nothing, at most a fraction of a trace), and so are their medians.

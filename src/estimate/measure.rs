@@ -235,12 +235,12 @@ pub(super) fn measure(
                 // round's shares of the trace (see `crate::rounds`).
                 let shares = |i: usize, reused: bool| {
                     let overhead = timed.median_share(|r| r[2 + i]);
-                    let net = if reused {
-                        timed.median_share(|r| r[2 + i] + r[1] - r[0])
+                    let [q1, net, q3] = if reused {
+                        timed.quartile_shares(|r| r[2 + i] + r[1] - r[0])
                     } else {
-                        overhead
+                        timed.quartile_shares(|r| r[2 + i])
                     };
-                    (overhead, net)
+                    (overhead, net, [q1, q3])
                 };
                 let model = CostModel::default();
                 let figures: Vec<WalkFigures> = candidates
@@ -249,7 +249,8 @@ pub(super) fn measure(
                     .zip(&best[2..])
                     .enumerate()
                     .map(|(i, ((&p, (est, _)), &seconds))| {
-                        let (overhead, net_overhead) = shares(i, matches!(p, Walk::Trace { .. }));
+                        let (overhead, net_overhead, _) =
+                            shares(i, matches!(p, Walk::Trace { .. }));
                         let judged = judge(est);
                         // The asked walk's full counts are at hand: each is a traversal of
                         // every ray.
@@ -366,6 +367,7 @@ pub(super) fn measure(
         rest_seconds,
         // A reduced walk's sample is wasted: its net overhead is its overhead, exactly.
         net_overhead: shares.map_or(estimate_seconds / trace_seconds.max(1e-12), |s| s.1),
+        net_overhead_quartiles: shares.map(|s| s.2),
         error_vs_time,
         spearman_vs_time,
         error_vs_time_full,

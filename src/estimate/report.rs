@@ -81,6 +81,10 @@ pub(super) struct Report {
     /// the estimate), else the full trace: what estimating costs a render. On the CPU, the
     /// median over the rounds of each round's own (see `crate::rounds`).
     pub(super) net_overhead: f64,
+    /// On the CPU, the first and third quartile of the rounds' own net overheads: how far
+    /// the machine moved them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) net_overhead_quartiles: Option<[f64; 2]>,
     pub(super) scene: String,
     pub(super) triangles: usize,
     pub(super) preset: String,
@@ -204,17 +208,31 @@ impl Report {
                     num(r.spearman_full_vs_time)
                 ),
             ),
-            (
-                "net overhead",
-                match r.rest_seconds {
-                    Some(_) => format!(
-                        "{} (the sampled rays' hits are reused; {} counting their trace as waste)",
-                        pct(Some(r.net_overhead)),
+            ("net overhead", {
+                // The rounds' middle half first: it belongs to the net overhead.
+                let mut notes: Vec<String> = r
+                    .net_overhead_quartiles
+                    .map(|[a, b]| {
+                        format!(
+                            "the rounds' middle half {} to {}",
+                            pct(Some(a)),
+                            pct(Some(b))
+                        )
+                    })
+                    .into_iter()
+                    .collect();
+                if r.rest_seconds.is_some() {
+                    notes.push(format!(
+                        "the sampled rays' hits are reused; {} counting their trace as waste",
                         pct(Some(r.overhead))
-                    ),
-                    None => pct(Some(r.net_overhead)),
-                },
-            ),
+                    ));
+                }
+                if notes.is_empty() {
+                    pct(Some(r.net_overhead))
+                } else {
+                    format!("{} ({})", pct(Some(r.net_overhead)), notes.join("; "))
+                }
+            }),
             (
                 "scene",
                 format!("{} ({} triangles, BVH {})", r.scene, r.triangles, r.preset),
