@@ -8,7 +8,8 @@ use raytrace::cost::{
     CostModel, ReducedTraversal, Sample, SampleRate, Work, full_work, measure_seconds,
     prediction_error,
 };
-use raytrace::{Bvh, RayBatch, RayKind, Walk, traverse, workload};
+use raytrace::traverse::{self, Layout};
+use raytrace::{Bvh, RayBatch, RayKind, Walk, workload};
 use serde::Serialize;
 
 use super::matrix::SceneMatrix;
@@ -117,12 +118,7 @@ fn shares(
 ) -> Result<(f64, f64), CliError> {
     let cost_err = |e: raytrace::cost::CostError| CliError::Write(format!("estimate: {e}"));
     let mut trace = || -> Result<(), CliError> {
-        let hits = if any {
-            traverse::any_hits(bvh, rays)
-        } else {
-            traverse::closest_hits(bvh, rays)
-        };
-        std::hint::black_box(hits);
+        std::hint::black_box(traverse::hits_in(bvh, rays, any, Layout::Wide));
         Ok(())
     };
     let mut estimate = || -> Result<(), CliError> {

@@ -8,7 +8,8 @@ use raytrace::cost::{
     CostModel, ReducedTraversal, SampleRate, SampleRun, Work, full_work, measure_seconds,
     prediction_error,
 };
-use raytrace::{Bvh, RayBatch, RayKind, Scene, Walk, traverse};
+use raytrace::traverse::{self, Layout};
+use raytrace::{Bvh, RayBatch, RayKind, Scene, Walk};
 
 use super::rays::Generations;
 use super::report::{Calibration, Model, Report, WalkFigures, WalkFit};
@@ -202,12 +203,8 @@ pub(super) fn measure(
                     .collect();
                 let mut trace = || -> Result<(), CliError> {
                     for (batch, kind) in &segments {
-                        let hits = if kind.is_occlusion() {
-                            traverse::any_hits(bvh, batch)
-                        } else {
-                            traverse::closest_hits(bvh, batch)
-                        };
-                        std::hint::black_box(hits);
+                        let any = kind.is_occlusion();
+                        std::hint::black_box(traverse::hits_in(bvh, batch, any, Layout::Wide));
                     }
                     Ok(())
                 };
@@ -234,13 +231,13 @@ pub(super) fn measure(
                 // Walk `i`'s overhead and net overhead, each a median over the rounds of its
                 // round's shares of the trace (see `crate::rounds`).
                 let shares = |i: usize, reused: bool| {
-                    let overhead = timed.median_share(|r| r[2 + i]);
+                    let own = timed.quartile_shares(|r| r[2 + i]);
                     let [q1, net, q3] = if reused {
                         timed.quartile_shares(|r| r[2 + i] + r[1] - r[0])
                     } else {
-                        timed.quartile_shares(|r| r[2 + i])
+                        own
                     };
-                    (overhead, net, [q1, q3])
+                    (own[1], net, [q1, q3])
                 };
                 let model = CostModel::default();
                 let figures: Vec<WalkFigures> = candidates
