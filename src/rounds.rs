@@ -8,6 +8,13 @@
 //! and their difference measures the machine, not the estimate. Steps of one round run back
 //! to back, at one speed; so each ratio is taken within a round, and the median over the
 //! rounds is reported.
+//!
+//! Within a round the speed moves too: two identical traces of Conference's AO rays (0.4 s
+//! each), timed whole one after the other, came out 0.94 to 1.17 apart in the middle half of
+//! twelve rounds. The trace and the rest, whose difference the net overhead is, are therefore
+//! timed in slices taken in turn, a slice of one beside the other's slice half the batch away
+//! (so that no step follows the same rays, whose nodes the last step left in the cache): cut
+//! in sixteen, the same two traces came out 0.97 to 1.02 apart (docs/measurements.md).
 
 use crate::error::CliError;
 
@@ -27,28 +34,67 @@ fn another_round(rounds: usize, at_least: usize, spent: f64) -> bool {
     rounds < at_least.max(1) || (spent < MIN_TRACE_SECONDS && rounds < MAX_ROUNDS)
 }
 
+/// Rays a slice of the trace holds at least, and slices a round cuts it in at most: a 512×512
+/// image's camera rays in 8 slices of 3–5 ms, its AO rays in 16 (one parallel pass each, whose
+/// start and end cost both sliced steps alike).
+const SLICE_RAYS: usize = 32 * 1024;
+const MAX_SLICES: usize = 16;
+
+/// Slices to time a trace of `rays` rays in.
+pub(crate) fn slice_count(rays: usize) -> usize {
+    (rays / SLICE_RAYS).clamp(1, MAX_SLICES)
+}
+
 /// Every step's time in every round (`times[round][step]`; step 0 is the trace).
 #[derive(Clone, Debug)]
 pub(crate) struct Rounds {
     times: Vec<Vec<f64>>,
 }
 
+/// A step timed in slices: `run(s)` does slice `s` of `slices`.
+pub(crate) type SlicedStep<'a> = &'a mut dyn FnMut(usize) -> Result<(), CliError>;
+
+/// A step timed whole.
+pub(crate) type WholeStep<'a> = &'a mut dyn FnMut() -> Result<(), CliError>;
+
 impl Rounds {
-    /// Times `steps` in turn each round on `clock`, for at least `repeats` rounds and more
-    /// while the first step's rounds are short (see [`another_round`]).
+    /// Times the `sliced` steps (the first is the trace) slice by slice and the `whole` ones
+    /// in one go each, on `clock`, for at least `repeats` rounds and more while the trace's
+    /// rounds are short (see [`another_round`]). A round's times are the sliced steps' sums,
+    /// then the whole steps'.
+    ///
+    /// In a round, slice `p` of the first sliced step runs beside slice `p + k·slices / m` of
+    /// the `k`-th of the `m` sliced steps, their order turning with `p` and the round; the
+    /// whole steps run halfway through, so that a drift of the machine's speed across the
+    /// round falls on them as on the sliced steps' middle.
     pub(crate) fn time(
         repeats: usize,
         clock: sched::Clock,
-        steps: &mut [&mut dyn FnMut() -> Result<(), CliError>],
+        slices: usize,
+        sliced: &mut [SlicedStep<'_>],
+        whole: &mut [WholeStep<'_>],
     ) -> Result<Self, CliError> {
+        let slices = slices.max(1);
+        let m = sliced.len();
         let mut times = Vec::new();
         let mut spent = 0.0;
         while another_round(times.len(), repeats, spent) {
-            let mut round = Vec::with_capacity(steps.len());
-            for step in steps.iter_mut() {
-                let (seconds, done) = clock.time(&mut **step);
-                done?;
-                round.push(seconds);
+            let mut round = vec![0.0; m + whole.len()];
+            for p in 0..slices {
+                if p == slices / 2 {
+                    for (w, step) in whole.iter_mut().enumerate() {
+                        let (seconds, done) = clock.time(&mut **step);
+                        done?;
+                        round[m + w] = seconds;
+                    }
+                }
+                for j in 0..m {
+                    let k = (j + p + times.len()) % m;
+                    let slice = (p + k * slices / m) % slices;
+                    let (seconds, done) = clock.time(|| sliced[k](slice));
+                    done?;
+                    round[k] += seconds;
+                }
             }
             spent += round.first().copied().unwrap_or(0.0);
             times.push(round);
@@ -145,6 +191,43 @@ mod tests {
         for (got, want) in q.into_iter().zip([0.15, 0.2, 0.25]) {
             assert!((got - want).abs() < 1e-12, "{q:?}");
         }
+    }
+
+    /// Every slice of every sliced step once a round, no step twice on the same slice in a
+    /// row, the whole steps halfway, and each step's time its own.
+    #[test]
+    fn a_round_takes_each_slice_once_beside_the_other_steps_far_slice() {
+        let log = std::cell::RefCell::new(Vec::new());
+        let mut trace = |s: usize| -> Result<(), CliError> {
+            log.borrow_mut().push(format!("t{s}"));
+            Ok(())
+        };
+        let mut rest = |s: usize| -> Result<(), CliError> {
+            log.borrow_mut().push(format!("r{s}"));
+            Ok(())
+        };
+        let mut estimate = || -> Result<(), CliError> {
+            log.borrow_mut().push("e".into());
+            Ok(())
+        };
+        let timed = Rounds::time(
+            2,
+            sched::Clock::Wall,
+            4,
+            &mut [&mut trace, &mut rest],
+            &mut [&mut estimate],
+        )
+        .unwrap();
+        assert!(timed.len() >= 2);
+        let log = log.into_inner();
+        let first: Vec<&str> = log[..9].iter().map(String::as_str).collect();
+        assert_eq!(first, ["t0", "r2", "r3", "t1", "e", "t2", "r0", "r1", "t3"]);
+        let second: Vec<&str> = log[9..18].iter().map(String::as_str).collect();
+        assert_eq!(
+            second,
+            ["r2", "t0", "t1", "r3", "e", "r0", "t2", "t3", "r1"]
+        );
+        assert!(timed.times.iter().all(|r| r.len() == 3));
     }
 
     #[test]

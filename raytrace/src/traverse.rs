@@ -597,14 +597,46 @@ fn fill_with<const MODE: u8>(
 /// # Panics
 /// Panics if the batch's columns have different lengths.
 pub fn hits_skipping(bvh: &Bvh, rays: &RayBatch, any: bool, known: &[usize]) -> HitBatch {
+    hits_skipping_in(bvh, rays, any, 0..rays.len(), known)
+}
+
+/// [`hits_skipping`] of the rays in `range` alone, their hits in order. With nothing `known`
+/// it is the trace of those rays, in the loop [`hits_in`] runs on the wide tree; over the
+/// [`slices`] of a batch, one by one, the two trace what they trace over the whole batch.
+///
+/// # Panics
+/// Panics if `range` is out of bounds or the batch's columns have different lengths.
+pub fn hits_skipping_in(
+    bvh: &Bvh,
+    rays: &RayBatch,
+    any: bool,
+    range: std::ops::Range<usize>,
+    known: &[usize],
+) -> HitBatch {
     check(rays);
-    let mut out = HitBatch::misses(rays.len());
+    assert!(range.end <= rays.len(), "rays {range:?} of {}", rays.len());
+    let mut out = HitBatch::misses(range.len());
     out.t
         .par_chunks_mut(CHUNK)
         .zip(out.prim.par_chunks_mut(CHUNK))
         .enumerate()
-        .for_each(|(c, (ts, ps))| fill_skipping(bvh, rays, any, c * CHUNK, known, ts, ps));
+        .for_each(|(c, (ts, ps))| {
+            fill_skipping(bvh, rays, any, range.start + c * CHUNK, known, ts, ps);
+        });
     out
+}
+
+/// `count` (at least one) consecutive slices covering a batch of `len` rays, as even as the
+/// parallel loop's chunks allow: each starts where a chunk of the whole batch would, so its
+/// chunks, and the packets formed in them, are the whole batch's. Fewer where there are
+/// fewer chunks; none for no rays.
+pub fn slices(len: usize, count: usize) -> Vec<std::ops::Range<usize>> {
+    let chunks = len.div_ceil(CHUNK);
+    let count = count.clamp(1, chunks.max(1));
+    (0..count)
+        .map(|s| (s * chunks / count * CHUNK).min(len)..((s + 1) * chunks / count * CHUNK).min(len))
+        .filter(|r| !r.is_empty())
+        .collect()
 }
 
 /// `walk`'s counts of the rays in `range` (a task), in parallel, in packets of 4 or 8 rays

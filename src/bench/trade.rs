@@ -8,13 +8,13 @@ use raytrace::cost::{
     CostModel, ReducedTraversal, Sample, SampleRate, Work, full_work, measure_seconds,
     prediction_error,
 };
-use raytrace::traverse::{self, Layout};
+use raytrace::traverse;
 use raytrace::{Bvh, RayBatch, RayKind, Walk, workload};
 use serde::Serialize;
 
 use super::matrix::SceneMatrix;
 use crate::error::CliError;
-use crate::rounds::Rounds;
+use crate::rounds::{Rounds, slice_count};
 
 /// The sampling rates measured: the thesis's four, and two below them.
 pub const RATES: [f64; 6] = [0.03125, 0.0625, 0.125, 0.25, 0.5, 1.0];
@@ -117,27 +117,46 @@ fn shares(
     known: Option<Vec<usize>>,
 ) -> Result<(f64, f64), CliError> {
     let cost_err = |e: raytrace::cost::CostError| CliError::Write(format!("estimate: {e}"));
-    let mut trace = || -> Result<(), CliError> {
-        std::hint::black_box(traverse::hits_in(bvh, rays, any, Layout::Wide));
+    let count = slice_count(rays.len());
+    let cut = traverse::slices(rays.len(), count);
+    let reuses = known.is_some();
+    let known = known.unwrap_or_default();
+    // The trace and the rest in slices (see `crate::rounds`), in the wide tree's batch loop.
+    let sliced = |s: usize, skip: &[usize]| {
+        if let Some(range) = cut.get(s) {
+            std::hint::black_box(traverse::hits_skipping_in(
+                bvh,
+                rays,
+                any,
+                range.clone(),
+                skip,
+            ));
+        }
         Ok(())
     };
+    let mut trace = |s: usize| sliced(s, &[]);
+    let mut rest = |s: usize| sliced(s, &known);
     let mut estimate = || -> Result<(), CliError> {
         std::hint::black_box(estimator.try_sample(tasks).map_err(cost_err)?);
         Ok(())
     };
-    let Some(known) = known else {
-        let timed = Rounds::time(3, sched::Clock::Wall, &mut [&mut trace, &mut estimate])?;
+    if !reuses {
+        let timed = Rounds::time(
+            3,
+            sched::Clock::Wall,
+            count,
+            &mut [&mut trace],
+            &mut [&mut estimate],
+        )?;
         let overhead = timed.median_share(|r| r[1]);
         return Ok((overhead, overhead));
-    };
-    let mut rest = || -> Result<(), CliError> {
-        std::hint::black_box(traverse::hits_skipping(bvh, rays, any, &known));
-        Ok(())
-    };
+    }
     let timed = Rounds::time(
         3,
         sched::Clock::Wall,
-        &mut [&mut trace, &mut rest, &mut estimate],
+        count,
+        &mut [&mut trace, &mut rest],
+        &mut [&mut estimate],
     )?;
     Ok((
         timed.median_share(|r| r[2]),

@@ -8,14 +8,14 @@ use raytrace::cost::{
     CostModel, ReducedTraversal, SampleRate, SampleRun, Work, full_work, measure_seconds,
     prediction_error,
 };
-use raytrace::traverse::{self, Layout};
+use raytrace::traverse;
 use raytrace::{Bvh, RayBatch, RayKind, Scene, Walk};
 
 use super::rays::Generations;
 use super::report::{Calibration, Model, Report, WalkFigures, WalkFit};
 use super::{Args, DeviceArg, WalkArg};
 use crate::error::CliError;
-use crate::rounds::Rounds;
+use crate::rounds::{Rounds, slice_count};
 
 /// Measures the estimates of `rays` against their tasks' times, as `args` asks.
 pub(super) fn measure(
@@ -149,6 +149,8 @@ pub(super) fn measure(
     let jobs = jobs_of(walk);
     // Rounds the CPU's steps were timed in (see `crate::rounds`); the GPU's, `repeats`.
     let mut rounds = args.repeats;
+    // Slices the CPU's trace and rest were timed in.
+    let mut slices = None;
     // On the CPU, the asked walk's overhead and net overhead from the rounds' shares; on the
     // GPU, from the least times (its estimate is not timed in the trace's rounds).
     let (estimate_seconds, est, trace_seconds, rest_seconds, adapter, walks, sampled_rays, shares) =
@@ -201,31 +203,42 @@ pub(super) fn measure(
                         }) as Box<dyn FnMut() -> Result<(), CliError> + '_>
                     })
                     .collect();
-                let mut trace = || -> Result<(), CliError> {
-                    for (batch, kind) in &segments {
-                        let any = kind.is_occlusion();
-                        std::hint::black_box(traverse::hits_in(bvh, batch, any, Layout::Wide));
+                // The trace and the rest in slices (see `crate::rounds`): slice `s` of each
+                // generation, in the wide tree's batch loop, with nothing known or the sample.
+                let count = slice_count(rays.len());
+                let cut: Vec<Vec<std::ops::Range<usize>>> = segments
+                    .iter()
+                    .map(|(batch, _)| traverse::slices(batch.len(), count))
+                    .collect();
+                let sliced = |s: usize, skip: bool| {
+                    for (((batch, kind), known), cut) in segments.iter().zip(&known).zip(&cut) {
+                        let Some(range) = cut.get(s) else { continue };
+                        let known: &[usize] = if skip { known } else { &[] };
+                        std::hint::black_box(traverse::hits_skipping_in(
+                            bvh,
+                            batch,
+                            kind.is_occlusion(),
+                            range.clone(),
+                            known,
+                        ));
                     }
                     Ok(())
                 };
-                let mut rest = || -> Result<(), CliError> {
-                    for ((batch, kind), known) in segments.iter().zip(&known) {
-                        let any = kind.is_occlusion();
-                        std::hint::black_box(traverse::hits_skipping(bvh, batch, any, known));
-                    }
-                    Ok(())
-                };
-                // Taken in turns, so that a noisy moment of a shared machine falls on all of
-                // them alike rather than on one.
-                let mut steps: Vec<&mut dyn FnMut() -> Result<(), CliError>> =
-                    vec![&mut trace, &mut rest];
-                for e in &mut estimates {
-                    steps.push(e.as_mut());
-                }
-                let timed = Rounds::time(args.repeats, args.clock, &mut steps)?;
-                drop(steps);
+                let mut trace = |s: usize| sliced(s, false);
+                let mut rest = |s: usize| sliced(s, true);
+                let mut whole: Vec<&mut dyn FnMut() -> Result<(), CliError>> =
+                    estimates.iter_mut().map(|e| e.as_mut() as _).collect();
+                let timed = Rounds::time(
+                    args.repeats,
+                    args.clock,
+                    count,
+                    &mut [&mut trace, &mut rest],
+                    &mut whole,
+                )?;
+                drop(whole);
                 drop(estimates);
                 rounds = timed.len();
+                slices = Some(count);
                 let best: Vec<f64> = (0..2 + candidates.len()).map(|i| timed.least(i)).collect();
                 let (trace_seconds, rest_seconds) = (best[0], best[1]);
                 // Walk `i`'s overhead and net overhead, each a median over the rounds of its
@@ -349,6 +362,7 @@ pub(super) fn measure(
         threads: rayon::current_num_threads(),
         repeats: args.repeats,
         rounds,
+        slices,
         clock: args.clock.name(),
         device: match args.device {
             DeviceArg::Cpu => "cpu",

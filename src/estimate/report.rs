@@ -119,6 +119,9 @@ pub(super) struct Report {
     /// Rounds the estimates, the full trace and the rest were timed in: at least `repeats`,
     /// more where the trace is short (see `--repeats`).
     pub(super) rounds: usize,
+    /// Slices each round cut the full trace and the rest in, taken in turn.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) slices: Option<usize>,
     /// What the times were taken on: `wall` or `cpu` (the process's CPU time).
     pub(super) clock: &'static str,
     /// Where the estimate and the full trace ran: `cpu` or `gpu`.
@@ -136,12 +139,13 @@ pub(super) struct Report {
     /// rays' upload included).
     pub(super) estimate_seconds: f64,
     /// Full trace (closest or any hit, with triangle tests) of all rays, on all cores (or on
-    /// the GPU, upload and read-back included).
+    /// the GPU, upload and read-back included). On the CPU, the least over the rounds of the
+    /// trace's slices' sum (see `crate::rounds`).
     pub(super) trace_seconds: f64,
     /// Estimate over full trace; on the CPU, the median over the rounds of each round's own.
     pub(super) overhead: f64,
     /// With `--walk trace` on the CPU: the full trace less the sampled rays, which a render
-    /// takes from the estimate instead of tracing them again.
+    /// takes from the estimate instead of tracing them again; timed in slices, as the trace.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) rest_seconds: Option<f64>,
     /// The error against time with full counts: the best any sample rate could do.
@@ -279,10 +283,13 @@ impl Report {
                     r.trace_seconds,
                     ran_on(r),
                     r.rounds,
-                    if r.device == "cpu" {
-                        "; overheads, the median of each round's own"
-                    } else {
-                        ""
+                    match r.slices {
+                        Some(n) if n > 1 => format!(
+                            "; it and the rest in {n} slices taken in turn; overheads, the \
+                             median of each round's own"
+                        ),
+                        Some(_) => "; overheads, the median of each round's own".into(),
+                        None => String::new(),
                     }
                 ),
             ),

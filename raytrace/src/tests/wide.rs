@@ -220,6 +220,24 @@ fn tracing_all_but_known_rays_answers_the_rest_as_the_full_trace() {
         };
         for known in &patterns {
             let rest = crate::traverse::hits_skipping(&bvh, &batch, any, known);
+            // Traced slice by slice, the same packets find the same hits, to the bit.
+            for count in [1, 3, 7, 100] {
+                let mut sliced = crate::HitBatch::default();
+                for r in crate::traverse::slices(n, count) {
+                    let part =
+                        crate::traverse::hits_skipping_in(&bvh, &batch, any, r.clone(), known);
+                    assert_eq!(part.t.len(), r.len());
+                    sliced.t.extend_from_slice(&part.t);
+                    sliced.prim.extend_from_slice(&part.prim);
+                }
+                let bits = |h: &crate::HitBatch| -> Vec<(u32, u32)> {
+                    h.t.iter()
+                        .map(|t| t.to_bits())
+                        .zip(h.prim.iter().copied())
+                        .collect()
+                };
+                assert_eq!(bits(&sliced), bits(&rest), "{count} slices, any {any}");
+            }
             for i in 0..n {
                 let got = rest.get(i).map(|(t, p)| (t.to_bits(), p));
                 let want = full.get(i).map(|(t, p)| (t.to_bits(), p));
@@ -233,4 +251,32 @@ fn tracing_all_but_known_rays_answers_the_rest_as_the_full_trace() {
             }
         }
     }
+}
+
+#[test]
+fn slices_cover_a_batch_in_order_on_chunk_boundaries() {
+    use crate::traverse::slices;
+    for (len, count) in [
+        (0, 4),
+        (1, 4),
+        (255, 2),
+        (256, 2),
+        (257, 2),
+        (5000, 1),
+        (5000, 3),
+    ] {
+        let got = slices(len, count);
+        assert!(got.len() <= count.max(1), "{len} in {count}: {got:?}");
+        let mut at = 0;
+        for r in &got {
+            assert_eq!(r.start, at, "{len} in {count}: {got:?}");
+            assert_eq!(r.start % 256, 0, "{len} in {count}: {got:?}");
+            assert!(!r.is_empty());
+            at = r.end;
+        }
+        assert_eq!(at, len, "{len} in {count}: {got:?}");
+    }
+    // As even as whole chunks allow: 20 chunks in 3 slices of 6, 7 and 7.
+    let lens: Vec<usize> = slices(20 * 256, 3).iter().map(|r| r.len() / 256).collect();
+    assert_eq!(lens, [6, 7, 7]);
 }
