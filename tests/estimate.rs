@@ -364,7 +364,7 @@ fn the_trace_walk_reports_its_net_overhead() {
         // The trace and the rest were cut in slices (one for a batch this small).
         let slices = v["slices"].as_u64().unwrap_or(0);
         assert!((1..=16).contains(&slices), "{v}");
-        // The median lies in the rounds' middle half.
+        // The median lies in the pairs' middle half.
         let q = &v["net_overhead_quartiles"];
         let (q1, q3) = (q[0].as_f64().unwrap(), q[1].as_f64().unwrap());
         assert!(q1 <= net && net <= q3, "{v}");

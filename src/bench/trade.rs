@@ -109,7 +109,8 @@ pub struct TradePoint {
 /// `estimator`'s overhead and net overhead on `tasks` of `rays` (traced for any hits with
 /// `any`, else closest hits): the trace, the trace left after the sample (where `known`, the
 /// sampled rays, are reused) and the estimate timed in rounds, each figure the median of its
-/// rounds' own shares of the trace, as `cobalt estimate` takes them (see `crate::rounds`).
+/// pairs of rounds' own shares of the trace, as `cobalt estimate` takes them (see
+/// `crate::rounds`).
 fn shares(
     (bvh, rays, any): (&Bvh, &RayBatch, bool),
     estimator: &ReducedTraversal<'_>,

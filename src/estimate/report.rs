@@ -79,9 +79,9 @@ pub(super) struct Report {
     /// `(estimate + rest − full trace) / full trace`, where `rest` is the full trace less
     /// the sampled rays when the walk traces them for real (a render takes their hits from
     /// the estimate), else the full trace: what estimating costs a render. On the CPU, the
-    /// median over the rounds of each round's own (see `crate::rounds`).
+    /// median over the pairs of rounds of each pair's own (see `crate::rounds`).
     pub(super) net_overhead: f64,
-    /// On the CPU, the first and third quartile of the rounds' own net overheads: how far
+    /// On the CPU, the first and third quartile of the pairs' own net overheads: how far
     /// the machine moved them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) net_overhead_quartiles: Option<[f64; 2]>,
@@ -142,7 +142,8 @@ pub(super) struct Report {
     /// the GPU, upload and read-back included). On the CPU, the least over the rounds of the
     /// trace's slices' sum (see `crate::rounds`).
     pub(super) trace_seconds: f64,
-    /// Estimate over full trace; on the CPU, the median over the rounds of each round's own.
+    /// Estimate over full trace; on the CPU, the median over the pairs of rounds of each
+    /// pair's own.
     pub(super) overhead: f64,
     /// With `--walk trace` on the CPU: the full trace less the sampled rays, which a render
     /// takes from the estimate instead of tracing them again; timed in slices, as the trace.
@@ -213,12 +214,12 @@ impl Report {
                 ),
             ),
             ("net overhead", {
-                // The rounds' middle half first: it belongs to the net overhead.
+                // The pairs' middle half first: it belongs to the net overhead.
                 let mut notes: Vec<String> = r
                     .net_overhead_quartiles
                     .map(|[a, b]| {
                         format!(
-                            "the rounds' middle half {} to {}",
+                            "the middle half of the pairs of rounds {} to {}",
                             pct(Some(a)),
                             pct(Some(b))
                         )
@@ -286,9 +287,9 @@ impl Report {
                     match r.slices {
                         Some(n) if n > 1 => format!(
                             "; it and the rest in {n} slices taken in turn; overheads, the \
-                             median of each round's own"
+                             median of each pair of rounds' own"
                         ),
-                        Some(_) => "; overheads, the median of each round's own".into(),
+                        Some(_) => "; overheads, the median of each pair of rounds' own".into(),
                         None => String::new(),
                     }
                 ),
