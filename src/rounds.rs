@@ -27,11 +27,13 @@ use crate::error::CliError;
 /// Rounds are added past the asked number until the first step (the full trace) has taken
 /// this long in all. Five rounds of a 25 ms camera-ray trace put two identical traces up to
 /// 5 % apart by chance, as much as the whole net overhead they are to measure; twenty, within
-/// 1 % (docs/measurements.md).
-const MIN_TRACE_SECONDS: f64 = 0.5;
+/// 1 % (docs/measurements.md). A camera-ray round's own net overhead still moves by several
+/// percent (its estimate takes a millisecond or two), and at half a second runs of one scene
+/// came out 2 points apart; at a second and a half, the pairs are three times as many.
+const MIN_TRACE_SECONDS: f64 = 1.5;
 
 /// Rounds at most, however short the trace.
-const MAX_ROUNDS: usize = 64;
+const MAX_ROUNDS: usize = 128;
 
 /// Whether a timing that has taken `rounds` rounds, `spent` seconds of them on the trace,
 /// takes another: while fewer than `at_least`, past that while `spent` is below
@@ -289,8 +291,8 @@ mod tests {
         assert!(another_round(0, 0, 10.0), "at least one round");
         assert!(another_round(4, 5, 10.0));
         assert!(another_round(5, 5, 0.1));
-        assert!(another_round(5, 5, 0.5), "a whole pair");
-        assert!(!another_round(6, 5, 0.5));
+        assert!(another_round(5, 5, MIN_TRACE_SECONDS), "a whole pair");
+        assert!(!another_round(6, 5, MIN_TRACE_SECONDS));
         assert!(!another_round(MAX_ROUNDS, 5, 0.0));
     }
 }
