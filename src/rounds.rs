@@ -24,25 +24,49 @@
 
 use crate::error::CliError;
 
-/// Rounds are added past the asked number until the first step (the full trace) has taken
-/// this long in all. Five rounds of a 25 ms camera-ray trace put two identical traces up to
-/// 5 % apart by chance, as much as the whole net overhead they are to measure; twenty, within
-/// 1 % (docs/measurements.md). A camera-ray round's own net overhead still moves by several
-/// percent (its estimate takes a millisecond or two), and at half a second runs of one scene
-/// came out 2 points apart; at a second and a half, the pairs are three times as many.
-const MIN_TRACE_SECONDS: f64 = 1.5;
+/// How long a timing goes on: at least `repeats` rounds, more while the full trace has taken
+/// less than `trace_seconds` in all (at most [`MAX_ROUNDS`]), and an even count (whole pairs).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Budget {
+    repeats: usize,
+    trace_seconds: f64,
+}
+
+impl Budget {
+    /// `cobalt estimate`'s: at least `repeats` rounds and 1.5 s of trace. Five rounds of a
+    /// 25 ms camera-ray trace put two identical traces up to 5 % apart by chance, as much as
+    /// the whole net overhead they are to measure; twenty, within 1 % (docs/measurements.md).
+    /// A camera-ray round's own net overhead still moves by several percent (its estimate takes
+    /// a millisecond or two): with half a second of trace, runs of one scene came out up to 2
+    /// points apart, and a second and a half gives three times the pairs.
+    pub(crate) fn estimate(repeats: usize) -> Self {
+        Self {
+            repeats,
+            trace_seconds: 1.5,
+        }
+    }
+
+    /// The bench's sampling trade: three rounds and half a second of trace for each of its
+    /// points, eleven per ray kind and task size; `cobalt estimate`'s budget doubled the quick
+    /// bench's run, to nearly four minutes.
+    pub(crate) fn trade() -> Self {
+        Self {
+            repeats: 3,
+            trace_seconds: 0.5,
+        }
+    }
+
+    /// Whether a timing that has taken `rounds` rounds, `spent` seconds of them on the trace,
+    /// takes another.
+    fn another_round(self, rounds: usize, spent: f64) -> bool {
+        rounds < self.repeats.max(1)
+            || (spent < self.trace_seconds && rounds < MAX_ROUNDS)
+            || rounds % 2 == 1
+    }
+}
 
 /// Rounds at most, however short the trace.
 const MAX_ROUNDS: usize = 128;
-
-/// Whether a timing that has taken `rounds` rounds, `spent` seconds of them on the trace,
-/// takes another: while fewer than `at_least`, past that while `spent` is below
-/// [`MIN_TRACE_SECONDS`] (at most [`MAX_ROUNDS`]), and to make the count even (whole pairs).
-fn another_round(rounds: usize, at_least: usize, spent: f64) -> bool {
-    rounds < at_least.max(1)
-        || (spent < MIN_TRACE_SECONDS && rounds < MAX_ROUNDS)
-        || rounds % 2 == 1
-}
 
 /// Rays a slice of the trace holds at least, and slices a round cuts it in at most. A slice is
 /// a parallel pass of its own, whose start and end cost time: a 512×512 image's camera rays
@@ -71,16 +95,15 @@ pub(crate) type WholeStep<'a> = &'a mut dyn FnMut() -> Result<(), CliError>;
 
 impl Rounds {
     /// Times the `sliced` steps (the first is the trace) slice by slice and the `whole` ones
-    /// in one go each, on `clock`, for at least `repeats` rounds and more while the trace's
-    /// rounds are short (see [`another_round`]). A round's times are the sliced steps' sums,
-    /// then the whole steps'.
+    /// in one go each, on `clock`, for as many rounds as `budget` gives. A round's times are
+    /// the sliced steps' sums, then the whole steps'.
     ///
     /// In a round, slice `p` of the first sliced step runs beside slice `p + k·slices / m` of
     /// the `k`-th of the `m` sliced steps, their order turning with `p` and the round; the
     /// whole steps run halfway through, so that a drift of the machine's speed across the
     /// round falls on them as on the sliced steps' middle.
     pub(crate) fn time(
-        repeats: usize,
+        budget: Budget,
         clock: sched::Clock,
         slices: usize,
         sliced: &mut [SlicedStep<'_>],
@@ -90,7 +113,7 @@ impl Rounds {
         let m = sliced.len();
         let mut times = Vec::new();
         let mut spent = 0.0;
-        while another_round(times.len(), repeats, spent) {
+        while budget.another_round(times.len(), spent) {
             let mut round = vec![0.0; m + whole.len()];
             for p in 0..slices {
                 if p == slices / 2 {
@@ -259,7 +282,7 @@ mod tests {
             Ok(())
         };
         let timed = Rounds::time(
-            2,
+            Budget::estimate(2),
             sched::Clock::Wall,
             4,
             &mut [&mut trace, &mut rest],
@@ -288,11 +311,16 @@ mod tests {
 
     #[test]
     fn rounds_go_on_while_the_trace_is_short() {
-        assert!(another_round(0, 0, 10.0), "at least one round");
-        assert!(another_round(4, 5, 10.0));
-        assert!(another_round(5, 5, 0.1));
-        assert!(another_round(5, 5, MIN_TRACE_SECONDS), "a whole pair");
-        assert!(!another_round(6, 5, MIN_TRACE_SECONDS));
-        assert!(!another_round(MAX_ROUNDS, 5, 0.0));
+        let b = Budget::estimate(5);
+        assert!(
+            Budget::estimate(0).another_round(0, 10.0),
+            "at least one round"
+        );
+        assert!(b.another_round(4, 10.0));
+        assert!(b.another_round(5, 0.1));
+        assert!(b.another_round(5, b.trace_seconds), "a whole pair");
+        assert!(!b.another_round(6, b.trace_seconds));
+        assert!(!b.another_round(MAX_ROUNDS, 0.0));
+        assert!(!Budget::trade().another_round(4, 0.5));
     }
 }

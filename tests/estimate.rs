@@ -435,7 +435,10 @@ fn the_sample_run_and_the_clock_are_reported() {
     assert!(num(&runs, "trace_seconds") > 0.0, "{runs}");
     // A trace this short is timed in more rounds than asked for, up to 128, in whole pairs.
     let (repeats, rounds) = (num(&runs, "repeats"), num(&runs, "rounds"));
-    assert!(repeats < rounds && rounds <= 128.0 && rounds % 2.0 == 0.0, "{runs}");
+    assert!(
+        repeats < rounds && rounds <= 128.0 && rounds % 2.0 == 0.0,
+        "{runs}"
+    );
     // What each walk's estimates buy a plan, framed by the measured times and by none.
     let (best, none) = (
         num(&pairs, "balance_measured"),

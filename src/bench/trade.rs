@@ -14,7 +14,7 @@ use serde::Serialize;
 
 use super::matrix::SceneMatrix;
 use crate::error::CliError;
-use crate::rounds::{Rounds, slice_count};
+use crate::rounds::{Budget, Rounds, slice_count};
 
 /// The sampling rates measured: the thesis's four, and two below them.
 pub const RATES: [f64; 6] = [0.03125, 0.0625, 0.125, 0.25, 0.5, 1.0];
@@ -143,7 +143,7 @@ fn shares(
     };
     if !reuses {
         let timed = Rounds::time(
-            3,
+            Budget::trade(),
             sched::Clock::Wall,
             count,
             &mut [&mut trace],
@@ -153,7 +153,7 @@ fn shares(
         return Ok((overhead, overhead));
     }
     let timed = Rounds::time(
-        3,
+        Budget::trade(),
         sched::Clock::Wall,
         count,
         &mut [&mut trace, &mut rest],

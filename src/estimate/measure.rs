@@ -15,7 +15,7 @@ use super::rays::Generations;
 use super::report::{Calibration, Model, Report, WalkFigures, WalkFit};
 use super::{Args, DeviceArg, WalkArg};
 use crate::error::CliError;
-use crate::rounds::{Rounds, slice_count};
+use crate::rounds::{Budget, Rounds, slice_count};
 
 /// Measures the estimates of `rays` against their tasks' times, as `args` asks.
 pub(super) fn measure(
@@ -229,7 +229,7 @@ pub(super) fn measure(
                 let mut whole: Vec<&mut dyn FnMut() -> Result<(), CliError>> =
                     estimates.iter_mut().map(|e| e.as_mut() as _).collect();
                 let timed = Rounds::time(
-                    args.repeats,
+                    Budget::estimate(args.repeats),
                     args.clock,
                     count,
                     &mut [&mut trace, &mut rest],
