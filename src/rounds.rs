@@ -17,8 +17,8 @@
 //! in sixteen, the same two traces came out 0.97 to 1.02 apart (docs/measurements.md).
 //!
 //! The order of the sliced steps turns from one round to the next, and a step that follows
-//! the other runs a little faster in the caches it left (two identical camera-ray traces,
-//! 0.5–1.5 % apart by their order alone), which splits the rounds' shares into two heaps. So
+//! the other runs a little faster in the caches it left (two identical camera-ray traces, up
+//! to 1.6 % apart by their order alone), which splits the rounds' shares into two heaps. So
 //! each share is taken over a pair of rounds, one of each order, their times summed: per pair,
 //! the mean of its two rounds' own shares weighted by their traces, and the order's part gone.
 
