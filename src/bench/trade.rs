@@ -90,8 +90,8 @@ pub struct TradePoint {
     pub spearman_trace_vs_time: Option<f64>,
     /// The thesis's, against the walk's own full count (secondary: it does not see time).
     pub prediction_error: f64,
-    /// Estimation time over the full trace's time, both on all cores: the median over rounds
-    /// of each round's share (see `crate::rounds`).
+    /// Estimation time over the full trace's time, both on all cores: the median over pairs
+    /// of rounds of each pair's share (see `crate::rounds`).
     pub overhead: f64,
     /// What estimating costs a render: the overhead less the sample's trace, where the walk
     /// traced it for real and the render reuses its hits; else the overhead.

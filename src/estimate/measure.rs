@@ -151,7 +151,7 @@ pub(super) fn measure(
     let mut rounds = args.repeats;
     // Slices the CPU's trace and rest were timed in.
     let mut slices = None;
-    // On the CPU, the asked walk's overhead and net overhead from the rounds' shares; on the
+    // On the CPU, the asked walk's overhead and net overhead from the pairs' shares; on the
     // GPU, from the least times (its estimate is not timed in the trace's rounds).
     let (estimate_seconds, est, trace_seconds, rest_seconds, adapter, walks, sampled_rays, shares) =
         match args.device {
@@ -241,8 +241,8 @@ pub(super) fn measure(
                 slices = Some(count);
                 let best: Vec<f64> = (0..2 + candidates.len()).map(|i| timed.least(i)).collect();
                 let (trace_seconds, rest_seconds) = (best[0], best[1]);
-                // Walk `i`'s overhead and net overhead, each a median over the rounds of its
-                // round's shares of the trace (see `crate::rounds`).
+                // Walk `i`'s overhead and net overhead, each a median over the pairs of rounds
+                // of each pair's shares of the trace (see `crate::rounds`).
                 let shares = |i: usize, reused: bool| {
                     let own = timed.quartile_shares(|r| r[2 + i]);
                     let [q1, net, q3] = if reused {
