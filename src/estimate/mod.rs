@@ -80,8 +80,8 @@ pub struct Args {
     /// Every timing is repeated this many times, 1..=1000, and the least kept. On the CPU the
     /// estimates, the full trace and the rest are timed in rounds, at least this many and more
     /// while the full trace's rounds add up to less than a second and a half (at most 128; an
-    /// even count): the JSON's `rounds`. Within a round the full trace and the rest run in up to 16 slices, taken in
-    /// turn (the JSON's `slices`).
+    /// even count): the JSON's `rounds`. Within a round, the full trace and the rest of more
+    /// than 2^19 rays run in up to 16 slices, taken in turn (the JSON's `slices`).
     #[arg(long, default_value_t = 3, value_parser = count::<1000>)]
     repeats: usize,
     /// Where the estimator and the full trace run: `cpu` (all cores) or `gpu` (the first
