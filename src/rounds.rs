@@ -6,8 +6,8 @@
 //! within one (by as much as 1.6× from one round to the next, each side steady to 1 %:
 //! docs/measurements.md). The least time of each step may then come from different sides,
 //! and their difference measures the machine, not the estimate. Steps of one round run back
-//! to back, at one speed; so each ratio is taken within a round, and the median over the
-//! rounds is reported.
+//! to back, at one speed; so each ratio is taken within a round (within a pair of rounds,
+//! below), and the median reported.
 //!
 //! Within a round the speed moves too: two identical traces of Conference's AO rays (0.4 s
 //! each), timed whole one after the other, came out 0.94 to 1.17 apart in the middle half of
@@ -100,8 +100,8 @@ impl Rounds {
     ///
     /// In a round, slice `p` of the first sliced step runs beside slice `p + k·slices / m` of
     /// the `k`-th of the `m` sliced steps, their order turning with `p` and the round; the
-    /// whole steps run halfway through, so that a drift of the machine's speed across the
-    /// round falls on them as on the sliced steps' middle.
+    /// whole steps run halfway through (first, where there is one slice), so that a drift of
+    /// the machine's speed across the round falls on them as on the sliced steps' middle.
     pub(crate) fn time(
         budget: Budget,
         clock: sched::Clock,
