@@ -22,6 +22,10 @@
 //! each share is taken over a pair of rounds, one of each order, their times summed: per pair,
 //! the mean of its two rounds' own shares weighted by their traces, and the order's part gone.
 
+use std::ops::Range;
+
+use raytrace::{Bvh, RayBatch, traverse};
+
 use crate::error::CliError;
 
 /// How long a timing goes on: at least `repeats` rounds, more while the full trace has taken
@@ -77,8 +81,73 @@ const SLICE_RAYS: usize = 1 << 18;
 const MAX_SLICES: usize = 16;
 
 /// Slices to time a trace of `rays` rays in.
-pub(crate) fn slice_count(rays: usize) -> usize {
+fn slice_count(rays: usize) -> usize {
     (rays / SLICE_RAYS).clamp(1, MAX_SLICES)
+}
+
+/// The full trace of one or more batches and the trace left after their samples (the rest),
+/// each batch cut in the same number of slices: the two sliced steps of an estimate's rounds,
+/// both in the wide tree's batch loop ([`traverse::hits_skipping_in`]).
+pub(crate) struct SlicedTraces<'a> {
+    bvh: &'a Bvh,
+    parts: Vec<Part<'a>>,
+    count: usize,
+}
+
+/// One batch of [`SlicedTraces`].
+struct Part<'a> {
+    batch: &'a RayBatch,
+    /// Traced for any hits, else the closest.
+    any: bool,
+    /// The sampled rays, sorted indices into `batch`: what the rest skips.
+    known: &'a [usize],
+    slices: Vec<Range<usize>>,
+}
+
+impl<'a> SlicedTraces<'a> {
+    /// The traces of `parts`, each a batch, whether it is traced for any hits and its sampled
+    /// rays, cut in [`slice_count`] slices of all their rays.
+    pub(crate) fn new(
+        bvh: &'a Bvh,
+        parts: impl IntoIterator<Item = (&'a RayBatch, bool, &'a [usize])>,
+    ) -> Self {
+        let parts: Vec<_> = parts.into_iter().collect();
+        let count = slice_count(parts.iter().map(|(batch, _, _)| batch.len()).sum());
+        let parts = parts
+            .into_iter()
+            .map(|(batch, any, known)| Part {
+                batch,
+                any,
+                known,
+                slices: traverse::slices(batch.len(), count),
+            })
+            .collect();
+        Self { bvh, parts, count }
+    }
+
+    /// Slices each batch is cut in (fewer for a batch of too few chunks).
+    pub(crate) fn count(&self) -> usize {
+        self.count
+    }
+
+    /// Slice `s` of every batch: its full trace, or with `rest` the trace left after its
+    /// sample.
+    pub(crate) fn run(&self, s: usize, rest: bool) -> Result<(), CliError> {
+        for part in &self.parts {
+            let Some(range) = part.slices.get(s) else {
+                continue;
+            };
+            let skip = if rest { part.known } else { &[] };
+            std::hint::black_box(traverse::hits_skipping_in(
+                self.bvh,
+                part.batch,
+                part.any,
+                range.clone(),
+                skip,
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// Every step's time in every round (`times[round][step]`; step 0 is the trace).

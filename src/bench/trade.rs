@@ -8,13 +8,12 @@ use raytrace::cost::{
     CostModel, ReducedTraversal, Sample, SampleRate, Work, full_work, measure_seconds,
     prediction_error,
 };
-use raytrace::traverse;
-use raytrace::{Bvh, RayBatch, RayKind, Walk, workload};
+use raytrace::{Bvh, RayBatch, RayKind, Walk, traverse, workload};
 use serde::Serialize;
 
 use super::matrix::SceneMatrix;
 use crate::error::CliError;
-use crate::rounds::{Budget, Rounds, slice_count};
+use crate::rounds::{Budget, Rounds, SlicedStep, SlicedTraces};
 
 /// The sampling rates measured: the thesis's four, and two below them.
 pub const RATES: [f64; 6] = [0.03125, 0.0625, 0.125, 0.25, 0.5, 1.0];
@@ -118,51 +117,36 @@ fn shares(
     known: Option<Vec<usize>>,
 ) -> Result<(f64, f64), CliError> {
     let cost_err = |e: raytrace::cost::CostError| CliError::Write(format!("estimate: {e}"));
-    let count = slice_count(rays.len());
-    let cut = traverse::slices(rays.len(), count);
     let reuses = known.is_some();
     let known = known.unwrap_or_default();
-    // The trace and the rest in slices (see `crate::rounds`), in the wide tree's batch loop.
-    let sliced = |s: usize, skip: &[usize]| {
-        if let Some(range) = cut.get(s) {
-            std::hint::black_box(traverse::hits_skipping_in(
-                bvh,
-                rays,
-                any,
-                range.clone(),
-                skip,
-            ));
-        }
-        Ok(())
-    };
-    let mut trace = |s: usize| sliced(s, &[]);
-    let mut rest = |s: usize| sliced(s, &known);
+    let traces = SlicedTraces::new(bvh, [(rays, any, &known[..])]);
+    let mut trace = |s: usize| traces.run(s, false);
+    let mut rest = |s: usize| traces.run(s, true);
     let mut estimate = || -> Result<(), CliError> {
         std::hint::black_box(estimator.try_sample(tasks).map_err(cost_err)?);
         Ok(())
     };
-    if !reuses {
-        let timed = Rounds::time(
-            Budget::trade(),
-            sched::Clock::Wall,
-            count,
-            &mut [&mut trace],
-            &mut [&mut estimate],
-        )?;
-        let overhead = timed.median_share(|r| r[1]);
-        return Ok((overhead, overhead));
-    }
+    // The rest is timed only where the render reuses the sample's hits.
+    let sliced: &mut [SlicedStep<'_>] = if reuses {
+        &mut [&mut trace, &mut rest]
+    } else {
+        &mut [&mut trace]
+    };
+    let steps = sliced.len();
     let timed = Rounds::time(
         Budget::trade(),
         sched::Clock::Wall,
-        count,
-        &mut [&mut trace, &mut rest],
+        traces.count(),
+        sliced,
         &mut [&mut estimate],
     )?;
-    Ok((
-        timed.median_share(|r| r[2]),
-        timed.median_share(|r| r[2] + r[1] - r[0]),
-    ))
+    let overhead = timed.median_share(|r| r[steps]);
+    let net = if reuses {
+        timed.median_share(|r| r[2] + r[1] - r[0])
+    } else {
+        overhead
+    };
+    Ok((overhead, net))
 }
 
 /// The rates the trace walk is measured at: its net overhead is what matters, and above

@@ -8,14 +8,13 @@ use raytrace::cost::{
     CostModel, ReducedTraversal, SampleRate, SampleRun, Work, full_work, measure_seconds,
     prediction_error,
 };
-use raytrace::traverse;
-use raytrace::{Bvh, RayBatch, RayKind, Scene, Walk};
+use raytrace::{Bvh, RayBatch, RayKind, Scene, Walk, traverse};
 
 use super::rays::Generations;
 use super::report::{Calibration, Model, Report, WalkFigures, WalkFit};
 use super::{Args, DeviceArg, WalkArg};
 use crate::error::CliError;
-use crate::rounds::{Budget, Rounds, slice_count};
+use crate::rounds::{Budget, Rounds, SlicedTraces};
 
 /// Measures the estimates of `rays` against their tasks' times, as `args` asks.
 pub(super) fn measure(
@@ -203,42 +202,29 @@ pub(super) fn measure(
                         }) as Box<dyn FnMut() -> Result<(), CliError> + '_>
                     })
                     .collect();
-                // The trace and the rest in slices (see `crate::rounds`): slice `s` of each
-                // generation, in the wide tree's batch loop, with nothing known or the sample.
-                let count = slice_count(rays.len());
-                let cut: Vec<Vec<std::ops::Range<usize>>> = segments
-                    .iter()
-                    .map(|(batch, _)| traverse::slices(batch.len(), count))
-                    .collect();
-                let sliced = |s: usize, skip: bool| {
-                    for (((batch, kind), known), cut) in segments.iter().zip(&known).zip(&cut) {
-                        let Some(range) = cut.get(s) else { continue };
-                        let known: &[usize] = if skip { known } else { &[] };
-                        std::hint::black_box(traverse::hits_skipping_in(
-                            bvh,
-                            batch,
-                            kind.is_occlusion(),
-                            range.clone(),
-                            known,
-                        ));
-                    }
-                    Ok(())
-                };
-                let mut trace = |s: usize| sliced(s, false);
-                let mut rest = |s: usize| sliced(s, true);
+                // The trace and the rest in slices (see `crate::rounds`), every generation.
+                let traces = SlicedTraces::new(
+                    bvh,
+                    segments
+                        .iter()
+                        .zip(&known)
+                        .map(|((batch, kind), known)| (batch, kind.is_occlusion(), &known[..])),
+                );
+                let mut trace = |s: usize| traces.run(s, false);
+                let mut rest = |s: usize| traces.run(s, true);
                 let mut whole: Vec<&mut dyn FnMut() -> Result<(), CliError>> =
                     estimates.iter_mut().map(|e| e.as_mut() as _).collect();
                 let timed = Rounds::time(
                     Budget::estimate(args.repeats),
                     args.clock,
-                    count,
+                    traces.count(),
                     &mut [&mut trace, &mut rest],
                     &mut whole,
                 )?;
                 drop(whole);
                 drop(estimates);
                 rounds = timed.len();
-                slices = Some(count);
+                slices = Some(traces.count());
                 let best: Vec<f64> = (0..2 + candidates.len()).map(|i| timed.least(i)).collect();
                 let (trace_seconds, rest_seconds) = (best[0], best[1]);
                 // Walk `i`'s overhead and net overhead, each a median over the pairs of rounds

@@ -284,14 +284,15 @@ impl Report {
                     r.trace_seconds,
                     ran_on(r),
                     r.rounds,
-                    match r.slices {
-                        Some(n) if n > 1 => format!(
-                            "; it and the rest in {n} slices taken in turn; overheads, the \
-                             median of each pair of rounds' own"
-                        ),
-                        Some(_) => "; overheads, the median of each pair of rounds' own".into(),
-                        None => String::new(),
-                    }
+                    // On the CPU only, which times in rounds.
+                    r.slices.map_or(String::new(), |n| {
+                        let sliced = if n > 1 {
+                            format!("; it and the rest in {n} slices taken in turn")
+                        } else {
+                            String::new()
+                        };
+                        format!("{sliced}; overheads, the median of each pair of rounds' own")
+                    })
                 ),
             ),
             (
