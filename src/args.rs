@@ -133,7 +133,7 @@ impl std::str::FromStr for SampleError {
         match text.parse::<f64>() {
             Ok(e) if e > 0.0 && e < 1.0 => Ok(Self(Some(e))),
             _ => Err(format!(
-                "sample error `{text}` is neither `off` nor a fraction in (0, 1), e.g. 0.06"
+                "sample error `{text}` is neither `off` nor a fraction in (0, 1), e.g. 0.08"
             )),
         }
     }
