@@ -13,7 +13,7 @@ use std::str::FromStr;
 use raytrace::cost::SampleRate;
 use raytrace::devices::DeviceSpec;
 use raytrace::glam::Vec3;
-use raytrace::scheduled::{FailAfter, Mode};
+use raytrace::paths::{FailAfter, Mode};
 use raytrace::{BuildPreset, Camera};
 use sched::{Fault, Policy};
 
@@ -174,11 +174,6 @@ impl Devices {
     /// Every entry, in order.
     pub fn specs(&self) -> &[DeviceSpec] {
         &self.specs
-    }
-
-    /// CPU threads over all devices.
-    pub fn threads(&self) -> usize {
-        self.cpu().map(|(count, threads)| count * threads).sum()
     }
 
     /// CPU devices in all.
@@ -409,28 +404,6 @@ impl ShaderArgs {
     }
 }
 
-/// How a render's frames are made: the `--pipeline` of `cobalt render` and `cobalt bench`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Pipeline {
-    /// Every frame scheduled over `--devices` by `--policy` as tasks of whole paths, each
-    /// made, traced and shaded on the device that runs it.
-    Paths,
-    /// Every generation of rays scheduled over `--devices` by `--policy` on its own, the rays
-    /// made and shaded on the host (per-generation statistics and calibration).
-    #[value(alias = "scheduled")]
-    Generations,
-}
-
-impl Pipeline {
-    /// The name reports, records and tables use.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Paths => "paths",
-            Self::Generations => "generations",
-        }
-    }
-}
-
 /// The devices, and how tasks are cut, costed and planned over them.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ScheduleArgs {
@@ -515,7 +488,7 @@ mod tests {
     #[test]
     fn devices_are_bounded() {
         let d: Devices = "cpu:2/3,cpu:1".parse().expect("valid");
-        assert_eq!((d.cpu_devices(), d.threads(), d.has_gpu()), (3, 7, false));
+        assert_eq!((d.cpu_devices(), d.has_gpu()), (3, false));
         assert!("cpu:1024/1024".parse::<Devices>().is_err());
         assert!("tpu".parse::<Devices>().is_err());
     }

@@ -111,6 +111,16 @@ impl CliError {
             failures,
         }
     }
+
+    /// The error of a run on `devices` (the `--devices` text) that gave no image.
+    pub fn run(devices: &str, e: raytrace::run::RunError) -> Self {
+        use raytrace::run::RunError;
+        match e {
+            RunError::DevicesFailed(failures) => Self::devices_failed(devices, &failures),
+            RunError::Sched(e) => e.into(),
+            RunError::Devices(e) => e.into(),
+        }
+    }
 }
 
 fn flag_prefix(flag: &str) -> String {

@@ -21,7 +21,6 @@ enum Estimator {
     /// Points of a density grid near the task's queries: no search.
     Density,
     /// The timed real search of a sample of the task's queries.
-    #[value(alias = "probe")]
     Sampled,
 }
 

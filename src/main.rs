@@ -13,7 +13,6 @@ mod input;
 mod knn;
 mod limits;
 mod output;
-mod path_run;
 mod render;
 mod render_gpu;
 mod rounds;

@@ -57,7 +57,6 @@ fn bench_writes_one_record_per_run_and_the_charts() {
             assert!(r.get(field).is_some(), "{field} missing in {r}");
         }
         // CPU devices render their paths where they live: nothing crosses a link.
-        assert_eq!(r["pipeline"], "paths", "{r}");
         assert_eq!(r["host_to_device_bytes"], 0, "{r}");
         assert_eq!(r["device_to_host_bytes"], 0, "{r}");
         let balance = r["balance_efficiency"].as_f64().expect("balance");
@@ -124,67 +123,6 @@ fn bench_writes_one_record_per_run_and_the_charts() {
     }
 }
 
-/// The generation pipeline, as the thesis measures it: an AO record counts the AO rays only,
-/// fewer than the path pipeline's, which counts every ray of the frame. Its records say how
-/// far the estimate refined its sample (`--sample-error`; null for the path pipeline's).
-#[test]
-fn bench_runs_the_generation_pipeline_on_request() {
-    let dir = temp_dir("bench-generations");
-    let rays = |pipeline: &str| {
-        let json = dir.join(format!("{pipeline}.json"));
-        let refined: &[&str] = if pipeline == "generations" {
-            &["--sample-error", "0.05"]
-        } else {
-            &[]
-        };
-        let json_arg = json.display().to_string();
-        let mut args = vec![
-            "bench",
-            "--scene",
-            "builtin:cornell:0.2",
-            "--size",
-            "16x16",
-            "--task-sizes",
-            "64",
-            "--policies",
-            "static-lpt",
-            "--shaders",
-            "ao",
-            "--ao-samples",
-            "2",
-            "--pipeline",
-            pipeline,
-            "--json",
-            &json_arg,
-        ];
-        args.extend_from_slice(refined);
-        let o = cobalt(&args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let v: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(&json).expect("json")).expect("JSON");
-        let r = v
-            .as_array()
-            .and_then(|a| a.iter().find(|r| r["source"] == "measured"))
-            .cloned()
-            .expect("a measured record");
-        assert_eq!(r["pipeline"], pipeline, "{r}");
-        let error = if pipeline == "generations" {
-            Some(0.05)
-        } else {
-            None
-        };
-        assert_eq!(r["sample_error"].as_f64(), error, "{r}");
-        assert_eq!(
-            r["host_to_device_bytes"].is_null(),
-            pipeline == "generations"
-        );
-        r["rays"].as_u64().expect("rays")
-    };
-    let (generations, paths) = (rays("generations"), rays("paths"));
-    // 256 primary rays, and the AO probes of the primary hits.
-    assert_eq!(paths - generations, 256);
-}
-
 #[test]
 fn bench_rejects_bad_values_naming_them() {
     // The value the error names: in a list, the bad item.
@@ -200,11 +138,6 @@ fn bench_rejects_bad_values_naming_them() {
         ("--repeats", "0", "0"),
         ("--cameras", "5", "5"),
         ("--scene", "/no/such/scene.obj", "/no/such/scene.obj"),
-        // Flags of the generation pipeline, given without it.
-        ("--walk", "trace", "trace"),
-        ("--estimate-on", "gpu", "gpu"),
-        ("--sample-error", "0.06", "0.06"),
-        ("--sample-error", "none", "none"),
     ] {
         let o = cobalt(&["bench", flag, value]);
         assert_eq!(o.status.code(), Some(2), "{flag} {value}");

@@ -128,13 +128,4 @@ fn a_damaged_calibration_is_named_and_only_the_cache_is_replaced() {
     );
     assert!(!dir.join("refused.png").exists(), "nothing was written");
     assert_eq!(std::fs::read_to_string(&named).expect("kept"), "not json");
-
-    // The generations pipeline learns within one render: a file named for it is refused.
-    let o = render(&dir, "generations", &cache, &["--pipeline", "generations"]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let mut extra = vec!["--pipeline", "generations"];
-    extra.extend(flag);
-    let o = render(&dir, "generations", &cache, &extra);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--calibration"));
 }

@@ -426,47 +426,31 @@ fn overflowing_costs_are_an_error_naming_the_value() {
 
 #[test]
 fn every_device_failing_is_exit_3_unless_a_host_fallback_is_allowed() {
-    for pipeline in ["scheduled", "paths"] {
-        let dir = fresh("fallback");
-        let out = dir.join("f.png");
-        let report = dir.join("f.json");
-        let args = [
-            "--pipeline",
-            pipeline,
-            "--fail",
-            "0@0",
-            "--out",
-            s(&out),
-            "--report",
-            s(&report),
-        ];
-        let o = render("builtin:cornell", &args);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(3), "{pipeline}: {err}");
-        for needle in [
-            "--devices cpu:1",
-            "device 0 (cpu0) failed",
-            "--host-fallback",
-        ] {
-            assert!(err.contains(needle), "{pipeline}: {needle:?} not in {err}");
-        }
-        assert!(names(&dir).is_empty(), "{pipeline}: {:?}", names(&dir));
-
-        let mut allowed = args.to_vec();
-        allowed.push("--host-fallback");
-        let o = render("builtin:cornell", &allowed);
-        ok(&o);
-        let text = String::from_utf8_lossy(&o.stdout);
-        assert!(text.contains("on the host instead"), "{pipeline}: {text}");
-        assert_eq!(names(&dir), ["f.json", "f.png"], "{pipeline}");
-        let json = std::fs::read_to_string(&report).unwrap();
-        let fell_back = if pipeline == "paths" {
-            json.contains("\"host_fallback\": true")
-        } else {
-            !json.contains("\"host_fallback_generations\": 0")
-        };
-        assert!(fell_back, "{pipeline}: {json}");
+    let dir = fresh("fallback");
+    let out = dir.join("f.png");
+    let report = dir.join("f.json");
+    let args = ["--fail", "0@0", "--out", s(&out), "--report", s(&report)];
+    let o = render("builtin:cornell", &args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    for needle in [
+        "--devices cpu:1",
+        "device 0 (cpu0) failed",
+        "--host-fallback",
+    ] {
+        assert!(err.contains(needle), "{needle:?} not in {err}");
     }
+    assert!(names(&dir).is_empty(), "{:?}", names(&dir));
+
+    let mut allowed = args.to_vec();
+    allowed.push("--host-fallback");
+    let o = render("builtin:cornell", &allowed);
+    ok(&o);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("on the host instead"), "{text}");
+    assert_eq!(names(&dir), ["f.json", "f.png"]);
+    let json = std::fs::read_to_string(&report).unwrap();
+    assert!(json.contains("\"host_fallback\": true"), "{json}");
 }
 
 #[test]

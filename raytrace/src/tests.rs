@@ -5,6 +5,5 @@ mod bvh;
 mod obj;
 mod paths;
 mod robustness;
-mod scheduled;
 mod shade;
 mod wide;

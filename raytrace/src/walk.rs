@@ -63,10 +63,9 @@ impl Walk {
 impl std::str::FromStr for Walk {
     type Err = String;
     /// Parses [`Walk::name`]'s names (`trace` as the closest-hit trace; see
-    /// [`Walk::for_kind`]); `thesis` is kept as another name of `reduced`.
+    /// [`Walk::for_kind`]).
     fn from_str(s: &str) -> Result<Self, String> {
         let s = s.trim();
-        let s = if s == "thesis" { "reduced" } else { s };
         Self::ALL
             .into_iter()
             .chain([Self::Trace { any: false }])

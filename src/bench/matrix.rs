@@ -1,26 +1,19 @@
 //! The thesis experiment on real devices: every (shader, task size, policy, mode) of one scene
-//! rendered through `sched`, one record per run.
-//!
-//! Two pipelines run a cell. `paths` (the default) renders frames of whole paths on
+//! rendered through `sched`, one record per run. A cell renders frames of whole paths on
 //! path-resident devices (see `paths.rs`); a record covers every ray of its frames.
-//! `generations` schedules each generation of rays on its own, the rays made and shaded on
-//! the host, as the thesis measures them: Whitted runs measure the coherent rays (all its
-//! generations), AO runs the diffuse rays (the AO generation; its primary generation is not
-//! part of the record).
 
 use std::num::NonZeroUsize;
 
 use raytrace::cost::SampleRate;
-use raytrace::scheduled::{GenerationStats, Mode, ScheduledTracer, Settings, build_devices};
-use raytrace::shade::{AoSettings, Shader, WhittedSettings, render};
-use raytrace::{Bvh, RayKind, Scene};
+use raytrace::paths::{Mode, Settings};
+use raytrace::shade::{AoSettings, Shader, WhittedSettings};
+use raytrace::{Bvh, Scene};
 use sched::Policy;
 use serde::Serialize;
 
-use super::prediction::{ErrorSums, PredictionTracer};
 use super::repeats;
-use super::replay::{Replayed, RunDevice};
-use crate::args::{Pipeline, ShaderKind};
+use super::replay::Replayed;
+use crate::args::ShaderKind;
 use crate::error::CliError;
 
 /// The two workloads of the thesis.
@@ -55,14 +48,6 @@ impl Workload {
             Self::Ao => "diffuse",
         }
     }
-
-    /// Whether a generation belongs to this workload's measured rays.
-    fn counts(self, kind: RayKind) -> bool {
-        match self {
-            Self::Whitted => true,
-            Self::Ao => kind == RayKind::Ao,
-        }
-    }
 }
 
 /// One run of the matrix: the fields `cobalt bench --json` promises, plus context.
@@ -70,30 +55,31 @@ impl Workload {
 pub struct Record {
     /// `measured` (here a run on real devices) or `simulated`.
     pub source: &'static str,
-    /// `paths` or `generations`.
-    pub pipeline: &'static str,
     pub scene: String,
     pub shader: &'static str,
     pub ray_kind: &'static str,
     pub policy: &'static str,
     pub mode: &'static str,
-    /// Cost mode's walk of closest-hit rays (`reduced` or `first-leaf`).
+    /// How cost mode estimates a task: `sampled-paths` (a sample of its paths rendered for
+    /// real, counted).
     pub walk: &'static str,
-    /// How far the host's estimate refined its sample (`--sample-error`); null: every task
-    /// at the sample rate (and always for the path pipeline).
-    pub sample_error: Option<f64>,
+    /// The cell's entry of `--task-sizes`.
     pub task_size: usize,
+    /// What a frame of the cell was cut into: its tasks, and the paths of the largest
+    /// (`task_size`, or fewer where the frame is too small to give every device four tasks).
+    pub tasks: usize,
+    pub cut_task_size: usize,
     pub devices: usize,
     pub device_list: String,
     pub cameras: usize,
     pub width: u32,
     pub height: u32,
     pub rays: usize,
-    /// Wall time of the measured generations: estimation, planning and tracing.
+    /// Wall time of the measured frames: estimation, planning and rendering.
     pub seconds: f64,
     /// Rendering efficiency (thesis): rays over `seconds`.
     pub mrays_per_s: f64,
-    /// Σ device busy time / Σ (makespan × devices), over the measured generations.
+    /// Σ device busy time / Σ (makespan × devices), over the measured frames.
     pub balance_efficiency: f64,
     pub estimate_seconds: f64,
     pub plan_seconds: f64,
@@ -123,11 +109,11 @@ pub struct Record {
     pub film_bytes: Option<u64>,
     /// `seconds` with the run's makespans replaced by their replays in `sched`'s simulator,
     /// from the run's own task times, speeds and launch delays (the median over the runs);
-    /// `None` where a generation could not be replayed (a device failed).
+    /// `None` where a frame could not be replayed (a device failed).
     pub simulated_seconds: Option<f64>,
     /// Every run's simulated over measured seconds, in the order they ran.
     pub run_simulated_over_measured: Vec<f64>,
-    /// Σ makespans of the measured generations or frames, and of their replays.
+    /// Σ makespans of the measured frames, and of their replays.
     pub makespan_seconds: f64,
     pub simulated_makespan_seconds: Option<f64>,
     /// Σ of their lower bounds: integral (no plan beats the largest task on the fastest
@@ -140,7 +126,7 @@ pub struct Record {
     /// The calibration file that planned the cell's first frame, the entries it used, and
     /// the entries the bench wrote back (path pipeline, unless `--no-calibration`).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub calibration: Option<crate::calibration::CalibrationReport>,
+    pub calibration: Option<raytrace::run::CalibrationReport>,
     /// Devices a frame of the cell left idle because the fastest class alone had rendered
     /// frames faster (path pipeline; absent when none was).
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -153,15 +139,15 @@ impl Record {
     pub fn new(matrix: &SceneMatrix<'_>, w: Workload, settings: Settings, devices: usize) -> Self {
         Self {
             source: "measured",
-            pipeline: "generations",
             scene: matrix.scene_name.to_string(),
             shader: w.name(),
             ray_kind: w.ray_kind(),
             policy: settings.policy.name(),
             mode: settings.mode.name(),
-            walk: settings.walk.name(),
-            sample_error: settings.sample_error,
+            walk: "sampled-paths",
             task_size: settings.task_size.get(),
+            tasks: 0,
+            cut_task_size: 0,
             devices,
             device_list: matrix.device_list.to_string(),
             cameras: matrix.cameras,
@@ -197,14 +183,14 @@ impl Record {
 }
 
 /// What one run of a cell gave: its record, the tasks the simulator replays (one entry per
-/// measured generation, or per frame), and, when measured, the estimate's prediction error.
+/// measured frame), and, when measured, the estimate's prediction error.
 pub struct CellRun {
     pub record: Record,
     pub replay: Vec<Replay>,
     pub error: Option<f64>,
 }
 
-/// Measured tasks of one generation, for the simulator: estimated cost and seconds of each.
+/// Measured tasks of one frame, for the simulator: estimated cost and seconds of each.
 #[derive(Clone, Debug, Default)]
 pub struct Replay {
     pub rays: usize,
@@ -212,9 +198,6 @@ pub struct Replay {
     pub estimated: Vec<f64>,
     pub seconds: Vec<f64>,
 }
-
-/// The generations of a run's renders and, when measured, their prediction error sums.
-type Rendered = (Vec<GenerationStats>, Vec<(RayKind, ErrorSums)>);
 
 /// The cost-based StaticLpt run of one (workload, task size), kept for the simulator.
 #[derive(Clone, Debug)]
@@ -240,18 +223,10 @@ pub struct SceneMatrix<'a> {
     pub height: u32,
     pub ao_samples: u32,
     pub sample_rate: SampleRate,
-    /// Where cost mode's estimate runs.
-    pub estimate_on: raytrace::scheduled::EstimateOn,
-    /// Cost mode's walk of closest-hit rays.
-    pub walk: raytrace::Walk,
-    /// How far cost mode's estimate refines its sample on the host (generations).
-    pub sample_error: Option<f64>,
     /// Runs of every cell, in rounds that each run every cell of the matrix once.
     pub repeats: usize,
-    /// How each cell's frames are rendered.
-    pub pipeline: Pipeline,
     /// The calibration that plans each path cell's first frame and keeps what it learnt.
-    pub calibration: Option<&'a std::cell::RefCell<crate::calibration::Store>>,
+    pub calibration: Option<&'a std::cell::RefCell<raytrace::run::Store>>,
     /// The path devices, kept from cell to cell (`None` before the first): a GPU keeps its
     /// context, compiled kernels, buffers and measured launch overhead, so a cell's frame is
     /// not its first on the device, and a cell runs on every device or on the fastest class
@@ -279,81 +254,13 @@ impl SceneMatrix<'_> {
         }
     }
 
-    /// Renders every camera once with `settings`, one after another through one tracer (as a
-    /// renderer draws frames: each camera's plans use the device speeds measured so far, per
-    /// ray kind); the generations traced and, when `measure_error`, the prediction error sums of each.
-    fn render_all(
-        &self,
-        w: Workload,
-        settings: Settings,
-        measure_error: bool,
-    ) -> Result<Rendered, CliError> {
-        let devices = build_devices(self.bvh, self.devices, &[])?;
-        let tracer = ScheduledTracer::new(self.bvh, devices, settings)?;
-        let mut p = PredictionTracer::new(tracer, self.bvh, &settings, measure_error);
-        let mut seen = 0;
-        for cam in 0..self.cameras {
-            render(self.scene, &mut p, &self.options(w, cam));
-            // A device that failed is retired for the rest of the run, which changes what the
-            // run measures: say so, rather than leave a row of fewer devices unexplained.
-            let gens = p.inner.stats();
-            for f in gens[seen..].iter().flat_map(|g| &g.failures) {
-                eprintln!(
-                    "cobalt bench: {} {} {} {}, camera {cam}: {f}",
-                    self.scene_name,
-                    w.name(),
-                    settings.policy.name(),
-                    settings.mode.name(),
-                );
-            }
-            seen = gens.len();
-        }
-        Ok((p.inner.stats().to_vec(), p.sums))
-    }
-
-    /// One run of a cell through the generation pipeline: its measured generations' record
-    /// and replays, and when `measure_error`, the prediction error over them.
-    fn run_generations(
-        &self,
-        w: Workload,
-        settings: Settings,
-        measure_error: bool,
-    ) -> Result<CellRun, CliError> {
-        let (stats, sums) = self.render_all(w, settings, measure_error)?;
-        let error = measure_error.then(|| {
-            let mut total = ErrorSums::default();
-            for (_, s) in sums.iter().filter(|(k, _)| w.counts(*k)) {
-                total += *s;
-            }
-            total.ratio()
-        });
-        let measured: Vec<&GenerationStats> = stats.iter().filter(|g| w.counts(g.kind)).collect();
-        Ok(CellRun {
-            record: self.record(w, settings, &measured),
-            replay: measured.iter().map(|g| replay(g)).collect(),
-            error,
-        })
-    }
-
-    fn run_cell(
-        &self,
-        w: Workload,
-        settings: Settings,
-        measure_error: bool,
-    ) -> Result<CellRun, CliError> {
-        match self.pipeline {
-            Pipeline::Paths => self.run_paths(w, settings, measure_error),
-            Pipeline::Generations => self.run_generations(w, settings, measure_error),
-        }
-    }
-
     /// Runs the whole matrix, calling `tick` after each run; returns one record per cell (the
     /// medians of its repeats) and, per (workload, task size), the replay of the cost-based
     /// StaticLpt run of median time.
     pub fn run(&self, mut tick: impl FnMut(&str)) -> Result<(Vec<Record>, Vec<Replays>), CliError> {
         // Untimed warm-up: page in the scene, the BVH and the thread pools.
         if let Some(&w) = self.workloads.first() {
-            self.run_cell(w, Settings::default(), false)?;
+            self.run_paths(w, Settings::default(), false)?;
         }
         // Every cell of the matrix: (workload, task size) blocks of policies and modes.
         let mut cells: Vec<(Workload, Settings)> = Vec::new();
@@ -371,9 +278,6 @@ impl SceneMatrix<'_> {
                             mode,
                             task_size: size,
                             sample_rate: self.sample_rate,
-                            estimate_on: self.estimate_on,
-                            walk: self.walk,
-                            sample_error: self.sample_error,
                         };
                         cells.push((w, settings));
                     }
@@ -391,7 +295,7 @@ impl SceneMatrix<'_> {
                 let ((w, settings), key) = (*c, block(c));
                 let known = errors.iter().any(|(k, _)| *k == key);
                 let measure_error = settings.mode == Mode::Cost && !known;
-                let run = self.run_cell(w, settings, measure_error)?;
+                let run = self.run_paths(w, settings, measure_error)?;
                 if let Some(e) = run.error {
                     errors.push((key, e));
                 }
@@ -432,28 +336,9 @@ impl SceneMatrix<'_> {
         }
         Ok((records, replays))
     }
-
-    fn record(&self, w: Workload, settings: Settings, gens: &[&GenerationStats]) -> Record {
-        let mut t = Totals::default();
-        for g in gens {
-            t.add(Totals {
-                rays: g.rays,
-                seconds: g.estimate_seconds + g.run_seconds,
-                estimate: g.estimate_seconds,
-                plan: g.plan_seconds,
-                busy: g.devices.iter().map(|d| d.busy).sum(),
-                capacity: g.makespan * g.devices.len() as f64,
-                launches: g.launches(),
-                reruns: g.reruns,
-                replayed: replayed_generation(g),
-            });
-        }
-        let devices = gens.first().map_or(0, |g| g.devices.len());
-        t.record(Record::new(self, w, settings, devices))
-    }
 }
 
-/// What a run's measured generations or frames add up to.
+/// What a run's measured frames add up to.
 #[derive(Clone, Copy, Debug)]
 pub struct Totals {
     pub rays: usize,
@@ -535,28 +420,5 @@ impl Totals {
             r.makespan_over_bound = Some(p.makespan / p.lower_bound.max(1e-300));
         }
         r
-    }
-}
-
-/// A generation's replay in the simulator and its bounds.
-fn replayed_generation(g: &GenerationStats) -> Option<Replayed> {
-    let devices: Vec<RunDevice> = g
-        .devices
-        .iter()
-        .map(|d| RunDevice {
-            index: d.index,
-            speed: d.speed,
-            launch_overhead: d.launch_overhead,
-        })
-        .collect();
-    super::replay::replay(g.policy, g.makespan, &g.task_stats, &devices)
-}
-
-pub fn replay(g: &GenerationStats) -> Replay {
-    Replay {
-        rays: g.rays,
-        estimate_seconds: g.estimate_seconds,
-        estimated: g.task_stats.iter().map(|t| t.cost).collect(),
-        seconds: g.task_stats.iter().map(|t| t.seconds).collect(),
     }
 }

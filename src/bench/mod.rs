@@ -1,9 +1,9 @@
 //! `cobalt bench`: the thesis experiment, measured.
 //!
 //! For each scene, each workload (Whitted: coherent rays; AO: diffuse rays), task size,
-//! policy and mode (`regular`: equal costs; `cost`: reduced-traversal estimates), every camera
-//! is rendered through the scheduled tracer on the given devices, and one record is kept per
-//! run. By default a quick run (about a minute on 2 cores) on `builtin:forest`; `--full` is
+//! policy and mode (`regular`: equal costs; `cost`: estimates from a sample of each task's
+//! paths), every camera is rendered by the render engine on the given devices, and one record
+//! is kept per run. By default a quick run (about a minute on 2 cores) on `builtin:forest`; `--full` is
 //! the thesis's matrix at 1024×1024 with four cameras. `--simulate` replays the measured tasks
 //! on simulated machines; `--plots` draws the thesis's charts.
 
@@ -25,11 +25,10 @@ use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use raytrace::cost::SampleRate;
-use raytrace::shade::{AoSettings, CpuTracer, RenderOptions, Shader, render};
 use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
 use sched::Policy;
 
-use crate::args::{Devices, MAX_AO_SAMPLES, Pipeline, ShaderKind, Size, sample_rate, task_size};
+use crate::args::{Devices, MAX_AO_SAMPLES, ShaderKind, Size, sample_rate, task_size};
 use crate::error::CliError;
 use matrix::{SceneMatrix, Workload};
 
@@ -61,29 +60,9 @@ pub struct Args {
     /// Workloads, comma-separated: `whitted` (coherent rays), `ao` (diffuse rays).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "whitted,ao")]
     shaders: Vec<ShaderKind>,
-    /// Share of each task's rays traced to estimate it (cost mode).
+    /// Share of each task's paths rendered to estimate it (cost mode).
     #[arg(long, default_value = "0.125", value_parser = sample_rate)]
     sample_rate: SampleRate,
-    /// How each cell renders: `paths` (the default) or `generations` (as the thesis measures
-    /// it), as for `cobalt render`. Under `--mpi` too: by paths every other rank is a path
-    /// device of rank 0's renderer.
-    #[arg(long, value_enum)]
-    pipeline: Option<Pipeline>,
-    /// Where cost mode's estimate runs: `cpu` (the host's cores; the default) or `gpu` (the
-    /// first GPU among `--devices`, as the thesis does). `--pipeline generations` only.
-    #[arg(long)]
-    estimate_on: Option<raytrace::scheduled::EstimateOn>,
-    /// How cost mode traces each task's sample: `reduced` (the thesis's, the default), `first-leaf` or
-    /// `trace` (see `cobalt render --walk`). `--pipeline generations` only: the path
-    /// pipeline renders its sampled paths for real.
-    #[arg(long, alias = "probe")]
-    walk: Option<raytrace::Walk>,
-    /// How far cost mode's estimate refines its sample on the CPU: from a quarter of
-    /// --sample-rate, up to it, while its two interleaved halves disagree by more than this
-    /// share of the tasks' cost; `off` (the default, as the thesis does) samples every task at
-    /// --sample-rate. See `cobalt estimate --sample-error`. `--pipeline generations` only.
-    #[arg(long)]
-    sample_error: Option<crate::args::SampleError>,
     /// AO probes per primary hit, 1..=4096.
     #[arg(long, default_value_t = 32,
           value_parser = clap::value_parser!(u32).range(1..=MAX_AO_SAMPLES as i64))]
@@ -127,14 +106,6 @@ pub struct Args {
 /// Most devices of a simulated machine: the simulator plans every task on every device.
 const MAX_SIMULATED_DEVICES: i64 = 65536;
 
-fn bad(flag: &'static str, value: &str, message: &str) -> CliError {
-    CliError::Arg {
-        flag,
-        value: value.to_string(),
-        message: message.to_string(),
-    }
-}
-
 /// Runs the benchmark; every argument is checked before anything is measured.
 pub fn run(args: Args) -> Result<(), CliError> {
     let started = Instant::now();
@@ -162,39 +133,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
     } else {
         args.scenes.clone()
     };
-    let pipeline = args.pipeline.unwrap_or(Pipeline::Paths);
-    if pipeline == Pipeline::Paths {
-        if let Some(p) = args.walk {
-            return Err(bad(
-                "walk",
-                p.name(),
-                "applies to --pipeline generations; the path pipeline renders its sampled paths for real",
-            ));
-        }
-        if let Some(on) = args.estimate_on {
-            return Err(bad(
-                "estimate-on",
-                on.name(),
-                "applies to --pipeline generations; the path pipeline estimates on its devices",
-            ));
-        }
-        if let Some(e) = args.sample_error {
-            return Err(bad(
-                "sample-error",
-                &e.to_string(),
-                "applies to --pipeline generations; the path pipeline samples its paths at --sample-rate",
-            ));
-        }
-    } else if let Some(file) = &args.calibration.calibration {
-        return Err(bad(
-            "calibration",
-            &file.display().to_string(),
-            "the generations pipeline learns within one run; it applies to --pipeline paths",
-        ));
-    }
-    let walk = args.walk.unwrap_or(raytrace::Walk::Reduced);
-    let sample_error = args.sample_error.and_then(|e| e.0);
-    let estimate_on = args.estimate_on.unwrap_or_default();
     let needs = if workloads.contains(&Workload::Whitted) {
         SceneNeeds::WHITTED
     } else {
@@ -219,19 +157,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
             task_sizes: &task_sizes,
             policies: &policies,
             rate,
-            walk,
-            sample_error,
             preset,
-            pipeline,
         };
         return run_mpi(&args, &scenes, needs, settings, started);
     }
 
-    let store = match pipeline {
-        Pipeline::Paths => crate::calibration::Store::open(&args.calibration)?,
-        Pipeline::Generations => None,
-    }
-    .map(std::cell::RefCell::new);
+    let store = args.calibration.open()?.map(std::cell::RefCell::new);
 
     // Every scene is loaded before anything is measured, so a bad file fails the command at
     // once instead of after the first scene's runs.
@@ -260,11 +191,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             height,
             ao_samples: args.ao_samples,
             sample_rate: rate,
-            estimate_on,
-            walk,
-            sample_error,
             repeats,
-            pipeline,
             calibration: store.as_ref(),
             path_devices: Default::default(),
         };
@@ -301,17 +228,13 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
 
     let mut out = format!(
-        "cobalt bench: {} at {}x{}, {} camera(s), devices {}, {} pipeline, sample rate {}{}{}\n\n",
+        "cobalt bench: {} at {}x{}, {} camera(s), devices {}, sample rate {}{}\n\n",
         scenes.join(", "),
         width,
         height,
         cameras,
         args.devices.as_str(),
-        pipeline.name(),
         rate.get(),
-        sample_error.map_or(String::new(), |e| format!(
-            " (refined while its halves disagree by more than {e})"
-        )),
         if repeats > 1 {
             format!(
                 ", {} runs of every cell (medians; MRays/s and balance show the runs' range)",
@@ -386,10 +309,7 @@ struct MpiSettings<'a> {
     task_sizes: &'a [usize],
     policies: &'a [Policy],
     rate: SampleRate,
-    walk: raytrace::Walk,
-    sample_error: Option<f64>,
     preset: BuildPreset,
-    pipeline: Pipeline,
 }
 
 /// `cobalt bench --mpi` on every rank: every rank loads every scene (and all agree that it
@@ -428,9 +348,6 @@ fn run_mpi(
             height: s.height,
             ao_samples: args.ao_samples,
             sample_rate: s.rate,
-            walk: s.walk,
-            sample_error: s.sample_error,
-            pipeline: s.pipeline,
         })
         .collect();
     let Some((mut text, json)) = mpi::bench(&cluster, &matrices)? else {
@@ -462,18 +379,8 @@ fn cost_image(
     width: u32,
     height: u32,
 ) -> Result<Vec<u8>, CliError> {
-    let mut options = RenderOptions::new(
-        width,
-        height,
-        Camera::orbit(&scene.bounds(), 0),
-        Shader::Ao(AoSettings {
-            samples: 1,
-            ..Default::default()
-        }),
-    );
-    options.count_primary = true;
-    let r = render(scene, &mut CpuTracer::new(bvh), &options);
-    let counts = r.primary_counts.unwrap_or_default();
+    let camera = Camera::orbit(&scene.bounds(), 0);
+    let counts = raytrace::cost_image::primary_counts(bvh, &camera, width, height);
     Ok(raytrace::cost_image::cost_image(&counts, width, height)
         .png(raytrace::film::ToneMap::Display)?)
 }

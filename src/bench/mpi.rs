@@ -1,30 +1,28 @@
 //! `mpirun -np N cobalt bench --mpi`: the thesis's comparison where dispatch latency is
 //! highest, between nodes. Every rank is a node with the `--devices` of its own. For each
 //! workload, task size and policy, the ranks render together and rank 0 reports the rendering
-//! rate, the balance and the time it spent in MPI calls. By paths (the default), every other
-//! rank is a path device of rank 0's renderer ([`RankPaths`]) and keeps its paths: task ranges
-//! go out, values come back. By generations, the ranks trace each generation's rays together
-//! ([`ClusterTracer`]). Then rank 0 measures the tasks of a single-node render and replays
-//! them in `sched`'s simulator on 16 and 64 nodes behind the latencies measured between the
-//! ranks.
+//! rate, the balance and the time it spent in MPI calls. Every other rank is a path device of
+//! rank 0's renderer ([`RankPaths`]) and keeps its paths: task ranges go out, values come
+//! back. Then rank 0 measures the tasks of a single-node render and replays them in `sched`'s
+//! simulator on 16 and 64 nodes behind the latencies measured between the ranks.
+//!
+//! [`RankPaths`]: raytrace::distributed::RankPaths
 
 use std::num::NonZeroUsize;
 use std::time::Instant;
 
 use raytrace::cost::SampleRate;
 use raytrace::devices::DeviceSpec;
-use raytrace::distributed::{ClusterTracer, render_over_ranks};
-use raytrace::paths::{PathRenderer, build_path_devices};
-use raytrace::scheduled::{Mode, ScheduledTracer, Settings, build_devices};
-use raytrace::shade::{AoSettings, RenderOptions, Shader, WhittedSettings, render};
+use raytrace::distributed::render_over_ranks;
+use raytrace::paths::{Mode, PathRenderer, Settings, build_path_devices};
+use raytrace::shade::{AoSettings, RenderOptions, Shader, WhittedSettings};
 use raytrace::{Bvh, Camera, Scene};
 use sched::mpi::Cluster;
 use sched::{Costs, Policy, Simulation, Speeds};
 use serde::Serialize;
 
-use super::matrix::{Replay, Workload, replay};
+use super::matrix::{Replay, Workload};
 use super::paths::replay_frame;
-use crate::args::Pipeline;
 use crate::error::CliError;
 
 /// Node counts of the simulated clusters.
@@ -47,11 +45,6 @@ pub struct SceneMatrix<'a> {
     pub height: u32,
     pub ao_samples: u32,
     pub sample_rate: SampleRate,
-    /// Cost mode's walk of closest-hit rays (generations).
-    pub walk: raytrace::Walk,
-    /// How far cost mode's estimate refines its sample on each rank (generations).
-    pub sample_error: Option<f64>,
-    pub pipeline: Pipeline,
 }
 
 /// One render over the ranks.
@@ -61,18 +54,15 @@ pub struct MpiRecord {
     pub source: &'static str,
     pub scene: String,
     pub shader: &'static str,
-    /// `paths` or `generations`.
-    pub pipeline: &'static str,
     pub policy: &'static str,
     pub task_size: usize,
     pub ranks: usize,
     pub devices_per_rank: String,
     pub rays: usize,
-    /// Wall time of the render: estimate, plan, run, and (generations) the broadcasts.
+    /// Wall time of the render: estimate, plan and run.
     pub seconds: f64,
     pub mrays_per_s: f64,
-    /// Σ busy time / Σ (makespan × executors): by paths over rank 0's devices and the other
-    /// ranks, by generations over the nodes, summed over the generations.
+    /// Σ busy time / Σ (makespan × executors), over rank 0's devices and the other ranks.
     pub balance_efficiency: f64,
     /// Seconds rank 0 spent inside MPI calls, and their share of `seconds`.
     pub comm_seconds: f64,
@@ -122,10 +112,6 @@ impl SceneMatrix<'_> {
             mode: Mode::Cost,
             task_size: NonZeroUsize::new(task_size).unwrap_or(Settings::DEFAULT_TASK_SIZE),
             sample_rate: self.sample_rate,
-            // Each rank estimates its slice of the tasks on its own host.
-            estimate_on: raytrace::scheduled::EstimateOn::Cpu,
-            walk: self.walk,
-            sample_error: self.sample_error,
         }
     }
 
@@ -134,24 +120,12 @@ impl SceneMatrix<'_> {
         RenderOptions::new(self.width, self.height, camera, self.shader(w))
     }
 
-    /// The tasks of a render on this rank's devices alone, by the plan's pipeline: one
-    /// replay per generation, or one for the frame by paths.
-    fn single_node(&self, w: Workload, settings: Settings) -> Result<Vec<Replay>, CliError> {
+    /// The tasks of a frame on this rank's devices alone.
+    fn single_node(&self, w: Workload, settings: Settings) -> Result<Replay, CliError> {
         let options = self.options(w);
-        Ok(match self.pipeline {
-            Pipeline::Paths => {
-                let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
-                let frame =
-                    PathRenderer::new(devices, settings)?.render(self.scene, self.bvh, &options)?;
-                vec![replay_frame(&frame.stats)]
-            }
-            Pipeline::Generations => {
-                let devices = build_devices(self.bvh, self.devices, &[])?;
-                let mut tracer = ScheduledTracer::new(self.bvh, devices, settings)?;
-                render(self.scene, &mut tracer, &options);
-                tracer.stats().iter().map(replay).collect()
-            }
-        })
+        let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
+        let frame = PathRenderer::new(devices, settings)?.render(self.scene, self.bvh, &options)?;
+        Ok(replay_frame(&frame.stats))
     }
 
     /// Every rank: renders each (workload, task size, policy) together; rank 0 gets the
@@ -183,7 +157,6 @@ impl SceneMatrix<'_> {
                         source: "mpi",
                         scene: self.scene_name.to_string(),
                         shader: w.name(),
-                        pipeline: self.pipeline.name(),
                         policy: policy.name(),
                         task_size,
                         ranks: cluster.size(),
@@ -204,22 +177,9 @@ impl SceneMatrix<'_> {
     }
 
     /// Every rank renders once over the cluster; returns rays, wall seconds and the balance
-    /// (meaningful on rank 0).
+    /// (meaningful on rank 0). On rank 0 the other ranks are path devices beside its own; they
+    /// render the task ranges they are sent until rank 0 ends the frame.
     fn render_once(
-        &self,
-        cluster: &Cluster,
-        w: Workload,
-        settings: Settings,
-    ) -> Result<(usize, f64, f64), CliError> {
-        match self.pipeline {
-            Pipeline::Paths => self.render_paths_once(cluster, w, settings),
-            Pipeline::Generations => self.render_generations_once(cluster, w, settings),
-        }
-    }
-
-    /// [`SceneMatrix::render_once`] by paths: on rank 0 the other ranks are path devices beside its
-    /// own; they render the task ranges they are sent until rank 0 ends the frame.
-    fn render_paths_once(
         &self,
         cluster: &Cluster,
         w: Workload,
@@ -241,29 +201,6 @@ impl SceneMatrix<'_> {
         }))
     }
 
-    /// [`SceneMatrix::render_once`] by generations: the ranks trace each generation together.
-    fn render_generations_once(
-        &self,
-        cluster: &Cluster,
-        w: Workload,
-        settings: Settings,
-    ) -> Result<(usize, f64, f64), CliError> {
-        let devices = build_devices(self.bvh, self.devices, &[])
-            .map_err(CliError::from)
-            .and_then(|d| Ok(ScheduledTracer::new(self.bvh, d, settings)?));
-        // Also the start line: every rank begins the render together.
-        let local = cluster.agree("opening this rank's devices", devices)?;
-        let mut tracer = ClusterTracer::new(cluster, self.bvh, local);
-        let start = Instant::now();
-        let r = render(self.scene, &mut tracer, &self.options(w));
-        let seconds = start.elapsed().as_secs_f64();
-        Ok((
-            r.total_rays(),
-            seconds,
-            crate::cluster::node_balance(tracer.stats()),
-        ))
-    }
-
     /// Rank 0 alone: the tasks of a single-node, cost-based StaticLpt render on this rank's
     /// devices, replayed on 16 and 64 simulated nodes of equal speed behind each of `links`,
     /// with each policy planning from the same estimates.
@@ -275,28 +212,23 @@ impl SceneMatrix<'_> {
         for &w in self.workloads {
             for &task_size in self.task_sizes {
                 let settings = self.settings(Policy::StaticLpt, task_size);
-                let gens = self.single_node(w, settings)?;
+                let frame = self.single_node(w, settings)?;
                 for (nodes, &(link, latency)) in SIMULATED_NODES
                     .into_iter()
                     .flat_map(|n| links.iter().map(move |l| (n, l)))
                 {
                     let speeds = Speeds::new(vec![1.0; nodes])?;
                     for &policy in self.policies {
-                        let (mut seconds, mut busy, mut capacity) = (0.0, 0.0, 0.0);
-                        let (mut rays, mut launches) = (0, 0);
-                        for g in &gens {
-                            let actual = Costs::new(g.seconds.clone())?;
-                            let plan = Costs::new(g.estimated.clone())?;
-                            let r = Simulation::new(policy, speeds.clone())
-                                .latency(latency)
-                                .run_actual(&plan, &actual)?;
-                            // The estimate is paid once per generation, split over the nodes.
-                            seconds += r.metrics.makespan + g.estimate_seconds / nodes as f64;
-                            busy += r.metrics.busy.iter().sum::<f64>();
-                            capacity += r.metrics.makespan * nodes as f64;
-                            rays += g.rays;
-                            launches += r.launches.iter().sum::<u64>();
-                        }
+                        let actual = Costs::new(frame.seconds.clone())?;
+                        let plan = Costs::new(frame.estimated.clone())?;
+                        let r = Simulation::new(policy, speeds.clone())
+                            .latency(latency)
+                            .run_actual(&plan, &actual)?;
+                        // The estimate is paid once per frame, split over the nodes.
+                        let seconds = r.metrics.makespan + frame.estimate_seconds / nodes as f64;
+                        let busy = r.metrics.busy.iter().sum::<f64>();
+                        let capacity = r.metrics.makespan * nodes as f64;
+                        let (rays, launches) = (frame.rays, r.launches.iter().sum::<u64>());
                         out.push(ClusterSimRecord {
                             source: "simulated-cluster",
                             scene: self.scene_name.to_string(),
@@ -356,8 +288,7 @@ pub fn bench(
         return Ok(None);
     }
     let mut text = format!(
-        "Over MPI by {}: {} rank(s), devices per rank {}, one-way latency {:.1} µs (median of {PINGS} ping-pongs, slowest rank)\n\n",
-        matrices.first().map_or("paths", |p| p.pipeline.name()),
+        "Over MPI: {} rank(s), devices per rank {}, one-way latency {:.1} µs (median of {PINGS} ping-pongs, slowest rank)\n\n",
         cluster.size(),
         matrices.first().map_or("", |p| p.device_list),
         latency * 1e6,

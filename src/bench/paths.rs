@@ -4,8 +4,8 @@
 //! the simulator replays each frame's tasks.
 
 use raytrace::cost::SampleRate;
+use raytrace::paths::Settings;
 use raytrace::paths::{Frame, FrameStats, PathRenderer, build_path_devices, estimate_paths};
-use raytrace::scheduled::Settings;
 use raytrace::shade::RenderOptions;
 use raytrace::{Bvh, Scene};
 
@@ -32,11 +32,11 @@ impl SceneMatrix<'_> {
                 PathRenderer::new(devices, settings)?
             }
         };
-        let workload = crate::calibration::workload(self.scene_name, &self.shader(w));
+        let workload = raytrace::run::workload(self.scene_name, &self.shader(w));
         let recalled = self.calibration.map(|store| {
             let mut store = store.borrow_mut();
             let used = store.recall(&mut renderer, &workload);
-            crate::calibration::CalibrationReport {
+            raytrace::run::CalibrationReport {
                 file: Some(store.file()),
                 loaded_entries: used,
                 written_entries: 0,
@@ -105,8 +105,9 @@ impl SceneMatrix<'_> {
         }
         let devices = frames.first().map_or(0, |f| f.devices.len());
         let mut r = t.record(Record::new(self, w, settings, devices));
-        r.pipeline = "paths";
-        r.walk = "sampled-paths";
+        if let Some(f) = frames.first() {
+            (r.tasks, r.cut_task_size) = (f.tasks, f.task_size);
+        }
         r.host_to_device_bytes = Some(traffic.host_to_device_bytes);
         r.device_to_host_bytes = Some(traffic.device_to_host_bytes);
         r.host_waits = Some(traffic.host_waits);

@@ -64,15 +64,15 @@ mod tests {
     fn run(seconds: f64, balance: f64, launches: u64, reruns: u64) -> Record {
         Record {
             source: "measured",
-            pipeline: "paths",
             scene: "s".into(),
             shader: "ao",
             ray_kind: "diffuse",
             policy: "static-lpt",
             mode: "cost",
-            walk: "reduced",
-            sample_error: None,
+            walk: "sampled-paths",
             task_size: 512,
+            tasks: 1,
+            cut_task_size: 512,
             devices: 2,
             device_list: "cpu:2".into(),
             cameras: 1,

@@ -2,11 +2,11 @@
 //! and launch delays ([`sched::MeasuredRun`]), and its lower bounds: what the simulator is
 //! worth is how close its replay of a run comes to the run.
 
-use raytrace::scheduled::TaskStats;
+use raytrace::paths::TaskStats;
 use sched::bounds::{fractional_bound, lower_bound};
 use sched::{Costs, MeasuredRun, MeasuredTask, Policy, Speeds};
 
-/// One device of a generation or frame: its index among the renderer's devices, the speed it
+/// One device of a frame: its index among the renderer's devices, the speed it
 /// was planned with and the launch overhead it declared.
 pub struct RunDevice {
     pub index: usize,
@@ -14,7 +14,7 @@ pub struct RunDevice {
     pub launch_overhead: Option<f64>,
 }
 
-/// What a generation's or frame's replay and bounds came to, in seconds.
+/// What a frame's replay and bounds came to, in seconds.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Replayed {
     /// The measured makespan.
@@ -36,7 +36,7 @@ impl std::ops::AddAssign for Replayed {
     }
 }
 
-/// Replays one generation or frame (`makespan` as measured). `None` when it cannot be
+/// Replays one frame (`makespan` as measured). `None` when it cannot be
 /// replayed: a task undelivered or a device unknown (after a failure), or nothing measured.
 pub fn replay(
     policy: Policy,

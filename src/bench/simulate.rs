@@ -1,8 +1,8 @@
 //! `cobalt bench --simulate 2,4,8,64`: the measured tasks of a run replayed in `sched`'s
 //! simulator on machines this one is not: more devices, of mixed speeds, behind a PCIe-like or
-//! a network-like launch latency. Each generation is planned with the estimates the real run
-//! made (cost mode) or with equal costs (regular mode) and advances with the measured task
-//! times, one generation after another.
+//! a network-like launch latency. Each frame is planned with the estimates the real run made
+//! (cost mode) or with equal costs (regular mode) and advances with the measured task times,
+//! one frame after another.
 
 use sched::bounds::lower_bound;
 use sched::{Costs, Policy, Simulation, Speeds};
@@ -36,7 +36,7 @@ pub struct SimRecord {
     pub link: &'static str,
     pub latency: f64,
     pub rays: usize,
-    /// Σ of the generations' simulated makespans.
+    /// Σ of the frames' simulated makespans.
     pub seconds: f64,
     pub mrays_per_s: f64,
     pub balance_efficiency: f64,
@@ -45,7 +45,7 @@ pub struct SimRecord {
     /// The simulator's planning time.
     pub plan_seconds: f64,
     pub prediction_error: Option<f64>,
-    /// `seconds` over Σ of each generation's lower bound on the optimal makespan (`sched`'s
+    /// `seconds` over Σ of each frame's lower bound on the optimal makespan (`sched`'s
     /// `lower_bound`: total work over total speed, or more where a few large tasks need the
     /// fastest devices): 1 is an optimal plan with free launches.
     pub makespan_over_bound: f64,

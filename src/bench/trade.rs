@@ -279,12 +279,12 @@ fn points(
     Ok(out)
 }
 
-/// The trade on orbit camera 0 at the matrix's size, for tasks of each of its task sizes, with its
-/// walk for the coherent rays.
+/// The trade on orbit camera 0 at the matrix's size, for tasks of each of its task sizes, with
+/// the thesis's reduced traversal.
 pub fn sampling_trade(matrix: &SceneMatrix) -> Result<Vec<TradePoint>, CliError> {
     let (name, scene, bvh) = (matrix.scene_name, matrix.scene, matrix.bvh);
     let (width, height, ao_samples) = (matrix.width, matrix.height, matrix.ao_samples);
-    let (task_sizes, walk) = (matrix.task_sizes, matrix.walk);
+    let (task_sizes, walk) = (matrix.task_sizes, Walk::Reduced);
     let primary = workload::orbit_primary(scene, width, height, 0..1);
     let ao = workload::orbit_ao(scene, bvh, width, height, 0, ao_samples).rays;
     let coherent = walk.for_kind(RayKind::Primary);

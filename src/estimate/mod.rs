@@ -96,7 +96,7 @@ pub struct Args {
     /// GPU), `first-leaf` (closest-hit rays end at the exit of the first leaf they reach;
     /// shadow and AO rays keep the reduced walk), or `auto`: the reduced traversal whose
     /// full counts, calibrated, err least against the measured task times.
-    #[arg(long, alias = "probe")]
+    #[arg(long)]
     walk: Option<WalkArg>,
     /// Print one JSON object instead of a table.
     #[arg(long)]

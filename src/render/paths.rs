@@ -1,9 +1,8 @@
-//! `cobalt render --pipeline paths` (and `gpu`): every frame through one path renderer
-//! ([`crate::path_run`]), its report and its summary.
+//! `cobalt render`'s run ([`raytrace::run::Run`]), its report and its summary.
 
 use raytrace::cost_image::{cost_image, primary_counts};
 use raytrace::film::ToneMap;
-use raytrace::scheduled::{FailAfter, Settings};
+use raytrace::run::{CalibrationReport, Run, RunReport, Store};
 use raytrace::shade::RenderOptions;
 use raytrace::{Bvh, Scene};
 use sched::Policy;
@@ -11,38 +10,38 @@ use serde::Serialize;
 
 use super::header::Header;
 use super::rendered::Rendered;
-use crate::calibration::{CalibrationReport, Store};
 use crate::error::CliError;
-use crate::path_run::{Fallback, PathRun};
 
-/// The report of `--pipeline paths` (and `gpu`).
+/// The report of `cobalt render`.
 #[derive(Debug, Serialize)]
-pub struct PathsReport {
+pub struct RenderReport {
     #[serde(flatten)]
     header: Header,
-    pipeline: &'static str,
-    devices: String,
+    /// `--devices`, as given.
+    device_list: String,
     policy: Policy,
     mode: &'static str,
-    task_size: usize,
+    /// `--task-size`: the frame's tasks are cut to it, or finer (the run's `task_size`).
+    requested_task_size: usize,
     sample_rate: f64,
     #[serde(flatten)]
-    run: PathRun,
+    run: RunReport,
     /// The calibration file read before the first frame and written after the run.
     calibration: CalibrationReport,
 }
 
-impl PathsReport {
+impl RenderReport {
     /// The summary printed without `--json`.
     pub fn summary(&self) -> String {
         let r = &self.run;
         format!(
-            "{} on {} by paths, {} {}, tasks of {}: {}; fastest of {} frame(s)\n{}",
+            "{} on {}, {} {}, {} tasks of {} paths: {}; fastest of {} frame(s)\n{}",
             self.header.what(),
-            self.devices,
+            self.device_list,
             self.policy.name(),
             self.mode,
-            self.task_size,
+            r.tasks,
+            r.task_size,
             r.figures(),
             r.frames,
             r.notes(),
@@ -50,63 +49,39 @@ impl PathsReport {
     }
 }
 
-/// What a path render is asked: the pipeline's name, the devices (as typed, and parsed) with
-/// their faults, the settings, the frames to render and the fallback.
-pub struct PathJob<'a> {
-    pub pipeline: &'static str,
-    pub devices: &'a str,
-    pub specs: &'a [raytrace::devices::DeviceSpec],
-    pub faults: &'a [FailAfter],
-    pub settings: Settings,
-    pub frames: u32,
-    pub host_fallback: bool,
-    pub cost_image: bool,
-}
-
-/// Renders `options` as `job` says; with a calibration `store`, the first frame plans with
-/// what it holds for `workload`, and what the frames taught is written back.
-pub fn render_paths(
+/// Renders `options` as `run` says on `devices` (the `--devices` text); with a calibration
+/// `store`, the first frame plans with what it holds for `workload`, and what the frames
+/// taught is written back. With `cost_image`, the primary rays' counts are drawn too.
+pub fn render(
     scene: &Scene,
     bvh: &Bvh,
     options: &RenderOptions,
-    job: &PathJob<'_>,
+    (run, devices): (&Run<'_>, &str),
     (mut store, workload): (Option<Store>, &str),
-    header: Header,
-) -> Result<Rendered<PathsReport>, CliError> {
-    let fallback = Fallback {
-        devices: job.devices,
-        host_fallback: job.host_fallback,
-    };
-    let (film, run) = crate::path_run::render(
-        scene,
-        bvh,
-        options,
-        job.specs,
-        job.faults,
-        job.settings,
-        job.frames,
-        &fallback,
-        store.as_mut().map(|s| (s, workload)),
-    )?;
+    (header, cost_image_wanted): (Header, bool),
+) -> Result<Rendered<RenderReport>, CliError> {
+    let calibration = store.as_mut().map(|s| (s, workload));
+    let (film, report) = run
+        .render(scene, bvh, options, calibration)
+        .map_err(|e| CliError::run(devices, e))?;
     let calibration = store.as_ref().map(Store::save).unwrap_or_default();
     let image = film.png(ToneMap::Srgb)?;
-    // The path devices count nothing per pixel: the cost image's counts are traced apart.
-    let cost_image = if job.cost_image {
+    // The devices count nothing per pixel: the cost image's counts are traced apart.
+    let cost_image = if cost_image_wanted {
         let (w, h) = (options.width, options.height);
         let counts = primary_counts(bvh, &options.camera, w, h);
         Some(cost_image(&counts, w, h).png(ToneMap::Display)?)
     } else {
         None
     };
-    let report = PathsReport {
+    let report = RenderReport {
         header,
-        pipeline: job.pipeline,
-        devices: job.devices.to_string(),
-        policy: job.settings.policy,
-        mode: job.settings.mode.name(),
-        task_size: job.settings.task_size.get(),
-        sample_rate: job.settings.sample_rate.get(),
-        run,
+        device_list: devices.to_string(),
+        policy: run.settings.policy,
+        mode: run.settings.mode.name(),
+        requested_task_size: run.settings.task_size.get(),
+        sample_rate: run.settings.sample_rate.get(),
+        run: report,
         calibration,
     };
     Ok(Rendered {

@@ -16,8 +16,8 @@ use sched::{DeviceError, Executor, Sink};
 
 use sched::SchedError;
 
+use crate::paths::Settings;
 use crate::paths::{Frame, FrameRendering, Launch, PathDevice, PathRenderer, Traffic};
-use crate::scheduled::Settings;
 use crate::shade::RenderOptions;
 use crate::{Bvh, Scene};
 

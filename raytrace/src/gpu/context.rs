@@ -145,8 +145,9 @@ impl GpuContext {
         Ok(contexts)
     }
 
-    /// [`GpuContext::open`] without the process's cache.
-    fn open_anew(select: GpuSelect, options: GpuOptions) -> Result<Vec<Self>, GpuError> {
+    /// [`GpuContext::open`] without the process's cache: a device of its own, which a test may
+    /// lose without losing every other test's.
+    pub(crate) fn open_anew(select: GpuSelect, options: GpuOptions) -> Result<Vec<Self>, GpuError> {
         let b = backends()?;
         let adapters = pollster::block_on(instance(b).enumerate_adapters(b));
         let chosen: Vec<(usize, &wgpu::Adapter)> = match select {

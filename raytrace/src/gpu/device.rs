@@ -1,14 +1,12 @@
-//! One GPU adapter as a device of the scheduler.
+//! One GPU adapter tracing batches of rays: the GPU's side of `cobalt trace` and of
+//! `cobalt estimate`, beside the host's traversal (`crate::traverse`).
 
 use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, PoisonError};
 
-use sched::{DeviceError, Sink};
-
 use crate::Traffic;
-use crate::ray_device::{BadRange, RayDevice};
-use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
+use crate::{Bvh, Counts, HitBatch, RayBatch};
 
 use super::buffers::{SceneBuffers, pack_rays};
 use super::estimate::{SampledCounts, Sampling, estimate_kernel, sampled_counts};
@@ -17,9 +15,9 @@ use super::staging::{Staging, staged_hits};
 use super::trace::{Threads, TraceKernels, TraceMode, launch};
 use super::{GpuContext, GpuError};
 
-/// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a generation's rays,
-/// all ranges of a static plan in one launch ([`RayDevice::trace_ranges`]); a queue policy
-/// launches once per task.
+/// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a batch of rays, all
+/// of them in one launch ([`GpuDevice::hits`]), and counts an estimate's samples on the
+/// device ([`GpuDevice::sampled_counts`]).
 #[derive(Debug)]
 pub struct GpuDevice {
     ctx: GpuContext,
@@ -27,14 +25,11 @@ pub struct GpuDevice {
     estimate: Kernel,
     scene: SceneBuffers,
     threads: Threads,
-    /// The last launch's GPU seconds as `f64` bits; NaN when unknown.
+    /// The last launch's GPU seconds as `f64` bits; NaN when unknown (launches take `&self`).
     last_seconds: AtomicU64,
-    /// GPU seconds of the hit launches since [`RayDevice::take_device_seconds`] last took
-    /// them, as `f64` bits (launches take `&self`).
-    kernel_seconds: AtomicU64,
     /// The hit launches' buffers, kept from one launch to the next.
     staging: Mutex<Option<Staging>>,
-    /// What crossed since [`RayDevice::take_traffic`] last took it.
+    /// What crossed since [`GpuDevice::take_traffic`] last took it.
     traffic: Mutex<Traffic>,
 }
 
@@ -55,7 +50,6 @@ impl GpuDevice {
             scene,
             threads: Threads::default(),
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
-            kernel_seconds: AtomicU64::new(0f64.to_bits()),
             staging: Mutex::new(None),
             traffic: Mutex::new(Traffic::default()),
         })
@@ -81,10 +75,6 @@ impl GpuDevice {
     /// The opened adapter.
     pub fn context(&self) -> &GpuContext {
         &self.ctx
-    }
-
-    fn check(&self, rays: &RayBatch, range: &Range<usize>) -> Result<(), BadRange> {
-        BadRange::check(|| self.ctx.name(), rays, range)
     }
 
     /// Hits of the rays of `ranges`, one after another, in one launch: any hits for occlusion
@@ -128,15 +118,6 @@ impl GpuDevice {
         let (hits, seconds) = staged?;
         self.last_seconds
             .store(seconds.unwrap_or(f64::NAN).to_bits(), Ordering::Relaxed);
-        if let Some(s) = seconds {
-            // One thread launches at a time (the runtime's device thread), but the update is
-            // a loop anyway so that `hits` stays safe to call from several.
-            let _ = self
-                .kernel_seconds
-                .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |b| {
-                    Some((f64::from_bits(b) + s).to_bits())
-                });
-        }
         Ok(hits)
     }
 
@@ -199,76 +180,9 @@ impl GpuDevice {
         counts
     }
 
-    /// Adds `traffic` to what [`RayDevice::take_traffic`] will take.
-    fn count(&self, traffic: Traffic) {
-        // A poisoned lock only means another launch panicked; the counts are still valid.
-        *self.traffic.lock().unwrap_or_else(PoisonError::into_inner) += traffic;
-    }
-}
-
-impl RayDevice for GpuDevice {
-    fn trace_range(
-        &mut self,
-        kind: RayKind,
-        rays: &RayBatch,
-        range: &Range<usize>,
-    ) -> Result<HitBatch, DeviceError> {
-        self.check(rays, range)?;
-        Ok(self.hits(kind.is_occlusion(), rays, &[range])?)
-    }
-
-    /// One launch for all `ranges`; each range's hits are cut out of its results in order.
-    /// Every ray is traced, `known` ones too (the device does not skip them).
-    fn trace_ranges(
-        &mut self,
-        kind: RayKind,
-        rays: &RayBatch,
-        ranges: &[&Range<usize>],
-        known: &[usize],
-        sink: &mut Sink<HitBatch>,
-    ) -> Result<(), DeviceError> {
-        let _ = known;
-        for r in ranges {
-            self.check(rays, r)?;
-        }
-        let all = self.hits(kind.is_occlusion(), rays, ranges)?;
-        // A launch of one task (every launch of a queue policy) times that task on the GPU;
-        // a launch of several has one time for all of them, so none per task.
-        if let ([_], Some(seconds)) = (ranges, self.last_gpu_seconds()) {
-            sink.push_timed(all, seconds);
-            return Ok(());
-        }
-        let mut start = 0;
-        for r in ranges {
-            let end = start + r.len();
-            sink.push(HitBatch {
-                t: all.t[start..end].to_vec(),
-                prim: all.prim[start..end].to_vec(),
-            });
-            start = end;
-        }
-        Ok(())
-    }
-
-    fn name(&self) -> String {
-        self.ctx.name()
-    }
-
-    /// The thesis's estimate on the GPU: sample, compact, reduced traversal and per-task sums
-    /// on the device ([`super::GpuReducedTraversal`]), equal to the CPU's.
-    fn estimate_work(
-        &mut self,
-        rays: &RayBatch,
-        tasks: &[Range<usize>],
-        rate: crate::cost::SampleRate,
-        walk: crate::Walk,
-    ) -> Option<Result<Vec<crate::cost::Work>, DeviceError>> {
-        let estimator = super::GpuReducedTraversal::new(self, rays, rate).with_walk(walk);
-        Some(estimator.try_work(tasks).map_err(DeviceError::from))
-    }
-
-    /// The rays uploaded and hits read back (and an estimate's samples and sums).
-    fn take_traffic(&mut self) -> Traffic {
+    /// What crossed between the host and the device since the last call: the rays uploaded
+    /// and hits read back, and an estimate's samples and sums.
+    pub fn take_traffic(&mut self) -> Traffic {
         std::mem::take(
             self.traffic
                 .get_mut()
@@ -276,9 +190,9 @@ impl RayDevice for GpuDevice {
         )
     }
 
-    /// The kernels' time from timestamp queries, where the adapter has them.
-    fn take_device_seconds(&mut self) -> Option<f64> {
-        let taken = f64::from_bits(self.kernel_seconds.swap(0f64.to_bits(), Ordering::Relaxed));
-        self.ctx.timestamps.then_some(taken)
+    /// Adds `traffic` to what [`GpuDevice::take_traffic`] will take.
+    fn count(&self, traffic: Traffic) {
+        // A poisoned lock only means another launch panicked; the counts are still valid.
+        *self.traffic.lock().unwrap_or_else(PoisonError::into_inner) += traffic;
     }
 }

@@ -9,7 +9,7 @@
 //!   persistent threads until the ray queue is drained;
 //! - `program`: a shader module with its bind group's layout, and the pipelines and dispatches
 //!   every kernel family shares;
-//! - [`GpuDevice`]: one adapter as a [`crate::scheduled::RayDevice`], one launch per plan;
+//! - [`GpuDevice`]: one adapter tracing batches of rays (`cobalt trace`, `cobalt estimate`);
 //! - [`GpuReducedTraversal`]: the cost estimator (sampling, compaction, reduced traversal and
 //!   per-task sums) on the device, equal to the CPU's;
 //! - [`GpuRenderer`]: ambient occlusion and Whitted shading rendered entirely on the device

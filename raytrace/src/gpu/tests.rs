@@ -790,7 +790,7 @@ fn forest_whitted_image_matches_cpu() {
 #[test]
 fn a_scheduled_gpu_frame_moves_bytes_by_task_not_by_ray() {
     use crate::paths::{GpuPaths, PathDevice, PathRenderer};
-    use crate::scheduled::{Mode, Settings};
+    use crate::paths::{Mode, Settings};
     let Some(ctx) = gpu() else { return };
     let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
     let (w, h) = (96, 80);
@@ -855,13 +855,61 @@ fn a_scheduled_gpu_frame_moves_bytes_by_task_not_by_ray() {
     assert_eq!(seen[0], seen[1], "traffic does not grow with the probes");
 }
 
+/// A GPU whose device is lost (destroyed under the renderer) fails like any executor: its
+/// tasks are rendered on the CPU, the failure is reported, and the image is the CPU's.
+#[test]
+fn a_lost_gpu_has_its_paths_rendered_elsewhere() {
+    use crate::paths::{CpuPaths, GpuPaths, PathDevice, PathRenderer, Settings};
+    if gpu().is_none() {
+        return;
+    }
+    let options = GpuOptions {
+        allow_software: true,
+    };
+    let ctx = GpuContext::open_anew(GpuSelect::All, options)
+        .expect("an adapter")
+        .swap_remove(0);
+    let (scene, bvh) = testkit::builtin_with_bvh("builtin:cornell:0.2").expect("scene");
+    let shader = Shader::Ao(AoSettings {
+        samples: 4,
+        ..AoSettings::default()
+    });
+    let options = RenderOptions::new(32, 32, Camera::orbit(&scene.bounds(), 1), shader);
+    let want = render(&scene, &mut CpuTracer::new(&bvh), &options).film;
+    let gpu = GpuPaths::new(ctx.clone(), &scene, &bvh).expect("device");
+    ctx.device.destroy();
+    let cpu = CpuPaths::new(0, 1).expect("cpu");
+    let devices: Vec<Box<dyn PathDevice>> = vec![Box::new(cpu), Box::new(gpu)];
+    let settings = Settings {
+        policy: sched::Policy::StaticLpt,
+        task_size: std::num::NonZeroUsize::new(64).expect("positive"),
+        ..Settings::default()
+    };
+    let mut r = PathRenderer::new(devices, settings).expect("renderer");
+    let frame = r
+        .render(&scene, &bvh, &options)
+        .expect("the CPU finishes the frame");
+    assert_eq!(frame.film, want, "lost device");
+    let lost: Vec<_> = frame
+        .stats
+        .failures
+        .iter()
+        .filter(|f| f.name == "gpu0")
+        .collect();
+    assert!(
+        !lost.is_empty(),
+        "the lost GPU never failed: {:?}",
+        frame.stats
+    );
+}
+
 /// One GPU device keeps its launch buffers across launches and frames: launches of one task
 /// each (a queue policy), frames of different sizes and shaders one after another, the
 /// small after the large, each equal to the kernels' image of that frame alone.
 #[test]
 fn launches_and_frames_of_every_size_share_one_device() {
     use crate::paths::{GpuPaths, PathDevice, PathRenderer};
-    use crate::scheduled::{Mode, Settings};
+    use crate::paths::{Mode, Settings};
     let Some(ctx) = gpu() else { return };
     let (scene, bvh) = testkit::builtin_with_bvh("builtin:cornell:0.2").expect("scene");
     let camera = Camera::orbit(&scene.bounds(), 1);
@@ -907,7 +955,7 @@ fn launches_and_frames_of_every_size_share_one_device() {
 #[test]
 fn one_task_launches_move_their_counts_only() {
     use crate::paths::{GpuPaths, PathDevice, PathRenderer};
-    use crate::scheduled::{Mode, Settings};
+    use crate::paths::{Mode, Settings};
     let Some(ctx) = gpu() else { return };
     let (scene, bvh) = testkit::builtin_with_bvh("builtin:cornell:0.2").expect("scene");
     let camera = Camera::orbit(&scene.bounds(), 1);
@@ -1037,7 +1085,7 @@ fn the_header_kernel_counts_as_the_host_does() {
 #[test]
 fn estimating_gpus_move_at_most_64_bytes_a_task() {
     use crate::paths::{GpuPaths, PathDevice, PathRenderer};
-    use crate::scheduled::{Mode, Settings};
+    use crate::paths::{Mode, Settings};
     let Some(ctx) = gpu() else { return };
     let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
     let camera = Camera::orbit(&scene.bounds(), 0);
@@ -1193,7 +1241,7 @@ fn a_gpu_estimates_its_paths_as_the_host_does() {
 #[test]
 fn the_first_devices_kind_estimates_a_mixed_frame() {
     use crate::paths::{CpuPaths, GpuPaths, PathDevice, PathRenderer};
-    use crate::scheduled::{Mode, Settings};
+    use crate::paths::{Mode, Settings};
     let Some(ctx) = gpu() else { return };
     let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
     let options = RenderOptions::new(

@@ -13,8 +13,8 @@
 //! ([`crate::paths::PathRenderer::into_kept`]) and, through a calibration file, to the next
 //! run ([`crate::paths::PathRenderer::remember`]).
 
+use super::Mode;
 use crate::calibration::Choice;
-use crate::scheduled::Mode;
 use crate::shade::Shader;
 
 /// Which frames a figure belongs to: a shader's name ([`Shader::name`]) and the mode.

@@ -101,7 +101,7 @@ impl CpuPaths {
 
     fn sharing(index: usize, threads: usize, kept: Arc<Mutex<Kept>>) -> Result<Self> {
         let threads = threads.max(1);
-        let pool = crate::cpu::thread_pool(format!("cobalt-cpu{index}"), threads)?;
+        let pool = crate::pool::thread_pool(format!("cobalt-cpu{index}"), threads)?;
         Ok(Self {
             index,
             threads,

@@ -2,13 +2,34 @@
 //! tasks in its lifetime and then fails, so its paths must be rendered elsewhere. A launch
 //! that would cross the limit fails whole, as a device lost mid-launch would: none of its
 //! values reach the host.
+//!
+//! Every device of a `--devices` list takes its faults this way, CPU and GPU alike, so they
+//! fail alike.
 
 use std::ops::Range;
 
 use sched::DeviceError;
 
 use super::{Frame, Launch, PathDevice};
-use crate::ray_device::InjectedFault;
+
+/// Fault injection: device `device` (index in the list) fails after `tasks` tasks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FailAfter {
+    /// Index of the device, counting every device of the list in order.
+    pub device: usize,
+    /// Tasks it completes before failing.
+    pub tasks: u64,
+}
+
+/// Why a device stopped on purpose: the fault a [`FailingPaths`] injected.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{device}: injected fault after {after} tasks")]
+pub struct InjectedFault {
+    /// The device's name.
+    pub device: String,
+    /// Tasks it completed before failing.
+    pub after: u64,
+}
 
 /// `inner`, failing once it has completed `after` tasks.
 pub struct FailingPaths<'a> {

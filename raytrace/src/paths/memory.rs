@@ -13,9 +13,9 @@
 //! model stays the one the run started with, so that its frames are costed in one unit and
 //! compare.
 
+use super::Mode;
 use crate::calibration::{Calibration, ChoiceKey, Entry, Key, device_set};
 use crate::cost::{CostModel, Work, calibrate};
-use crate::scheduled::Mode;
 
 use super::PathRenderer;
 use super::choice::{SetTimes, shader_named};
@@ -175,8 +175,8 @@ impl PathRenderer<'_> {
 mod tests {
     use crate::calibration::{Calibration, Entry, Key};
     use crate::devices::parse_devices;
+    use crate::paths::Settings;
     use crate::paths::{PathRenderer, build_path_devices};
-    use crate::scheduled::Settings;
     use crate::shade::{RenderOptions, Shader};
     use crate::{BuildPreset, Bvh, Camera, Scene, SceneSource};
 

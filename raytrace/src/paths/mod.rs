@@ -9,7 +9,9 @@
 //! The pieces:
 //! - [`PathDevice`]: a device that renders ranges of paths ([`CpuPaths`], and `GpuPaths`
 //!   with the `gpu` feature); [`BoundPaths`] makes one a [`sched::Executor`] for a frame;
-//! - [`build_path_devices`]: a `--devices` list (with injected faults) made into devices;
+//! - [`build_path_devices`]: a `--devices` list (with injected faults, [`FailAfter`]) made
+//!   into devices;
+//! - [`Settings`] and [`Mode`]: policy, regular or cost-based, task size, sample rate;
 //! - [`estimate_paths`]: a task's cost from a sample of its paths traced for real;
 //! - [`PathRenderer`]: a frame cut into tasks, costed, planned and run; [`FrameStats`] says
 //!   what it did, [`Traffic`] what crossed between host and devices;
@@ -21,8 +23,7 @@
 //!
 //! ```
 //! use raytrace::devices::parse_devices;
-//! use raytrace::paths::{PathRenderer, build_path_devices};
-//! use raytrace::scheduled::Settings;
+//! use raytrace::paths::{PathRenderer, Settings, build_path_devices};
 //! use raytrace::shade::{CpuTracer, RenderOptions, Shader, render};
 //! use raytrace::{BuildPreset, Bvh, Camera, SceneSource};
 //!
@@ -50,6 +51,7 @@ mod gpu;
 mod learn;
 mod memory;
 mod renderer;
+mod settings;
 mod stats;
 
 pub use crate::traffic::Traffic;
@@ -59,8 +61,9 @@ pub use device::{BoundPaths, Estimate, Frame, Launch, PathDevice, TaskValues};
 pub use estimate::{
     SampledTask, estimate_paths, estimate_paths_in, sample_paths, sampled_options, task_work,
 };
-pub use fault::FailingPaths;
+pub use fault::{FailAfter, FailingPaths, InjectedFault};
 #[cfg(feature = "gpu")]
 pub use gpu::GpuPaths;
 pub use renderer::{FrameRendering, KeptDevices, PathRenderer};
-pub use stats::{FrameStats, PathDeviceStats};
+pub use settings::{Mode, Settings};
+pub use stats::{FrameStats, PathDeviceStats, TaskStats};

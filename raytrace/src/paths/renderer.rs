@@ -16,8 +16,8 @@ use super::memory::History;
 use super::{
     BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, Traffic, estimate_paths,
 };
+use super::{Mode, Settings, TaskStats};
 use crate::cost::{CostModel, Work};
-use crate::scheduled::{Mode, Settings, TaskStats};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene};
 

@@ -2,9 +2,26 @@
 
 use sched::{DeviceFailure, Policy};
 
+use super::Mode;
 use super::Traffic;
 use crate::cost::CostModel;
-use crate::scheduled::{Mode, TaskStats};
+
+/// One task of a frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TaskStats {
+    /// Its cost as planned (1 in regular mode).
+    pub cost: f64,
+    /// When its span started, in seconds from the run's start (the first task of a launch
+    /// starts when the launch does).
+    pub start: f64,
+    /// Measured time, from the timeline.
+    pub seconds: f64,
+    /// The device (index among the renderer's devices) that delivered it.
+    pub device: usize,
+    /// Kernel time the device measured itself for this task (a GPU's timestamp queries),
+    /// where the task had a launch of its own; `None` otherwise.
+    pub device_seconds: Option<f64>,
+}
 
 /// One device's part of a frame.
 #[derive(Clone, Debug, PartialEq)]

@@ -1,7 +1,6 @@
-//! The seam between shading and tracing: shaders hand whole generations of rays to a
-//! [`Tracer`] and get hits back. This is the one place where rays are traced, so a scheduled,
-//! multi-device tracer (cut into tasks, costed and planned by `sched`) can later replace
-//! [`CpuTracer`] without touching any shader.
+//! The seam between shading and tracing: the host's shaders hand whole generations of rays to
+//! a [`Tracer`] and get hits back. [`CpuTracer`] traces them on the host's threads; a counting
+//! tracer wraps it where an estimate renders a sample of paths (`crate::paths::estimate_paths`).
 
 use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
 use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind, Result};
@@ -39,7 +38,7 @@ impl<'a> CpuTracer<'a> {
 
     /// Traces in a pool of its own with `threads` threads (the `--devices cpu:N` device).
     pub fn with_threads(bvh: &'a Bvh, threads: usize) -> Result<Self> {
-        let pool = crate::cpu::thread_pool(String::from("cobalt-cpu"), threads)?;
+        let pool = crate::pool::thread_pool(String::from("cobalt-cpu"), threads)?;
         Ok(Self {
             bvh,
             pool: Some(pool),

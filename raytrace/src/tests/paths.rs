@@ -5,7 +5,7 @@
 use sched::Policy;
 
 use crate::paths::{CpuPaths, FailingPaths, PathDevice, PathRenderer};
-use crate::scheduled::{Mode, Settings};
+use crate::paths::{Mode, Settings};
 use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, WhittedSettings, render};
 use crate::{Bvh, Camera, Film, Scene};
 
@@ -260,6 +260,39 @@ fn a_frame_without_devices_left_is_an_error() {
         .render(&scene, &bvh, &options)
         .expect_err("no device works");
     assert!(e.to_string().contains("injected fault"), "{e}");
+}
+
+/// A device list that names an adapter that does not exist, or a fault on a device that is
+/// not in it, is an error naming the entry; so is a renderer without devices.
+#[test]
+fn bad_device_lists_and_faults_are_named() {
+    use crate::devices::parse_devices;
+    use crate::paths::{FailAfter, build_path_devices};
+    let shader = SHADERS[0];
+    let (scene, bvh) = scene("builtin:cornell:0.2", &shader);
+    let specs = parse_devices("cpu:1,gpu:99").expect("a valid list");
+    let e = build_path_devices(&scene, &bvh, &specs, &[])
+        .err()
+        .expect("no adapter 99")
+        .to_string();
+    if cfg!(feature = "gpu") {
+        assert!(
+            e.contains("gpu:99") && e.contains("no GPU adapter 99"),
+            "{e}"
+        );
+    } else {
+        assert!(e.contains("gpu:99") && e.contains("`gpu` feature"), "{e}");
+    }
+    let fault = [FailAfter {
+        device: 2,
+        tasks: 1,
+    }];
+    let specs = parse_devices("cpu:2").expect("a valid list");
+    let e = build_path_devices(&scene, &bvh, &specs, &fault)
+        .err()
+        .expect("no device 2");
+    assert!(e.to_string().contains("2@1"), "{e}");
+    assert!(PathRenderer::new(Vec::new(), Settings::default()).is_err());
 }
 
 /// The cost of a task, estimated from a sample of its paths traced for real, ranks tasks as

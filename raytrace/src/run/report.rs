@@ -1,20 +1,9 @@
-//! The path pipeline's run, shared by `cobalt render --pipeline paths` and its `mpirun` form:
-//! frames rendered through one [`raytrace::paths::PathRenderer`] on path-resident devices
-//! (each task's paths made, traced and shaded on the device that runs it; only task lists,
-//! costs and the paths' values cross between host and device), and what the run reports.
+//! What a run reports beside its image: the fastest frame's figures, each device's part, and
+//! what crossed between the host and the devices. The JSON field names are what users read.
 
 use serde::Serialize;
 
-use raytrace::Film;
-use raytrace::devices::DeviceSpec;
-use raytrace::paths::{FrameRendering, FrameStats, PathRenderer, build_path_devices};
-use raytrace::scheduled::{FailAfter, Settings};
-use raytrace::shade::RenderOptions;
-use raytrace::{Bvh, Scene};
-use sched::{DeviceFailure, SchedError};
-
-use crate::calibration::Store;
-use crate::error::CliError;
+use crate::paths::FrameStats;
 
 /// One device's part of the reported frame.
 #[derive(Debug, Serialize)]
@@ -33,9 +22,10 @@ pub struct DeviceReport {
     device_seconds: Option<f64>,
 }
 
-/// What the path pipeline reports beside the image: the fastest of `frames` renders.
+/// What a run reports beside the image: the fastest of `frames` frames. Every render reports
+/// it, in one process or over MPI ranks.
 #[derive(Debug, Serialize)]
-pub struct PathRun {
+pub struct RunReport {
     /// Frames rendered through one renderer (`--repeats`); the figures are the fastest one's.
     pub frames: u32,
     /// Wall time of the first frame (the first plan has no measured speeds).
@@ -46,15 +36,24 @@ pub struct PathRun {
     pub total_rays: usize,
     /// Rendering efficiency: rays over the frame's wall time.
     pub mrays_per_s: f64,
-    /// Paths (pixels) and tasks of the frame.
+    /// Paths (pixels) of the frame.
     pub paths: usize,
+    /// Tasks the frame was cut into.
     pub tasks: usize,
+    /// Paths of the largest task the frame was cut into: `--task-size`, or fewer where the
+    /// frame is too small to give every device four tasks of it.
+    pub task_size: usize,
     /// False in regular mode, and in cost mode on one device (its plan needs no costs).
     pub estimated: bool,
+    /// Wall time of the estimate (0 when there was none).
     pub estimate_seconds: f64,
+    /// Wall time the policy took to plan.
     pub plan_seconds: f64,
+    /// Σ busy time over (makespan × devices).
     pub balance_efficiency: f64,
+    /// Launches over every device.
     pub launches: u64,
+    /// Task runs lost to failed devices and run again elsewhere.
     pub reruns: u64,
     /// Launches of the reported frame whose time was far off their planned cost, left out of
     /// the speeds learnt.
@@ -63,19 +62,22 @@ pub struct PathRun {
     pub host_fallback: bool,
     /// Devices that failed, with why.
     pub failures: Vec<String>,
-    /// What crossed between the host and the devices, the paths' values excepted.
+    /// Bytes sent from the host to the devices, the paths' values excepted.
     pub host_to_device_bytes: u64,
+    /// Bytes sent from the devices to the host, the paths' values excepted.
     pub device_to_host_bytes: u64,
+    /// Times the host blocked on a device.
     pub host_waits: u64,
     /// Bytes of the paths' values sent to the host.
     pub film_bytes: u64,
     /// Devices the reported frame left idle: the fastest class alone had rendered frames
     /// faster than every device together.
     pub left_idle: Vec<String>,
+    /// Each device's part.
     pub devices: Vec<DeviceReport>,
 }
 
-impl PathRun {
+impl RunReport {
     /// The summary's figures: rays, time, speed, balance and what crossed the links.
     pub fn figures(&self) -> String {
         format!(
@@ -111,7 +113,9 @@ impl PathRun {
         text
     }
 
-    pub(crate) fn new(frames: u32, first_render_seconds: f64, s: &FrameStats) -> Self {
+    /// The report of `frames` frames whose first took `first_render_seconds`, from the
+    /// reported (fastest) frame's statistics `s`.
+    pub fn new(frames: u32, first_render_seconds: f64, s: &FrameStats) -> Self {
         let t = s.traffic();
         Self {
             frames,
@@ -121,6 +125,7 @@ impl PathRun {
             mrays_per_s: s.mrays_per_s(),
             paths: s.paths,
             tasks: s.tasks,
+            task_size: s.task_size,
             estimated: s.estimated,
             estimate_seconds: s.estimate_seconds,
             plan_seconds: s.plan_seconds,
@@ -154,79 +159,4 @@ impl PathRun {
                 .collect(),
         }
     }
-}
-
-/// Where a failed frame may go: when every device of `devices` (the `--devices` text) fails,
-/// `host_fallback` finishes the frames on the host's threads; otherwise the failure is an
-/// error naming each device.
-pub struct Fallback<'s> {
-    pub devices: &'s str,
-    pub host_fallback: bool,
-}
-
-/// Renders `frames` frames of `options` through one path renderer over `specs`, keeping the
-/// fastest; a frame whose every device failed goes where `fallback` says. With a
-/// `calibration` (and the workload's name), the first frame plans with what it holds and
-/// what the frames taught is kept in it.
-#[allow(clippy::too_many_arguments)]
-pub fn render(
-    scene: &Scene,
-    bvh: &Bvh,
-    options: &RenderOptions,
-    specs: &[raytrace::devices::DeviceSpec],
-    faults: &[FailAfter],
-    settings: Settings,
-    frames: u32,
-    fallback: &Fallback<'_>,
-    mut calibration: Option<(&mut Store, &str)>,
-) -> Result<(Film, PathRun), CliError> {
-    let devices = build_path_devices(scene, bvh, specs, faults)?;
-    let mut renderer = PathRenderer::new(devices, settings)?;
-    if let Some((store, workload)) = calibration.as_mut() {
-        store.recall(&mut renderer, workload);
-    }
-    let mut host: Option<PathRenderer> = None;
-    let mut lost: Vec<DeviceFailure> = Vec::new();
-    let mut best: Option<FrameRendering> = None;
-    let mut first_render_seconds = 0.0;
-    for k in 0..frames.max(1) {
-        let frame = match host.as_mut() {
-            Some(host) => host.render(scene, bvh, options)?,
-            None => match renderer.render(scene, bvh, options) {
-                Ok(frame) => frame,
-                Err(e @ (SchedError::AllDevicesFailed { .. } | SchedError::NoDevices)) => {
-                    if let SchedError::AllDevicesFailed { failures, .. } = e {
-                        lost.extend(failures);
-                    }
-                    if !fallback.host_fallback {
-                        return Err(CliError::devices_failed(fallback.devices, &lost));
-                    }
-                    let threads = std::thread::available_parallelism().map_or(1, usize::from);
-                    let spec = DeviceSpec::Cpu { count: 1, threads };
-                    let devices = build_path_devices(scene, bvh, &[spec], &[])?;
-                    host.insert(PathRenderer::new(devices, settings)?)
-                        .render(scene, bvh, options)?
-                }
-                Err(e) => return Err(e.into()),
-            },
-        };
-        if k == 0 {
-            first_render_seconds = frame.stats.seconds;
-        }
-        if best
-            .as_ref()
-            .is_none_or(|b| frame.stats.seconds < b.stats.seconds)
-        {
-            best = Some(frame);
-        }
-    }
-    // The host fallback's frames measured the host, not the devices asked for.
-    if let Some((store, workload)) = calibration {
-        store.remember(&renderer, workload);
-    }
-    let best = best.ok_or_else(|| CliError::Write("no frame was rendered".into()))?;
-    let mut run = PathRun::new(frames.max(1), first_render_seconds, &best.stats);
-    run.host_fallback = host.is_some();
-    run.failures.extend(lost.iter().map(ToString::to_string));
-    Ok((best.film, run))
 }
