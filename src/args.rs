@@ -10,10 +10,11 @@ use std::num::NonZeroUsize;
 use std::path::PathBuf;
 use std::str::FromStr;
 
+use raytrace::Walk;
 use raytrace::cost::SampleRate;
 use raytrace::devices::DeviceSpec;
 use raytrace::glam::Vec3;
-use raytrace::paths::{FailAfter, Mode};
+use raytrace::paths::{FailAfter, Mode, Settings};
 use raytrace::{BuildPreset, Camera};
 use sched::{Fault, Policy};
 
@@ -420,12 +421,31 @@ pub struct ScheduleArgs {
     /// Task costs: `cost` (estimated from a sample of each task) or `regular` (all equal).
     #[arg(long, default_value = "cost")]
     pub mode: Mode,
-    /// Rays per task.
+    /// Paths (pixels) per task; a frame too small to give every device four tasks is cut
+    /// finer.
     #[arg(long, default_value = "4096", value_parser = task_size)]
     pub task_size: NonZeroUsize,
-    /// Fraction of each task's rays the cost estimate traces, in (0, 1].
+    /// Fraction of each task's paths the cost estimate samples, in (0, 1].
     #[arg(long, default_value = "0.125", value_parser = sample_rate)]
     pub sample_rate: SampleRate,
+    /// How the estimate counts a sampled path: `trace` (rendered for real, counted, on the
+    /// devices), or its camera ray walked on the host's cores by `reduced` (the thesis's
+    /// reduced traversal) or `first-leaf` (up to the first leaf it reaches).
+    #[arg(long, default_value = "trace")]
+    pub walk: Walk,
+}
+
+impl ScheduleArgs {
+    /// The engine's settings these flags give.
+    pub fn settings(&self) -> Settings {
+        Settings {
+            policy: self.policy,
+            mode: self.mode,
+            task_size: self.task_size,
+            sample_rate: self.sample_rate,
+            walk: self.walk,
+        }
+    }
 }
 
 /// Where the results go besides the summary.

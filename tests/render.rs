@@ -481,3 +481,24 @@ fn a_failing_gpu_is_reported_and_the_image_is_still_complete() {
         std::fs::read(gpu_png).expect("gpu png")
     );
 }
+
+/// `--walk reduced` and `--walk first-leaf` (the thesis's walks of the sampled paths' camera
+/// rays) and `--walk trace` (the sampled paths rendered) plan with their estimate and say so;
+/// the image is the same.
+#[test]
+fn every_walk_renders_the_same_image() {
+    for shader in ["whitted", "ao"] {
+        let (want, _) = render_with(
+            "walk-ref",
+            shader,
+            &["--devices", "cpu:1", "--mode", "regular"],
+        );
+        for walk in ["trace", "reduced", "first-leaf"] {
+            let args = ["--devices", "cpu:2", "--policy", "hybrid", "--walk", walk];
+            let (png, v) = render_with(&format!("walk-{shader}-{walk}"), shader, &args);
+            assert!(png == want, "{shader} {walk}: the image differs");
+            assert_eq!(v["walk"], walk);
+            assert_eq!(v["estimated"], true, "{v}");
+        }
+    }
+}

@@ -60,8 +60,7 @@ pub struct Record {
     pub ray_kind: &'static str,
     pub policy: &'static str,
     pub mode: &'static str,
-    /// How cost mode estimates a task: `sampled-paths` (a sample of its paths rendered for
-    /// real, counted).
+    /// How cost mode counted a sampled path (`--walk`): `trace`, `reduced` or `first-leaf`.
     pub walk: &'static str,
     /// The cell's entry of `--task-sizes`.
     pub task_size: usize,
@@ -144,7 +143,7 @@ impl Record {
             ray_kind: w.ray_kind(),
             policy: settings.policy.name(),
             mode: settings.mode.name(),
-            walk: "sampled-paths",
+            walk: settings.walk.name(),
             task_size: settings.task_size.get(),
             tasks: 0,
             cut_task_size: 0,
@@ -223,6 +222,8 @@ pub struct SceneMatrix<'a> {
     pub height: u32,
     pub ao_samples: u32,
     pub sample_rate: SampleRate,
+    /// How cost mode counts a sampled path.
+    pub walk: raytrace::Walk,
     /// Runs of every cell, in rounds that each run every cell of the matrix once.
     pub repeats: usize,
     /// The calibration that plans each path cell's first frame and keeps what it learnt.
@@ -278,6 +279,7 @@ impl SceneMatrix<'_> {
                             mode,
                             task_size: size,
                             sample_rate: self.sample_rate,
+                            walk: self.walk,
                         };
                         cells.push((w, settings));
                     }

@@ -60,9 +60,13 @@ pub struct Args {
     /// Workloads, comma-separated: `whitted` (coherent rays), `ao` (diffuse rays).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "whitted,ao")]
     shaders: Vec<ShaderKind>,
-    /// Share of each task's paths rendered to estimate it (cost mode).
+    /// Share of each task's paths sampled to estimate it (cost mode).
     #[arg(long, default_value = "0.125", value_parser = sample_rate)]
     sample_rate: SampleRate,
+    /// How the estimate counts a sampled path, as for `cobalt render`: `trace`, `reduced` or
+    /// `first-leaf`.
+    #[arg(long, default_value = "trace")]
+    walk: raytrace::Walk,
     /// AO probes per primary hit, 1..=4096.
     #[arg(long, default_value_t = 32,
           value_parser = clap::value_parser!(u32).range(1..=MAX_AO_SAMPLES as i64))]
@@ -191,6 +195,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             height,
             ao_samples: args.ao_samples,
             sample_rate: rate,
+            walk: args.walk,
             repeats,
             calibration: store.as_ref(),
             path_devices: Default::default(),
@@ -348,6 +353,7 @@ fn run_mpi(
             height: s.height,
             ao_samples: args.ao_samples,
             sample_rate: s.rate,
+            walk: args.walk,
         })
         .collect();
     let Some((mut text, json)) = mpi::bench(&cluster, &matrices)? else {

@@ -45,6 +45,8 @@ pub struct SceneMatrix<'a> {
     pub height: u32,
     pub ao_samples: u32,
     pub sample_rate: SampleRate,
+    /// How cost mode counts a sampled path.
+    pub walk: raytrace::Walk,
 }
 
 /// One render over the ranks.
@@ -112,6 +114,7 @@ impl SceneMatrix<'_> {
             mode: Mode::Cost,
             task_size: NonZeroUsize::new(task_size).unwrap_or(Settings::DEFAULT_TASK_SIZE),
             sample_rate: self.sample_rate,
+            walk: self.walk,
         }
     }
 

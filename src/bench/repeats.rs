@@ -69,7 +69,7 @@ mod tests {
             ray_kind: "diffuse",
             policy: "static-lpt",
             mode: "cost",
-            walk: "sampled-paths",
+            walk: "trace",
             task_size: 512,
             tasks: 1,
             cut_task_size: 512,

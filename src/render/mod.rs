@@ -13,7 +13,7 @@ mod rendered;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use raytrace::paths::{FailAfter, Settings};
+use raytrace::paths::FailAfter;
 use raytrace::run::Run;
 use raytrace::shade::{RenderOptions, Shader};
 use raytrace::{Bvh, Camera, Scene, SceneSource};
@@ -71,12 +71,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     // The film, the rays of a generation and their hits, per pixel and sample.
     crate::limits::memory("size", &args.size.to_string(), &[(args.size.pixels(), 256)])?;
     let faults = faults(&args)?;
-    let settings = Settings {
-        policy: args.schedule.policy,
-        mode: args.schedule.mode,
-        task_size: args.schedule.task_size,
-        sample_rate: args.schedule.sample_rate,
-    };
+    let settings = args.schedule.settings();
     let camera = args.camera.choice()?;
     let shader = args.shader.shader();
 
@@ -163,7 +158,7 @@ fn mpi(
     shader: raytrace::shade::Shader,
     camera: CameraChoice,
     faults: &[FailAfter],
-    settings: Settings,
+    settings: raytrace::paths::Settings,
 ) -> Result<(), CliError> {
     let refuse = |flag: &'static str, value: String, why: &str| {
         Err(CliError::Arg {

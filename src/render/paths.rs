@@ -24,6 +24,8 @@ pub struct RenderReport {
     /// `--task-size`: the frame's tasks are cut to it, or finer (the run's `task_size`).
     requested_task_size: usize,
     sample_rate: f64,
+    /// `--walk`: how the estimate counted a sampled path.
+    walk: &'static str,
     #[serde(flatten)]
     run: RunReport,
     /// The calibration file read before the first frame and written after the run.
@@ -81,6 +83,7 @@ pub fn render(
         mode: run.settings.mode.name(),
         requested_task_size: run.settings.task_size.get(),
         sample_rate: run.settings.sample_rate.get(),
+        walk: run.settings.walk.name(),
         run: report,
         calibration,
     };

@@ -1,12 +1,19 @@
-//! The cost of a task of paths, from a sample of them traced for real.
+//! The cost of a task of paths, from a sample of them.
 //!
-//! Every `stride`-th path of a task (at the sample rate) is rendered through all of its
-//! generations by a tracer that counts what each ray costs (`B` nodes entered, `T` triangles
-//! tested, stopping where the real trace stops), and the counts are scaled to the whole task.
-//! AO paths spawn only their share of the probes (the rate of the samples, at least one), so
-//! a diffuse frame is estimated at about the rate times a primary ray and a few probes per
-//! sampled path. The sample is made on the host from the camera: no ray of a device crosses
-//! a link to be estimated.
+//! Every `stride`-th path of a task (at the sample rate) is sampled, and its counts (`B`
+//! nodes entered, `T` triangles tested) are scaled to the whole task. How a sampled path is
+//! counted is the estimate's [`Walk`]:
+//! - [`Walk::Trace`] (the default): the path is rendered through all of its generations by a
+//!   tracer that counts what each ray costs, stopping where the real trace stops. AO paths
+//!   spawn only their share of the probes (the rate of the samples, at least one), so a
+//!   diffuse frame is estimated at about the rate times a primary ray and a few probes per
+//!   sampled path.
+//! - [`Walk::Reduced`] and [`Walk::FirstLeaf`]: the thesis's method, its camera ray alone
+//!   walked without triangle tests (the whole ray, or up to the first leaf it reaches), in
+//!   packets. Cheaper, but blind to the work of the generations its hit would spawn.
+//!
+//! The sample is made on the host from the camera: no ray of a device crosses a link to be
+//! estimated.
 
 use std::borrow::Borrow;
 use std::ops::Range;
@@ -17,8 +24,8 @@ use sched::SampleRate;
 use super::Frame;
 use crate::cost::Work;
 use crate::shade::{RenderOptions, Shader, Tracer, render_paths};
-use crate::traverse::hits_counted_in;
-use crate::{Bvh, HitBatch, Layout, RayBatch, RayKind};
+use crate::traverse::{hits_counted_in, reduced_counts};
+use crate::{Bvh, HitBatch, Layout, RayBatch, RayKind, Walk};
 
 /// A tracer that traces for real and sums the counts of every ray ([`Work::sum`], exact in
 /// integers per generation), keeping AO probes apart (they are scaled by the probes left out).
@@ -83,6 +90,42 @@ where
     T: Borrow<Range<usize>> + Sync,
 {
     estimate_paths_in(frame, tasks, rate, Layout::Wide)
+}
+
+/// The estimated work of each of `tasks` from its sampled paths' camera rays, walked by
+/// `walk` on the binary tree (the thesis's reduced traversal, or first-leaf; see the module
+/// documentation), in the caller's rayon pool. [`Walk::Trace`] renders the sampled paths
+/// instead, as [`estimate_paths`] does.
+pub fn walk_paths<T>(frame: &Frame<'_>, tasks: &[T], rate: SampleRate, walk: Walk) -> Vec<Work>
+where
+    T: Borrow<Range<usize>> + Sync,
+{
+    if let Walk::Trace { .. } = walk {
+        return estimate_paths(frame, tasks, rate);
+    }
+    let options = frame.options;
+    let (w, h) = (options.width, options.height);
+    let stride = rate.stride();
+    let ranks: Vec<usize> = tasks
+        .iter()
+        .flat_map(|t| t.borrow().clone().step_by(stride))
+        .collect();
+    let rays = options
+        .camera
+        .primary_rays_of(w, h, ranks.iter().copied())
+        .rays;
+    let counts = reduced_counts(frame.bvh, &rays, walk, 0..rays.len());
+    let mut next = 0;
+    tasks
+        .iter()
+        .map(|t| {
+            let task: &Range<usize> = t.borrow();
+            let sampled = task.clone().step_by(stride).len();
+            let work = Work::sum(&counts[next..next + sampled]);
+            next += sampled;
+            task_work(work, Work::default(), task.len(), sampled, 1.0)
+        })
+        .collect()
 }
 
 /// [`estimate_paths`] counted on the tree `layout` names (the binary one is the GPU's).

@@ -12,7 +12,8 @@
 //! - [`build_path_devices`]: a `--devices` list (with injected faults, [`FailAfter`]) made
 //!   into devices;
 //! - [`Settings`] and [`Mode`]: policy, regular or cost-based, task size, sample rate;
-//! - [`estimate_paths`]: a task's cost from a sample of its paths traced for real;
+//! - [`estimate_paths`]: a task's cost from a sample of its paths traced for real, or
+//!   ([`walk_paths`]) from their camera rays walked as the thesis does;
 //! - [`PathRenderer`]: a frame cut into tasks, costed, planned and run; [`FrameStats`] says
 //!   what it did, [`Traffic`] what crossed between host and devices;
 //! - [`PathRenderer::recall`] and [`PathRenderer::remember`]: the speeds and cost model of a
@@ -60,6 +61,7 @@ pub use cpu::CpuPaths;
 pub use device::{BoundPaths, Estimate, Frame, Launch, PathDevice, TaskValues};
 pub use estimate::{
     SampledTask, estimate_paths, estimate_paths_in, sample_paths, sampled_options, task_work,
+    walk_paths,
 };
 pub use fault::{FailAfter, FailingPaths, InjectedFault};
 #[cfg(feature = "gpu")]

@@ -15,11 +15,12 @@ use super::learn::{Learnt, launches, learn, relative_speeds};
 use super::memory::History;
 use super::{
     BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, Traffic, estimate_paths,
+    walk_paths,
 };
 use super::{Mode, Settings, TaskStats};
 use crate::cost::{CostModel, Work};
 use crate::shade::RenderOptions;
-use crate::{Bvh, Film, Scene};
+use crate::{Bvh, Film, Scene, Walk};
 
 /// A renderer's devices and what its frames measured of running them together and apart:
 /// see [`PathRenderer::into_kept`].
@@ -475,6 +476,11 @@ impl<'a> PathRenderer<'a> {
         speeds: &[f64],
     ) -> (Vec<Work>, Vec<Traffic>) {
         let rate = self.settings.sample_rate;
+        if !matches!(self.settings.walk, Walk::Trace { .. }) {
+            // The thesis's walks count camera rays alone, on the host's cores.
+            let work = walk_paths(frame, tasks, rate, self.settings.walk);
+            return (work, vec![Traffic::default(); active.len()]);
+        }
         let kind = self.devices[active[0]].estimate_kind();
         let estimating: Vec<f64> = active
             .iter()

@@ -6,6 +6,7 @@ use std::str::FromStr;
 
 use sched::Policy;
 
+use crate::Walk;
 use crate::cost::SampleRate;
 
 /// Where the task costs of a frame come from: `--mode` on the command
@@ -60,8 +61,13 @@ pub struct Settings {
     /// Paths per task (the thesis uses 16384, 4096 and 512 rays); smaller frames are cut
     /// finer ([`Self::task_size_for`]).
     pub task_size: NonZeroUsize,
-    /// Fraction of each task's paths the estimate renders (cost mode).
+    /// Fraction of each task's paths the estimate samples (cost mode).
     pub sample_rate: SampleRate,
+    /// How the estimate counts a sampled path (cost mode): rendered for real
+    /// ([`Walk::Trace`], the default, on the devices), or its camera ray walked by the
+    /// thesis's reduced traversal or the first-leaf walk (on the host's cores); see
+    /// [`super::walk_paths`].
+    pub walk: Walk,
 }
 
 impl Settings {
@@ -100,14 +106,15 @@ impl Settings {
 }
 
 impl Default for Settings {
-    /// Cost-based LPT on tasks of 4096 rays sampled at 12.5 %, every task at that rate: the
-    /// thesis's method.
+    /// Cost-based LPT on tasks of 4096 paths sampled at 12.5 %, the sampled paths rendered
+    /// for real.
     fn default() -> Self {
         Self {
             policy: Policy::StaticLpt,
             mode: Mode::Cost,
             task_size: Self::DEFAULT_TASK_SIZE,
             sample_rate: SampleRate::THESIS,
+            walk: Walk::Trace { any: false },
         }
     }
 }

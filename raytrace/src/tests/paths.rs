@@ -326,3 +326,45 @@ fn sampled_paths_rank_tasks_by_their_work() {
         .fold((f64::MAX, 0.0f64), |(lo, hi), &c| (lo.min(c), hi.max(c)));
     assert!(hi > 2.0 * lo, "tasks differ in work: {lo}..{hi}");
 }
+
+/// The thesis's walks of the sampled paths' camera rays: at the full rate they are exactly the
+/// walk of every camera ray of the task, they rank the tasks as the rendered sample does
+/// (Spearman's rank correlation), and a frame planned by them is the reference image.
+#[test]
+fn the_thesis_walks_estimate_camera_rays_and_leave_the_image_alone() {
+    use crate::Walk;
+    use crate::cost::{CostModel, Work};
+    use crate::paths::{Frame, estimate_paths, walk_paths};
+    let shader = SHADERS[0];
+    let (scene, bvh) = scene("builtin:forest:0.05", &shader);
+    let options = RenderOptions::new(64, 64, Camera::orbit(&scene.bounds(), 0), shader);
+    let frame = Frame {
+        scene: &scene,
+        bvh: &bvh,
+        options: &options,
+    };
+    let tasks = sched::split_ranges(64 * 64, 256);
+    let model = CostModel::default();
+    let costs = |w: Vec<Work>| -> Vec<f64> { w.into_iter().map(|w| model.cost(w)).collect() };
+    let traced = costs(estimate_paths(&frame, &tasks, sched::SampleRate::FULL));
+    for walk in Walk::ALL {
+        let full = walk_paths(&frame, &tasks, sched::SampleRate::FULL, walk);
+        let rays = options.camera.primary_rays_of(64, 64, 0..256).rays;
+        let first = crate::traverse::reduced_counts(&bvh, &rays, walk, 0..256);
+        assert_eq!(full[0], Work::sum(&first).scaled(256, 256), "{walk:?}");
+        let sampled = costs(walk_paths(&frame, &tasks, sched::SampleRate::THESIS, walk));
+        let rank = crate::cost::spearman(&sampled, &traced).expect("tasks");
+        assert!(rank > 0.5, "{walk:?}: rank correlation {rank}");
+    }
+    let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
+    for walk in Walk::ALL {
+        let s = Settings {
+            walk,
+            ..settings(Policy::StaticLpt, Mode::Cost, 128)
+        };
+        let mut r = PathRenderer::new(cpus(2), s).expect("renderer");
+        let frame = r.render(&scene, &bvh, &options).expect("frame");
+        assert!(frame.stats.estimated, "{walk:?}");
+        assert_eq!(bits(&frame.film), reference, "{walk:?}");
+    }
+}
