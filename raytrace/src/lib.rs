@@ -43,7 +43,6 @@ pub mod film;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 mod obj;
-mod packet;
 pub mod paths;
 mod ray;
 pub mod ray_device;
@@ -51,7 +50,6 @@ mod scene;
 mod scene_source;
 pub mod scheduled;
 pub mod shade;
-mod simd;
 mod slab;
 pub mod spawn;
 pub mod testkit;
@@ -59,13 +57,7 @@ pub mod testkit;
 mod tests;
 mod traffic;
 pub mod traverse;
-#[cfg(target_arch = "x86_64")]
-mod traverse_coherent;
-#[cfg(target_arch = "x86_64")]
-mod traverse_shared;
-mod traverse_wide;
 mod triangle;
-mod walk;
 pub mod workload;
 
 pub use aabb::Aabb;

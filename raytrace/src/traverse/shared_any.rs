@@ -17,7 +17,7 @@ use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
 use crate::bvh::wide::WIDTH;
-use crate::simd::{self, Box8Ray, Shear4};
+use crate::traverse::simd::{self, Box8Ray, Shear4};
 use crate::traverse::{ANY, ANY_COUNTED, cull_bound};
 use crate::triangle::RayShear;
 use crate::{Counts, Hit, Ray};

@@ -12,7 +12,7 @@
 //!
 //! The first-leaf walk ([`Walk::FirstLeaf`]) does shorten rays, so there the order of the
 //! walk matters. It takes children in an order set by the direction's signs
-//! ([`crate::walk::near_child_first`]), the same for every lane of a packet whose lanes
+//! ([`crate::traverse::walk::near_child_first`]), the same for every lane of a packet whose lanes
 //! share their signs; each lane keeps its own `tmax`, and a popped node keeps only the lanes
 //! whose entry distance is still within it, which is the scalar walk's pop rule.
 //!
@@ -23,7 +23,7 @@
 //! latencies (5–14 % slower). An AO packet's lanes share a node 3.1–3.8 times on average, a
 //! coherent packet's 5–7 times.
 
-use crate::walk::Walk;
+use crate::traverse::walk::Walk;
 use crate::{Bvh, Counts, RayBatch};
 
 /// True when the traversal traces ray `i` at all: exactly when [`crate::RayShear::new`] accepts
@@ -277,7 +277,7 @@ mod avx2 {
 
     use crate::bvh::MAX_DEPTH;
     use crate::slab::far_scale;
-    use crate::walk::{Walk, near_child_first};
+    use crate::traverse::walk::{Walk, near_child_first};
     use crate::{Bvh, Counts, Node, RayBatch};
 
     /// Eight rays in lanes; see the SSE version for the per-lane arithmetic.

@@ -21,6 +21,15 @@
 //!
 //! Batch versions run over a [`RayBatch`] with rayon, in chunks.
 
+mod packet;
+#[cfg(target_arch = "x86_64")]
+mod shared_any;
+#[cfg(target_arch = "x86_64")]
+mod shared_closest;
+mod simd;
+mod walk;
+mod wide;
+
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 
@@ -29,7 +38,7 @@ use crate::slab::BoxRay;
 use crate::triangle::{RayShear, intersect_watertight};
 use crate::{Hit, HitBatch, Ray, RayBatch};
 
-pub use crate::walk::{Walk, near_child_first};
+pub use walk::{Walk, near_child_first};
 
 /// Cost counters of one ray: nodes entered `B` and triangles tested (or, in the reduced
 /// traversal, triangles in reached leaves) `T`.
@@ -658,7 +667,7 @@ pub fn reduced_counts(
         .enumerate()
         .for_each(|(c, cs)| {
             let first = range.start + c * CHUNK;
-            crate::packet::reduced_lanes(bvh, rays, walk, |j| first + j, cs);
+            packet::reduced_lanes(bvh, rays, walk, |j| first + j, cs);
         });
     counts
 }
@@ -680,7 +689,7 @@ pub fn reduced_counts_at(bvh: &Bvh, rays: &RayBatch, walk: Walk, index: &[usize]
         .enumerate()
         .for_each(|(c, cs)| {
             let part = &index[c * CHUNK..];
-            crate::packet::reduced_lanes(bvh, rays, walk, |j| part[j], cs);
+            packet::reduced_lanes(bvh, rays, walk, |j| part[j], cs);
         });
     counts
 }
