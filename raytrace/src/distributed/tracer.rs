@@ -12,7 +12,7 @@ use super::{NodeGeneration, NodeRun};
 use crate::cost::{ReducedTraversal, Work};
 use crate::scheduled::{Mode, ScheduledTracer, Settings};
 use crate::shade::Tracer;
-use crate::traverse::{any_hits, closest_hits};
+use crate::traverse::batch::{any_hits, closest_hits};
 use crate::{Bvh, HitBatch, RayBatch, RayKind};
 
 /// A [`Tracer`] over the ranks of an MPI job. See the [module documentation](super).

@@ -8,7 +8,8 @@ use sched::{DeviceError, Sink};
 
 use crate::Traffic;
 use crate::ray_device::{BadRange, RayDevice};
-use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
+use crate::traverse::counts::Counts;
+use crate::{Bvh, HitBatch, RayBatch, RayKind};
 
 use super::buffers::{SceneBuffers, pack_rays};
 use super::estimate::{SampledCounts, Sampling, estimate_kernel, sampled_counts};

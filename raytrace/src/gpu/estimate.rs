@@ -19,9 +19,10 @@ use super::buffers::{
 use super::program::{Kernel, READ, UNIFORM, WRITE, dispatch};
 use super::trace::{Threads, TraceKernels, TraceMode, grid, trace_resident};
 use super::{GpuContext, GpuDevice, GpuError};
+use crate::RayBatch;
 use crate::Traffic;
 use crate::cost::{Compacted, CostError, CostModel, SampleRate, Work};
-use crate::{RayBatch, Walk};
+use crate::traverse::walk::Walk;
 
 /// A task's sampled sums as the GPU computed them: exact integer sums of the reduced-traversal
 /// counts of its `sampled` rays, standing for its `len` rays.

@@ -17,8 +17,9 @@ use sched::SampleRate;
 use super::Frame;
 use crate::cost::Work;
 use crate::shade::{RenderOptions, Shader, Tracer, render_paths};
-use crate::traverse::hits_counted_in;
-use crate::{Bvh, HitBatch, Layout, RayBatch, RayKind};
+use crate::traverse::batch::hits_counted_in;
+use crate::traverse::layout::Layout;
+use crate::{Bvh, HitBatch, RayBatch, RayKind};
 
 /// A tracer that traces for real and sums the counts of every ray ([`Work::sum`], exact in
 /// integers per generation), keeping AO probes apart (they are scaled by the probes left out).

@@ -6,8 +6,8 @@ use std::str::FromStr;
 
 use sched::Policy;
 
-use crate::Walk;
 use crate::cost::SampleRate;
+use crate::traverse::walk::Walk;
 
 /// Where the task costs of a frame (or of a generation) come from: `--mode` on the command
 /// line, and the `mode` of every report.

@@ -13,8 +13,9 @@ use super::{
 };
 use crate::cost::{Calibrations, CostModel, ReducedTraversal, Traced, Work};
 use crate::shade::Tracer;
-use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
-use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind};
+use crate::traverse::batch::{any_hits, closest_hits, closest_hits_counted};
+use crate::traverse::counts::Counts;
+use crate::{Bvh, HitBatch, RayBatch, RayKind};
 
 /// A [`Tracer`] that schedules every generation over devices. See the module documentation
 /// of [`crate::scheduled`].

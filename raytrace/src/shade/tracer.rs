@@ -3,8 +3,9 @@
 //! multi-device tracer (cut into tasks, costed and planned by `sched`) can later replace
 //! [`CpuTracer`] without touching any shader.
 
-use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
-use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind, Result};
+use crate::traverse::batch::{any_hits, closest_hits, closest_hits_counted};
+use crate::traverse::counts::Counts;
+use crate::{Bvh, HitBatch, RayBatch, RayKind, Result};
 
 /// Traces generations of rays. There is one required method.
 ///

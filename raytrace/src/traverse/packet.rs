@@ -23,8 +23,10 @@
 //! latencies (5–14 % slower). An AO packet's lanes share a node 3.1–3.8 times on average, a
 //! coherent packet's 5–7 times.
 
+use crate::bvh::Bvh;
+use crate::ray::RayBatch;
+use crate::traverse::counts::Counts;
 use crate::traverse::walk::Walk;
-use crate::{Bvh, Counts, RayBatch};
 
 /// True when the traversal traces ray `i` at all: exactly when [`crate::RayShear::new`] accepts
 /// it (finite origin and direction, direction not zero) and its range is not empty or NaN;
@@ -108,9 +110,11 @@ mod sse {
         _mm_srai_epi32, _mm_storeu_si128, _mm_sub_epi32, _mm_sub_ps, _mm_xor_ps,
     };
 
-    use crate::bvh::MAX_DEPTH;
+    use crate::bvh::node::Node;
+    use crate::bvh::{Bvh, MAX_DEPTH};
+    use crate::ray::RayBatch;
     use crate::slab::far_scale;
-    use crate::{Bvh, Counts, Node, RayBatch};
+    use crate::traverse::counts::Counts;
 
     /// Four rays in lanes.
     struct Rays4 {
@@ -275,10 +279,12 @@ mod avx2 {
 
     use std::mem::MaybeUninit;
 
-    use crate::bvh::MAX_DEPTH;
+    use crate::bvh::node::Node;
+    use crate::bvh::{Bvh, MAX_DEPTH};
+    use crate::ray::RayBatch;
     use crate::slab::far_scale;
+    use crate::traverse::counts::Counts;
     use crate::traverse::walk::{Walk, near_child_first};
-    use crate::{Bvh, Counts, Node, RayBatch};
 
     /// Eight rays in lanes; see the SSE version for the per-lane arithmetic.
     #[derive(Clone, Copy)]

@@ -21,11 +21,13 @@ use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
 use crate::bvh::wide::{Tri4, WIDTH};
-use crate::traverse::shared_any::{PACKET, nonzero_bytes, transpose8};
+use crate::ray::{Hit, Ray};
+use crate::traverse::closest::{better, cull_bound};
+use crate::traverse::counts::Counts;
+use crate::traverse::mode::{CLOSEST, COUNTED};
+use crate::traverse::shared::{PACKET, nonzero_bytes, transpose8};
 use crate::traverse::simd::{self, Box8Ray, Shear4};
-use crate::traverse::{CLOSEST, COUNTED, better, cull_bound};
 use crate::triangle::RayShear;
-use crate::{Counts, Hit, Ray};
 
 impl Bvh {
     /// Closest hits of `rays` (one to [`PACKET`] of them, which should share an origin for the

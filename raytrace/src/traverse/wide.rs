@@ -36,12 +36,14 @@ use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
 use crate::bvh::wide::WIDTH;
+use crate::ray::{Hit, Ray, RayBatch};
+use crate::traverse::closest::{better, cull_bound};
+use crate::traverse::counts::Counts;
+use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
 #[cfg(target_arch = "x86_64")]
-use crate::traverse::shared_any::PACKET;
+use crate::traverse::shared::PACKET;
 use crate::traverse::simd::{self, Box8Ray, Shear4};
-use crate::traverse::{ANY, ANY_COUNTED, COUNTED, Counts, better, cull_bound};
 use crate::triangle::RayShear;
-use crate::{Hit, Ray, RayBatch};
 
 /// Wide levels the common traversal's stack is sized for (under 4 KiB of entries); deeper
 /// trees take [`Bvh::run_wide_deep`] and its larger stack.
