@@ -26,21 +26,19 @@ mod device;
 mod estimate;
 mod header;
 mod launch;
+mod paths;
 mod program;
-mod render;
 mod resident;
-mod sample;
 mod staging;
 #[cfg(test)]
 pub(crate) mod tests;
 pub mod trace;
-mod whitted;
 
 pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
 pub use estimate::{GpuReducedTraversal, SampledCounts};
-pub use render::{FrameParams, GpuRenderer, PathValues};
-pub use sample::{PathSums, SampledPaths};
+pub use paths::render::{FrameParams, GpuRenderer, PathValues};
+pub use paths::sample::{PathSums, SampledPaths};
 pub use trace::{Threads, TraceKernels, TraceMode};
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or

@@ -12,12 +12,12 @@
 
 use std::ops::Range;
 
-use super::GpuError;
-use super::buffers::{check_size, storage};
-use super::program::{Kernel, READ, WRITE};
 use super::render::{FrameParams, GpuRenderer, Tally};
-use super::trace::grid;
 use crate::Traffic;
+use crate::gpu::GpuError;
+use crate::gpu::buffers::{check_size, storage};
+use crate::gpu::program::{Kernel, READ, WRITE};
+use crate::gpu::trace::grid;
 use crate::shade::{AoSettings, Shader};
 
 /// One task's sample as the GPU summed it.
@@ -41,7 +41,7 @@ pub struct SampledPaths {
 }
 
 /// The compiled `sums.wgsl`.
-pub(super) fn sums_kernel(device: &wgpu::Device) -> Kernel {
+pub(in crate::gpu) fn sums_kernel(device: &wgpu::Device) -> Kernel {
     Kernel::new(
         device,
         "sums",
@@ -70,7 +70,7 @@ impl GpuRenderer {
         self.sample_launch(frame, tasks, shader, stride)?
             .ok_or_else(|| GpuError::LoopCut {
                 adapter: self.ctx.info.name.clone(),
-                batches: super::trace::BATCHES,
+                batches: crate::gpu::trace::BATCHES,
             })
     }
 

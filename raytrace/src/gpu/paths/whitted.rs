@@ -13,14 +13,14 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::buffers::{GpuRay, RESULT_BYTES, check_size, init};
-use super::header::Header;
-use super::launch::{Count, Recorder};
-use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
 use super::render::{FrameParams, GpuRenderer, PathValues, Stage, Tally};
-use super::trace::TraceMode;
-use super::{GpuContext, GpuError};
 use crate::Traffic;
+use crate::gpu::buffers::{GpuRay, RESULT_BYTES, check_size, init};
+use crate::gpu::header::Header;
+use crate::gpu::launch::{Count, Recorder};
+use crate::gpu::program::{Program, READ, UNIFORM, WRITE, with_shading};
+use crate::gpu::trace::TraceMode;
+use crate::gpu::{GpuContext, GpuError};
 use crate::shade::{AMBIENT, AoSettings, SKY, WhittedSettings};
 use crate::{Light, Scene};
 
@@ -64,7 +64,7 @@ pub(crate) struct WhittedKernels {
     /// does not need them, so only a Whitted render fails).
     prims: Result<wgpu::Buffer, GpuError>,
     lights: wgpu::Buffer,
-    pub(super) light_count: u32,
+    pub(in crate::gpu) light_count: u32,
     has_normals: bool,
 }
 
@@ -211,7 +211,7 @@ impl GpuRenderer {
     /// Returns the buffer of the paths' values and the rays traced. With `tally`, every
     /// trace adds its rays' counts to their paths' entries of `tally.paths` (an estimate's
     /// launch).
-    pub(super) fn record_whitted(
+    pub(in crate::gpu) fn record_whitted(
         &self,
         launch: &mut Recorder<'_>,
         stage: &Stage,
