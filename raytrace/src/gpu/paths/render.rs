@@ -16,18 +16,24 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use crate::Traffic;
+use super::shading::with_shading;
+use super::sums::sums_kernel;
+use super::whitted_kernels::WhittedKernels;
+use crate::bvh::Bvh;
+use crate::camera::Camera;
+use crate::gpu::GpuError;
 use crate::gpu::buffers::{
     GpuRay, RESULT_BYTES, SceneBuffers, check_size, fetch, init, rays_per_launch,
 };
+use crate::gpu::context::GpuContext;
 use crate::gpu::header::{self, Header, Setup, task_list};
 use crate::gpu::launch::{Count, Recorder, verdict_kernel};
-use crate::gpu::program::{Kernel, Program, READ, UNIFORM, WRITE, with_shading};
+use crate::gpu::program::{Kernel, Program, READ, UNIFORM, WRITE};
 use crate::gpu::resident::Resident;
 use crate::gpu::trace::{Threads, TraceKernels, TraceMode};
-use crate::gpu::{GpuContext, GpuError};
+use crate::scene::Scene;
 use crate::shade::AoSettings;
-use crate::{Bvh, Camera, Scene};
+use crate::traffic::Traffic;
 
 /// The uniform block of `render.wgsl` (`struct Params`).
 #[repr(C)]
@@ -116,7 +122,7 @@ pub struct GpuRenderer {
     pub(in crate::gpu) kernels: TraceKernels,
     pub(in crate::gpu) scene: SceneBuffers,
     pub(in crate::gpu) tris: wgpu::Buffer,
-    pub(in crate::gpu) whitted: super::whitted::WhittedKernels,
+    pub(super) whitted: WhittedKernels,
     program: Program,
     pub(in crate::gpu) raygen: wgpu::ComputePipeline,
     shade_ao: wgpu::ComputePipeline,
@@ -172,9 +178,9 @@ impl GpuRenderer {
             &[UNIFORM, WRITE, WRITE, READ, READ, WRITE, READ, WRITE, READ],
         );
         let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
-        let whitted = super::whitted::WhittedKernels::new(&ctx, scene);
+        let whitted = WhittedKernels::new(&ctx, scene);
         let verdict = verdict_kernel(device);
-        let path_sums = super::sample::sums_kernel(device);
+        let path_sums = sums_kernel(device);
         let header = header::header_kernel(device);
         Ok(Self {
             whitted,

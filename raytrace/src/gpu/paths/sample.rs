@@ -13,12 +13,11 @@
 use std::ops::Range;
 
 use super::render::{FrameParams, GpuRenderer, Tally};
-use crate::Traffic;
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{check_size, storage};
-use crate::gpu::program::{Kernel, READ, WRITE};
 use crate::gpu::trace::grid;
 use crate::shade::{AoSettings, Shader};
+use crate::traffic::Traffic;
 
 /// One task's sample as the GPU summed it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -38,16 +37,6 @@ pub struct SampledPaths {
     pub tasks: Vec<PathSums>,
     /// Bytes each way and host waits.
     pub traffic: Traffic,
-}
-
-/// The compiled `sums.wgsl`.
-pub(in crate::gpu) fn sums_kernel(device: &wgpu::Device) -> Kernel {
-    Kernel::new(
-        device,
-        "sums",
-        include_str!("sums.wgsl"),
-        &[READ, READ, READ, WRITE, READ],
-    )
 }
 
 impl GpuRenderer {
