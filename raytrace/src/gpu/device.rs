@@ -12,8 +12,8 @@ use crate::traverse::counts::Counts;
 use crate::{Bvh, HitBatch, RayBatch, RayKind};
 
 use super::buffers::{SceneBuffers, pack_rays};
-use super::estimate::{SampledCounts, Sampling, estimate_kernel, sampled_counts};
 use super::program::Kernel;
+use super::sampling::{SampledCounts, Sampling, estimate_kernel, sampled_counts};
 use super::staging::{Staging, staged_hits};
 use super::trace::{Threads, TraceKernels, TraceMode, launch};
 use super::{GpuContext, GpuError};
