@@ -13,6 +13,7 @@ mod mpi;
 mod paths;
 mod plots;
 mod prediction;
+mod record;
 mod repeats;
 mod replay;
 mod simulate;

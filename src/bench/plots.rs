@@ -14,7 +14,7 @@ use std::sync::OnceLock;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-use super::matrix::Record;
+use super::record::Record;
 use super::trade::TradePoint;
 use crate::error::CliError;
 
