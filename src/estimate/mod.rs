@@ -155,8 +155,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let rays = source.generations(&scene, &bvh, camera, &settings)?;
     let report = measure::measure(&args, &scene, &bvh, rays)?;
     if args.json {
-        crate::print_json(&report)
+        crate::print::print_json(&report)
     } else {
-        crate::print_text(&report.table())
+        crate::print::print_text(&report.table())
     }
 }
