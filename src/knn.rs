@@ -152,8 +152,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let policies = args.policy.map_or(Policy::ALL.to_vec(), |p| vec![p]);
     let report = measure(&work, &policies, args.devices, args.sample_rate.get())?;
     if args.json {
-        crate::print_json(&report)
+        crate::print::print_json(&report)
     } else {
-        crate::print_text(&format!("{}\n\n{}", work.name, tables(&report)))
+        crate::print::print_text(&format!("{}\n\n{}", work.name, tables(&report)))
     }
 }

@@ -13,6 +13,7 @@ mod input;
 mod knn;
 mod limits;
 mod output;
+mod print;
 mod render;
 mod render_gpu;
 mod rounds;
@@ -21,12 +22,9 @@ mod spatial;
 mod trace;
 mod tradeoff;
 
-use std::io::Write;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-
-use crate::error::CliError;
 
 #[derive(Debug, Parser)]
 #[command(name = "cobalt", version, about)]
@@ -77,25 +75,4 @@ fn main() -> ExitCode {
             ExitCode::from(e.exit_code())
         }
     }
-}
-
-/// Prints one JSON object on standard output.
-fn print_json(value: &impl serde::Serialize) -> Result<(), CliError> {
-    let text = serde_json::to_string(value).map_err(|e| CliError::Write(e.to_string()))?;
-    print_text(&format!("{text}\n"))
-}
-
-/// Prints text on standard output; a closed pipe is an error, not a panic.
-fn print_text(text: &str) -> Result<(), CliError> {
-    let mut out = std::io::stdout().lock();
-    out.write_all(text.as_bytes())
-        .and_then(|()| out.flush())
-        .map_err(|e| CliError::Write(e.to_string()))
-}
-
-/// Writes one file the way every output is written (see [`output::Outputs`]), for outputs not
-/// yet checked up front with the command's other outputs.
-fn write_file(path: &std::path::Path, bytes: &[u8]) -> Result<(), CliError> {
-    let outputs = output::Outputs::check(&[("", Some(path))], &[])?;
-    outputs.commit(&[("", bytes)])
 }

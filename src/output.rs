@@ -80,7 +80,7 @@ impl Outputs {
                 .and_then(|()| err.flush())
                 .map_err(|e| CliError::Write(e.to_string()))
         } else {
-            crate::print_text(text)
+            crate::print::print_text(text)
         }
     }
 
@@ -282,6 +282,13 @@ fn bad(flag: &'static str, path: &Path, message: String) -> CliError {
         path: path.to_owned(),
         message,
     }
+}
+
+/// Writes one file the way every output is written (see [`Outputs`]), for outputs not
+/// yet checked up front with the command's other outputs.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
+    let outputs = Outputs::check(&[("", Some(path))], &[])?;
+    outputs.commit(&[("", bytes)])
 }
 
 #[cfg(test)]

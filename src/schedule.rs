@@ -139,9 +139,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         assignment: result.assignment,
     };
     if args.json {
-        crate::print_json(&report)
+        crate::print::print_json(&report)
     } else {
-        crate::print_text(&table(&report))
+        crate::print::print_text(&table(&report))
     }
 }
 

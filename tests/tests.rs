@@ -48,3 +48,8 @@ mod mpi;
 // Calibration files: what one render learns plans the next one's first frame, and a damaged
 // file is named.
 mod calibration;
+
+// The modules of each crate import each other in one direction (no file depends on itself
+// through others), and ARCHITECTURE.md names only paths that exist.
+mod architecture;
+mod imports;

@@ -9,7 +9,8 @@ use obvhs::ray::RayHit;
 use obvhs::triangle::Triangle;
 use rayon::prelude::*;
 
-use crate::{BuildPreset, HitBatch, RayBatch, Scene};
+use crate::bvh::preset::BuildPreset;
+use crate::{HitBatch, RayBatch, Scene};
 
 /// Rays per rayon work item, as in [`crate::traverse`].
 const CHUNK: usize = 256;

@@ -11,7 +11,8 @@
 
 use glam::Vec3;
 
-use crate::{Bvh, Camera, Counts, Film};
+use crate::traverse::counts::Counts;
+use crate::{Bvh, Camera, Film};
 
 /// Stops of the colour ramp, evenly spaced over `[0, 1]` (display-referred RGB).
 const RAMP: [Vec3; 5] = [
@@ -34,7 +35,7 @@ pub fn ramp(x: f32) -> Vec3 {
 /// keep their rays, so the map is counted where the BVH's host copy is.
 pub fn primary_counts(bvh: &Bvh, camera: &Camera, width: u32, height: u32) -> Vec<Counts> {
     let primary = camera.primary_rays(width, height);
-    let (_, counts) = crate::traverse::closest_hits_counted(bvh, &primary.rays);
+    let (_, counts) = crate::traverse::batch::closest_hits_counted(bvh, &primary.rays);
     let mut by_pixel = vec![Counts::default(); counts.len()];
     for (c, &p) in counts.iter().zip(&primary.pixels) {
         by_pixel[p as usize] = *c;

@@ -42,7 +42,6 @@ pub mod film;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 mod obj;
-mod packet;
 pub mod paths;
 mod pool;
 mod ray;
@@ -50,7 +49,6 @@ pub mod run;
 mod scene;
 mod scene_source;
 pub mod shade;
-mod simd;
 mod slab;
 pub mod spawn;
 pub mod testkit;
@@ -58,13 +56,7 @@ pub mod testkit;
 mod tests;
 mod traffic;
 pub mod traverse;
-#[cfg(target_arch = "x86_64")]
-mod traverse_coherent;
-#[cfg(target_arch = "x86_64")]
-mod traverse_shared;
-mod traverse_wide;
 mod triangle;
-mod walk;
 pub mod workload;
 
 pub use aabb::Aabb;

@@ -26,7 +26,7 @@ pub fn scene_of(name: &str, m: MeshBuilder) -> Result<Scene> {
 /// An unknown name, or a scene that cannot be built.
 pub fn builtin_with_bvh(name: &str) -> Result<(Scene, crate::Bvh)> {
     let scene = crate::SceneSource::parse(name)?.load(crate::SceneNeeds::AO)?;
-    let bvh = crate::Bvh::build(&scene, crate::BuildPreset::Medium)?;
+    let bvh = crate::Bvh::build(&scene, crate::bvh::preset::BuildPreset::Medium)?;
     Ok((scene, bvh))
 }
 

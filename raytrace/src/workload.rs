@@ -2,7 +2,8 @@
 //! primary rays of the four orbit cameras ([`Camera::orbit`], Morton order), and
 //! ambient-occlusion rays from the hits of one of them (Halton order).
 
-use crate::{Bvh, Camera, RayBatch, Scene, ao, traverse};
+use crate::traverse::batch::closest_hits;
+use crate::{Bvh, Camera, RayBatch, Scene, ao};
 
 /// The default AO ray length: 5 % of the scene's bounding-box diagonal.
 pub fn ao_radius(scene: &Scene) -> f32 {
@@ -37,6 +38,6 @@ pub fn orbit_ao(
     samples: u32,
 ) -> ao::AoRays {
     let primary = Camera::orbit(&scene.bounds(), camera).primary_rays(width, height);
-    let hits = traverse::closest_hits(bvh, &primary.rays);
+    let hits = closest_hits(bvh, &primary.rays);
     ao::ao_rays(scene, &primary.rays, &hits, samples, ao_radius(scene), 1)
 }

@@ -9,8 +9,8 @@ use raytrace::paths::{Mode, Settings};
 use raytrace::shade::{AoSettings, Shader, WhittedSettings};
 use raytrace::{Bvh, Scene};
 use sched::Policy;
-use serde::Serialize;
 
+use super::record::Record;
 use super::repeats;
 use super::replay::Replayed;
 use crate::args::ShaderKind;
@@ -48,88 +48,6 @@ impl Workload {
             Self::Ao => "diffuse",
         }
     }
-}
-
-/// One run of the matrix: the fields `cobalt bench --json` promises, plus context.
-#[derive(Clone, Debug, Serialize)]
-pub struct Record {
-    /// `measured` (here a run on real devices) or `simulated`.
-    pub source: &'static str,
-    pub scene: String,
-    pub shader: &'static str,
-    pub ray_kind: &'static str,
-    pub policy: &'static str,
-    pub mode: &'static str,
-    /// How cost mode counted a sampled path (`--walk`): `trace`, `reduced` or `first-leaf`.
-    pub walk: &'static str,
-    /// The cell's entry of `--task-sizes`.
-    pub task_size: usize,
-    /// What a frame of the cell was cut into: its tasks, and the paths of the largest
-    /// (`task_size`, or fewer where the frame is too small to give every device four tasks).
-    pub tasks: usize,
-    pub cut_task_size: usize,
-    pub devices: usize,
-    pub device_list: String,
-    pub cameras: usize,
-    pub width: u32,
-    pub height: u32,
-    pub rays: usize,
-    /// Wall time of the measured frames: estimation, planning and rendering.
-    pub seconds: f64,
-    /// Rendering efficiency (thesis): rays over `seconds`.
-    pub mrays_per_s: f64,
-    /// Σ device busy time / Σ (makespan × devices), over the measured frames.
-    pub balance_efficiency: f64,
-    pub estimate_seconds: f64,
-    pub plan_seconds: f64,
-    /// Σ|estimated − full| / Σ full (cost mode; the estimates do not depend on the policy).
-    pub prediction_error: Option<f64>,
-    /// Launches of the median run.
-    pub launches: u64,
-    /// Tasks re-run after a device failed, over all runs.
-    pub reruns: u64,
-    /// Runs of this cell (`--repeats`); the figures above are their medians.
-    pub repeats: usize,
-    /// Every run's MRays/s, in the order they ran.
-    pub run_mrays_per_s: Vec<f64>,
-    /// Every run's balance efficiency, in the order they ran.
-    pub run_balance_efficiency: Vec<f64>,
-    /// What crossed between the host and the devices, the paths' values excepted (path
-    /// pipeline only).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub host_to_device_bytes: Option<u64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub device_to_host_bytes: Option<u64>,
-    /// Times the host blocked on a device (path pipeline only).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub host_waits: Option<u64>,
-    /// Bytes of the paths' values sent to the host (path pipeline only).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub film_bytes: Option<u64>,
-    /// `seconds` with the run's makespans replaced by their replays in `sched`'s simulator,
-    /// from the run's own task times, speeds and launch delays (the median over the runs);
-    /// `None` where a frame could not be replayed (a device failed).
-    pub simulated_seconds: Option<f64>,
-    /// Every run's simulated over measured seconds, in the order they ran.
-    pub run_simulated_over_measured: Vec<f64>,
-    /// Σ makespans of the measured frames, and of their replays.
-    pub makespan_seconds: f64,
-    pub simulated_makespan_seconds: Option<f64>,
-    /// Σ of their lower bounds: integral (no plan beats the largest task on the fastest
-    /// device), and fractional (all work over all speed, what balance efficiency is measured
-    /// against).
-    pub lower_bound_seconds: Option<f64>,
-    pub fractional_bound_seconds: Option<f64>,
-    /// `makespan_seconds / lower_bound_seconds`: 1 is an optimal plan.
-    pub makespan_over_bound: Option<f64>,
-    /// The calibration file that planned the cell's first frame, the entries it used, and
-    /// the entries the bench wrote back (path pipeline, unless `--no-calibration`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub calibration: Option<raytrace::run::CalibrationReport>,
-    /// Devices a frame of the cell left idle because the fastest class alone had rendered
-    /// frames faster (path pipeline; absent when none was).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub left_idle: Vec<String>,
 }
 
 impl Record {

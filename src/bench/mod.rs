@@ -13,6 +13,7 @@ mod mpi;
 mod paths;
 mod plots;
 mod prediction;
+mod record;
 mod repeats;
 mod replay;
 mod simulate;
@@ -286,7 +287,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         sims.len(),
         started.elapsed().as_secs_f64()
     );
-    crate::print_text(&out)?;
+    crate::print::print_text(&out)?;
     if let Some(path) = &args.json {
         let mut all: Vec<serde_json::Value> = Vec::with_capacity(records.len() + sims.len());
         for r in &records {
@@ -299,7 +300,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             all.push(serde_json::to_value(p).map_err(|e| CliError::Write(e.to_string()))?);
         }
         let text = serde_json::to_vec_pretty(&all).map_err(|e| CliError::Write(e.to_string()))?;
-        crate::write_file(path, &text)?;
+        crate::output::write_file(path, &text)?;
     }
     Ok(())
 }
@@ -369,10 +370,10 @@ fn run_mpi(
         json.iter().filter(|v| v["source"] != "mpi").count(),
         started.elapsed().as_secs_f64(),
     );
-    crate::print_text(&text)?;
+    crate::print::print_text(&text)?;
     if let Some(path) = &args.json {
         let bytes = serde_json::to_vec_pretty(&json).map_err(|e| CliError::Write(e.to_string()))?;
-        crate::write_file(path, &bytes)?;
+        crate::output::write_file(path, &bytes)?;
     }
     Ok(())
 }

@@ -9,8 +9,9 @@ use raytrace::paths::{Frame, FrameStats, PathRenderer, build_path_devices, estim
 use raytrace::shade::RenderOptions;
 use raytrace::{Bvh, Scene};
 
-use super::matrix::{CellRun, Record, Replay, SceneMatrix, Totals, Workload};
+use super::matrix::{CellRun, Replay, SceneMatrix, Totals, Workload};
 use super::prediction::ErrorSums;
+use super::record::Record;
 use super::replay::{Replayed, RunDevice};
 use crate::error::CliError;
 

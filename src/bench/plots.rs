@@ -14,7 +14,7 @@ use std::sync::OnceLock;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-use super::matrix::Record;
+use super::record::Record;
 use super::trade::TradePoint;
 use crate::error::CliError;
 
@@ -69,7 +69,7 @@ fn save(path: &Path, rgb: Vec<u8>, w: u32, h: u32) -> Result<(), CliError> {
     image::codecs::png::PngEncoder::new(&mut png)
         .write_image(&rgb, w, h, image::ExtendedColorType::Rgb8)
         .map_err(|e| CliError::Write(format!("{}: {e}", path.display())))?;
-    crate::write_file(path, &png)
+    crate::output::write_file(path, &png)
 }
 
 fn policy_abbrev(p: &str) -> &'static str {
@@ -341,7 +341,7 @@ pub fn write_all(
     }
     if let Some(png) = cost_png {
         let p = dir.join("cost.png");
-        crate::write_file(&p, &png)?;
+        crate::output::write_file(&p, &png)?;
         written.push(p);
     }
     Ok(written)

@@ -7,7 +7,7 @@
 //! apart. A median of rounds, each of which runs every cell once, stops such a run from
 //! deciding a cell, and the runs kept beside it show how much the cell moved.
 
-use super::matrix::Record;
+use super::record::Record;
 
 /// The median of `values` (the mean of the middle two for an even count); `None` when empty.
 pub fn median(values: &[f64]) -> Option<f64> {

@@ -1,7 +1,7 @@
 //! The readable side of `cobalt bench`: Markdown tables of the runs, the balance targets
 //! checked against them, the simulated machines and the sampling trade.
 
-use super::matrix::Record;
+use super::record::Record;
 use super::simulate::SimRecord;
 use super::trade::TradePoint;
 

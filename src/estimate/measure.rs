@@ -10,9 +10,9 @@ use raytrace::cost::{
 };
 use raytrace::{Bvh, RayBatch, RayKind, Scene, Walk, traverse};
 
+use super::args::{Args, DeviceArg, WalkArg};
 use super::rays::Generations;
 use super::report::{Calibration, Model, Report, WalkFigures, WalkFit};
-use super::{Args, DeviceArg, WalkArg};
 use crate::error::CliError;
 use crate::rounds::{Budget, Rounds, SlicedTraces};
 

@@ -6,7 +6,7 @@
 
 use obvhs::{aabb::Aabb as OAabb, bvh2::Bvh2, triangle::Triangle};
 
-use super::{BvhTriangle, Node};
+use super::node::{BvhTriangle, Node, leaf_triangle};
 
 /// Most triangles in a leaf of a median subtree.
 const LEAF: usize = 4;
@@ -129,10 +129,8 @@ pub(super) fn median(
     if prims.len() <= LEAF {
         let first = out.tris.len() as u32;
         for &p in prims.iter() {
-            out.tris.push(super::build::leaf_triangle(
-                &tris[p as usize],
-                ids[p as usize],
-            ));
+            out.tris
+                .push(leaf_triangle(&tris[p as usize], ids[p as usize]));
         }
         out.nodes[d] = node(first, prims.len() as u32);
         return 1;

@@ -1,113 +1,20 @@
 //! Building with obvhs (PLOC, reinsertion, leaf collapse, optional spatial pre-splits), then
 //! flattening depth-first into sibling pairs with triangles gathered in leaf order.
 
-use std::str::FromStr;
 use std::time::Instant;
 
 use glam::Vec3A;
 use obvhs::{
-    BvhBuildParams, aabb::Aabb as OAabb, bvh2::leaf_collapser::collapse,
-    bvh2::reinsertion::ReinsertionOptimizer, ploc::PlocBuilder, splits::split_aabbs_preset,
-    triangle::Triangle,
+    aabb::Aabb as OAabb, bvh2::leaf_collapser::collapse, bvh2::reinsertion::ReinsertionOptimizer,
+    ploc::PlocBuilder, splits::split_aabbs_preset, triangle::Triangle,
 };
 
-use super::{Bvh, BvhTriangle, MAX_DEPTH, Node, bound};
+use super::node::{BvhTriangle, Node, leaf_triangle};
+use super::preset::BuildPreset;
+use super::report::BuildReport;
+use super::wide::WideBvh;
+use super::{Bvh, MAX_DEPTH, bound};
 use crate::{Error, Result, Scene};
-
-/// obvhs's build presets, from fastest build to best trees. The trade (build time against
-/// trace speed) is measured by the bench; `Medium` is obvhs's "about embree's build time".
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum BuildPreset {
-    /// PLOC with search radius 1, one triangle per leaf, no optimisation.
-    Fastest,
-    /// Plus a little reinsertion and leaf collapse.
-    VeryFast,
-    /// Wider PLOC search.
-    Fast,
-    /// obvhs's default balance.
-    #[default]
-    Medium,
-    /// Spatial pre-splits of large triangles and more reinsertion.
-    Slow,
-    /// The best trees obvhs builds.
-    VerySlow,
-}
-
-impl BuildPreset {
-    /// All presets, fastest build first.
-    pub const ALL: [Self; 6] = [
-        Self::Fastest,
-        Self::VeryFast,
-        Self::Fast,
-        Self::Medium,
-        Self::Slow,
-        Self::VerySlow,
-    ];
-
-    /// The obvhs parameters.
-    pub fn params(self) -> BvhBuildParams {
-        match self {
-            Self::Fastest => BvhBuildParams::fastest_build(),
-            Self::VeryFast => BvhBuildParams::very_fast_build(),
-            Self::Fast => BvhBuildParams::fast_build(),
-            Self::Medium => BvhBuildParams::medium_build(),
-            Self::Slow => BvhBuildParams::slow_build(),
-            Self::VerySlow => BvhBuildParams::very_slow_build(),
-        }
-    }
-
-    /// The CLI name (`fastest`, `very-fast`, `fast`, `medium`, `slow`, `very-slow`).
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Fastest => "fastest",
-            Self::VeryFast => "very-fast",
-            Self::Fast => "fast",
-            Self::Medium => "medium",
-            Self::Slow => "slow",
-            Self::VerySlow => "very-slow",
-        }
-    }
-}
-
-impl FromStr for BuildPreset {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        Self::ALL
-            .into_iter()
-            .find(|p| p.name() == s || p.name().replace('-', "_") == s)
-            .ok_or_else(|| {
-                format!(
-                    "unknown BVH preset `{s}` (fastest, very-fast, fast, medium, slow, very-slow)"
-                )
-            })
-    }
-}
-
-/// What the build did and how good the tree is.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct BuildReport {
-    /// The preset used.
-    pub preset: BuildPreset,
-    /// obvhs's core build time (PLOC, splits, reinsertion, collapse), seconds.
-    pub build_seconds: f64,
-    /// Everything: triangle boxes, build and flattening, seconds.
-    pub total_seconds: f64,
-    /// SAH cost with unit node and triangle costs: `(sum of inner areas + sum of leaf areas
-    /// times their triangle counts) / root area`. Lower is better; comparable across presets.
-    pub sah_cost: f64,
-    /// Node count.
-    pub nodes: usize,
-    /// Leaf count.
-    pub leaves: usize,
-    /// Triangle references in leaves (more than the triangles with spatial splits).
-    pub leaf_triangles: usize,
-    /// Degenerate triangles left out.
-    pub degenerate_skipped: usize,
-    /// Whether large triangles were split (a triangle may then sit in several leaves).
-    pub spatial_splits: bool,
-    /// Collapsing the binary tree into the CPU's 8-wide one, seconds (part of the total).
-    pub collapse_seconds: f64,
-}
 
 fn v3a(p: glam::Vec3) -> Vec3A {
     Vec3A::new(p.x, p.y, p.z)
@@ -131,7 +38,7 @@ impl Bvh {
         let start = Instant::now();
         let mut bvh = Self::build_binary(scene, preset, max_depth, start)?;
         let collapsing = Instant::now();
-        bvh.wide = super::WideBvh::collapse(&bvh.nodes, &bvh.tris);
+        bvh.wide = WideBvh::collapse(&bvh.nodes, &bvh.tris);
         bvh.report.collapse_seconds = collapsing.elapsed().as_secs_f64();
         bvh.report.total_seconds = start.elapsed().as_secs_f64();
         Ok(bvh)
@@ -320,17 +227,5 @@ impl Bvh {
             report,
             wide: Default::default(),
         })
-    }
-}
-
-/// An obvhs triangle in the GPU layout, tagged with its scene primitive id.
-pub(super) fn leaf_triangle(t: &Triangle, prim: u32) -> BvhTriangle {
-    BvhTriangle {
-        v0: t.v0.to_array(),
-        prim,
-        v1: t.v1.to_array(),
-        pad1: 0,
-        v2: t.v2.to_array(),
-        pad2: 0,
     }
 }

@@ -1,14 +1,19 @@
-//! The bounding volume hierarchy: built by obvhs ([`build`]), flattened into [`Node`]s and
-//! [`BvhTriangle`]s in leaf order ([`node`]), and checked ([`mod@validate`]).
+//! The bounding volume hierarchy: built by obvhs ([`build`], with a [`BuildPreset`], reported
+//! in a [`BuildReport`]), its depth bounded (`bound.rs` rebuilds deep subtrees),
+//! flattened into [`Node`]s and [`BvhTriangle`]s in leaf order ([`node`]), and checked
+//! ([`mod@validate`]).
 
 mod bound;
 pub mod build;
 pub mod node;
+pub mod preset;
+pub mod report;
 pub mod validate;
 pub mod wide;
 
-pub use build::{BuildPreset, BuildReport};
 pub use node::{BvhTriangle, Node, NodeArray};
+pub use preset::BuildPreset;
+pub use report::BuildReport;
 pub use validate::{ValidationReport, validate};
 pub use wide::WideBvh;
 

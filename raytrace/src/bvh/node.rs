@@ -1,6 +1,7 @@
 //! The flat node and triangle layouts that the CPU traverses and the GPU uploads unchanged.
 
 use bytemuck::{Pod, Zeroable};
+use obvhs::triangle::Triangle;
 
 /// A BVH node, 32 bytes: `#[repr(C)]`, `Pod`, and laid out like the WGSL struct
 /// `struct Node { min: vec3<f32>, index: u32, max: vec3<f32>, count: u32 }` (a `vec3<f32>` has
@@ -105,3 +106,15 @@ pub struct BvhTriangle {
 }
 
 const _: () = assert!(size_of::<BvhTriangle>() == 48);
+
+/// An obvhs triangle in the GPU layout, tagged with its scene primitive id.
+pub(super) fn leaf_triangle(t: &Triangle, prim: u32) -> BvhTriangle {
+    BvhTriangle {
+        v0: t.v0.to_array(),
+        prim,
+        v1: t.v1.to_array(),
+        pad1: 0,
+        v2: t.v2.to_array(),
+        pad2: 0,
+    }
+}

@@ -19,7 +19,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use super::{BvhTriangle, Node};
+use super::node::{BvhTriangle, Node};
 
 /// Children per wide node.
 pub const WIDTH: usize = 8;

@@ -9,7 +9,9 @@ use rayon::prelude::*;
 use super::refine::refine;
 use super::sample::{Compacted, check_tasks};
 use super::{CostError, CostModel, SampleRate, SampleRun, Work};
-use crate::{Bvh, HitBatch, RayBatch, Walk, traverse};
+use crate::traverse::batch::{reduced_counts_at, traced_at};
+use crate::traverse::walk::Walk;
+use crate::{Bvh, HitBatch, RayBatch};
 
 /// Estimates ray tasks (ranges of one [`RayBatch`]) by the reduced traversal of a sample.
 ///
@@ -119,13 +121,10 @@ impl<'a> ReducedTraversal<'a> {
         // task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
         let trace = |index: &[usize]| match self.walk {
             Walk::Trace { any } => {
-                let (hits, counts) = traverse::traced_at(self.bvh, self.rays, any, index);
+                let (hits, counts) = traced_at(self.bvh, self.rays, any, index);
                 (Some(hits), counts)
             }
-            walk => (
-                None,
-                traverse::reduced_counts_at(self.bvh, self.rays, walk, index),
-            ),
+            walk => (None, reduced_counts_at(self.bvh, self.rays, walk, index)),
         };
         // A sample of every ray is asked for exactly; nothing is left to refine towards.
         if let Some(target) = self.sample_error.filter(|_| self.rate < SampleRate::FULL) {
@@ -239,7 +238,7 @@ pub fn full_work(
     check_tasks(rays, tasks)?;
     if let Walk::Trace { any } = walk {
         let index: Vec<usize> = tasks.iter().flat_map(Range::clone).collect();
-        let (_, counts) = traverse::traced_at(bvh, rays, any, &index);
+        let (_, counts) = traced_at(bvh, rays, any, &index);
         let mut at = 0;
         return Ok(tasks
             .iter()

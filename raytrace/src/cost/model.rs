@@ -9,7 +9,8 @@
 
 use std::collections::HashMap;
 
-use crate::{Counts, RayKind};
+use crate::RayKind;
+use crate::traverse::counts::Counts;
 
 /// Nodes entered `B` and triangles reached `T` of a task, and the rays `R` they were counted
 /// for: exact sums for a full count, scaled sample sums for an estimate (hence `f64`).

@@ -24,7 +24,8 @@ use std::ops::Range;
 
 use super::sample::sample_runs;
 use super::{CostModel, SampleRate, SampleRun, Work};
-use crate::{Counts, HitBatch};
+use crate::HitBatch;
+use crate::traverse::counts::Counts;
 
 /// Doublings from the first level to the full sample: it starts at `rate / 4`.
 const LEVELS: u32 = 2;

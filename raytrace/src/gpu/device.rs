@@ -6,11 +6,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, PoisonError};
 
 use crate::Traffic;
-use crate::{Bvh, Counts, HitBatch, RayBatch};
+use crate::traverse::counts::Counts;
+use crate::{Bvh, HitBatch, RayBatch};
 
 use super::buffers::{SceneBuffers, pack_rays};
-use super::estimate::{SampledCounts, Sampling, estimate_kernel, sampled_counts};
 use super::program::Kernel;
+use super::sampling::{SampledCounts, Sampling, estimate_kernel, sampled_counts};
 use super::staging::{Staging, staged_hits};
 use super::trace::{Threads, TraceKernels, TraceMode, launch};
 use super::{GpuContext, GpuError};

@@ -9,11 +9,16 @@
 //!   persistent threads until the ray queue is drained;
 //! - `program`: a shader module with its bind group's layout, and the pipelines and dispatches
 //!   every kernel family shares;
+//! - `launch`, `header` and `resident`: a launch of path kernels recorded as one submission,
+//!   its counts made on the device, and the buffers kept there across launches;
 //! - [`GpuDevice`]: one adapter tracing batches of rays (`cobalt trace`, `cobalt estimate`);
 //! - [`GpuReducedTraversal`]: the cost estimator (sampling, compaction, reduced traversal and
-//!   per-task sums) on the device, equal to the CPU's;
-//! - [`GpuRenderer`]: ambient occlusion and Whitted shading rendered entirely on the device
-//!   (ray generation in Morton order, traces, AO probes or shadow and mirror rays, image).
+//!   per-task sums) on the device, equal to the CPU's; its kernel is `sampling`;
+//! - `paths/`, the path kernels: [`GpuRenderer`], ambient occlusion and Whitted shading
+//!   rendered entirely on the device (ray generation in Morton order, traces, AO probes or
+//!   shadow and mirror rays, image), and an estimate's sample of its paths counted there.
+//!
+//! The path kernels import the rest of `gpu/`, never the other way.
 //!
 //! The kernels mirror the CPU's traversal operation for operation; they differ only where the
 //! CPU re-evaluates an exactly-zero edge function in f64 (WGSL has no portable f64): a ray
@@ -26,21 +31,21 @@ mod device;
 mod estimate;
 mod header;
 mod launch;
+mod paths;
 mod program;
-mod render;
 mod resident;
-mod sample;
+mod sampling;
 mod staging;
 #[cfg(test)]
 pub(crate) mod tests;
 pub mod trace;
-mod whitted;
 
 pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
-pub use estimate::{GpuReducedTraversal, SampledCounts};
-pub use render::{FrameParams, GpuRenderer, PathValues};
-pub use sample::{PathSums, SampledPaths};
+pub use estimate::GpuReducedTraversal;
+pub use paths::render::{FrameParams, GpuRenderer, PathValues};
+pub use paths::sample::{PathSums, SampledPaths};
+pub use sampling::SampledCounts;
 pub use trace::{Threads, TraceKernels, TraceMode};
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or

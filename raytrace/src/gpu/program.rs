@@ -15,11 +15,6 @@ pub(crate) const WRITE: BufferBindingType = BufferBindingType::Storage { read_on
 /// A uniform block.
 pub(crate) const UNIFORM: BufferBindingType = BufferBindingType::Uniform;
 
-/// `shading.wgsl`, the helpers the shading kernels share, prepended to each of them.
-pub(crate) fn with_shading(kernels: &str) -> String {
-    format!("{}{kernels}", include_str!("shading.wgsl"))
-}
-
 /// A compiled shader module and the layout of the one bind group its kernels use.
 #[derive(Debug)]
 pub(crate) struct Program {

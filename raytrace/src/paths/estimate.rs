@@ -24,8 +24,10 @@ use sched::SampleRate;
 use super::Frame;
 use crate::cost::Work;
 use crate::shade::{RenderOptions, Shader, Tracer, render_paths};
-use crate::traverse::{hits_counted_in, reduced_counts};
-use crate::{Bvh, HitBatch, Layout, RayBatch, RayKind, Walk};
+use crate::traverse::batch::{hits_counted_in, reduced_counts};
+use crate::traverse::layout::Layout;
+use crate::traverse::walk::Walk;
+use crate::{Bvh, HitBatch, RayBatch, RayKind};
 
 /// A tracer that traces for real and sums the counts of every ray ([`Work::sum`], exact in
 /// integers per generation), keeping AO probes apart (they are scaled by the probes left out).

@@ -29,7 +29,8 @@ pub use generation::Generation;
 pub use tracer::{CpuTracer, Recorder, Tracer};
 pub use whitted::{AMBIENT, SKY, WhittedSettings};
 
-use crate::{Camera, Counts, Film, Scene, SceneNeeds};
+use crate::traverse::counts::Counts;
+use crate::{Camera, Film, Scene, SceneNeeds};
 use generation::Generations;
 
 /// Which shader, with its settings.

@@ -2,8 +2,9 @@
 //! a [`Tracer`] and get hits back. [`CpuTracer`] traces them on the host's threads; a counting
 //! tracer wraps it where an estimate renders a sample of paths (`crate::paths::estimate_paths`).
 
-use crate::traverse::{any_hits, closest_hits, closest_hits_counted};
-use crate::{Bvh, Counts, HitBatch, RayBatch, RayKind, Result};
+use crate::traverse::batch::{any_hits, closest_hits, closest_hits_counted};
+use crate::traverse::counts::Counts;
+use crate::{Bvh, HitBatch, RayBatch, RayKind, Result};
 
 /// Traces generations of rays. There is one required method.
 ///

@@ -10,7 +10,8 @@ use mpi::environment::{Threading, Universe};
 use mpi::point_to_point::{Destination, MatchedReceiveVec, Source};
 use mpi::topology::{Communicator, SimpleCommunicator};
 
-use super::{ClusterError, Link};
+use super::error::ClusterError;
+use super::link::Link;
 
 /// How long an idle rank sleeps between polls for a message. Open MPI's blocking receive
 /// spins on a core; with ranks oversubscribed on one host (tests, CI) that spinning would

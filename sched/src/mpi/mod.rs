@@ -17,10 +17,12 @@
 
 mod cluster;
 mod error;
+mod link;
 mod remote;
 mod wire;
 
 pub use cluster::Cluster;
 pub use error::ClusterError;
-pub use remote::{Link, RemoteNode};
+pub use link::Link;
+pub use remote::RemoteNode;
 pub use wire::{Wire, WireError, take};

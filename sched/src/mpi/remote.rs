@@ -1,7 +1,9 @@
 use std::marker::PhantomData;
 use std::time::Instant;
 
-use super::{Cluster, ClusterError, Wire, WireError};
+use super::cluster::Cluster;
+use super::error::ClusterError;
+use super::wire::{Wire, WireError};
 use crate::{DeviceError, Executor, Sink, Task};
 
 const TASKS: i32 = 1;
@@ -10,24 +12,6 @@ const DONE: i32 = 3;
 
 const OK: u8 = 0;
 const FAILED: u8 = 1;
-
-/// What the dispatch to one rank cost, seen from rank 0.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Link {
-    /// Batches sent (a static plan sends one per round, a queue one per task).
-    pub batches: u64,
-    /// Seconds from sending each batch to having its outputs, summed.
-    pub round_trip_seconds: f64,
-    /// Seconds the rank spent running those batches, as it reported them.
-    pub remote_seconds: f64,
-}
-
-impl Link {
-    /// Seconds lost to communication: round trips minus the remote work inside them.
-    pub fn overhead_seconds(&self) -> f64 {
-        (self.round_trip_seconds - self.remote_seconds).max(0.0)
-    }
-}
 
 /// On rank 0, another rank as one device of a [`crate::Runtime`]: a batch is sent as tasks,
 /// run there by [`Cluster::serve`] on that rank's own devices, and its outputs come back.

@@ -1,6 +1,6 @@
 //! How the cost estimator walks the tree with its sampled rays ([`Walk`]), and the fixed
 //! child order of the first-leaf walk ([`near_child_first`]): what the single-ray walks of
-//! `traverse.rs` and the packets of `packet.rs` both follow.
+//! `binary.rs` and the packets of `packet.rs` both follow.
 
 /// How the cost estimator walks the tree with its sampled rays: the thesis's reduced
 /// traversal, a shortened one, or the real trace. (AO rays are called probes elsewhere; this
@@ -49,7 +49,7 @@ impl Walk {
     /// For any-hit rays (shadow, AO), the reduced walk instead of the first-leaf walk, which
     /// modelled the measured times worse on every scene tried (see the README), and an
     /// any-hit trace for the trace walk.
-    pub fn for_kind(self, kind: crate::RayKind) -> Self {
+    pub fn for_kind(self, kind: crate::ray::RayKind) -> Self {
         match self {
             Self::Trace { .. } => Self::Trace {
                 any: kind.is_occlusion(),
@@ -79,7 +79,7 @@ impl std::str::FromStr for Walk {
 /// signs alone, not on the ray's distances to the boxes, so rays that share their signs (a
 /// packet of camera rays) share the order, and a packet walks exactly like each of its rays.
 #[inline(always)]
-pub fn near_child_first(pair: &[crate::Node; 2], negative: [bool; 3]) -> bool {
+pub fn near_child_first(pair: &[crate::bvh::node::Node; 2], negative: [bool; 3]) -> bool {
     let gap = |a: usize| (pair[1].min[a] + pair[1].max[a]) - (pair[0].min[a] + pair[0].max[a]);
     let g = [gap(0), gap(1), gap(2)];
     let a = if g[0].abs() >= g[1].abs() {

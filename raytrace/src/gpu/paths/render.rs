@@ -16,23 +16,29 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::buffers::{
+use super::shading::with_shading;
+use super::sums::sums_kernel;
+use super::whitted_kernels::WhittedKernels;
+use crate::bvh::Bvh;
+use crate::camera::Camera;
+use crate::gpu::GpuError;
+use crate::gpu::buffers::{
     GpuRay, RESULT_BYTES, SceneBuffers, check_size, fetch, init, rays_per_launch,
 };
-use super::header::{self, Header, Setup, task_list};
-use super::launch::{Count, Recorder, verdict_kernel};
-use super::program::{Kernel, Program, READ, UNIFORM, WRITE, with_shading};
-use super::resident::Resident;
-use super::trace::{Threads, TraceKernels, TraceMode};
-use super::{GpuContext, GpuError};
-use crate::Traffic;
+use crate::gpu::context::GpuContext;
+use crate::gpu::header::{self, Header, Setup, task_list};
+use crate::gpu::launch::{Count, Recorder, verdict_kernel};
+use crate::gpu::program::{Kernel, Program, READ, UNIFORM, WRITE};
+use crate::gpu::resident::Resident;
+use crate::gpu::trace::{Threads, TraceKernels, TraceMode};
+use crate::scene::Scene;
 use crate::shade::AoSettings;
-use crate::{Bvh, Camera, Scene};
+use crate::traffic::Traffic;
 
 /// The uniform block of `render.wgsl` (`struct Params`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub(super) struct Params {
+pub(in crate::gpu) struct Params {
     eye: [f32; 4],
     fwd: [f32; 4],
     right: [f32; 4],
@@ -112,29 +118,29 @@ pub struct FrameParams<'a> {
 /// device.
 #[derive(Debug)]
 pub struct GpuRenderer {
-    pub(super) ctx: GpuContext,
-    pub(super) kernels: TraceKernels,
-    pub(super) scene: SceneBuffers,
-    pub(super) tris: wgpu::Buffer,
-    pub(super) whitted: super::whitted::WhittedKernels,
+    pub(in crate::gpu) ctx: GpuContext,
+    pub(in crate::gpu) kernels: TraceKernels,
+    pub(in crate::gpu) scene: SceneBuffers,
+    pub(in crate::gpu) tris: wgpu::Buffer,
+    pub(super) whitted: WhittedKernels,
     program: Program,
-    pub(super) raygen: wgpu::ComputePipeline,
+    pub(in crate::gpu) raygen: wgpu::ComputePipeline,
     shade_ao: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
-    pub(super) threads: Threads,
+    pub(in crate::gpu) threads: Threads,
     /// The scene's bounding-box diagonal, for the default probe length.
     diagonal: f32,
     /// Buffers and parameters kept across launches and frames.
-    pub(super) resident: Resident,
+    pub(in crate::gpu) resident: Resident,
     verdict: Kernel,
     /// Makes each launch's counts from its task list.
     header: Kernel,
     /// The per-task sums of an estimate's sample.
-    pub(super) path_sums: Kernel,
+    pub(in crate::gpu) path_sums: Kernel,
     /// Launches record no dispatch of their traces, as an implementation that cut every loop
     /// short would: the verdict must see it.
     #[cfg(test)]
-    pub(super) starved: bool,
+    pub(in crate::gpu) starved: bool,
 }
 
 impl GpuRenderer {
@@ -172,9 +178,9 @@ impl GpuRenderer {
             &[UNIFORM, WRITE, WRITE, READ, READ, WRITE, READ, WRITE, READ],
         );
         let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
-        let whitted = super::whitted::WhittedKernels::new(&ctx, scene);
+        let whitted = WhittedKernels::new(&ctx, scene);
         let verdict = verdict_kernel(device);
-        let path_sums = super::sample::sums_kernel(device);
+        let path_sums = sums_kernel(device);
         let header = header::header_kernel(device);
         Ok(Self {
             whitted,
@@ -212,7 +218,7 @@ impl GpuRenderer {
     /// frame's parameters, and binds the launch's buffers with them (its first chunk of
     /// probes): `raygen` over that group makes the primary rays. A launch holds every
     /// `stride`-th path of each task, from its first (1 to render; the sample to estimate).
-    pub(super) fn begin(
+    pub(in crate::gpu) fn begin(
         &self,
         frame: &FrameParams<'_>,
         tasks: &[&Range<usize>],
@@ -360,7 +366,7 @@ impl GpuRenderer {
     /// A launch's recorder on this device (see [`Recorder`]), its first commands making the
     /// launch's counts from its task list (`header.wgsl`) and copying them into the frame's
     /// parameters.
-    pub(super) fn recorder(&self, stage: &Stage, checked: bool) -> Recorder<'_> {
+    pub(in crate::gpu) fn recorder(&self, stage: &Stage, checked: bool) -> Recorder<'_> {
         let mut launch = Recorder::new(
             &self.ctx,
             &self.kernels,
@@ -391,7 +397,7 @@ impl GpuRenderer {
 
     /// A storage buffer of at least `size` bytes kept for later launches (see
     /// [`Resident::scratch`]).
-    pub(super) fn scratch(
+    pub(in crate::gpu) fn scratch(
         &self,
         label: &'static str,
         size: u64,
@@ -442,7 +448,7 @@ impl GpuRenderer {
     ///
     /// # Errors
     /// Those of `launch`, and [`GpuError::LoopCut`] when even the checked launch says `None`.
-    pub(super) fn drained<T>(
+    pub(in crate::gpu) fn drained<T>(
         &self,
         launch: impl Fn(bool) -> Result<Option<T>, GpuError>,
     ) -> Result<T, GpuError> {
@@ -450,7 +456,7 @@ impl GpuRenderer {
             Some(out) => Ok(out),
             None => launch(true)?.ok_or_else(|| GpuError::LoopCut {
                 adapter: self.ctx.info.name.clone(),
-                batches: super::trace::BATCHES,
+                batches: crate::gpu::trace::BATCHES,
             }),
         }
     }
@@ -502,7 +508,7 @@ impl GpuRenderer {
     /// raygen, the primaries' trace, and per chunk the probes, their trace and the paths'
     /// values. With `tally`, every trace adds its rays' counts to their paths' entries and
     /// no value is made (an estimate's launch, whose probes fit one chunk).
-    pub(super) fn record_ao(
+    pub(in crate::gpu) fn record_ao(
         &self,
         launch: &mut Recorder<'_>,
         stage: &Stage,
@@ -603,29 +609,29 @@ impl GpuRenderer {
 
 /// Where an estimate's launch adds its rays' counts `B` and `T`: two words a path slot, the
 /// primary, mirror and shadow rays' in `paths`, the AO probes' in `probes`.
-pub(super) struct Tally {
-    pub(super) paths: wgpu::Buffer,
-    pub(super) probes: wgpu::Buffer,
+pub(in crate::gpu) struct Tally {
+    pub(in crate::gpu) paths: wgpu::Buffer,
+    pub(in crate::gpu) probes: wgpu::Buffer,
 }
 
 /// The buffers of one launch, on the device.
-pub(super) struct Stage {
+pub(in crate::gpu) struct Stage {
     /// Paths of the launch (slots).
-    pub(super) n: u32,
+    pub(in crate::gpu) n: u32,
     /// Primaries whose probes are traced together.
-    pub(super) chunk: u32,
-    pub(super) params: Params,
+    pub(in crate::gpu) chunk: u32,
+    pub(in crate::gpu) params: Params,
     /// The launch's counts ([`Header`]), its third word sent, the others made on the device.
-    pub(super) header: wgpu::Buffer,
+    pub(in crate::gpu) header: wgpu::Buffer,
     /// The frame-constant inputs of the header's kernel ([`Setup`]).
-    pub(super) setup: wgpu::Buffer,
+    pub(in crate::gpu) setup: wgpu::Buffer,
     /// The frame's parameters, kept across launches, with the launch's counts.
-    pub(super) uniform: wgpu::Buffer,
-    pub(super) primary: wgpu::Buffer,
-    pub(super) ranks: wgpu::Buffer,
-    pub(super) hits: wgpu::Buffer,
-    pub(super) probes: wgpu::Buffer,
-    pub(super) probe_hits: wgpu::Buffer,
-    pub(super) film: wgpu::Buffer,
-    pub(super) tasks: wgpu::Buffer,
+    pub(in crate::gpu) uniform: wgpu::Buffer,
+    pub(in crate::gpu) primary: wgpu::Buffer,
+    pub(in crate::gpu) ranks: wgpu::Buffer,
+    pub(in crate::gpu) hits: wgpu::Buffer,
+    pub(in crate::gpu) probes: wgpu::Buffer,
+    pub(in crate::gpu) probe_hits: wgpu::Buffer,
+    pub(in crate::gpu) film: wgpu::Buffer,
+    pub(in crate::gpu) tasks: wgpu::Buffer,
 }

@@ -18,9 +18,9 @@
 //! compares mispredict.
 //!
 //! A batch of any-hit queries walks each run of up to eight consecutive rays that share an
-//! origin together where AVX2 runs ([`crate::traverse_shared`]): the AO rays of one hit point
+//! origin together where AVX2 runs ([`crate::traverse::shared_any`]): the AO rays of one hit point
 //! wait on the same nodes, which the packet fetches once. Closest-hit batches do the same
-//! ([`crate::traverse_coherent`]): a pinhole camera's neighbouring rays enter mostly the same
+//! ([`crate::traverse::shared_closest`]): a pinhole camera's neighbouring rays enter mostly the same
 //! nodes, and their box tests overlap instead of each waiting on its own (single-thread CPU
 //! time, primary rays: 5–22 % less on every scene measured).
 //!
@@ -36,12 +36,14 @@ use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
 use crate::bvh::wide::WIDTH;
-use crate::simd::{self, Box8Ray, Shear4};
-use crate::traverse::{ANY, ANY_COUNTED, COUNTED, Counts, better, cull_bound};
+use crate::ray::{Hit, Ray, RayBatch};
+use crate::traverse::closest::{better, cull_bound};
+use crate::traverse::counts::Counts;
+use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
 #[cfg(target_arch = "x86_64")]
-use crate::traverse_shared::PACKET;
+use crate::traverse::shared::PACKET;
+use crate::traverse::simd::{self, Box8Ray, Shear4};
 use crate::triangle::RayShear;
-use crate::{Hit, Ray, RayBatch};
 
 /// Wide levels the common traversal's stack is sized for (under 4 KiB of entries); deeper
 /// trees take [`Bvh::run_wide_deep`] and its larger stack.

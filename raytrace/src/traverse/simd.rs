@@ -14,8 +14,8 @@
 //! that hit need their distance, and most groups have none or one, so dividing every lane
 //! would cost two vector divisions per group for nothing.
 
-use crate::Ray;
 use crate::bvh::wide::{Node8, Tri4, WIDTH};
+use crate::ray::Ray;
 use crate::slab::far_scale;
 use crate::triangle::RayShear;
 

@@ -16,35 +16,14 @@
 use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
-use crate::bvh::wide::WIDTH;
-use crate::simd::{self, Box8Ray, Shear4};
-use crate::traverse::{ANY, ANY_COUNTED, cull_bound};
+use crate::bvh::wide::{Tri4, WIDTH};
+use crate::ray::{Hit, Ray};
+use crate::traverse::closest::cull_bound;
+use crate::traverse::counts::Counts;
+use crate::traverse::mode::{ANY, ANY_COUNTED};
+use crate::traverse::shared::{PACKET, nonzero_bytes, transpose8};
+use crate::traverse::simd::{self, Box8Ray, Shear4};
 use crate::triangle::RayShear;
-use crate::{Counts, Hit, Ray};
-
-/// Rays walked together at most: one bit each in a byte of a node's masks.
-pub(crate) const PACKET: usize = 8;
-
-/// `rows` with byte `r` bit `k` moved to byte `k` bit `r`: the rays that hit child `k`, from
-/// the children each ray hits (three delta swaps, Hacker's Delight 7-3).
-#[inline(always)]
-pub(crate) fn transpose8(mut x: u64) -> u64 {
-    let t = (x ^ (x >> 7)) & 0x00AA_00AA_00AA_00AA;
-    x ^= t ^ (t << 7);
-    let t = (x ^ (x >> 14)) & 0x0000_CCCC_0000_CCCC;
-    x ^= t ^ (t << 14);
-    let t = (x ^ (x >> 28)) & 0x0000_0000_F0F0_F0F0;
-    x ^ t ^ (t << 28)
-}
-
-/// A bit per non-zero byte of `x`.
-#[inline(always)]
-pub(crate) fn nonzero_bytes(x: u64) -> u32 {
-    let mut t = x | (x >> 4);
-    t |= t >> 2;
-    t |= t >> 1;
-    ((t & 0x0101_0101_0101_0101).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
-}
 
 impl Bvh {
     /// Any hits of `rays` (one to [`PACKET`] of them, which should share an origin for the
@@ -230,7 +209,7 @@ impl Bvh {
 #[inline(always)]
 unsafe fn leaf_any(
     s: &Shear4,
-    leaf: &[crate::bvh::wide::Tri4],
+    leaf: &[Tri4],
     tmin: f32,
     tmax: f32,
     count: u32,

@@ -12,7 +12,7 @@
 //!
 //! The first-leaf walk ([`Walk::FirstLeaf`]) does shorten rays, so there the order of the
 //! walk matters. It takes children in an order set by the direction's signs
-//! ([`crate::walk::near_child_first`]), the same for every lane of a packet whose lanes
+//! ([`crate::traverse::walk::near_child_first`]), the same for every lane of a packet whose lanes
 //! share their signs; each lane keeps its own `tmax`, and a popped node keeps only the lanes
 //! whose entry distance is still within it, which is the scalar walk's pop rule.
 //!
@@ -23,8 +23,10 @@
 //! latencies (5–14 % slower). An AO packet's lanes share a node 3.1–3.8 times on average, a
 //! coherent packet's 5–7 times.
 
-use crate::walk::Walk;
-use crate::{Bvh, Counts, RayBatch};
+use crate::bvh::Bvh;
+use crate::ray::RayBatch;
+use crate::traverse::counts::Counts;
+use crate::traverse::walk::Walk;
 
 /// True when the traversal traces ray `i` at all: exactly when [`crate::RayShear::new`] accepts
 /// it (finite origin and direction, direction not zero) and its range is not empty or NaN;
@@ -108,9 +110,11 @@ mod sse {
         _mm_srai_epi32, _mm_storeu_si128, _mm_sub_epi32, _mm_sub_ps, _mm_xor_ps,
     };
 
-    use crate::bvh::MAX_DEPTH;
+    use crate::bvh::node::Node;
+    use crate::bvh::{Bvh, MAX_DEPTH};
+    use crate::ray::RayBatch;
     use crate::slab::far_scale;
-    use crate::{Bvh, Counts, Node, RayBatch};
+    use crate::traverse::counts::Counts;
 
     /// Four rays in lanes.
     struct Rays4 {
@@ -275,10 +279,12 @@ mod avx2 {
 
     use std::mem::MaybeUninit;
 
-    use crate::bvh::MAX_DEPTH;
+    use crate::bvh::node::Node;
+    use crate::bvh::{Bvh, MAX_DEPTH};
+    use crate::ray::RayBatch;
     use crate::slab::far_scale;
-    use crate::walk::{Walk, near_child_first};
-    use crate::{Bvh, Counts, Node, RayBatch};
+    use crate::traverse::counts::Counts;
+    use crate::traverse::walk::{Walk, near_child_first};
 
     /// Eight rays in lanes; see the SSE version for the per-lane arithmetic.
     #[derive(Clone, Copy)]

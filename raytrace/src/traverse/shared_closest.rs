@@ -12,7 +12,7 @@
 //! which tests the node's eight children with its own bound; a leaf is tested by each ray
 //! that entered it, every triangle of it. The answer does not depend on the order: the
 //! closest hit is the smallest `(t, primitive id)` among the triangles the watertight test
-//! accepts in the ray's `[tmin, tmax]` (see [`crate::traverse_wide`]), every box on the path
+//! accepts in the ray's `[tmin, tmax]` (see [`crate::traverse::wide`]), every box on the path
 //! to that triangle passes the test with any bound at or beyond its distance, and the packet
 //! drops a ray from a node only where the ray's own bound is nearer than the node's entry.
 //! So each ray's hit is its single walk's, bit for bit, ties included.
@@ -21,11 +21,13 @@ use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
 use crate::bvh::wide::{Tri4, WIDTH};
-use crate::simd::{self, Box8Ray, Shear4};
-use crate::traverse::{CLOSEST, COUNTED, better, cull_bound};
-use crate::traverse_shared::{PACKET, nonzero_bytes, transpose8};
+use crate::ray::{Hit, Ray};
+use crate::traverse::closest::{better, cull_bound};
+use crate::traverse::counts::Counts;
+use crate::traverse::mode::{CLOSEST, COUNTED};
+use crate::traverse::shared::{PACKET, nonzero_bytes, transpose8};
+use crate::traverse::simd::{self, Box8Ray, Shear4};
 use crate::triangle::RayShear;
-use crate::{Counts, Hit, Ray};
 
 impl Bvh {
     /// Closest hits of `rays` (one to [`PACKET`] of them, which should share an origin for the

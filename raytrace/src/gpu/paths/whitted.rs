@@ -13,16 +13,14 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::buffers::{GpuRay, RESULT_BYTES, check_size, init};
-use super::header::Header;
-use super::launch::{Count, Recorder};
-use super::program::{Program, READ, UNIFORM, WRITE, with_shading};
 use super::render::{FrameParams, GpuRenderer, PathValues, Stage, Tally};
-use super::trace::TraceMode;
-use super::{GpuContext, GpuError};
-use crate::Traffic;
+use crate::gpu::GpuError;
+use crate::gpu::buffers::{GpuRay, RESULT_BYTES, check_size};
+use crate::gpu::header::Header;
+use crate::gpu::launch::{Count, Recorder};
+use crate::gpu::trace::TraceMode;
 use crate::shade::{AMBIENT, AoSettings, SKY, WhittedSettings};
-use crate::{Light, Scene};
+use crate::traffic::Traffic;
 
 /// `whitted.wgsl`'s `struct Params`.
 #[repr(C)]
@@ -43,100 +41,6 @@ const _: () = assert!(size_of::<Params>() == 48);
 
 /// Byte offset of `count` in [`Params`], copied in from the launch's header.
 const COUNT_AT: u64 = 16;
-
-/// `struct PrimShading`: material and vertex normals of one primitive.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-struct PrimShading {
-    diffuse: [f32; 4],
-    emission: [f32; 4],
-    normals: [[f32; 4]; 3],
-}
-
-/// The Whitted kernels and the scene's shading data on the device.
-#[derive(Debug)]
-pub(crate) struct WhittedKernels {
-    program: Program,
-    start: wgpu::ComputePipeline,
-    shade: wgpu::ComputePipeline,
-    shadows: wgpu::ComputePipeline,
-    /// Materials and normals by primitive, or why they do not fit one binding (an AO render
-    /// does not need them, so only a Whitted render fails).
-    prims: Result<wgpu::Buffer, GpuError>,
-    lights: wgpu::Buffer,
-    pub(super) light_count: u32,
-    has_normals: bool,
-}
-
-impl WhittedKernels {
-    /// Compiles the kernels and uploads `scene`'s materials, normals and lights.
-    pub(crate) fn new(ctx: &GpuContext, scene: &Scene) -> Self {
-        let device = &ctx.device;
-        let v4 = |v: Vec3, w: f32| v.extend(w).to_array();
-        let mut prims: Vec<PrimShading> = (0..scene.len())
-            .map(|prim| {
-                let m = scene
-                    .material_ids
-                    .get(prim)
-                    .and_then(|&m| scene.materials.get(m as usize))
-                    .copied()
-                    .unwrap_or_default();
-                let normals = match &scene.normals {
-                    Some(n) => scene.triangles[prim].map(|k| v4(n[k as usize], 0.0)),
-                    None => [[0.0; 4]; 3],
-                };
-                PrimShading {
-                    diffuse: v4(m.diffuse, m.reflectance),
-                    emission: v4(m.emission, 0.0),
-                    normals,
-                }
-            })
-            .collect();
-        if prims.is_empty() {
-            // A binding may not be empty; nothing reads it when nothing is hit.
-            prims.push(PrimShading::default());
-        }
-        let mut lights: Vec<[[f32; 4]; 2]> = scene
-            .lights
-            .iter()
-            .map(
-                |Light::Point {
-                     position,
-                     intensity,
-                 }| [v4(*position, 0.0), v4(*intensity, 0.0)],
-            )
-            .collect();
-        let light_count = u32::try_from(lights.len()).unwrap_or(u32::MAX);
-        if lights.is_empty() {
-            lights.push([[0.0; 4]; 2]);
-        }
-        let prim_bytes: &[u8] = bytemuck::cast_slice(&prims);
-        let init = |label: &str, contents: &[u8]| {
-            init(device, label, contents, wgpu::BufferUsages::STORAGE)
-        };
-        let program = Program::new(
-            device,
-            "whitted",
-            with_shading(include_str!("whitted.wgsl")),
-            &[
-                UNIFORM, READ, READ, READ, READ, READ, WRITE, READ, WRITE, WRITE, WRITE, READ,
-                WRITE,
-            ],
-        );
-        let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
-        Self {
-            start: make("start", "cobalt Whitted path start pipeline"),
-            shade: make("shade", "cobalt Whitted shading pipeline"),
-            shadows: make("shadows", "cobalt Whitted shadows pipeline"),
-            program,
-            prims: check_size(ctx, "materials and normals", prim_bytes.len() as u64)
-                .map(|()| init("cobalt materials and normals", prim_bytes)),
-            lights: init("cobalt lights", bytemuck::cast_slice(&lights)),
-            light_count,
-            has_normals: scene.normals.is_some(),
-        }
-    }
-}
 
 impl GpuRenderer {
     /// Renders the paths of `tasks` with Whitted shading as [`crate::shade::render`] does
@@ -211,7 +115,7 @@ impl GpuRenderer {
     /// Returns the buffer of the paths' values and the rays traced. With `tally`, every
     /// trace adds its rays' counts to their paths' entries of `tally.paths` (an estimate's
     /// launch).
-    pub(super) fn record_whitted(
+    pub(in crate::gpu) fn record_whitted(
         &self,
         launch: &mut Recorder<'_>,
         stage: &Stage,

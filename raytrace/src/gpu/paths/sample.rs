@@ -12,13 +12,12 @@
 
 use std::ops::Range;
 
-use super::GpuError;
-use super::buffers::{check_size, storage};
-use super::program::{Kernel, READ, WRITE};
 use super::render::{FrameParams, GpuRenderer, Tally};
-use super::trace::grid;
-use crate::Traffic;
+use crate::gpu::GpuError;
+use crate::gpu::buffers::{check_size, storage};
+use crate::gpu::trace::grid;
 use crate::shade::{AoSettings, Shader};
+use crate::traffic::Traffic;
 
 /// One task's sample as the GPU summed it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -38,16 +37,6 @@ pub struct SampledPaths {
     pub tasks: Vec<PathSums>,
     /// Bytes each way and host waits.
     pub traffic: Traffic,
-}
-
-/// The compiled `sums.wgsl`.
-pub(super) fn sums_kernel(device: &wgpu::Device) -> Kernel {
-    Kernel::new(
-        device,
-        "sums",
-        include_str!("sums.wgsl"),
-        &[READ, READ, READ, WRITE, READ],
-    )
 }
 
 impl GpuRenderer {
@@ -70,7 +59,7 @@ impl GpuRenderer {
         self.sample_launch(frame, tasks, shader, stride)?
             .ok_or_else(|| GpuError::LoopCut {
                 adapter: self.ctx.info.name.clone(),
-                batches: super::trace::BATCHES,
+                batches: crate::gpu::trace::BATCHES,
             })
     }
 
