@@ -26,24 +26,6 @@ const ROOTS: [&str; 5] = [
     "src/main.rs",
 ];
 
-/// Cycles known and not yet broken, each the set of files in it, relative to the workspace.
-/// Each runs through modules being rewritten, which will break it; its entry goes then.
-const ALLOWED: &[&[&str]] = &[
-    // `PathDevice::estimate` (device.rs) calls `estimate_paths`, which takes device.rs's `Frame`.
-    &[
-        "raytrace/src/paths/device.rs",
-        "raytrace/src/paths/estimate.rs",
-    ],
-    // `PathRenderer` keeps a `History`, and memory.rs, beside it, gives `PathRenderer` its
-    // `recall` and `remember`.
-    &[
-        "raytrace/src/paths/memory.rs",
-        "raytrace/src/paths/renderer.rs",
-    ],
-    // `GpuDevice::estimate_work` builds the `GpuReducedTraversal` that wraps a `GpuDevice`.
-    &["raytrace/src/gpu/device.rs", "raytrace/src/gpu/estimate.rs"],
-];
-
 /// A module: a file, or an inline `mod name { … }` within one.
 struct Module {
     /// Its path from the crate root.
@@ -419,21 +401,9 @@ fn cycles(root: &Path) -> Vec<(Vec<PathBuf>, Vec<String>)> {
 #[test]
 fn workspace_imports_are_acyclic() {
     let ws = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let allowed: Vec<Vec<PathBuf>> = ALLOWED
-        .iter()
-        .map(|set| set.iter().map(|f| ws.join(f)).collect())
-        .collect();
     let mut report = String::new();
     for root in ROOTS {
         for (files, via) in cycles(&ws.join(root)) {
-            let mut sorted = files.clone();
-            sorted.sort();
-            if allowed
-                .iter()
-                .any(|a| a.iter().collect::<BTreeSet<_>>() == sorted.iter().collect())
-            {
-                continue;
-            }
             let names: Vec<_> = files
                 .iter()
                 .map(|f| f.strip_prefix(ws).unwrap_or(f).display().to_string())

@@ -15,65 +15,9 @@
 
 use super::Mode;
 use crate::calibration::{Calibration, ChoiceKey, Entry, Key, device_set};
-use crate::cost::{CostModel, Work, calibrate};
 
 use super::PathRenderer;
 use super::choice::{SetTimes, shader_named};
-use super::learn::Learnt;
-
-/// Fewer launches than this fit no model worth planning with: with two unknowns, a handful
-/// of points is fitted exactly, noise included.
-const MIN_FIT_LAUNCHES: usize = 8;
-
-/// What one device class's launches taught over a run.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct History {
-    /// Work and seconds of the launches kept, from frames this class estimated.
-    fit: Vec<(Work, f64)>,
-    /// Launches learnt from.
-    samples: u64,
-    /// Launches left out as timing spikes.
-    spikes: u64,
-    /// Paths and seconds of the launches kept.
-    paths: f64,
-    seconds: f64,
-}
-
-impl History {
-    /// Adds a frame's lesson; its launches join the fit when `fitted` (the class estimated
-    /// the frame).
-    pub(crate) fn add(&mut self, learnt: &Learnt, fitted: bool) {
-        self.samples += learnt.kept.len() as u64;
-        self.spikes += learnt.spikes as u64;
-        self.paths += learnt.paths;
-        self.seconds += learnt.seconds;
-        if fitted {
-            self.fit.extend(
-                learnt
-                    .kept
-                    .iter()
-                    .filter(|l| l.work.nodes + l.work.tris > 0.0)
-                    .map(|l| (l.work, l.seconds)),
-            );
-        }
-    }
-
-    /// Paths per second over the run's launches kept, if any were.
-    fn paths_per_second(&self) -> Option<f64> {
-        let r = self.paths / self.seconds;
-        (r.is_finite() && r > 0.0).then_some(r)
-    }
-
-    /// `kB`, `kT` in seconds, if enough launches were kept and the fit can plan.
-    fn model(&self) -> Option<CostModel> {
-        if self.fit.len() < MIN_FIT_LAUNCHES {
-            return None;
-        }
-        let (work, seconds): (Vec<Work>, Vec<f64>) = self.fit.iter().copied().unzip();
-        let m = calibrate(&work, &seconds).ok()?.model;
-        m.can_plan().then_some(m)
-    }
-}
 
 impl PathRenderer<'_> {
     /// Plans the next frame with what `calibration` holds for this renderer's device classes

@@ -47,8 +47,10 @@ mod cpu;
 mod device;
 mod estimate;
 mod fault;
+mod frame;
 #[cfg(feature = "gpu")]
 mod gpu;
+mod history;
 mod learn;
 mod memory;
 mod renderer;
@@ -58,12 +60,13 @@ mod stats;
 pub use crate::traffic::Traffic;
 pub use build::build_path_devices;
 pub use cpu::CpuPaths;
-pub use device::{BoundPaths, Estimate, Frame, Launch, PathDevice, TaskValues};
+pub use device::{BoundPaths, Estimate, Launch, PathDevice, TaskValues};
 pub use estimate::{
     SampledTask, estimate_paths, estimate_paths_in, sample_paths, sampled_options, task_work,
     walk_paths,
 };
 pub use fault::{FailAfter, FailingPaths, InjectedFault};
+pub use frame::Frame;
 #[cfg(feature = "gpu")]
 pub use gpu::GpuPaths;
 pub use renderer::{FrameRendering, KeptDevices, PathRenderer};

@@ -11,8 +11,8 @@ use rayon::prelude::*;
 use sched::{Costs, Runtime, SchedError, split_ranges};
 
 use super::choice::{ChoiceKey, SetTimes, choice_key};
+use super::history::History;
 use super::learn::{Learnt, launches, learn, relative_speeds};
-use super::memory::History;
 use super::{
     BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, Traffic, estimate_paths,
     walk_paths,
