@@ -97,7 +97,7 @@ impl WideBvh {
     /// For an estimate's sampled packets: each lies far from the packet walked before it, so
     /// the nodes and triangles it enters are cold, and asked for together they arrive
     /// together instead of each waiting in turn. A packet of the full trace finds them warm
-    /// from its neighbours, and there the requests only cost (docs/measurements.md).
+    /// from its neighbours, and there the requests only cost.
     #[inline(always)]
     pub(crate) fn prefetch_children(&self, node: &Node8, mut kids: u32) {
         while kids != 0 {

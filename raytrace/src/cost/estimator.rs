@@ -31,8 +31,8 @@ pub struct ReducedTraversal<'a> {
 
 impl<'a> ReducedTraversal<'a> {
     /// The halves' disagreement `cobalt estimate` refines its sample to unless told otherwise
-    /// (see [`ReducedTraversal::with_sample_error`]; docs/measurements.md has the figures
-    /// that chose it).
+    /// (see [`ReducedTraversal::with_sample_error`]; `docs/results.md`, "Sample-error
+    /// targets compared", has the figures that chose it).
     pub const DEFAULT_SAMPLE_ERROR: f64 = 0.08;
 
     /// An estimator of tasks of `rays` sampling at `rate`, with the default [`CostModel`].

@@ -20,7 +20,7 @@ pub use sched::SampleRate;
 /// pixel's Halton probes) share most of their nodes and the trace left after the sample has
 /// fewer, wider gaps; shorter runs spread the same number of samples over more of the task.
 /// `cobalt estimate --sample-run` measures the trade (error against measured time, net
-/// overhead); docs/measurements.md has the figures that chose [`SampleRun::DEFAULT`].
+/// overhead).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct SampleRun(std::num::NonZeroUsize);
 

@@ -3,7 +3,7 @@
 //! Adding a device must never make a render slower, and a plan cannot promise that by itself:
 //! a device far slower than another still holds up the frame with the one task it started,
 //! its share of the estimate is slow, and its threads take the cores that feed a GPU
-//! (`docs/measurements.md` has what CPU cores cost a GPU's frames). So the renderer measures
+//! (`docs/results.md`, "CPU cores beside an H100", has what they cost). So the renderer measures
 //! both ways and keeps the faster: per shader and mode (which decide what a frame costs on
 //! every device), it keeps the seconds per path of the latest frame rendered on every device
 //! and of the latest on the fastest class alone, and renders the next frame the way that was

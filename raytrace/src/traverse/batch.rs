@@ -20,8 +20,7 @@ const CHUNK: usize = 256;
 
 /// How far ahead of the ray being walked a sample read in place is prefetched: two runs of
 /// eight. The sampled runs lie apart in the batch, where the hardware prefetchers, which
-/// follow streams, do not fetch them, so each run's loads would miss the cache and wait
-/// (docs/measurements.md has what that cost the estimate).
+/// follow streams, do not fetch them, so each run's loads would miss the cache and wait.
 const SAMPLE_AHEAD: usize = 16;
 
 fn check(rays: &RayBatch) {

@@ -12,11 +12,12 @@
 /// stands for "the ray hits something there", which is what a closed surface does. It is the
 /// better model for closest-hit rays on closed meshes and dense geometry, and the worse one
 /// where rays pass leaves without hitting (foliage) and for any-hit rays; `cobalt estimate
-/// --walk auto` measures both and picks (README: "Closed meshes, and the first-leaf walk").
+/// --walk auto` measures both and picks.
 ///
 /// [`Walk::Trace`] is not a reduced traversal: the sample is traced for real, triangles and
 /// all, and counted as traced. It costs more per sampled ray but models rooms, where rays stop
-/// at walls, far better (README: "What limits the estimate").
+/// at walls, far better (`docs/results.md`, "The cost estimate: accuracy and overhead per
+/// scene": the reduced walk's error against the trace walk's).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Walk {
     /// The thesis's reduced traversal: the whole `[tmin, tmax]` of every ray, boxes only.
@@ -47,7 +48,7 @@ impl Walk {
 
     /// The walk a generation of `kind` is estimated with. For closest-hit rays, this one.
     /// For any-hit rays (shadow, AO), the reduced walk instead of the first-leaf walk, which
-    /// modelled the measured times worse on every scene tried (see the README), and an
+    /// modelled the measured times worse on every scene measured, and an
     /// any-hit trace for the trace walk.
     pub fn for_kind(self, kind: crate::ray::RayKind) -> Self {
         match self {

@@ -22,8 +22,8 @@ const MIN_LAUNCH: f64 = 8.0;
 /// the first launch takes all but a reserve of the smallest tasks (1/8 of the list's cost),
 /// later ones half of what is left, and no launch carries or leaves behind less than `8 · L` of
 /// work (at the device's pace): halving down to single tasks paid `L` a dozen times per device,
-/// which at a network's 200 µs cost more than the imbalance it removed (see `README.md` in this
-/// folder for the figures). A device with nothing left looks for work in this order: tasks
+/// which at a network's 200 µs cost more than the imbalance it removed. A device with nothing
+/// left looks for work in this order: tasks
 /// orphaned by a failed device, then the smallest unlaunched tasks of the device expected to
 /// finish last, as many as it can finish no later than that device would finish the rest.
 /// Stolen tasks join the thief's list and are launched like its own.

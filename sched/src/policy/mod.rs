@@ -1,4 +1,4 @@
-//! Scheduling policies. Design notes, with the bounds each one carries, are in `README.md`.
+//! Scheduling policies. Each policy's design notes, with the bounds it carries, are on its type.
 
 mod central_queue;
 mod hybrid;
