@@ -1,7 +1,6 @@
 //! `cobalt`: cost-balanced scheduling of irregular workloads, from the command line.
 
 mod args;
-mod balance;
 mod bench;
 mod calibration;
 #[cfg(feature = "mpi")]
@@ -16,7 +15,6 @@ mod output;
 mod print;
 mod render;
 mod render_gpu;
-mod rounds;
 mod schedule;
 mod spatial;
 mod trace;

@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use super::matrix::SceneMatrix;
 use crate::error::CliError;
-use crate::rounds::{Budget, Rounds, SlicedStep, SlicedTraces};
+use raytrace::cost::{Budget, Rounds, SlicedStep, SlicedTraces};
 
 /// The sampling rates measured: the thesis's four, and two below them.
 pub const RATES: [f64; 6] = [0.03125, 0.0625, 0.125, 0.25, 0.5, 1.0];
@@ -90,7 +90,7 @@ pub struct TradePoint {
     /// The thesis's, against the walk's own full count (secondary: it does not see time).
     pub prediction_error: f64,
     /// Estimation time over the full trace's time, both on all cores: the median over pairs
-    /// of rounds of each pair's share (see `crate::rounds`).
+    /// of rounds of each pair's share (see `raytrace::cost::Rounds`).
     pub overhead: f64,
     /// What estimating costs a render: the overhead less the sample's trace, where the walk
     /// traced it for real and the render reuses its hits; else the overhead.
@@ -109,7 +109,7 @@ pub struct TradePoint {
 /// `any`, else closest hits): the trace, the trace left after the sample (where `known`, the
 /// sampled rays, are reused) and the estimate timed in rounds, each figure the median of its
 /// pairs of rounds' own shares of the trace, as `cobalt estimate` takes them (see
-/// `crate::rounds`).
+/// `raytrace::cost::Rounds`).
 fn shares(
     (bvh, rays, any): (&Bvh, &RayBatch, bool),
     estimator: &ReducedTraversal<'_>,
@@ -120,14 +120,20 @@ fn shares(
     let reuses = known.is_some();
     let known = known.unwrap_or_default();
     let traces = SlicedTraces::new(bvh, [(rays, any, &known[..])]);
-    let mut trace = |s: usize| traces.run(s, false);
-    let mut rest = |s: usize| traces.run(s, true);
+    let mut trace = |s: usize| {
+        traces.run(s, false);
+        Ok(())
+    };
+    let mut rest = |s: usize| {
+        traces.run(s, true);
+        Ok(())
+    };
     let mut estimate = || -> Result<(), CliError> {
         std::hint::black_box(estimator.try_sample(tasks).map_err(cost_err)?);
         Ok(())
     };
     // The rest is timed only where the render reuses the sample's hits.
-    let sliced: &mut [SlicedStep<'_>] = if reuses {
+    let sliced: &mut [SlicedStep<'_, CliError>] = if reuses {
         &mut [&mut trace, &mut rest]
     } else {
         &mut [&mut trace]
@@ -204,7 +210,7 @@ fn points(
             .chunks(task_size / unit)
             .map(|c| c.iter().fold(Work::default(), |a, &w| a.plus(w)))
             .collect();
-        let trace_judged = crate::balance::judge(&trace_work, &seconds);
+        let trace_judged = raytrace::cost::judge::judge(&trace_work, &seconds);
         let (error_vs_time_trace, spearman_trace_vs_time) =
             (trace_judged.error_vs_time, trace_judged.spearman_vs_time);
         let traced = Walk::Trace { any: occlusion };
@@ -243,7 +249,7 @@ fn points(
                 &tasks,
                 (p == traced).then(|| traced_sample.map(|t| t.index).unwrap_or_default()),
             )?;
-            let judged = crate::balance::judge(&work, &seconds);
+            let judged = raytrace::cost::judge::judge(&work, &seconds);
             let (error_vs_time, spearman_vs_time) = (judged.error_vs_time, judged.spearman_vs_time);
             let lpt_balance = judged.lpt_balance;
             let thesis_at = thesis

@@ -14,7 +14,7 @@ use super::args::{Args, DeviceArg, WalkArg};
 use super::rays::Generations;
 use super::report::{Calibration, Model, Report, WalkFigures, WalkFit};
 use crate::error::CliError;
-use crate::rounds::{Budget, Rounds, SlicedTraces};
+use raytrace::cost::{Budget, Rounds, SlicedTraces};
 
 /// Measures the estimates of `rays` against their tasks' times, as `args` asks.
 pub(super) fn measure(
@@ -66,7 +66,7 @@ pub(super) fn measure(
             args.clock,
         )?);
     }
-    let judge = |work: &[Work]| crate::balance::judge(work, &measured);
+    let judge = |work: &[Work]| raytrace::cost::judge::judge(work, &measured);
     let full_of = |walk: Walk| -> Result<Vec<Work>, CliError> {
         let mut full = Vec::with_capacity(tasks.len());
         for (range, kind) in &parts {
@@ -146,7 +146,7 @@ pub(super) fn measure(
             .collect()
     };
     let jobs = jobs_of(walk);
-    // Rounds the CPU's steps were timed in (see `crate::rounds`); the GPU's, `repeats`.
+    // Rounds the CPU's steps were timed in (see `raytrace::cost::Rounds`); the GPU's, `repeats`.
     let mut rounds = args.repeats;
     // Slices the CPU's trace and rest were timed in.
     let mut slices = None;
@@ -202,7 +202,7 @@ pub(super) fn measure(
                         }) as Box<dyn FnMut() -> Result<(), CliError> + '_>
                     })
                     .collect();
-                // The trace and the rest in slices (see `crate::rounds`), every generation.
+                // The trace and the rest in slices (see `raytrace::cost::Rounds`), every generation.
                 let traces = SlicedTraces::new(
                     bvh,
                     segments
@@ -210,8 +210,14 @@ pub(super) fn measure(
                         .zip(&known)
                         .map(|((batch, kind), known)| (batch, kind.is_occlusion(), &known[..])),
                 );
-                let mut trace = |s: usize| traces.run(s, false);
-                let mut rest = |s: usize| traces.run(s, true);
+                let mut trace = |s: usize| {
+                    traces.run(s, false);
+                    Ok(())
+                };
+                let mut rest = |s: usize| {
+                    traces.run(s, true);
+                    Ok(())
+                };
                 let mut whole: Vec<&mut dyn FnMut() -> Result<(), CliError>> =
                     estimates.iter_mut().map(|e| e.as_mut() as _).collect();
                 let timed = Rounds::time(
@@ -228,7 +234,7 @@ pub(super) fn measure(
                 let best: Vec<f64> = (0..2 + candidates.len()).map(|i| timed.least(i)).collect();
                 let (trace_seconds, rest_seconds) = (best[0], best[1]);
                 // Walk `i`'s overhead and net overhead, each a median over the pairs of rounds
-                // of each pair's shares of the trace (see `crate::rounds`).
+                // of each pair's shares of the trace (see `raytrace::cost::Rounds`).
                 let shares = |i: usize, reused: bool| {
                     let own = timed.quartile_shares(|r| r[2 + i]);
                     let [q1, net, q3] = if reused {
@@ -341,9 +347,9 @@ pub(super) fn measure(
         walk: walk.name(),
         walk_fits,
         walks,
-        balance_devices: crate::balance::DEVICES,
-        balance_measured: crate::balance::lpt(&measured, &measured),
-        balance_uniform: crate::balance::uniform(&measured),
+        balance_devices: raytrace::cost::judge::DEVICES,
+        balance_measured: raytrace::cost::judge::lpt(&measured, &measured),
+        balance_uniform: raytrace::cost::judge::uniform(&measured),
         sampled_rays,
         threads: rayon::current_num_threads(),
         repeats: args.repeats,

@@ -79,7 +79,7 @@ pub(super) struct Report {
     /// `(estimate + rest − full trace) / full trace`, where `rest` is the full trace less
     /// the sampled rays when the walk traces them for real (a render takes their hits from
     /// the estimate), else the full trace: what estimating costs a render. On the CPU, the
-    /// median over the pairs of rounds of each pair's own (see `crate::rounds`).
+    /// median over the pairs of rounds of each pair's own (see `raytrace::cost::Rounds`).
     pub(super) net_overhead: f64,
     /// On the CPU, the first and third quartile of the pairs' own net overheads: how far
     /// the machine moved them.
@@ -140,7 +140,7 @@ pub(super) struct Report {
     pub(super) estimate_seconds: f64,
     /// Full trace (closest or any hit, with triangle tests) of all rays, on all cores (or on
     /// the GPU, upload and read-back included). On the CPU, the least over the rounds of the
-    /// trace's slices' sum (see `crate::rounds`).
+    /// trace's slices' sum (see `raytrace::cost::Rounds`).
     pub(super) trace_seconds: f64,
     /// Estimate over full trace; on the CPU, the median over the pairs of rounds of each
     /// pair's own.
