@@ -123,6 +123,23 @@ impl CliError {
     }
 }
 
+impl From<raytrace::bench::BenchError> for CliError {
+    fn from(e: raytrace::bench::BenchError) -> Self {
+        use raytrace::bench::BenchError;
+        match e {
+            BenchError::DevicesFailed { devices, failures } => {
+                Self::devices_failed(&devices, &failures)
+            }
+            BenchError::Scene(e) => e.into(),
+            BenchError::Sched(e) => e.into(),
+            // The message the trade's estimates have always failed with.
+            e @ BenchError::Estimate(_) => Self::Write(e.to_string()),
+            #[cfg(feature = "mpi")]
+            BenchError::Cluster(e) => e.into(),
+        }
+    }
+}
+
 fn flag_prefix(flag: &str) -> String {
     if flag.is_empty() {
         String::new()

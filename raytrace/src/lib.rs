@@ -28,6 +28,7 @@
 mod aabb;
 pub mod ao;
 pub mod baseline;
+pub mod bench;
 pub mod builtin;
 pub mod bvh;
 pub mod calibration;

@@ -28,7 +28,7 @@ use crate::ray::RayBatch;
 use crate::traverse;
 
 /// How long a timing goes on: at least `repeats` rounds, more while the full trace has taken
-/// less than `trace_seconds` in all (at most [`MAX_ROUNDS`]), and an even count (whole pairs).
+/// less than `trace_seconds` in all (at most 128), and an even count (whole pairs).
 #[derive(Clone, Copy, Debug)]
 pub struct Budget {
     repeats: usize,
@@ -105,7 +105,7 @@ struct Part<'a> {
 
 impl<'a> SlicedTraces<'a> {
     /// The traces of `parts`, each a batch, whether it is traced for any hits and its sampled
-    /// rays, cut in [`slice_count`] slices of all their rays.
+    /// rays, cut in slices of all their rays (2^18 rays or more each, at most 16).
     pub fn new(
         bvh: &'a Bvh,
         parts: impl IntoIterator<Item = (&'a RayBatch, bool, &'a [usize])>,
