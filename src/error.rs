@@ -140,6 +140,26 @@ impl From<raytrace::bench::BenchError> for CliError {
     }
 }
 
+impl From<raytrace::estimate::EstimateError> for CliError {
+    fn from(e: raytrace::estimate::EstimateError) -> Self {
+        use raytrace::estimate::EstimateError;
+        // A GPU error names the flag that asked for the GPU.
+        let device = |message: String| Self::Arg {
+            flag: "device",
+            value: "gpu".into(),
+            message,
+        };
+        match e {
+            EstimateError::Cost(e) => e.into(),
+            #[cfg(feature = "gpu")]
+            EstimateError::Gpu(e) => device(e.to_string()),
+            EstimateError::NoGpu => {
+                device("this cobalt was built without the `gpu` feature".into())
+            }
+        }
+    }
+}
+
 fn flag_prefix(flag: &str) -> String {
     if flag.is_empty() {
         String::new()

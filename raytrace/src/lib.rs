@@ -39,6 +39,7 @@ pub mod devices;
 #[cfg(feature = "mpi")]
 pub mod distributed;
 mod error;
+pub mod estimate;
 pub mod film;
 #[cfg(feature = "gpu")]
 pub mod gpu;
