@@ -56,6 +56,7 @@ pub mod spawn;
 pub mod testkit;
 #[cfg(test)]
 mod tests;
+pub mod tradeoff;
 mod traffic;
 pub mod traverse;
 mod triangle;
