@@ -14,7 +14,6 @@ mod limits;
 mod output;
 mod print;
 mod render;
-mod render_gpu;
 mod schedule;
 mod spatial;
 mod trace;

@@ -35,6 +35,17 @@ impl Workload {
         }
     }
 
+    /// Its shader, with `ao_samples` probes per primary hit for AO.
+    pub fn shader(self, ao_samples: u32) -> Shader {
+        match self {
+            Self::Whitted => Shader::Whitted(WhittedSettings::default()),
+            Self::Ao => Shader::Ao(AoSettings {
+                samples: ao_samples,
+                ..Default::default()
+            }),
+        }
+    }
+
     /// The kind of its rays: `coherent` or `diffuse`.
     pub fn ray_kind(self) -> &'static str {
         match self {
@@ -168,16 +179,6 @@ impl SceneMatrix<'_> {
             * self.policies.len()
             * Mode::ALL.len()
             * self.repeats
-    }
-
-    pub(super) fn shader(&self, w: Workload) -> Shader {
-        match w {
-            Workload::Whitted => Shader::Whitted(WhittedSettings::default()),
-            Workload::Ao => Shader::Ao(AoSettings {
-                samples: self.ao_samples,
-                ..Default::default()
-            }),
-        }
     }
 
     /// Runs the whole matrix, calling `tick` after each run; returns one record per cell (the

@@ -25,7 +25,7 @@ use crate::devices::DeviceSpec;
 use crate::distributed::render_over_ranks;
 use crate::paths::{Mode, PathRenderer, Settings, build_path_devices};
 use crate::scene::Scene;
-use crate::shade::{AoSettings, RenderOptions, Shader, WhittedSettings};
+use crate::shade::RenderOptions;
 
 /// Node counts of the simulated clusters.
 pub const SIMULATED_NODES: [usize; 2] = [16, 64];
@@ -131,16 +131,6 @@ pub struct ClusterSimRecord {
 }
 
 impl SceneMatrix<'_> {
-    fn shader(&self, w: Workload) -> Shader {
-        match w {
-            Workload::Whitted => Shader::Whitted(WhittedSettings::default()),
-            Workload::Ao => Shader::Ao(AoSettings {
-                samples: self.ao_samples,
-                ..Default::default()
-            }),
-        }
-    }
-
     fn settings(&self, policy: Policy, task_size: NonZeroUsize) -> Settings {
         Settings {
             policy,
@@ -153,7 +143,7 @@ impl SceneMatrix<'_> {
 
     fn options(&self, w: Workload) -> RenderOptions {
         let camera = Camera::orbit(&self.scene.bounds(), 0);
-        RenderOptions::new(self.width, self.height, camera, self.shader(w))
+        RenderOptions::new(self.width, self.height, camera, w.shader(self.ao_samples))
     }
 
     /// The tasks of a frame on this rank's devices alone.

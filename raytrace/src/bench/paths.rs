@@ -36,7 +36,7 @@ impl SceneMatrix<'_> {
                 PathRenderer::new(devices, settings)?
             }
         };
-        let workload = workload(self.scene_name, &self.shader(w));
+        let workload = workload(self.scene_name, &w.shader(self.ao_samples));
         let recalled = self.calibration.map(|store| {
             let mut store = store.borrow_mut();
             let used = store.recall(&mut renderer, &workload);
@@ -131,7 +131,7 @@ impl SceneMatrix<'_> {
             self.width,
             self.height,
             Camera::orbit(&self.scene.bounds(), cam),
-            self.shader(w),
+            w.shader(self.ao_samples),
         )
     }
 }
