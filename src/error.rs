@@ -123,6 +123,43 @@ impl CliError {
     }
 }
 
+impl From<raytrace::bench::BenchError> for CliError {
+    fn from(e: raytrace::bench::BenchError) -> Self {
+        use raytrace::bench::BenchError;
+        match e {
+            BenchError::DevicesFailed { devices, failures } => {
+                Self::devices_failed(&devices, &failures)
+            }
+            BenchError::Scene(e) => e.into(),
+            BenchError::Sched(e) => e.into(),
+            // The message the trade's estimates have always failed with.
+            e @ BenchError::Estimate(_) => Self::Write(e.to_string()),
+            #[cfg(feature = "mpi")]
+            BenchError::Cluster(e) => e.into(),
+        }
+    }
+}
+
+impl From<raytrace::estimate::EstimateError> for CliError {
+    fn from(e: raytrace::estimate::EstimateError) -> Self {
+        use raytrace::estimate::EstimateError;
+        // A GPU error names the flag that asked for the GPU.
+        let device = |message: String| Self::Arg {
+            flag: "device",
+            value: "gpu".into(),
+            message,
+        };
+        match e {
+            EstimateError::Cost(e) => e.into(),
+            #[cfg(feature = "gpu")]
+            EstimateError::Gpu(e) => device(e.to_string()),
+            EstimateError::NoGpu => {
+                device("this cobalt was built without the `gpu` feature".into())
+            }
+        }
+    }
+}
+
 fn flag_prefix(flag: &str) -> String {
     if flag.is_empty() {
         String::new()

@@ -1,7 +1,6 @@
 //! `cobalt`: cost-balanced scheduling of irregular workloads, from the command line.
 
 mod args;
-mod balance;
 mod bench;
 mod calibration;
 #[cfg(feature = "mpi")]
@@ -15,8 +14,6 @@ mod limits;
 mod output;
 mod print;
 mod render;
-mod render_gpu;
-mod rounds;
 mod schedule;
 mod spatial;
 mod trace;

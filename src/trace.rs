@@ -161,9 +161,18 @@ fn gpu_trace(
     rays: &RayBatch,
     any_hit: bool,
 ) -> Result<(HitBatch, f64, Option<String>), CliError> {
-    use raytrace::gpu::GpuDevice;
-    let gpu_err = crate::render_gpu::gpu_err("device");
-    let ctx = crate::render_gpu::first_gpu("device")?;
+    use raytrace::devices::GpuSelect;
+    use raytrace::gpu::{GpuContext, GpuDevice, GpuError, GpuOptions};
+    // A GPU error names the flag that asked for the GPU.
+    let gpu_err = |e: GpuError| CliError::Arg {
+        flag: "device",
+        value: "gpu".into(),
+        message: e.to_string(),
+    };
+    // The first GPU found, with the `COBALT_GPU_*` options from the environment.
+    let ctx = GpuContext::open(GpuSelect::All, GpuOptions::from_env())
+        .map_err(gpu_err)?
+        .swap_remove(0);
     let name = ctx.info.name.clone();
     let dev = GpuDevice::new(ctx, bvh).map_err(gpu_err)?;
     let tracing = Instant::now();

@@ -1,4 +1,5 @@
-//! `cobalt tradeoff`: what speed costs in accuracy, measured on one scene in one run.
+//! `cobalt tradeoff`: what speed costs in accuracy, measured on one scene in one run by
+//! [`raytrace::tradeoff`].
 //!
 //! Two tables:
 //! - BVH build preset: build time and SAH cost against trace throughput (primary rays of the
@@ -8,11 +9,9 @@
 //!   time.
 
 use std::path::Path;
-use std::time::Instant;
 
-use raytrace::shade::{AoSettings, CpuTracer, RenderOptions, Shader, render};
-use raytrace::traverse::{any_hits, closest_hits};
-use raytrace::{BuildPreset, Bvh, Camera, SceneSource, workload};
+use raytrace::tradeoff::{PresetRecord, SampleRecord};
+use raytrace::{BuildPreset, SceneSource};
 use serde::Serialize;
 
 use crate::args::{MAX_AO_SAMPLES, Size, camera_index};
@@ -44,30 +43,6 @@ pub struct Args {
     /// Also write the records as JSON to this file.
     #[arg(long)]
     json: Option<std::path::PathBuf>,
-}
-
-#[derive(Debug, Serialize)]
-struct PresetRecord {
-    preset: &'static str,
-    build_seconds: f64,
-    sah_cost: f64,
-    nodes: usize,
-    primary_mrays_per_s: f64,
-    ao_mrays_per_s: f64,
-}
-
-#[derive(Debug, Serialize)]
-struct SampleRecord {
-    samples: u32,
-    rays: usize,
-    /// Wall time of the whole AO render.
-    seconds: f64,
-    /// Root mean square difference of the AO value (0..1) from the reference, over pixels.
-    rmse: f64,
-    /// Largest per-pixel difference.
-    max_error: f64,
-    /// Reference render time over this one.
-    speedup: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -110,68 +85,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
     )?;
     let scene = SceneSource::parse(&args.scene)?.load(raytrace::SceneNeeds::AO)?;
 
-    let mut preset_records = Vec::new();
-    let primary = workload::orbit_primary(&scene, width, height, 0..4);
-    for &preset in &presets {
-        let bvh = Bvh::build(&scene, preset)?;
-        let ao = workload::orbit_ao(&scene, &bvh, width, height, camera, 32);
-        let mrays = |n: usize, f: &dyn Fn()| {
-            // Best of two: the first run also warms caches.
-            let mut best = f64::MAX;
-            for _ in 0..2 {
-                let t = Instant::now();
-                f();
-                best = best.min(t.elapsed().as_secs_f64());
-            }
-            n as f64 / best / 1e6
-        };
-        preset_records.push(PresetRecord {
-            preset: preset.name(),
-            build_seconds: bvh.report().build_seconds,
-            sah_cost: bvh.report().sah_cost,
-            nodes: bvh.report().nodes,
-            primary_mrays_per_s: mrays(primary.len(), &|| {
-                closest_hits(&bvh, &primary);
-            }),
-            ao_mrays_per_s: mrays(ao.rays.len(), &|| {
-                any_hits(&bvh, &ao.rays);
-            }),
-        });
-    }
-
-    let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
-    let cam = Camera::orbit(&scene.bounds(), camera);
-    let ao_render = |samples: u32, seed: u64| {
-        let shader = Shader::Ao(AoSettings {
-            samples,
-            seed,
-            ..Default::default()
-        });
-        render(
-            &scene,
-            &mut CpuTracer::new(&bvh),
-            &RenderOptions::new(width, height, cam, shader),
-        )
-    };
-    let reference = ao_render(args.reference, 0x5EED);
-    let mut ao_records = Vec::new();
-    for &samples in counts {
-        let r = ao_render(samples, 0);
-        let (mut sq, mut max) = (0f64, 0f64);
-        for (a, b) in r.film.pixels().iter().zip(reference.film.pixels()) {
-            let d = f64::from((a.x - b.x).abs());
-            sq += d * d;
-            max = max.max(d);
-        }
-        ao_records.push(SampleRecord {
-            samples,
-            rays: r.total_rays(),
-            seconds: r.seconds,
-            rmse: (sq / r.film.pixels().len().max(1) as f64).sqrt(),
-            max_error: max,
-            speedup: reference.seconds / r.seconds.max(1e-12),
-        });
-    }
+    let size = (width, height);
+    let preset_records = raytrace::tradeoff::presets(&scene, size, camera, &presets)?;
+    let (reference_seconds, ao_records) =
+        raytrace::tradeoff::ao_samples(&scene, size, camera, counts, args.reference)?;
 
     let report = Report {
         scene: args.scene.clone(),
@@ -180,7 +97,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         threads: rayon::current_num_threads(),
         presets: preset_records,
         reference_samples: args.reference,
-        reference_seconds: reference.seconds,
+        reference_seconds,
         ao: ao_records,
     };
     let text = serde_json::to_vec_pretty(&report).map_err(|e| CliError::Write(e.to_string()))?;

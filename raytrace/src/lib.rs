@@ -28,6 +28,7 @@
 mod aabb;
 pub mod ao;
 pub mod baseline;
+pub mod bench;
 pub mod builtin;
 pub mod bvh;
 pub mod calibration;
@@ -38,6 +39,7 @@ pub mod devices;
 #[cfg(feature = "mpi")]
 pub mod distributed;
 mod error;
+pub mod estimate;
 pub mod film;
 #[cfg(feature = "gpu")]
 pub mod gpu;
@@ -54,6 +56,7 @@ pub mod spawn;
 pub mod testkit;
 #[cfg(test)]
 mod tests;
+pub mod tradeoff;
 mod traffic;
 pub mod traverse;
 mod triangle;

@@ -1,37 +1,27 @@
-//! `cobalt bench`: the thesis experiment, measured.
+//! `cobalt bench`: the thesis experiment, measured by [`raytrace::bench`].
 //!
 //! For each scene, each workload (Whitted: coherent rays; AO: diffuse rays), task size,
 //! policy and mode (`regular`: equal costs; `cost`: estimates from a sample of each task's
 //! paths), every camera is rendered by the render engine on the given devices, and one record
 //! is kept per run. By default a quick run (about a minute on 2 cores) on `builtin:forest`; `--full` is
 //! the thesis's matrix at 1024×1024 with four cameras. `--simulate` replays the measured tasks
-//! on simulated machines; `--plots` draws the thesis's charts.
+//! on simulated machines; `--plots` draws the thesis's charts. Here are the arguments, the
+//! progress bar, the report's text and JSON, and the charts (`plots.rs`).
 
-mod matrix;
-#[cfg(feature = "mpi")]
-mod mpi;
-mod paths;
 mod plots;
-mod prediction;
-mod record;
-mod repeats;
-mod replay;
-mod simulate;
-mod table;
-mod trade;
 
 use std::num::NonZeroUsize;
 use std::path::PathBuf;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
+use raytrace::bench::{Record, SceneMatrix, SimRecord, TradePoint, Workload, table};
 use raytrace::cost::SampleRate;
-use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
+use raytrace::{BuildPreset, Bvh, Camera, Scene, SceneNeeds, SceneSource};
 use sched::Policy;
 
 use crate::args::{Devices, MAX_AO_SAMPLES, ShaderKind, Size, sample_rate, task_size};
 use crate::error::CliError;
-use matrix::{SceneMatrix, Workload};
 
 /// Arguments of `cobalt bench`.
 #[derive(Debug, clap::Args)]
@@ -111,171 +101,106 @@ pub struct Args {
 /// Most devices of a simulated machine: the simulator plans every task on every device.
 const MAX_SIMULATED_DEVICES: i64 = 65536;
 
+/// The matrix the arguments ask for, with the defaults of a quick or a full run filled in.
+struct Matrix {
+    width: u32,
+    height: u32,
+    cameras: usize,
+    task_sizes: Vec<NonZeroUsize>,
+    policies: Vec<Policy>,
+    workloads: Vec<Workload>,
+    scenes: Vec<String>,
+    /// What every scene must provide for the workloads.
+    needs: SceneNeeds,
+}
+
+impl Matrix {
+    fn of(args: &Args) -> Self {
+        let Size { width, height } =
+            args.size
+                .unwrap_or(Size::square(if args.full { 1024 } else { 512 }));
+        let workloads: Vec<Workload> = args.shaders.iter().map(|&s| workload(s)).collect();
+        Self {
+            width,
+            height,
+            cameras: args
+                .cameras
+                .map_or(if args.full { 4 } else { 1 }, |c| c as usize),
+            task_sizes: args.task_sizes.clone(),
+            policies: args
+                .policies
+                .clone()
+                .unwrap_or_else(|| Policy::ALL.to_vec()),
+            scenes: if args.scenes.is_empty() {
+                vec![String::from("builtin:forest")]
+            } else {
+                args.scenes.clone()
+            },
+            needs: if workloads.contains(&Workload::Whitted) {
+                SceneNeeds::WHITTED
+            } else {
+                SceneNeeds::AO
+            },
+            workloads,
+        }
+    }
+}
+
+/// The bench's workload of a `--shaders` entry.
+fn workload(shader: ShaderKind) -> Workload {
+    match shader {
+        ShaderKind::Whitted => Workload::Whitted,
+        ShaderKind::Ao => Workload::Ao,
+    }
+}
+
+/// What the scenes gave: the measured runs, the simulated ones, the sampling trade, and the
+/// first scene's cost image where charts are drawn.
+#[derive(Default)]
+struct Measured {
+    records: Vec<Record>,
+    sims: Vec<SimRecord>,
+    points: Vec<TradePoint>,
+    cost_png: Option<Vec<u8>>,
+}
+
 /// Runs the benchmark; every argument is checked before anything is measured.
 pub fn run(args: Args) -> Result<(), CliError> {
     let started = Instant::now();
     // A bad --json path fails now rather than after the whole matrix has run.
     crate::output::Outputs::check(&[("json", args.json.as_deref())], &[])?;
-    let Size { width, height } =
-        args.size
-            .unwrap_or(Size::square(if args.full { 1024 } else { 512 }));
-    let cameras = args
-        .cameras
-        .map_or(if args.full { 4 } else { 1 }, |c| c as usize);
-    let specs = args.devices.specs();
-    let task_sizes: Vec<usize> = args.task_sizes.iter().map(|n| n.get()).collect();
-    let policies: Vec<Policy> = args
-        .policies
-        .clone()
-        .unwrap_or_else(|| Policy::ALL.to_vec());
-    let workloads: Vec<Workload> = args.shaders.iter().map(|&s| Workload::from(s)).collect();
-    let rate = args.sample_rate;
-    let repeats = args.repeats as usize;
-    let preset = args.preset;
-    let simulate: Vec<usize> = args.simulate.iter().map(|&m| m as usize).collect();
-    let scenes = if args.scenes.is_empty() {
-        vec![String::from("builtin:forest")]
-    } else {
-        args.scenes.clone()
-    };
-    let needs = if workloads.contains(&Workload::Whitted) {
-        SceneNeeds::WHITTED
-    } else {
-        SceneNeeds::AO
-    };
+    let m = Matrix::of(&args);
     #[cfg(feature = "mpi")]
     if args.mpi {
-        let policies = match &args.policies {
-            None => vec![
-                Policy::StaticLpt,
-                Policy::QueueFifo,
-                Policy::QueueSorted,
-                Policy::Hybrid,
-            ],
-            Some(_) => policies,
-        };
-        let settings = MpiSettings {
-            width,
-            height,
-            specs,
-            workloads: &workloads,
-            task_sizes: &task_sizes,
-            policies: &policies,
-            rate,
-            preset,
-        };
-        return run_mpi(&args, &scenes, needs, settings, started);
+        return run_mpi(&args, m, started);
     }
-
     let store = args.calibration.open()?.map(std::cell::RefCell::new);
-
     // Every scene is loaded before anything is measured, so a bad file fails the command at
     // once instead of after the first scene's runs.
-    let loaded = scenes
+    let loaded = m
+        .scenes
         .iter()
-        .map(|s| SceneSource::parse(s).and_then(|src| src.load(needs)))
+        .map(|s| SceneSource::parse(s).and_then(|src| src.load(m.needs)))
         .collect::<Result<Vec<_>, _>>()?;
-
-    let mut records = Vec::new();
-    let mut sims = Vec::new();
-    let mut points = Vec::new();
-    let mut cost_png = None;
-    for (name, scene) in scenes.iter().zip(&loaded) {
-        let bvh = Bvh::build(scene, preset)?;
-        let matrix = SceneMatrix {
-            scene_name: name,
-            scene,
-            bvh: &bvh,
-            devices: specs,
-            device_list: args.devices.as_str(),
-            workloads: &workloads,
-            task_sizes: &task_sizes,
-            policies: &policies,
-            cameras,
-            width,
-            height,
-            ao_samples: args.ao_samples,
-            sample_rate: rate,
-            walk: args.walk,
-            repeats,
-            calibration: store.as_ref(),
-            path_devices: Default::default(),
-        };
-        let bar = ProgressBar::new(matrix.runs() as u64);
-        bar.set_style(
-            ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
-                .map_err(|e| CliError::Write(e.to_string()))?
-                .progress_chars("=> "),
-        );
-        bar.set_prefix(name.clone());
-        let (mut recs, replays) = matrix.run(|msg| {
-            bar.set_message(msg.to_string());
-            bar.inc(1);
-        })?;
-        bar.finish_and_clear();
-        let error_bar = table::replay_error(&recs).map(|(median, _, _)| median);
-        sims.extend(simulate::simulate(name, &replays, &simulate, error_bar)?);
-        if !args.no_trade {
-            points.extend(trade::sampling_trade(&matrix)?);
-        }
-        if args.plots.is_some() && cost_png.is_none() {
-            cost_png = Some(cost_image(scene, &bvh, width, height)?);
-        }
-        records.append(&mut recs);
+    let mut measured = Measured::default();
+    for (name, scene) in m.scenes.iter().zip(&loaded) {
+        measure_scene(&args, &m, (name, scene), store.as_ref(), &mut measured)?;
     }
-
     if let Some(store) = &store {
         let report = store.borrow().save();
-        for r in records.iter_mut() {
+        for r in measured.records.iter_mut() {
             if let Some(c) = &mut r.calibration {
                 c.written_entries = report.written_entries;
             }
         }
     }
-
-    let mut out = format!(
-        "cobalt bench: {} at {}x{}, {} camera(s), devices {}, sample rate {}{}\n\n",
-        scenes.join(", "),
-        width,
-        height,
-        cameras,
-        args.devices.as_str(),
-        rate.get(),
-        if repeats > 1 {
-            format!(
-                ", {} runs of every cell (medians; MRays/s and balance show the runs' range)",
-                repeats
-            )
-        } else {
-            String::new()
-        }
-    );
-    out += &table::runs(&records);
-    out += "\n";
-    out += &table::replays(&records);
-    out += "\nTargets on these devices:\n\n";
-    out += &table::targets(&records);
-    if !args.no_trade {
-        out += "\nSampling rate (thesis Table 4.1):\n\n";
-        out += &table::trade(&points);
-    }
-    if !sims.is_empty() {
-        let shown = task_sizes
-            .iter()
-            .copied()
-            .find(|&t| t == 4096)
-            .unwrap_or(task_sizes[0]);
-        let bar = table::replay_error(&records).map_or(String::new(), |(median, _, _)| {
-            format!(
-                "; each figure within about ±{:.1} %, the median error of the simulator's replays of the measured runs",
-                100.0 * median
-            )
-        });
-        out += &format!(
-            "\nSimulated machines from the measured tasks (PCIe link, task size {shown}; every link and size is in --json{bar}):\n\n"
-        );
-        out += &table::simulated(&sims, shown);
-    }
+    let Measured {
+        records,
+        sims,
+        points,
+        cost_png,
+    } = measured;
+    let mut out = summary(&args, &m, &records, &sims, &points);
     if let Some(dir) = &args.plots {
         let files = plots::write_all(dir, &records, &points, cost_png)?;
         let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
@@ -305,73 +230,184 @@ pub fn run(args: Args) -> Result<(), CliError> {
     Ok(())
 }
 
-/// The checked arguments `cobalt bench --mpi` runs with.
-#[cfg(feature = "mpi")]
-struct MpiSettings<'a> {
-    width: u32,
-    height: u32,
-    specs: &'a [raytrace::devices::DeviceSpec],
-    workloads: &'a [Workload],
-    task_sizes: &'a [usize],
-    policies: &'a [Policy],
-    rate: SampleRate,
-    preset: BuildPreset,
+/// One scene's matrix, with a progress bar, then its simulated machines, its sampling trade
+/// and (for the first scene with charts) its cost image, added to `out`.
+fn measure_scene(
+    args: &Args,
+    m: &Matrix,
+    (name, scene): (&String, &Scene),
+    store: Option<&std::cell::RefCell<raytrace::run::Store>>,
+    out: &mut Measured,
+) -> Result<(), CliError> {
+    let bvh = Bvh::build(scene, args.preset)?;
+    let matrix = SceneMatrix {
+        scene_name: name,
+        scene,
+        bvh: &bvh,
+        devices: args.devices.specs(),
+        device_list: args.devices.as_str(),
+        workloads: &m.workloads,
+        task_sizes: &m.task_sizes,
+        policies: &m.policies,
+        cameras: m.cameras,
+        width: m.width,
+        height: m.height,
+        ao_samples: args.ao_samples,
+        sample_rate: args.sample_rate,
+        walk: args.walk,
+        repeats: args.repeats as usize,
+        calibration: store,
+        path_devices: Default::default(),
+    };
+    let bar = ProgressBar::new(matrix.runs() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
+            .map_err(|e| CliError::Write(e.to_string()))?
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(name.clone());
+    let (mut recs, replays) = matrix.run(|msg| {
+        bar.set_message(msg.to_string());
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    let error_bar = table::replay_error(&recs).map(|(median, _, _)| median);
+    let counts: Vec<usize> = args.simulate.iter().map(|&c| c as usize).collect();
+    out.sims.extend(raytrace::bench::simulate(
+        name, &replays, &counts, error_bar,
+    )?);
+    if !args.no_trade {
+        out.points.extend(raytrace::bench::sampling_trade(&matrix)?);
+    }
+    if args.plots.is_some() && out.cost_png.is_none() {
+        out.cost_png = Some(cost_image(scene, &bvh, m.width, m.height)?);
+    }
+    out.records.append(&mut recs);
+    Ok(())
+}
+
+/// The report's text before the charts: its heading, then the tables.
+fn summary(
+    args: &Args,
+    m: &Matrix,
+    records: &[Record],
+    sims: &[SimRecord],
+    points: &[TradePoint],
+) -> String {
+    let mut out = format!(
+        "cobalt bench: {} at {}x{}, {} camera(s), devices {}, sample rate {}{}\n\n",
+        m.scenes.join(", "),
+        m.width,
+        m.height,
+        m.cameras,
+        args.devices.as_str(),
+        args.sample_rate.get(),
+        if args.repeats > 1 {
+            format!(
+                ", {} runs of every cell (medians; MRays/s and balance show the runs' range)",
+                args.repeats
+            )
+        } else {
+            String::new()
+        }
+    );
+    out += &table::runs(records);
+    out += "\n";
+    out += &table::replays(records);
+    out += "\nTargets on these devices:\n\n";
+    out += &table::targets(records);
+    if !args.no_trade {
+        out += "\nSampling rate (thesis Table 4.1):\n\n";
+        out += &table::trade(points);
+    }
+    if !sims.is_empty() {
+        let shown = m
+            .task_sizes
+            .iter()
+            .map(|t| t.get())
+            .find(|&t| t == 4096)
+            .unwrap_or(m.task_sizes[0].get());
+        let bar = table::replay_error(records).map_or(String::new(), |(median, _, _)| {
+            format!(
+                "; each figure within about ±{:.1} %, the median error of the simulator's replays of the measured runs",
+                100.0 * median
+            )
+        });
+        out += &format!(
+            "\nSimulated machines from the measured tasks (PCIe link, task size {shown}; every link and size is in --json{bar}):\n\n"
+        );
+        out += &table::simulated(sims, shown);
+    }
+    out
 }
 
 /// `cobalt bench --mpi` on every rank: every rank loads every scene (and all agree that it
 /// did), then the ranks bench together and rank 0 prints the tables.
 #[cfg(feature = "mpi")]
-fn run_mpi(
-    args: &Args,
-    scenes: &[String],
-    needs: SceneNeeds,
-    s: MpiSettings<'_>,
-    started: Instant,
-) -> Result<(), CliError> {
+fn run_mpi(args: &Args, mut m: Matrix, started: Instant) -> Result<(), CliError> {
+    use raytrace::bench::mpi;
+    if args.policies.is_none() {
+        m.policies = vec![
+            Policy::StaticLpt,
+            Policy::QueueFifo,
+            Policy::QueueSorted,
+            Policy::Hybrid,
+        ];
+    }
     let cluster = sched::mpi::Cluster::init()?;
-    let loaded: Result<Vec<_>, raytrace::Error> = scenes
+    let loaded: Result<Vec<_>, raytrace::Error> = m
+        .scenes
         .iter()
         .map(|name| {
-            let scene = SceneSource::parse(name)?.load(needs)?;
-            let bvh = Bvh::build(&scene, s.preset)?;
+            let scene = SceneSource::parse(name)?.load(m.needs)?;
+            let bvh = Bvh::build(&scene, args.preset)?;
             Ok((scene, bvh))
         })
         .collect();
     let loaded = cluster.agree("loading the scenes", loaded)?;
-    let matrices: Vec<mpi::SceneMatrix<'_>> = scenes
+    let matrices: Vec<mpi::SceneMatrix<'_>> = m
+        .scenes
         .iter()
         .zip(&loaded)
         .map(|(name, (scene, bvh))| mpi::SceneMatrix {
             scene_name: name,
             scene,
             bvh,
-            devices: s.specs,
+            devices: args.devices.specs(),
             device_list: args.devices.as_str(),
-            workloads: s.workloads,
-            task_sizes: s.task_sizes,
-            policies: s.policies,
-            width: s.width,
-            height: s.height,
+            workloads: &m.workloads,
+            task_sizes: &m.task_sizes,
+            policies: &m.policies,
+            width: m.width,
+            height: m.height,
             ao_samples: args.ao_samples,
-            sample_rate: s.rate,
+            sample_rate: args.sample_rate,
             walk: args.walk,
         })
         .collect();
-    let Some((mut text, json)) = mpi::bench(&cluster, &matrices)? else {
+    let Some(bench) = mpi::bench(&cluster, &matrices)? else {
         return Ok(());
     };
-    text = format!(
-        "cobalt bench --mpi: {} at {}x{}, camera 0, sample rate {}\n\n{text}\n{} MPI runs and {} simulated in {:.1} s.\n",
-        scenes.join(", "),
-        s.width,
-        s.height,
-        s.rate.get(),
-        json.iter().filter(|v| v["source"] == "mpi").count(),
-        json.iter().filter(|v| v["source"] != "mpi").count(),
+    let text = format!(
+        "cobalt bench --mpi: {} at {}x{}, camera 0, sample rate {}\n\n{}\n{} MPI runs and {} simulated in {:.1} s.\n",
+        m.scenes.join(", "),
+        m.width,
+        m.height,
+        args.sample_rate.get(),
+        bench.table(),
+        bench.records.len(),
+        bench.sims.len(),
         started.elapsed().as_secs_f64(),
     );
     crate::print::print_text(&text)?;
     if let Some(path) = &args.json {
+        let mut json = Vec::new();
+        for r in &bench.records {
+            json.push(serde_json::to_value(r).map_err(|e| CliError::Write(e.to_string()))?);
+        }
+        for r in &bench.sims {
+            json.push(serde_json::to_value(r).map_err(|e| CliError::Write(e.to_string()))?);
+        }
         let bytes = serde_json::to_vec_pretty(&json).map_err(|e| CliError::Write(e.to_string()))?;
         crate::output::write_file(path, &bytes)?;
     }
@@ -380,12 +416,7 @@ fn run_mpi(
 
 /// The cost image of thesis Figure 3.2 for camera 0: nodes `B` and triangle tests `T` of
 /// every primary ray.
-fn cost_image(
-    scene: &raytrace::Scene,
-    bvh: &Bvh,
-    width: u32,
-    height: u32,
-) -> Result<Vec<u8>, CliError> {
+fn cost_image(scene: &Scene, bvh: &Bvh, width: u32, height: u32) -> Result<Vec<u8>, CliError> {
     let camera = Camera::orbit(&scene.bounds(), 0);
     let counts = raytrace::cost_image::primary_counts(bvh, &camera, width, height);
     Ok(raytrace::cost_image::cost_image(&counts, width, height)

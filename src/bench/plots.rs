@@ -14,9 +14,8 @@ use std::sync::OnceLock;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-use super::record::Record;
-use super::trade::TradePoint;
 use crate::error::CliError;
+use raytrace::bench::{Record, TradePoint};
 
 const FONTS: [&str; 2] = [
     "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",

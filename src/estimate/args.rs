@@ -1,10 +1,10 @@
-//! The arguments of `cobalt estimate` ([`Args`]), read by the dispatch (`mod.rs`) and by the
-//! measurement (`measure.rs`).
+//! The arguments of `cobalt estimate` ([`Args`]), read by the dispatch (`mod.rs`).
 
 use std::num::NonZeroUsize;
 
+use raytrace::RayKind;
 use raytrace::cost::{SampleRate, SampleRun};
-use raytrace::{RayKind, Walk};
+use raytrace::estimate::WalkChoice;
 
 use crate::args::{
     MAX_AO_SAMPLES, Size, camera_index, count, positive_length, sample_rate, task_size,
@@ -80,38 +80,10 @@ pub struct Args {
     /// shadow and AO rays keep the reduced walk), or `auto`: the reduced traversal whose
     /// full counts, calibrated, err least against the measured task times.
     #[arg(long)]
-    pub(super) walk: Option<WalkArg>,
+    pub(super) walk: Option<WalkChoice>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub(super) json: bool,
-}
-
-/// `--walk`: one reduced traversal, or the better fit of both.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum WalkArg {
-    Fixed(Walk),
-    Auto,
-}
-
-impl std::str::FromStr for WalkArg {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        if s.trim() == "auto" {
-            return Ok(Self::Auto);
-        }
-        s.parse().map(Self::Fixed).map_err(|_| {
-            format!("unknown walk `{s}` (expected reduced, first-leaf, trace or auto)")
-        })
-    }
-}
-
-impl std::fmt::Display for WalkArg {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Self::Fixed(p) => p.name(),
-            Self::Auto => "auto",
-        })
-    }
 }
 
 /// Where the estimate runs.

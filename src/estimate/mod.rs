@@ -1,5 +1,5 @@
 //! `cobalt estimate`: how well an estimate of each task's cost predicts its measured time,
-//! and what estimating costs a render (see `raytrace::cost::metrics`).
+//! and what estimating costs a render (measured by [`raytrace::estimate`]).
 //!
 //! For one generation of rays cut into tasks it leads with the error and rank correlation of
 //! the calibrated estimates against each task's measured single-thread trace time, beside
@@ -8,23 +8,24 @@
 //! time, both on all cores) follow. On the CPU every walk is timed in the same rounds, so the
 //! report holds the whole trade.
 //!
-//! [`Args`] are its arguments; [`run`] checks them, loads the scene and makes the rays ([`rays`]);
-//! [`measure`] times the estimates against the tasks' traces; [`report`] holds the figures
-//! and prints them as a table or one JSON object.
+//! [`Args`] are its arguments; [`run`] checks them, loads the scene, makes the rays ([`rays`]),
+//! has the library measure, and prints the report as a table or one JSON object.
 
 mod args;
-mod measure;
 mod rays;
-mod report;
 
-use raytrace::{Bvh, Camera, SceneSource};
+use raytrace::cost::SampleRun;
+use raytrace::estimate::{Device, Settings, WalkChoice};
+use raytrace::{Bvh, Camera, SceneSource, Walk};
 
 use crate::error::CliError;
+use args::DeviceArg;
 use rays::{RaySettings, RaySource};
 
 pub use args::Args;
 
-/// Runs the command: all arguments are checked before the scene is loaded.
+/// Runs the command: all arguments are checked before the scene is loaded, and the rays
+/// before anything is timed.
 pub fn run(args: Args) -> Result<(), CliError> {
     let source = RaySource::parse(&args.rays, args.ray_kind);
 
@@ -37,10 +38,65 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ao_distance: args.ao_distance,
     };
     let rays = source.generations(&scene, &bvh, camera, &settings)?;
-    let report = measure::measure(&args, &scene, &bvh, rays)?;
+    if rays.segments.iter().all(|(batch, _)| batch.is_empty()) {
+        return Err(CliError::Arg {
+            flag: "rays",
+            value: args.rays.clone(),
+            message: "there are no rays to estimate (no primary ray hit the scene?)".into(),
+        });
+    }
+    let settings = checked(&args)?;
+    let report = raytrace::estimate::measure(&settings, &scene, &bvh, rays)?;
     if args.json {
         crate::print::print_json(&report)
     } else {
         crate::print::print_text(&report.table())
     }
+}
+
+/// The measurement's settings, where the flags agree with each other and the system.
+fn checked(args: &Args) -> Result<Settings<'_>, CliError> {
+    // The real trace where it can run: its hits are the render's, so it costs little more
+    // than counting, and it stops where the trace stops, which the reduced traversals do not.
+    let walk = args.walk.unwrap_or(match args.device {
+        DeviceArg::Cpu => WalkChoice::Fixed(Walk::Trace { any: false }),
+        DeviceArg::Gpu => WalkChoice::Fixed(Walk::Reduced),
+    });
+    let gpu = args.device == DeviceArg::Gpu;
+    let refused = |flag: &'static str, value: String, message: String| CliError::Arg {
+        flag,
+        value,
+        message,
+    };
+    if let (WalkChoice::Fixed(Walk::Trace { .. }), true) = (walk, gpu) {
+        let message =
+            "the `trace` walk runs on the CPU only; use reduced or first-leaf with --device gpu";
+        return Err(refused("walk", "trace".into(), message.into()));
+    }
+    if args.clock != sched::Clock::Wall && gpu {
+        let message = "a GPU's work is not the host's CPU time; use --clock wall with --device gpu";
+        return Err(refused("clock", args.clock.to_string(), message.into()));
+    }
+    if !args.clock.is_available() {
+        let message = "this system has no process CPU clock; use --clock wall";
+        return Err(refused("clock", args.clock.to_string(), message.into()));
+    }
+    if args.sample_run != SampleRun::DEFAULT && gpu {
+        let message = format!(
+            "the GPU estimator samples in runs of {}; other runs are measured on the CPU",
+            SampleRun::DEFAULT
+        );
+        return Err(refused("sample-run", args.sample_run.to_string(), message));
+    }
+    Ok(Settings {
+        scene: &args.scene.scene,
+        task_size: args.task_size,
+        sample_rate: args.sample_rate,
+        sample_run: args.sample_run,
+        sample_error: args.sample_error.0,
+        clock: args.clock,
+        repeats: args.repeats,
+        device: if gpu { Device::Gpu } else { Device::Cpu },
+        walk,
+    })
 }

@@ -1,16 +1,13 @@
-//! The rays `cobalt estimate` cuts into tasks: one generation of camera or AO rays, every
-//! generation of a Whitted render, or a ray file.
+//! Which rays `cobalt estimate` cuts into tasks (`--rays`): one generation of camera or AO
+//! rays, every generation of a Whitted render, or a ray file.
 
 use std::path::Path;
 
-use raytrace::shade::{CpuTracer, Recorder, RenderOptions, Shader, WhittedSettings, render};
-use raytrace::{Bvh, Camera, RayBatch, RayKind, Scene, SceneNeeds, traverse};
+use raytrace::estimate::Generations;
+use raytrace::{Bvh, Camera, RayKind, Scene, SceneNeeds};
 
 use crate::args::Size;
 use crate::error::CliError;
-
-/// Seed of the AO rays' per-pixel scrambling: fixed, so runs are comparable.
-const AO_SEED: u64 = 1;
 
 /// Where the rays come from.
 pub(super) enum RaySource {
@@ -19,17 +16,6 @@ pub(super) enum RaySource {
     /// Every generation of a Whitted render: primary, shadow and reflection rays.
     Whitted,
     File(String, RayKind),
-}
-
-/// The rays of one run, one segment per generation: tasks never straddle two generations, and
-/// each is traced with its own query (closest or any hit).
-pub(super) struct Generations {
-    /// Each generation's rays and their kind.
-    pub(super) segments: Vec<(RayBatch, RayKind)>,
-    /// The rays' kind as the report names it (`whitted` for a Whitted render's generations).
-    pub(super) kind_name: &'static str,
-    /// Whether the rays are coherent.
-    pub(super) coherent: bool,
 }
 
 /// How the camera and AO rays are made.
@@ -71,48 +57,19 @@ impl RaySource {
         settings: &RaySettings,
     ) -> Result<Generations, CliError> {
         let Size { width, height } = settings.size;
-        let (segments, kind_name, coherent) = match self {
-            Self::Primary => (
-                vec![(camera.primary_rays(width, height).rays, RayKind::Primary)],
-                RayKind::Primary.name(),
-                true,
+        Ok(match self {
+            Self::Primary => Generations::primary(&camera, width, height),
+            Self::Ao => Generations::ao(
+                (scene, bvh),
+                &camera,
+                (width, height),
+                settings.ao_samples,
+                settings.ao_distance,
             ),
-            Self::Ao => {
-                let primary = camera.primary_rays(width, height).rays;
-                let hits = traverse::closest_hits(bvh, &primary);
-                let length = settings.ao_distance * scene.bounds().extent().length();
-                let ao = raytrace::ao::ao_rays(
-                    scene,
-                    &primary,
-                    &hits,
-                    settings.ao_samples,
-                    length,
-                    AO_SEED,
-                );
-                (vec![(ao.rays, RayKind::Ao)], RayKind::Ao.name(), false)
+            Self::Whitted => Generations::whitted((scene, bvh), camera, width, height),
+            Self::File(path, kind) => {
+                Generations::of(crate::trace::read_rays(Path::new(&path))?, kind)
             }
-            Self::Whitted => {
-                let mut rec = Recorder::new(CpuTracer::new(bvh));
-                let options = RenderOptions::new(
-                    width,
-                    height,
-                    camera,
-                    Shader::Whitted(WhittedSettings::default()),
-                );
-                render(scene, &mut rec, &options);
-                let gens = rec.generations.into_iter().map(|(k, r)| (r, k)).collect();
-                (gens, "whitted", true)
-            }
-            Self::File(path, kind) => (
-                vec![(crate::trace::read_rays(Path::new(&path))?, kind)],
-                kind.name(),
-                kind.is_coherent(),
-            ),
-        };
-        Ok(Generations {
-            segments,
-            kind_name,
-            coherent,
         })
     }
 }

@@ -11,7 +11,9 @@
 //!   count over *all* rays, the reference of the prediction error;
 //! - [`measure_seconds`]: the measured trace time of each task;
 //! - [`CostModel`], [`Calibrations`] and [`calibrate`]: `kB`, `kT` per device and [`RayKind`](crate::RayKind);
-//! - [`prediction_error`], [`error_vs_time`] and [`spearman`]: the metrics.
+//! - [`prediction_error`], [`error_vs_time`] and [`spearman`]: the metrics, and [`judge`]:
+//!   estimates judged by measured times, with the balance they buy a plan;
+//! - [`Rounds`]: an estimate timed against the trace it saves, in rounds.
 //!
 //! ## Example
 //!
@@ -37,10 +39,12 @@
 mod calibrate;
 mod error;
 mod estimator;
+pub mod judge;
 mod measure;
 mod metrics;
 mod model;
 mod refine;
+mod rounds;
 mod sample;
 
 pub use calibrate::{Fit, FitForm, calibrate};
@@ -49,4 +53,5 @@ pub use estimator::{ReducedTraversal, Sample, Traced, full_work};
 pub use measure::measure_seconds;
 pub use metrics::{error_vs_time, prediction_error, spearman};
 pub use model::{Calibrations, CostModel, Work};
+pub use rounds::{Budget, Rounds, SlicedStep, SlicedTraces, WholeStep};
 pub use sample::{Compacted, SampleRate, SampleRun};

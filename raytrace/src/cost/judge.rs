@@ -4,21 +4,27 @@
 //! `error_vs_time`: an error that leaves the tasks' order intact costs a plan little, one
 //! that swaps big and small tasks costs it much.
 
-use raytrace::cost::{Fit, Work, calibrate, error_vs_time, spearman};
+use super::calibrate::{Fit, calibrate};
+use super::metrics::{error_vs_time, spearman};
+use super::model::Work;
 use sched::{Costs, Speeds, plan_equal, plan_lpt};
 
 /// Estimates judged by measured task times: calibrated to them, then their error, rank
 /// correlation and the balance they buy a plan (each `None` where it cannot be had).
 #[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Judged {
-    pub(crate) fit: Option<Fit>,
-    pub(crate) error_vs_time: Option<f64>,
-    pub(crate) spearman_vs_time: Option<f64>,
-    pub(crate) lpt_balance: Option<f64>,
+pub struct Judged {
+    /// The calibration of the estimates to the times.
+    pub fit: Option<Fit>,
+    /// The calibrated estimates' error against the times ([`error_vs_time`]).
+    pub error_vs_time: Option<f64>,
+    /// Their rank correlation with the times ([`spearman`]).
+    pub spearman_vs_time: Option<f64>,
+    /// The balance of an LPT plan by them, judged by the times ([`lpt`]).
+    pub lpt_balance: Option<f64>,
 }
 
 /// `work` calibrated against `measured` (one time per task) and judged by it.
-pub(crate) fn judge(work: &[Work], measured: &[f64]) -> Judged {
+pub fn judge(work: &[Work], measured: &[f64]) -> Judged {
     let Ok(fit) = calibrate(work, measured) else {
         return Judged::default();
     };
@@ -33,13 +39,13 @@ pub(crate) fn judge(work: &[Work], measured: &[f64]) -> Judged {
 
 /// Equal devices the plans are made for: with tasks of 4096 rays a 512² frame gives each of
 /// them 8 tasks, few enough that where each big task goes shows in the balance.
-pub(crate) const DEVICES: usize = 8;
+pub const DEVICES: usize = 8;
 
 /// Balance (mean over largest device time, in `(0, 1]`) of the LPT plan made from
 /// `estimates` on [`DEVICES`] equal devices, each device's time the sum of its tasks'
 /// `measured` times; `None` if either list is unusable (empty, of other lengths, negative
 /// or not finite).
-pub(crate) fn lpt(estimates: &[f64], measured: &[f64]) -> Option<f64> {
+pub fn lpt(estimates: &[f64], measured: &[f64]) -> Option<f64> {
     if estimates.len() != measured.len() {
         return None;
     }
@@ -48,7 +54,7 @@ pub(crate) fn lpt(estimates: &[f64], measured: &[f64]) -> Option<f64> {
 }
 
 /// The balance without an estimate: tasks dealt out in order, the same number to each device.
-pub(crate) fn uniform(measured: &[f64]) -> Option<f64> {
+pub fn uniform(measured: &[f64]) -> Option<f64> {
     judged(&plan_equal(measured.len(), &speeds()), measured)
 }
 

@@ -4,17 +4,18 @@
 
 use std::num::NonZeroUsize;
 
-use raytrace::cost::SampleRate;
-use raytrace::paths::{Mode, Settings};
-use raytrace::shade::{AoSettings, Shader, WhittedSettings};
-use raytrace::{Bvh, Scene};
 use sched::Policy;
 
+use super::error::BenchError;
 use super::record::Record;
 use super::repeats;
 use super::replay::Replayed;
-use crate::args::ShaderKind;
-use crate::error::CliError;
+use crate::bvh::Bvh;
+use crate::cost::SampleRate;
+use crate::paths::{KeptDevices, Mode, Settings};
+use crate::run::Store;
+use crate::scene::Scene;
+use crate::shade::{AoSettings, Shader, WhittedSettings};
 
 /// The two workloads of the thesis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -25,16 +26,8 @@ pub enum Workload {
     Ao,
 }
 
-impl From<ShaderKind> for Workload {
-    fn from(shader: ShaderKind) -> Self {
-        match shader {
-            ShaderKind::Whitted => Self::Whitted,
-            ShaderKind::Ao => Self::Ao,
-        }
-    }
-}
-
 impl Workload {
+    /// The name records give it: `whitted` or `ao`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Whitted => "whitted",
@@ -42,6 +35,18 @@ impl Workload {
         }
     }
 
+    /// Its shader, with `ao_samples` probes per primary hit for AO.
+    pub fn shader(self, ao_samples: u32) -> Shader {
+        match self {
+            Self::Whitted => Shader::Whitted(WhittedSettings::default()),
+            Self::Ao => Shader::Ao(AoSettings {
+                samples: ao_samples,
+                ..Default::default()
+            }),
+        }
+    }
+
+    /// The kind of its rays: `coherent` or `diffuse`.
     pub fn ray_kind(self) -> &'static str {
         match self {
             Self::Whitted => "coherent",
@@ -119,38 +124,51 @@ pub struct Replay {
 /// The cost-based StaticLpt run of one (workload, task size), kept for the simulator.
 #[derive(Clone, Debug)]
 pub struct Replays {
-    pub workload: Workload,
-    pub task_size: usize,
-    pub prediction_error: Option<f64>,
-    pub gens: Vec<Replay>,
+    pub(crate) workload: Workload,
+    pub(crate) task_size: usize,
+    pub(crate) prediction_error: Option<f64>,
+    pub(crate) gens: Vec<Replay>,
 }
 
 /// What to run on one scene: every cell (workload, task size, policy, mode) of its matrix.
 pub struct SceneMatrix<'a> {
+    /// The scene as the records name it (`--scene`).
     pub scene_name: &'a str,
+    /// The scene.
     pub scene: &'a Scene,
+    /// The BVH of `scene`.
     pub bvh: &'a Bvh,
-    pub devices: &'a [raytrace::devices::DeviceSpec],
+    /// The devices every cell renders on.
+    pub devices: &'a [crate::devices::DeviceSpec],
+    /// The devices as the records list them (`--devices`).
     pub device_list: &'a str,
+    /// The workloads, task sizes and policies of the matrix.
     pub workloads: &'a [Workload],
-    pub task_sizes: &'a [usize],
+    /// Paths per task, each a cell of every workload.
+    pub task_sizes: &'a [NonZeroUsize],
+    /// The policies, each in regular and in cost mode.
     pub policies: &'a [Policy],
+    /// Orbit cameras, each a frame of every run.
     pub cameras: usize,
+    /// The image size.
     pub width: u32,
+    /// The image height.
     pub height: u32,
+    /// AO probes per primary hit.
     pub ao_samples: u32,
+    /// The share of each task's paths cost mode samples.
     pub sample_rate: SampleRate,
     /// How cost mode counts a sampled path.
-    pub walk: raytrace::Walk,
+    pub walk: crate::traverse::Walk,
     /// Runs of every cell, in rounds that each run every cell of the matrix once.
     pub repeats: usize,
     /// The calibration that plans each path cell's first frame and keeps what it learnt.
-    pub calibration: Option<&'a std::cell::RefCell<raytrace::run::Store>>,
+    pub calibration: Option<&'a std::cell::RefCell<Store>>,
     /// The path devices, kept from cell to cell (`None` before the first): a GPU keeps its
     /// context, compiled kernels, buffers and measured launch overhead, so a cell's frame is
     /// not its first on the device, and a cell runs on every device or on the fastest class
     /// alone by what the cells before it measured.
-    pub path_devices: std::cell::RefCell<Option<raytrace::paths::KeptDevices<'a>>>,
+    pub path_devices: std::cell::RefCell<Option<KeptDevices<'a>>>,
 }
 
 impl SceneMatrix<'_> {
@@ -163,20 +181,13 @@ impl SceneMatrix<'_> {
             * self.repeats
     }
 
-    pub(super) fn shader(&self, w: Workload) -> Shader {
-        match w {
-            Workload::Whitted => Shader::Whitted(WhittedSettings::default()),
-            Workload::Ao => Shader::Ao(AoSettings {
-                samples: self.ao_samples,
-                ..Default::default()
-            }),
-        }
-    }
-
     /// Runs the whole matrix, calling `tick` after each run; returns one record per cell (the
     /// medians of its repeats) and, per (workload, task size), the replay of the cost-based
     /// StaticLpt run of median time.
-    pub fn run(&self, mut tick: impl FnMut(&str)) -> Result<(Vec<Record>, Vec<Replays>), CliError> {
+    pub fn run(
+        &self,
+        mut tick: impl FnMut(&str),
+    ) -> Result<(Vec<Record>, Vec<Replays>), BenchError> {
         // Untimed warm-up: page in the scene, the BVH and the thread pools.
         if let Some(&w) = self.workloads.first() {
             self.run_paths(w, Settings::default(), false)?;
@@ -184,12 +195,7 @@ impl SceneMatrix<'_> {
         // Every cell of the matrix: (workload, task size) blocks of policies and modes.
         let mut cells: Vec<(Workload, Settings)> = Vec::new();
         for &w in self.workloads {
-            for &task_size in self.task_sizes {
-                let size = NonZeroUsize::new(task_size).ok_or_else(|| CliError::Arg {
-                    flag: "task-sizes",
-                    value: task_size.to_string(),
-                    message: "task sizes must be positive".into(),
-                })?;
+            for &size in self.task_sizes {
                 for &policy in self.policies {
                     for mode in Mode::ALL {
                         let settings = Settings {

@@ -8,8 +8,8 @@ use sched::bounds::lower_bound;
 use sched::{Costs, Policy, Simulation, Speeds};
 use serde::Serialize;
 
+use super::error::BenchError;
 use super::matrix::Replays;
-use crate::error::CliError;
 
 /// Launch latencies: a kernel launch over PCIe, and a message to another node.
 pub const LINKS: [(&str, f64); 2] = [("pcie", 10e-6), ("network", 200e-6)];
@@ -25,30 +25,45 @@ pub fn mixed_speeds(m: usize) -> Vec<f64> {
 pub struct SimRecord {
     /// Always `simulated`.
     pub source: &'static str,
+    /// The scene (`--scene`).
     pub scene: String,
+    /// The workload: `whitted` or `ao`.
     pub shader: &'static str,
+    /// Its rays: `coherent` or `diffuse`.
     pub ray_kind: &'static str,
+    /// The policy that planned the run.
     pub policy: &'static str,
+    /// `regular` (equal costs) or `cost` (estimates).
     pub mode: &'static str,
+    /// Paths (rays) per task.
     pub task_size: usize,
+    /// Devices the run used.
     pub devices: usize,
+    /// The simulated devices' speeds.
     pub speeds: Vec<f64>,
+    /// The link: `pcie` or `network`.
     pub link: &'static str,
+    /// Launch latency of the link, in seconds.
     pub latency: f64,
+    /// Rays traced over the frames.
     pub rays: usize,
     /// Σ of the frames' simulated makespans.
     pub seconds: f64,
+    /// Rays over `seconds`, in millions per second.
     pub mrays_per_s: f64,
+    /// Σ device busy time / Σ (makespan × devices).
     pub balance_efficiency: f64,
     /// The real run's estimation time (cost mode), which a simulated machine would also pay.
     pub estimate_seconds: f64,
     /// The simulator's planning time.
     pub plan_seconds: f64,
+    /// Σ|estimated − full| / Σ full (cost mode).
     pub prediction_error: Option<f64>,
     /// `seconds` over Σ of each frame's lower bound on the optimal makespan (`sched`'s
     /// `lower_bound`: total work over total speed, or more where a few large tasks need the
     /// fastest devices): 1 is an optimal plan with free launches.
     pub makespan_over_bound: f64,
+    /// Launches over the devices.
     pub launches: u64,
     /// The simulator's error bar: the median `|simulated / measured − 1|` of its replays of
     /// this scene's measured runs.
@@ -61,7 +76,7 @@ pub fn simulate(
     replays: &[Replays],
     counts: &[usize],
     replay_error: Option<f64>,
-) -> Result<Vec<SimRecord>, CliError> {
+) -> Result<Vec<SimRecord>, BenchError> {
     let mut out = Vec::new();
     for rep in replays {
         let (w, task_size, gens) = (rep.workload, rep.task_size, &rep.gens);

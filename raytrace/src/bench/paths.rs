@@ -3,17 +3,20 @@
 //! it. A record covers every ray of the frames (an AO record's primary rays included), and
 //! the simulator replays each frame's tasks.
 
-use raytrace::cost::SampleRate;
-use raytrace::paths::Settings;
-use raytrace::paths::{Frame, FrameStats, PathRenderer, build_path_devices, estimate_paths};
-use raytrace::shade::RenderOptions;
-use raytrace::{Bvh, Scene};
-
+use super::error::BenchError;
 use super::matrix::{CellRun, Replay, SceneMatrix, Totals, Workload};
 use super::prediction::ErrorSums;
 use super::record::Record;
 use super::replay::{Replayed, RunDevice};
-use crate::error::CliError;
+use crate::bvh::Bvh;
+use crate::camera::Camera;
+use crate::cost::SampleRate;
+use crate::paths::Settings;
+use crate::paths::{Frame, FrameStats, PathRenderer, build_path_devices, estimate_paths};
+use crate::run::{CalibrationReport, workload};
+use crate::scene::Scene;
+use crate::shade::RenderOptions;
+use crate::traffic::Traffic;
 
 impl SceneMatrix<'_> {
     /// Renders every camera once with `settings` through one path renderer (each frame plans
@@ -24,7 +27,7 @@ impl SceneMatrix<'_> {
         w: Workload,
         settings: Settings,
         measure_error: bool,
-    ) -> Result<CellRun, CliError> {
+    ) -> Result<CellRun, BenchError> {
         let kept = self.path_devices.borrow_mut().take();
         let mut renderer = match kept {
             Some(kept) => PathRenderer::from_kept(kept, settings)?,
@@ -33,11 +36,11 @@ impl SceneMatrix<'_> {
                 PathRenderer::new(devices, settings)?
             }
         };
-        let workload = raytrace::run::workload(self.scene_name, &self.shader(w));
+        let workload = workload(self.scene_name, &w.shader(self.ao_samples));
         let recalled = self.calibration.map(|store| {
             let mut store = store.borrow_mut();
             let used = store.recall(&mut renderer, &workload);
-            raytrace::run::CalibrationReport {
+            CalibrationReport {
                 file: Some(store.file()),
                 loaded_entries: used,
                 written_entries: 0,
@@ -51,7 +54,10 @@ impl SceneMatrix<'_> {
                 .render(self.scene, self.bvh, &options)
                 .map_err(|e| match e {
                     sched::SchedError::AllDevicesFailed { failures, .. } => {
-                        CliError::devices_failed(self.device_list, &failures)
+                        BenchError::DevicesFailed {
+                            devices: self.device_list.to_string(),
+                            failures,
+                        }
                     }
                     e => e.into(),
                 })?;
@@ -87,7 +93,7 @@ impl SceneMatrix<'_> {
 
     fn frames_record(&self, w: Workload, settings: Settings, frames: &[FrameStats]) -> Record {
         let mut t = Totals::default();
-        let mut traffic = raytrace::Traffic::default();
+        let mut traffic = Traffic::default();
         let mut film_bytes = 0;
         for f in frames {
             t.add(Totals {
@@ -124,8 +130,8 @@ impl SceneMatrix<'_> {
         RenderOptions::new(
             self.width,
             self.height,
-            raytrace::Camera::orbit(&self.scene.bounds(), cam),
-            self.shader(w),
+            Camera::orbit(&self.scene.bounds(), cam),
+            w.shader(self.ao_samples),
         )
     }
 }
@@ -137,17 +143,16 @@ fn frame_error(
     bvh: &Bvh,
     options: &RenderOptions,
     stats: &FrameStats,
-) -> Result<ErrorSums, CliError> {
+) -> Result<ErrorSums, BenchError> {
     let frame = Frame {
         scene,
         bvh,
         options,
     };
     let tasks = sched::split_ranges(stats.paths, stats.task_size.max(1));
-    let full_rate = SampleRate::new(1.0).map_err(|e| CliError::Write(e.to_string()))?;
     let full = stats
         .cost_model
-        .costs(&estimate_paths(&frame, &tasks, full_rate));
+        .costs(&estimate_paths(&frame, &tasks, SampleRate::FULL));
     let estimated = stats.task_stats.iter().map(|t| t.cost);
     Ok(ErrorSums {
         diff: estimated.zip(&full).map(|(e, f)| (e - f).abs()).sum(),

@@ -1,10 +1,9 @@
-//! Steps timed in rounds, in turn, and the ratios between steps of one round: how `cobalt
-//! estimate` and the bench's sampling trade time an estimate against the trace it saves.
+//! Steps timed in rounds, in turn, and the ratios between steps of one round: how an estimate
+//! is timed against the trace it saves (`cobalt estimate`, and the bench's sampling trade).
 //!
 //! An overhead is a ratio of two steps, and a net overhead the difference of two nearly equal
 //! ones. On a shared machine the speed of the whole machine moves between rounds, not only
-//! within one (by as much as 1.6× from one round to the next, each side steady to 1 %:
-//! docs/measurements.md). The least time of each step may then come from different sides,
+//! within one (by as much as 1.6× from one round to the next, each side steady to 1 %). The least time of each step may then come from different sides,
 //! and their difference measures the machine, not the estimate. Steps of one round run back
 //! to back, at one speed; so each ratio is taken within a round (within a pair of rounds,
 //! below), and the median reported.
@@ -14,7 +13,7 @@
 //! twelve rounds. The trace and the rest, whose difference the net overhead is, are therefore
 //! timed in slices taken in turn, a slice of one beside the other's slice half the batch away
 //! (so that no step follows the same rays, whose nodes the last step left in the cache): cut
-//! in sixteen, the same two traces came out 0.97 to 1.02 apart (docs/measurements.md).
+//! in sixteen, the same two traces came out 0.97 to 1.02 apart.
 //!
 //! The order of the sliced steps turns from one round to the next, and a step that follows
 //! the other runs a little faster in the caches it left (two identical camera-ray traces, up
@@ -24,14 +23,14 @@
 
 use std::ops::Range;
 
-use raytrace::{Bvh, RayBatch, traverse};
-
-use crate::error::CliError;
+use crate::bvh::Bvh;
+use crate::ray::RayBatch;
+use crate::traverse;
 
 /// How long a timing goes on: at least `repeats` rounds, more while the full trace has taken
-/// less than `trace_seconds` in all (at most [`MAX_ROUNDS`]), and an even count (whole pairs).
+/// less than `trace_seconds` in all (at most 128), and an even count (whole pairs).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Budget {
+pub struct Budget {
     repeats: usize,
     trace_seconds: f64,
 }
@@ -39,11 +38,11 @@ pub(crate) struct Budget {
 impl Budget {
     /// `cobalt estimate`'s: at least `repeats` rounds and 1.5 s of trace. Five rounds of a
     /// 25 ms camera-ray trace put two identical traces up to 5 % apart by chance, as much as
-    /// the whole net overhead they are to measure; twenty, within 1 % (docs/measurements.md).
+    /// the whole net overhead they are to measure; twenty, within 1 %.
     /// A camera-ray round's own net overhead still moves by several percent (its estimate takes
     /// a millisecond or two): with half a second of trace, runs of one scene came out up to 2
     /// points apart, and a second and a half gives three times the pairs.
-    pub(crate) fn estimate(repeats: usize) -> Self {
+    pub fn estimate(repeats: usize) -> Self {
         Self {
             repeats,
             trace_seconds: 1.5,
@@ -53,7 +52,7 @@ impl Budget {
     /// The bench's sampling trade: three rounds and half a second of trace for each of its
     /// points, eleven per ray kind and task size; `cobalt estimate`'s budget doubled the quick
     /// bench's run, to nearly four minutes.
-    pub(crate) fn trade() -> Self {
+    pub fn trade() -> Self {
         Self {
             repeats: 3,
             trace_seconds: 0.5,
@@ -88,7 +87,7 @@ fn slice_count(rays: usize) -> usize {
 /// The full trace of one or more batches and the trace left after their samples (the rest),
 /// each batch cut in the same number of slices: the two sliced steps of an estimate's rounds,
 /// both in the wide tree's batch loop ([`traverse::hits_skipping_in`]).
-pub(crate) struct SlicedTraces<'a> {
+pub struct SlicedTraces<'a> {
     bvh: &'a Bvh,
     parts: Vec<Part<'a>>,
     count: usize,
@@ -106,8 +105,8 @@ struct Part<'a> {
 
 impl<'a> SlicedTraces<'a> {
     /// The traces of `parts`, each a batch, whether it is traced for any hits and its sampled
-    /// rays, cut in [`slice_count`] slices of all their rays.
-    pub(crate) fn new(
+    /// rays, cut in slices of all their rays (2^18 rays or more each, at most 16).
+    pub fn new(
         bvh: &'a Bvh,
         parts: impl IntoIterator<Item = (&'a RayBatch, bool, &'a [usize])>,
     ) -> Self {
@@ -126,13 +125,13 @@ impl<'a> SlicedTraces<'a> {
     }
 
     /// Slices each batch is cut in (fewer for a batch of too few chunks).
-    pub(crate) fn count(&self) -> usize {
+    pub fn count(&self) -> usize {
         self.count
     }
 
     /// Slice `s` of every batch: its full trace, or with `rest` the trace left after its
     /// sample.
-    pub(crate) fn run(&self, s: usize, rest: bool) -> Result<(), CliError> {
+    pub fn run(&self, s: usize, rest: bool) {
         for part in &self.parts {
             let Some(range) = part.slices.get(s) else {
                 continue;
@@ -146,21 +145,20 @@ impl<'a> SlicedTraces<'a> {
                 skip,
             ));
         }
-        Ok(())
     }
 }
 
 /// Every step's time in every round (`times[round][step]`; step 0 is the trace).
 #[derive(Clone, Debug)]
-pub(crate) struct Rounds {
+pub struct Rounds {
     times: Vec<Vec<f64>>,
 }
 
-/// A step timed in slices: `run(s)` does slice `s` of `slices`.
-pub(crate) type SlicedStep<'a> = &'a mut dyn FnMut(usize) -> Result<(), CliError>;
+/// A step timed in slices: `run(s)` does slice `s` of `slices`; its error ends the timing.
+pub type SlicedStep<'a, E> = &'a mut dyn FnMut(usize) -> Result<(), E>;
 
-/// A step timed whole.
-pub(crate) type WholeStep<'a> = &'a mut dyn FnMut() -> Result<(), CliError>;
+/// A step timed whole; its error ends the timing.
+pub type WholeStep<'a, E> = &'a mut dyn FnMut() -> Result<(), E>;
 
 impl Rounds {
     /// Times the `sliced` steps (the first is the trace) slice by slice and the `whole` ones
@@ -171,13 +169,13 @@ impl Rounds {
     /// the `k`-th of the `m` sliced steps, their order turning with `p` and the round; the
     /// whole steps run halfway through (first, where there is one slice), so that a drift of
     /// the machine's speed across the round falls on them as on the sliced steps' middle.
-    pub(crate) fn time(
+    pub fn time<E>(
         budget: Budget,
         clock: sched::Clock,
         slices: usize,
-        sliced: &mut [SlicedStep<'_>],
-        whole: &mut [WholeStep<'_>],
-    ) -> Result<Self, CliError> {
+        sliced: &mut [SlicedStep<'_, E>],
+        whole: &mut [WholeStep<'_, E>],
+    ) -> Result<Self, E> {
         let slices = slices.max(1);
         let m = sliced.len();
         let mut times = Vec::new();
@@ -207,12 +205,13 @@ impl Rounds {
     }
 
     /// Rounds taken.
-    pub(crate) fn len(&self) -> usize {
+    #[allow(clippy::len_without_is_empty)] // a timing takes one round at least
+    pub fn len(&self) -> usize {
         self.times.len()
     }
 
     /// The least time of step `step` over the rounds.
-    pub(crate) fn least(&self, step: usize) -> f64 {
+    pub fn least(&self, step: usize) -> f64 {
         self.times
             .iter()
             .map(|r| r[step])
@@ -221,14 +220,14 @@ impl Rounds {
 
     /// The median over the pairs of rounds of `part(pair) / pair[0]`, each step's times summed
     /// over the pair: a share of the trace, each pair's steps against its own trace.
-    pub(crate) fn median_share(&self, part: impl Fn(&[f64]) -> f64) -> f64 {
+    pub fn median_share(&self, part: impl Fn(&[f64]) -> f64) -> f64 {
         self.quartile_shares(part)[1]
     }
 
     /// The first quartile, the median and the third quartile over the pairs of rounds of
     /// `part(pair) / pair[0]` (see [`Rounds::median_share`]): the middle half tells how far
     /// the machine moved the median's parts.
-    pub(crate) fn quartile_shares(&self, part: impl Fn(&[f64]) -> f64) -> [f64; 3] {
+    pub fn quartile_shares(&self, part: impl Fn(&[f64]) -> f64) -> [f64; 3] {
         let mut shares: Vec<f64> = self
             .times
             .chunks(2)
@@ -338,15 +337,15 @@ mod tests {
     #[test]
     fn a_round_takes_each_slice_once_beside_the_other_steps_far_slice() {
         let log = std::cell::RefCell::new(Vec::new());
-        let mut trace = |s: usize| -> Result<(), CliError> {
+        let mut trace = |s: usize| -> Result<(), ()> {
             log.borrow_mut().push(format!("t{s}"));
             Ok(())
         };
-        let mut rest = |s: usize| -> Result<(), CliError> {
+        let mut rest = |s: usize| -> Result<(), ()> {
             log.borrow_mut().push(format!("r{s}"));
             Ok(())
         };
-        let mut estimate = || -> Result<(), CliError> {
+        let mut estimate = || -> Result<(), ()> {
             log.borrow_mut().push("e".into());
             Ok(())
         };

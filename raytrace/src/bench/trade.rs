@@ -2,18 +2,21 @@
 //! at 12.5, 25, 50 and 100 % of each task's rays, for coherent (primary) and diffuse (AO) rays,
 //! and below the thesis's rates (3.125 and 6.25 %): on a CPU the reduced traversal of a ray
 //! costs a far larger share of its trace than on the thesis's GPU, so the overhead target of
-//! [`meets_target`] (4 %) is met only at the lower rates (figures in `docs/measurements.md`).
+//! [`meets_target`] (4 %) is met only at the lower rates.
 
-use raytrace::cost::{
-    CostModel, ReducedTraversal, Sample, SampleRate, Work, full_work, measure_seconds,
-    prediction_error,
-};
-use raytrace::{Bvh, RayBatch, RayKind, Walk, traverse, workload};
 use serde::Serialize;
 
+use super::error::BenchError;
 use super::matrix::SceneMatrix;
-use crate::error::CliError;
-use crate::rounds::{Budget, Rounds, SlicedStep, SlicedTraces};
+use crate::bvh::Bvh;
+use crate::cost::judge::judge;
+use crate::cost::{
+    Budget, CostModel, ReducedTraversal, Rounds, Sample, SampleRate, SlicedStep, SlicedTraces,
+    Work, full_work, measure_seconds, prediction_error,
+};
+use crate::ray::{RayBatch, RayKind};
+use crate::traverse::{self, Walk};
+use crate::workload;
 
 /// The sampling rates measured: the thesis's four, and two below them.
 pub const RATES: [f64; 6] = [0.03125, 0.0625, 0.125, 0.25, 0.5, 1.0];
@@ -67,9 +70,13 @@ fn meets_target(kind: &str, error: f64, overhead: f64) -> bool {
 pub struct TradePoint {
     /// Always `sampling_trade` (the bench JSON's records are told apart by `source`).
     pub source: &'static str,
+    /// The scene (`--scene`).
     pub scene: String,
+    /// Its rays: `coherent` or `diffuse`.
     pub ray_kind: &'static str,
+    /// Paths (rays) per task.
     pub task_size: usize,
+    /// Rays traced over the frames.
     pub rays: usize,
     /// The share of the rays the estimate traced.
     pub sample_rate: f64,
@@ -82,21 +89,24 @@ pub struct TradePoint {
     /// The estimates, calibrated (`kB`, `kT`), against each task's measured single-thread
     /// trace time: what a plan needs of them.
     pub error_vs_time: Option<f64>,
+    /// Their rank correlation with the measured task times.
     pub spearman_vs_time: Option<f64>,
     /// The same with each task's exact counts of the real trace: what no estimate of `B` and
     /// `T` can beat.
     pub error_vs_time_trace: Option<f64>,
+    /// The real trace's counts' rank correlation with the times.
     pub spearman_trace_vs_time: Option<f64>,
     /// The thesis's, against the walk's own full count (secondary: it does not see time).
     pub prediction_error: f64,
     /// Estimation time over the full trace's time, both on all cores: the median over pairs
-    /// of rounds of each pair's share (see `crate::rounds`).
+    /// of rounds of each pair's share (see [`Rounds`]).
     pub overhead: f64,
     /// What estimating costs a render: the overhead less the sample's trace, where the walk
     /// traced it for real and the render reuses its hits; else the overhead.
     pub net_overhead: f64,
     /// The thesis's error and overhead at this rate and ray kind, where Table 4.1 has them.
     pub thesis_prediction_error: Option<f64>,
+    /// The thesis's overhead at this rate and ray kind.
     pub thesis_overhead: Option<f64>,
     /// The target met: error ≤ 2 % coherent / 3 % diffuse, overhead ≤ 4 %.
     pub meets_target: bool,
@@ -109,25 +119,30 @@ pub struct TradePoint {
 /// `any`, else closest hits): the trace, the trace left after the sample (where `known`, the
 /// sampled rays, are reused) and the estimate timed in rounds, each figure the median of its
 /// pairs of rounds' own shares of the trace, as `cobalt estimate` takes them (see
-/// `crate::rounds`).
+/// [`Rounds`]).
 fn shares(
     (bvh, rays, any): (&Bvh, &RayBatch, bool),
     estimator: &ReducedTraversal<'_>,
     tasks: &[std::ops::Range<usize>],
     known: Option<Vec<usize>>,
-) -> Result<(f64, f64), CliError> {
-    let cost_err = |e: raytrace::cost::CostError| CliError::Write(format!("estimate: {e}"));
+) -> Result<(f64, f64), BenchError> {
     let reuses = known.is_some();
     let known = known.unwrap_or_default();
     let traces = SlicedTraces::new(bvh, [(rays, any, &known[..])]);
-    let mut trace = |s: usize| traces.run(s, false);
-    let mut rest = |s: usize| traces.run(s, true);
-    let mut estimate = || -> Result<(), CliError> {
-        std::hint::black_box(estimator.try_sample(tasks).map_err(cost_err)?);
+    let mut trace = |s: usize| {
+        traces.run(s, false);
+        Ok(())
+    };
+    let mut rest = |s: usize| {
+        traces.run(s, true);
+        Ok(())
+    };
+    let mut estimate = || -> Result<(), BenchError> {
+        std::hint::black_box(estimator.try_sample(tasks)?);
         Ok(())
     };
     // The rest is timed only where the render reuses the sample's hits.
-    let sliced: &mut [SlicedStep<'_>] = if reuses {
+    let sliced: &mut [SlicedStep<'_, BenchError>] = if reuses {
         &mut [&mut trace, &mut rest]
     } else {
         &mut [&mut trace]
@@ -172,8 +187,7 @@ fn points(
     occlusion: bool,
     walk: Walk,
     task_sizes: &[usize],
-) -> Result<Vec<TradePoint>, CliError> {
-    let cost_err = |e: raytrace::cost::CostError| CliError::Write(format!("estimate: {e}"));
+) -> Result<Vec<TradePoint>, BenchError> {
     let model = CostModel::default();
     // Each task's measured time and real-trace counts, from chunks of the finest size that
     // all task sizes are made of, so the rays are timed once.
@@ -184,8 +198,7 @@ fn points(
     } else {
         RayKind::Primary
     };
-    let chunk_seconds =
-        measure_seconds(bvh, rays, &chunks, ray_kind, 3, sched::Clock::Wall).map_err(cost_err)?;
+    let chunk_seconds = measure_seconds(bvh, rays, &chunks, ray_kind, 3, sched::Clock::Wall)?;
     let counts = if occlusion {
         traverse::any_hits_counted(bvh, rays).1
     } else {
@@ -204,7 +217,7 @@ fn points(
             .chunks(task_size / unit)
             .map(|c| c.iter().fold(Work::default(), |a, &w| a.plus(w)))
             .collect();
-        let trace_judged = crate::balance::judge(&trace_work, &seconds);
+        let trace_judged = judge(&trace_work, &seconds);
         let (error_vs_time_trace, spearman_trace_vs_time) =
             (trace_judged.error_vs_time, trace_judged.spearman_vs_time);
         let traced = Walk::Trace { any: occlusion };
@@ -221,12 +234,12 @@ fn points(
             let full = match fulls.iter().find(|(name, _)| *name == p.name()) {
                 Some((_, f)) => f.clone(),
                 None => {
-                    let f = model.costs(&full_work(bvh, rays, &tasks, p).map_err(cost_err)?);
+                    let f = model.costs(&full_work(bvh, rays, &tasks, p)?);
                     fulls.push((p.name(), f.clone()));
                     f
                 }
             };
-            let rate = SampleRate::new(rate).map_err(|e| cost_err(e.into()))?;
+            let rate = SampleRate::new(rate).map_err(crate::cost::CostError::from)?;
             let estimator = ReducedTraversal::new(bvh, rays, rate)
                 .with_walk(p)
                 .with_sample_error(sample_error);
@@ -234,16 +247,16 @@ fn points(
                 work,
                 sampled,
                 traced: traced_sample,
-            } = estimator.try_sample(&tasks).map_err(cost_err)?;
+            } = estimator.try_sample(&tasks)?;
             let est = model.costs(&work);
-            let prediction_error = prediction_error(&est, &full).map_err(cost_err)?;
+            let prediction_error = prediction_error(&est, &full)?;
             let (overhead, net_overhead) = shares(
                 (bvh, rays, occlusion),
                 &estimator,
                 &tasks,
                 (p == traced).then(|| traced_sample.map(|t| t.index).unwrap_or_default()),
             )?;
-            let judged = crate::balance::judge(&work, &seconds);
+            let judged = judge(&work, &seconds);
             let (error_vs_time, spearman_vs_time) = (judged.error_vs_time, judged.spearman_vs_time);
             let lpt_balance = judged.lpt_balance;
             let thesis_at = thesis
@@ -281,10 +294,11 @@ fn points(
 
 /// The trade on orbit camera 0 at the matrix's size, for tasks of each of its task sizes, with
 /// the thesis's reduced traversal.
-pub fn sampling_trade(matrix: &SceneMatrix) -> Result<Vec<TradePoint>, CliError> {
+pub fn sampling_trade(matrix: &SceneMatrix) -> Result<Vec<TradePoint>, BenchError> {
     let (name, scene, bvh) = (matrix.scene_name, matrix.scene, matrix.bvh);
     let (width, height, ao_samples) = (matrix.width, matrix.height, matrix.ao_samples);
-    let (task_sizes, walk) = (matrix.task_sizes, Walk::Reduced);
+    let task_sizes: Vec<usize> = matrix.task_sizes.iter().map(|t| t.get()).collect();
+    let (task_sizes, walk) = (&task_sizes[..], Walk::Reduced);
     let primary = workload::orbit_primary(scene, width, height, 0..1);
     let ao = workload::orbit_ao(scene, bvh, width, height, 0, ao_samples).rays;
     let coherent = walk.for_kind(RayKind::Primary);

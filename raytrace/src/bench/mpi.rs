@@ -6,24 +6,26 @@
 //! back. Then rank 0 measures the tasks of a single-node render and replays them in `sched`'s
 //! simulator on 16 and 64 nodes behind the latencies measured between the ranks.
 //!
-//! [`RankPaths`]: raytrace::distributed::RankPaths
+//! [`RankPaths`]: crate::distributed::RankPaths
 
 use std::num::NonZeroUsize;
 use std::time::Instant;
 
-use raytrace::cost::SampleRate;
-use raytrace::devices::DeviceSpec;
-use raytrace::distributed::render_over_ranks;
-use raytrace::paths::{Mode, PathRenderer, Settings, build_path_devices};
-use raytrace::shade::{AoSettings, RenderOptions, Shader, WhittedSettings};
-use raytrace::{Bvh, Camera, Scene};
 use sched::mpi::Cluster;
 use sched::{Costs, Policy, Simulation, Speeds};
 use serde::Serialize;
 
+use super::error::BenchError;
 use super::matrix::{Replay, Workload};
 use super::paths::replay_frame;
-use crate::error::CliError;
+use crate::bvh::Bvh;
+use crate::camera::Camera;
+use crate::cost::SampleRate;
+use crate::devices::DeviceSpec;
+use crate::distributed::render_over_ranks;
+use crate::paths::{Mode, PathRenderer, Settings, build_path_devices};
+use crate::scene::Scene;
+use crate::shade::RenderOptions;
 
 /// Node counts of the simulated clusters.
 pub const SIMULATED_NODES: [usize; 2] = [16, 64];
@@ -33,20 +35,32 @@ const PINGS: usize = 200;
 
 /// What to run on one scene over the ranks: its workloads, task sizes and policies.
 pub struct SceneMatrix<'a> {
+    /// The scene as the records name it (`--scene`).
     pub scene_name: &'a str,
+    /// The scene, loaded on every rank.
     pub scene: &'a Scene,
+    /// The BVH of `scene`.
     pub bvh: &'a Bvh,
+    /// This rank's devices.
     pub devices: &'a [DeviceSpec],
+    /// The devices as the records list them (`--devices`).
     pub device_list: &'a str,
+    /// The workloads rendered.
     pub workloads: &'a [Workload],
-    pub task_sizes: &'a [usize],
+    /// Paths per task, each a run of every workload.
+    pub task_sizes: &'a [NonZeroUsize],
+    /// The policies, each in cost mode.
     pub policies: &'a [Policy],
+    /// The image width.
     pub width: u32,
+    /// The image height.
     pub height: u32,
+    /// AO probes per primary hit.
     pub ao_samples: u32,
+    /// The share of each task's paths the estimate samples.
     pub sample_rate: SampleRate,
     /// How cost mode counts a sampled path.
-    pub walk: raytrace::Walk,
+    pub walk: crate::traverse::Walk,
 }
 
 /// One render over the ranks.
@@ -54,20 +68,29 @@ pub struct SceneMatrix<'a> {
 pub struct MpiRecord {
     /// Always `mpi`.
     pub source: &'static str,
+    /// The scene (`--scene`).
     pub scene: String,
+    /// The workload: `whitted` or `ao`.
     pub shader: &'static str,
+    /// The policy that planned the run.
     pub policy: &'static str,
+    /// Paths (rays) per task.
     pub task_size: usize,
+    /// Ranks of the MPI job.
     pub ranks: usize,
+    /// Every rank's devices (`--devices`).
     pub devices_per_rank: String,
+    /// Rays traced over the frames.
     pub rays: usize,
     /// Wall time of the render: estimate, plan and run.
     pub seconds: f64,
+    /// Rays over `seconds`, in millions per second.
     pub mrays_per_s: f64,
     /// Σ busy time / Σ (makespan × executors), over rank 0's devices and the other ranks.
     pub balance_efficiency: f64,
     /// Seconds rank 0 spent inside MPI calls, and their share of `seconds`.
     pub comm_seconds: f64,
+    /// `comm_seconds` over `seconds`.
     pub comm_share: f64,
     /// Σ over the other ranks of their round trips' time not spent working.
     pub dispatch_overhead_seconds: f64,
@@ -80,39 +103,39 @@ pub struct MpiRecord {
 pub struct ClusterSimRecord {
     /// Always `simulated-cluster`.
     pub source: &'static str,
+    /// The scene (`--scene`).
     pub scene: String,
+    /// The workload: `whitted` or `ao`.
     pub shader: &'static str,
+    /// The policy that planned the run.
     pub policy: &'static str,
+    /// Paths (rays) per task.
     pub task_size: usize,
+    /// Nodes of the simulated cluster.
     pub nodes: usize,
     /// `ping-pong` (MPI's one-way latency between the ranks) or `dispatch` (what a batch's
     /// round trip cost beyond the remote work, measured in the MPI runs).
     pub link: &'static str,
     /// Latency per launch, in seconds.
     pub latency: f64,
+    /// Rays traced over the frames.
     pub rays: usize,
+    /// Simulated seconds: the makespan, and the estimate split over the nodes.
     pub seconds: f64,
+    /// Rays over `seconds`, in millions per second.
     pub mrays_per_s: f64,
+    /// Σ device busy time / Σ (makespan × devices).
     pub balance_efficiency: f64,
+    /// Launches over the devices.
     pub launches: u64,
 }
 
 impl SceneMatrix<'_> {
-    fn shader(&self, w: Workload) -> Shader {
-        match w {
-            Workload::Whitted => Shader::Whitted(WhittedSettings::default()),
-            Workload::Ao => Shader::Ao(AoSettings {
-                samples: self.ao_samples,
-                ..Default::default()
-            }),
-        }
-    }
-
-    fn settings(&self, policy: Policy, task_size: usize) -> Settings {
+    fn settings(&self, policy: Policy, task_size: NonZeroUsize) -> Settings {
         Settings {
             policy,
             mode: Mode::Cost,
-            task_size: NonZeroUsize::new(task_size).unwrap_or(Settings::DEFAULT_TASK_SIZE),
+            task_size,
             sample_rate: self.sample_rate,
             walk: self.walk,
         }
@@ -120,11 +143,11 @@ impl SceneMatrix<'_> {
 
     fn options(&self, w: Workload) -> RenderOptions {
         let camera = Camera::orbit(&self.scene.bounds(), 0);
-        RenderOptions::new(self.width, self.height, camera, self.shader(w))
+        RenderOptions::new(self.width, self.height, camera, w.shader(self.ao_samples))
     }
 
     /// The tasks of a frame on this rank's devices alone.
-    fn single_node(&self, w: Workload, settings: Settings) -> Result<Replay, CliError> {
+    fn single_node(&self, w: Workload, settings: Settings) -> Result<Replay, BenchError> {
         let options = self.options(w);
         let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
         let frame = PathRenderer::new(devices, settings)?.render(self.scene, self.bvh, &options)?;
@@ -133,11 +156,15 @@ impl SceneMatrix<'_> {
 
     /// Every rank: renders each (workload, task size, policy) together; rank 0 gets the
     /// records, the others an empty list.
-    pub fn run(&self, cluster: &Cluster) -> Result<Vec<MpiRecord>, CliError> {
+    pub fn run(&self, cluster: &Cluster) -> Result<Vec<MpiRecord>, BenchError> {
         let mut out = Vec::new();
         // Untimed warm-up: page in the scene, the BVH and the thread pools on every rank.
         if let Some(&w) = self.workloads.first() {
-            self.render_once(cluster, w, self.settings(Policy::StaticLpt, 4096))?;
+            self.render_once(
+                cluster,
+                w,
+                self.settings(Policy::StaticLpt, Settings::DEFAULT_TASK_SIZE),
+            )?;
         }
         for &w in self.workloads {
             for &task_size in self.task_sizes {
@@ -161,7 +188,7 @@ impl SceneMatrix<'_> {
                         scene: self.scene_name.to_string(),
                         shader: w.name(),
                         policy: policy.name(),
-                        task_size,
+                        task_size: task_size.get(),
                         ranks: cluster.size(),
                         devices_per_rank: self.device_list.to_string(),
                         rays,
@@ -187,7 +214,7 @@ impl SceneMatrix<'_> {
         cluster: &Cluster,
         w: Workload,
         settings: Settings,
-    ) -> Result<(usize, f64, f64), CliError> {
+    ) -> Result<(usize, f64, f64), BenchError> {
         let local = build_path_devices(self.scene, self.bvh, self.devices, &[]);
         // Also the start line: every rank begins the render together.
         let devices = cluster.agree("opening this rank's devices", local)?;
@@ -210,7 +237,7 @@ impl SceneMatrix<'_> {
     pub fn simulate(
         &self,
         links: &[(&'static str, f64)],
-    ) -> Result<Vec<ClusterSimRecord>, CliError> {
+    ) -> Result<Vec<ClusterSimRecord>, BenchError> {
         let mut out = Vec::new();
         for &w in self.workloads {
             for &task_size in self.task_sizes {
@@ -237,7 +264,7 @@ impl SceneMatrix<'_> {
                             scene: self.scene_name.to_string(),
                             shader: w.name(),
                             policy: policy.name(),
-                            task_size,
+                            task_size: task_size.get(),
                             nodes,
                             link,
                             latency,
@@ -255,12 +282,28 @@ impl SceneMatrix<'_> {
     }
 }
 
-/// Runs the whole MPI bench on every rank; rank 0 returns the report text and the records
-/// as JSON values, the other ranks `None`.
+/// What rank 0 measured over the ranks: the one-way latency, the renders over the ranks and
+/// their replays on simulated clusters.
+#[derive(Clone, Debug)]
+pub struct MpiBench {
+    /// The ranks.
+    pub ranks: usize,
+    /// Every rank's devices (`--devices`).
+    pub device_list: String,
+    /// The slowest rank's one-way latency: the median of its ping-pongs, in seconds.
+    pub latency: f64,
+    /// One record per render over the ranks.
+    pub records: Vec<MpiRecord>,
+    /// One record per replay on a simulated cluster.
+    pub sims: Vec<ClusterSimRecord>,
+}
+
+/// Runs the whole MPI bench on every rank; rank 0 returns what it measured, the other ranks
+/// `None`.
 pub fn bench(
     cluster: &Cluster,
     matrices: &[SceneMatrix<'_>],
-) -> Result<Option<(String, Vec<serde_json::Value>)>, CliError> {
+) -> Result<Option<MpiBench>, BenchError> {
     let latencies = cluster.latency(PINGS);
     // The slowest link is the one a queue waits on.
     let latency = latencies.iter().copied().fold(0.0, f64::max);
@@ -287,56 +330,59 @@ pub fn bench(
         cluster.hold();
         sims.extend(cluster.agree("simulating", simulated)?);
     }
-    if !cluster.is_root() {
-        return Ok(None);
-    }
-    let mut text = format!(
-        "Over MPI: {} rank(s), devices per rank {}, one-way latency {:.1} µs (median of {PINGS} ping-pongs, slowest rank)\n\n",
-        cluster.size(),
-        matrices.first().map_or("", |p| p.device_list),
-        latency * 1e6,
-    );
-    text += "| scene | shader | task size | policy | MRays/s | balance | MPI s | MPI share | dispatch overhead s | batches |\n";
-    text += "|---|---|---:|---|---:|---:|---:|---:|---:|---:|\n";
-    for r in &records {
-        text += &format!(
-            "| {} | {} | {} | {} | {:.3} | {:.1} % | {:.3} | {:.1} % | {:.4} | {} |\n",
-            r.scene,
-            r.shader,
-            r.task_size,
-            r.policy,
-            r.mrays_per_s,
-            100.0 * r.balance_efficiency,
-            r.comm_seconds,
-            100.0 * r.comm_share,
-            r.dispatch_overhead_seconds,
-            r.batches,
+    Ok(cluster.is_root().then(|| MpiBench {
+        ranks: cluster.size(),
+        device_list: matrices.first().map_or("", |p| p.device_list).to_string(),
+        latency,
+        records,
+        sims,
+    }))
+}
+
+impl MpiBench {
+    /// The report's tables: the renders over the ranks, then the simulated clusters.
+    pub fn table(&self) -> String {
+        let mut text = format!(
+            "Over MPI: {} rank(s), devices per rank {}, one-way latency {:.1} µs (median of {PINGS} ping-pongs, slowest rank)\n\n",
+            self.ranks,
+            self.device_list,
+            self.latency * 1e6,
         );
+        text += "| scene | shader | task size | policy | MRays/s | balance | MPI s | MPI share | dispatch overhead s | batches |\n";
+        text += "|---|---|---:|---|---:|---:|---:|---:|---:|---:|\n";
+        for r in &self.records {
+            text += &format!(
+                "| {} | {} | {} | {} | {:.3} | {:.1} % | {:.3} | {:.1} % | {:.4} | {} |\n",
+                r.scene,
+                r.shader,
+                r.task_size,
+                r.policy,
+                r.mrays_per_s,
+                100.0 * r.balance_efficiency,
+                r.comm_seconds,
+                100.0 * r.comm_share,
+                r.dispatch_overhead_seconds,
+                r.batches,
+            );
+        }
+        text += "\nSimulated clusters of equal nodes, replaying a single-node render's tasks behind the measured latencies (ping-pong: MPI's one-way latency; dispatch: a batch's measured round trip beyond its work):\n\n";
+        text += "| scene | shader | task size | nodes | link | latency µs | policy | MRays/s | balance | launches |\n";
+        text += "|---|---|---:|---:|---|---:|---|---:|---:|---:|\n";
+        for r in &self.sims {
+            text += &format!(
+                "| {} | {} | {} | {} | {} | {:.1} | {} | {:.3} | {:.1} % | {} |\n",
+                r.scene,
+                r.shader,
+                r.task_size,
+                r.nodes,
+                r.link,
+                r.latency * 1e6,
+                r.policy,
+                r.mrays_per_s,
+                100.0 * r.balance_efficiency,
+                r.launches,
+            );
+        }
+        text
     }
-    text += "\nSimulated clusters of equal nodes, replaying a single-node render's tasks behind the measured latencies (ping-pong: MPI's one-way latency; dispatch: a batch's measured round trip beyond its work):\n\n";
-    text += "| scene | shader | task size | nodes | link | latency µs | policy | MRays/s | balance | launches |\n";
-    text += "|---|---|---:|---:|---|---:|---|---:|---:|---:|\n";
-    for r in &sims {
-        text += &format!(
-            "| {} | {} | {} | {} | {} | {:.1} | {} | {:.3} | {:.1} % | {} |\n",
-            r.scene,
-            r.shader,
-            r.task_size,
-            r.nodes,
-            r.link,
-            r.latency * 1e6,
-            r.policy,
-            r.mrays_per_s,
-            100.0 * r.balance_efficiency,
-            r.launches,
-        );
-    }
-    let mut json = Vec::new();
-    for r in &records {
-        json.push(serde_json::to_value(r).map_err(|e| CliError::Write(e.to_string()))?);
-    }
-    for r in &sims {
-        json.push(serde_json::to_value(r).map_err(|e| CliError::Write(e.to_string()))?);
-    }
-    Ok(Some((text, json)))
 }

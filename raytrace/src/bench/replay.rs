@@ -2,9 +2,10 @@
 //! and launch delays ([`sched::MeasuredRun`]), and its lower bounds: what the simulator is
 //! worth is how close its replay of a run comes to the run.
 
-use raytrace::paths::TaskStats;
 use sched::bounds::{fractional_bound, lower_bound};
 use sched::{Costs, MeasuredRun, MeasuredTask, Policy, Speeds};
+
+use crate::paths::TaskStats;
 
 /// One device of a frame: its index among the renderer's devices, the speed it
 /// was planned with and the launch overhead it declared.

@@ -9,10 +9,15 @@ use serde::Serialize;
 pub struct Record {
     /// `measured` (here a run on real devices) or `simulated`.
     pub source: &'static str,
+    /// The scene (`--scene`).
     pub scene: String,
+    /// The workload: `whitted` or `ao`.
     pub shader: &'static str,
+    /// Its rays: `coherent` or `diffuse`.
     pub ray_kind: &'static str,
+    /// The policy that planned the run.
     pub policy: &'static str,
+    /// `regular` (equal costs) or `cost` (estimates).
     pub mode: &'static str,
     /// How cost mode counted a sampled path (`--walk`): `trace`, `reduced` or `first-leaf`.
     pub walk: &'static str,
@@ -21,12 +26,19 @@ pub struct Record {
     /// What a frame of the cell was cut into: its tasks, and the paths of the largest
     /// (`task_size`, or fewer where the frame is too small to give every device four tasks).
     pub tasks: usize,
+    /// The paths of the largest task a frame was cut into.
     pub cut_task_size: usize,
+    /// Devices the run used.
     pub devices: usize,
+    /// The devices as given (`--devices`).
     pub device_list: String,
+    /// Orbit cameras, a frame each.
     pub cameras: usize,
+    /// The image width.
     pub width: u32,
+    /// The image height.
     pub height: u32,
+    /// Rays traced over the frames.
     pub rays: usize,
     /// Wall time of the measured frames: estimation, planning and rendering.
     pub seconds: f64,
@@ -34,7 +46,9 @@ pub struct Record {
     pub mrays_per_s: f64,
     /// Σ device busy time / Σ (makespan × devices), over the measured frames.
     pub balance_efficiency: f64,
+    /// Seconds spent estimating the tasks (cost mode).
     pub estimate_seconds: f64,
+    /// Seconds spent planning.
     pub plan_seconds: f64,
     /// Σ|estimated − full| / Σ full (cost mode; the estimates do not depend on the policy).
     pub prediction_error: Option<f64>,
@@ -52,6 +66,7 @@ pub struct Record {
     /// pipeline only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub host_to_device_bytes: Option<u64>,
+    /// What crossed from the devices to the host, the paths' values excepted.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub device_to_host_bytes: Option<u64>,
     /// Times the host blocked on a device (path pipeline only).
@@ -68,18 +83,20 @@ pub struct Record {
     pub run_simulated_over_measured: Vec<f64>,
     /// Σ makespans of the measured frames, and of their replays.
     pub makespan_seconds: f64,
+    /// Σ of the replays' makespans.
     pub simulated_makespan_seconds: Option<f64>,
     /// Σ of their lower bounds: integral (no plan beats the largest task on the fastest
     /// device), and fractional (all work over all speed, what balance efficiency is measured
     /// against).
     pub lower_bound_seconds: Option<f64>,
+    /// Σ of the fractional lower bounds (all work over all speed).
     pub fractional_bound_seconds: Option<f64>,
     /// `makespan_seconds / lower_bound_seconds`: 1 is an optimal plan.
     pub makespan_over_bound: Option<f64>,
     /// The calibration file that planned the cell's first frame, the entries it used, and
     /// the entries the bench wrote back (path pipeline, unless `--no-calibration`).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub calibration: Option<raytrace::run::CalibrationReport>,
+    pub calibration: Option<crate::run::CalibrationReport>,
     /// Devices a frame of the cell left idle because the fastest class alone had rendered
     /// frames faster (path pipeline; absent when none was).
     #[serde(skip_serializing_if = "Vec::is_empty")]
