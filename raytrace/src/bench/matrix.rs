@@ -121,7 +121,8 @@ pub struct Replay {
     pub seconds: Vec<f64>,
 }
 
-/// The cost-based StaticLpt run of one (workload, task size), kept for the simulator.
+/// The cost-mode run of one (workload, task size) kept for the simulator (see
+/// [`replay_policy`]).
 #[derive(Clone, Debug)]
 pub struct Replays {
     pub(crate) workload: Workload,
@@ -182,8 +183,8 @@ impl SceneMatrix<'_> {
     }
 
     /// Runs the whole matrix, calling `tick` after each run; returns one record per cell (the
-    /// medians of its repeats) and, per (workload, task size), the replay of the cost-based
-    /// StaticLpt run of median time.
+    /// medians of its repeats) and, per (workload, task size), the replay of the cost-mode
+    /// run of median time under [`replay_policy`].
     pub fn run(
         &self,
         mut tick: impl FnMut(&str),
@@ -213,7 +214,8 @@ impl SceneMatrix<'_> {
         let block = |(w, s): &(Workload, Settings)| (*w, s.task_size.get());
         let mut errors: Vec<((Workload, usize), f64)> = Vec::new();
         let mut runs: Vec<Vec<Record>> = vec![Vec::new(); cells.len()];
-        let mut lpt_gens: Vec<Vec<Vec<Replay>>> = vec![Vec::new(); cells.len()];
+        let kept_policy = replay_policy(self.policies);
+        let mut kept: Vec<Vec<Vec<Replay>>> = vec![Vec::new(); cells.len()];
         // Round after round of the whole matrix, so that a spell of load on the machine falls
         // on every cell alike instead of on all the runs of one cell or one task size.
         for _ in 0..self.repeats {
@@ -225,8 +227,8 @@ impl SceneMatrix<'_> {
                 if let Some(e) = run.error {
                     errors.push((key, e));
                 }
-                if settings.mode == Mode::Cost && settings.policy == Policy::StaticLpt {
-                    lpt_gens[cell].push(run.replay);
+                if settings.mode == Mode::Cost && Some(settings.policy) == kept_policy {
+                    kept[cell].push(run.replay);
                 }
                 runs[cell].push(run.record);
                 tick(&format!(
@@ -248,14 +250,12 @@ impl SceneMatrix<'_> {
             // The estimates, and so their error, depend on neither the policy nor the run.
             let error = errors.iter().find(|(k, _)| *k == block(c)).map(|&(_, e)| e);
             r.prediction_error = error.filter(|_| settings.mode == Mode::Cost);
-            if let Some(mid) =
-                repeats::median_run(&runs[cell]).filter(|_| !lpt_gens[cell].is_empty())
-            {
+            if let Some(mid) = repeats::median_run(&runs[cell]).filter(|_| !kept[cell].is_empty()) {
                 replays.push(Replays {
                     workload: *w,
                     task_size: settings.task_size.get(),
                     prediction_error: error,
-                    gens: std::mem::take(&mut lpt_gens[cell][mid]),
+                    gens: std::mem::take(&mut kept[cell][mid]),
                 });
             }
             records.push(r);
@@ -346,5 +346,29 @@ impl Totals {
             r.makespan_over_bound = Some(p.makespan / p.lower_bound.max(1e-300));
         }
         r
+    }
+}
+
+/// The policy whose cost-mode runs the simulator replays: a queue's, whose launches hold one
+/// task each, so that each task's measured time is its own. A static plan launches a device's
+/// tasks together and times them together (the launch's time falls on its first task), which
+/// a machine of more devices could not replay. Static LPT where no queue was run.
+pub fn replay_policy(policies: &[Policy]) -> Option<Policy> {
+    [Policy::QueueSorted, Policy::QueueFifo, Policy::StaticLpt]
+        .into_iter()
+        .find(|p| policies.contains(p))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_queue_run_is_replayed_before_a_static_plan() {
+        use Policy::{Hybrid, QueueFifo, QueueSorted, StaticLpt};
+        assert_eq!(replay_policy(&[StaticLpt, QueueFifo]), Some(QueueFifo));
+        assert_eq!(replay_policy(&[QueueFifo, QueueSorted]), Some(QueueSorted));
+        assert_eq!(replay_policy(&[StaticLpt, Hybrid]), Some(StaticLpt));
+        assert_eq!(replay_policy(&[Hybrid]), None);
     }
 }

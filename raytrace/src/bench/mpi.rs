@@ -231,9 +231,10 @@ impl SceneMatrix<'_> {
         }))
     }
 
-    /// Rank 0 alone: the tasks of a single-node, cost-based StaticLpt render on this rank's
-    /// devices, replayed on 16 and 64 simulated nodes of equal speed behind each of `links`,
-    /// with each policy planning from the same estimates.
+    /// Rank 0 alone: the tasks of a single-node, cost-based render on this rank's devices
+    /// under a queue (one task a launch, so each task's time is its own; see
+    /// [`super::matrix::replay_policy`]), replayed on 16 and 64 simulated nodes of equal speed
+    /// behind each of `links`, with each policy planning from the same estimates.
     pub fn simulate(
         &self,
         links: &[(&'static str, f64)],
@@ -241,7 +242,7 @@ impl SceneMatrix<'_> {
         let mut out = Vec::new();
         for &w in self.workloads {
             for &task_size in self.task_sizes {
-                let settings = self.settings(Policy::StaticLpt, task_size);
+                let settings = self.settings(Policy::QueueSorted, task_size);
                 let frame = self.single_node(w, settings)?;
                 for (nodes, &(link, latency)) in SIMULATED_NODES
                     .into_iter()
