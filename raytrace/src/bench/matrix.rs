@@ -122,7 +122,7 @@ pub struct Replay {
 }
 
 /// The cost-mode run of one (workload, task size) kept for the simulator (see
-/// [`replay_policy`]).
+/// `replay_policy`).
 #[derive(Clone, Debug)]
 pub struct Replays {
     pub(crate) workload: Workload,
@@ -184,7 +184,7 @@ impl SceneMatrix<'_> {
 
     /// Runs the whole matrix, calling `tick` after each run; returns one record per cell (the
     /// medians of its repeats) and, per (workload, task size), the replay of the cost-mode
-    /// run of median time under [`replay_policy`].
+    /// run of median time under `replay_policy`.
     pub fn run(
         &self,
         mut tick: impl FnMut(&str),
@@ -353,7 +353,7 @@ impl Totals {
 /// task each, so that each task's measured time is its own. A static plan launches a device's
 /// tasks together and times them together (the launch's time falls on its first task), which
 /// a machine of more devices could not replay. Static LPT where no queue was run.
-pub fn replay_policy(policies: &[Policy]) -> Option<Policy> {
+pub(crate) fn replay_policy(policies: &[Policy]) -> Option<Policy> {
     [Policy::QueueSorted, Policy::QueueFifo, Policy::StaticLpt]
         .into_iter()
         .find(|p| policies.contains(p))

@@ -233,7 +233,7 @@ impl SceneMatrix<'_> {
 
     /// Rank 0 alone: the tasks of a single-node, cost-based render on this rank's devices
     /// under a queue (one task a launch, so each task's time is its own; see
-    /// [`super::matrix::replay_policy`]), replayed on 16 and 64 simulated nodes of equal speed
+    /// `replay_policy` in `matrix.rs`), replayed on 16 and 64 simulated nodes of equal speed
     /// behind each of `links`, with each policy planning from the same estimates.
     pub fn simulate(
         &self,
