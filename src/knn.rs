@@ -55,8 +55,7 @@ pub struct Args {
     #[arg(long, default_value = "0.125", value_parser = sample_rate)]
     sample_rate: SampleRate,
     /// `density` (a density grid, no search: cheap, deterministic, rough) or `sampled` (times
-    /// the real search of sampled queries: better ranks, timing noise, costlier; also
-    /// `probe`).
+    /// the real search of sampled queries: better ranks, timing noise, costlier).
     #[arg(long, value_enum, default_value = "density")]
     estimator: Estimator,
     /// One policy instead of all five.

@@ -40,7 +40,7 @@ enum Command {
     Knn(knn::Args),
     /// Contacts of many bodies (parry3d) balanced in regular and cost mode; table or JSON.
     Collide(collide::Args),
-    /// Estimate task costs by the reduced traversal of sampled rays; report error and overhead.
+    /// Estimate task costs from sampled rays; judge each estimator by measured time.
     Estimate(estimate::Args),
     /// Plan task costs on devices with a policy; print makespan, lower bound and assignment.
     Schedule(schedule::Args),

@@ -58,7 +58,7 @@ pub struct Args {
     /// `first-leaf`.
     #[arg(long, default_value = "trace")]
     walk: raytrace::Walk,
-    /// AO probes per primary hit, 1..=4096.
+    /// AO rays per primary hit, 1..=4096.
     #[arg(long, default_value_t = 32,
           value_parser = clap::value_parser!(u32).range(1..=MAX_AO_SAMPLES as i64))]
     ao_samples: u32,
