@@ -428,9 +428,9 @@ pub struct ScheduleArgs {
     /// Fraction of each task's paths the cost estimate samples, in (0, 1].
     #[arg(long, default_value = "0.125", value_parser = sample_rate)]
     pub sample_rate: SampleRate,
-    /// How the estimate counts a sampled path: `trace` (rendered for real, counted, on the
-    /// devices), or its camera ray walked on the host's cores by `reduced` (the thesis's
-    /// reduced traversal) or `first-leaf` (up to the first leaf it reaches).
+    /// How the estimate counts a sampled path, on the devices: `trace` (rendered for real,
+    /// counted), or its camera ray walked by `reduced` (the thesis's reduced traversal) or
+    /// `first-leaf` (up to the first leaf it reaches).
     #[arg(long, default_value = "trace")]
     pub walk: Walk,
 }

@@ -389,6 +389,18 @@ fn cpu_gpu_and_mixed_devices_render_the_cpu_image() {
                 "mixed",
                 &["--devices", "cpu:1,gpu:0", "--policy", "hybrid"][..],
             ),
+            // The thesis's walk, estimated on the GPU listed first and on the CPU alike.
+            (
+                "mixed-reduced",
+                &[
+                    "--devices",
+                    "gpu:0,cpu:1",
+                    "--policy",
+                    "hybrid",
+                    "--walk",
+                    "reduced",
+                ][..],
+            ),
         ] {
             let (gpu, gpu_png) = run(shader, extra, &format!("{name}-{shader}.png"));
             let err = String::from_utf8_lossy(&gpu.stderr);

@@ -1180,7 +1180,13 @@ fn an_undrained_launch_is_run_again_checked() {
             camera: &options.camera,
         };
         let all = 0..40 * 24;
-        let sampled = starved.sample_paths(&frame, &[&all], &shader, 4);
+        let sampled = starved.sample_paths(
+            &frame,
+            &[&all],
+            &shader,
+            4,
+            crate::Walk::Trace { any: false },
+        );
         assert!(
             matches!(sampled, Err(GpuError::LoopCut { .. })),
             "{sampled:?}"
@@ -1220,7 +1226,9 @@ fn a_gpu_estimates_its_paths_as_the_host_does() {
             let refs: Vec<&std::ops::Range<usize>> = tasks.iter().collect();
             for rate in [1.0, 0.125, 0.01] {
                 let rate = sched::SampleRate::new(rate).expect("rate");
-                let on_gpu = device.estimate(&frame, &refs, rate).expect("estimate");
+                let on_gpu = device
+                    .estimate(&frame, &refs, rate, crate::Walk::Trace { any: false })
+                    .expect("estimate");
                 let on_host = estimate_paths_in(&frame, &tasks, rate, crate::Layout::Binary);
                 assert_eq!(on_gpu.work, on_host, "{name} {} {rate:?}", shader.name());
                 assert!(on_gpu.work[2].nodes > 0.0, "{name}: {:?}", on_gpu.work);
@@ -1229,6 +1237,46 @@ fn a_gpu_estimates_its_paths_as_the_host_does() {
                 // A task list and the sums; then the fixed part: the number of tasks, the
                 // verdict, timestamps, the traces' parameters, and the first time the
                 // frame's blocks.
+                assert!(t.bytes() <= 24 * tasks.len() as u64 + 400, "{t:?}");
+            }
+        }
+    }
+}
+
+/// The thesis's walks on a GPU: every sampled path's camera ray made on the device and walked
+/// by the trace kernels' counting modes, summed per task there. The work equals the host's
+/// walk of the same sample bit for bit, for both walks, shaders and several rates, and only
+/// the task lists and the sums cross.
+#[test]
+fn a_gpu_walks_its_paths_camera_rays_as_the_host_does() {
+    use crate::paths::{GpuPaths, PathDevice, walk_paths};
+    let Some(ctx) = gpu() else { return };
+    let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").expect("scene");
+    let mut device = GpuPaths::new(ctx.clone(), &scene, &bvh).expect("device");
+    let camera = Camera::orbit(&scene.bounds(), 1);
+    let ao = Shader::Ao(AoSettings {
+        samples: 6,
+        ..AoSettings::default()
+    });
+    for shader in [ao, Shader::Whitted(WhittedSettings::default())] {
+        let options = RenderOptions::new(48, 40, camera, shader);
+        let frame = crate::paths::Frame {
+            scene: &scene,
+            bvh: &bvh,
+            options: &options,
+        };
+        let tasks = [0..1, 1..1, 1..700, 700..1300, 1300..1920];
+        let refs: Vec<&std::ops::Range<usize>> = tasks.iter().collect();
+        for walk in crate::Walk::ALL {
+            for rate in [1.0, 0.125] {
+                let rate = sched::SampleRate::new(rate).expect("rate");
+                let on_gpu = device
+                    .estimate(&frame, &refs, rate, walk)
+                    .expect("estimate");
+                let on_host = walk_paths(&frame, &tasks, rate, walk);
+                assert_eq!(on_gpu.work, on_host, "{} {walk:?} {rate:?}", shader.name());
+                assert!(on_gpu.work[2].nodes > 0.0, "{:?}", on_gpu.work);
+                let t = &on_gpu.traffic;
                 assert!(t.bytes() <= 24 * tasks.len() as u64 + 400, "{t:?}");
             }
         }

@@ -17,9 +17,11 @@ use sched::{DeviceError, SampleRate};
 
 use super::{
     Estimate, Frame, Launch, PathDevice, SampledTask, Traffic, sample_paths, sampled_options,
+    walk_paths,
 };
 use crate::Result;
 use crate::shade::{CpuTracer, RenderOptions, render_paths};
+use crate::traverse::walk::Walk;
 
 /// One CPU device. See the module documentation.
 pub struct CpuPaths {
@@ -208,7 +210,16 @@ impl PathDevice for CpuPaths {
         frame: &Frame<'_>,
         tasks: &[&Range<usize>],
         rate: SampleRate,
+        walk: Walk,
     ) -> std::result::Result<Estimate, DeviceError> {
+        if !matches!(walk, Walk::Trace { .. }) {
+            // The camera rays' walks render no value to keep.
+            let work = self.pool.install(|| walk_paths(frame, tasks, rate, walk));
+            return Ok(Estimate {
+                work,
+                traffic: Traffic::default(),
+            });
+        }
         let sampled = self.pool.install(|| sample_paths(frame, tasks, rate));
         let work = sampled.iter().map(|s| s.work).collect();
         // The sample's values are the image's only where it rendered the frame's options.
@@ -238,6 +249,8 @@ impl PathDevice for CpuPaths {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    const TRACE: Walk = Walk::Trace { any: false };
     use crate::shade::{AoSettings, Shader, WhittedSettings};
     use crate::{BuildPreset, Bvh, Camera, Scene, SceneSource};
 
@@ -280,7 +293,7 @@ mod tests {
         let (first, second) = pair.split_at_mut(1);
         let held: Vec<&Range<usize>> = tasks[..4].iter().collect();
         let estimate = first[0]
-            .estimate(&frame, &held, SampleRate::THESIS)
+            .estimate(&frame, &held, SampleRate::THESIS, TRACE)
             .expect("estimate");
         assert_eq!(estimate.work.len(), 4);
         assert_eq!(second[0].kept().tasks.len(), 4, "kept for the entry");
@@ -297,12 +310,12 @@ mod tests {
         // The frame's end drops what is left; another frame's launch finds nothing of this
         // one's.
         first[0]
-            .estimate(&frame, &held, SampleRate::THESIS)
+            .estimate(&frame, &held, SampleRate::THESIS, TRACE)
             .expect("estimate");
         second[0].end_frame();
         assert!(first[0].kept().tasks.is_empty());
         first[0]
-            .estimate(&frame, &held, SampleRate::THESIS)
+            .estimate(&frame, &held, SampleRate::THESIS, TRACE)
             .expect("estimate");
         let moved = RenderOptions::new(32, 32, Camera::orbit(&scene.bounds(), 1), whitted);
         let other = Frame {
@@ -327,7 +340,7 @@ mod tests {
             ..frame
         };
         first[0]
-            .estimate(&ao_frame, &held, SampleRate::THESIS)
+            .estimate(&ao_frame, &held, SampleRate::THESIS, TRACE)
             .expect("estimate");
         assert!(
             first[0].kept().tasks.is_empty(),

@@ -11,8 +11,9 @@ use glam::Vec3;
 use sched::{DeviceError, Executor, SampleRate, Sink};
 
 use super::frame::Frame;
-use super::{Traffic, estimate_paths};
+use super::{Traffic, walk_paths};
 use crate::cost::Work;
+use crate::traverse::walk::Walk;
 
 /// What one launch of tasks produced on a device.
 #[derive(Clone, Debug, Default)]
@@ -60,9 +61,9 @@ pub trait PathDevice: Send {
     }
 
     /// The estimated work of `tasks` of `frame`, from every path of each at `rate`'s stride
-    /// traced for real with its counts ([`estimate_paths`]'s sample and scaling), where the
-    /// device renders: a device estimates the tasks it holds. By default traced on the host,
-    /// in the caller's rayon pool.
+    /// counted as `walk` says ([`walk_paths`]'s sample and scaling), where the device
+    /// renders: a device estimates the tasks it holds. By default counted on the host, in the
+    /// caller's rayon pool.
     ///
     /// # Errors
     /// A [`DeviceError`] when the device cannot estimate them; the renderer then estimates
@@ -72,17 +73,19 @@ pub trait PathDevice: Send {
         frame: &Frame<'_>,
         tasks: &[&Range<usize>],
         rate: SampleRate,
+        walk: Walk,
     ) -> Result<Estimate, DeviceError> {
         Ok(Estimate {
-            work: estimate_paths(frame, tasks, rate),
+            work: walk_paths(frame, tasks, rate, walk),
             traffic: Traffic::default(),
         })
     }
 
-    /// What [`PathDevice::estimate`]'s counts are counted on: devices of one kind give the
-    /// same work for the same tasks, devices of different kinds do not (the host's traces
-    /// walk the 8-wide tree, the GPU kernels the binary one), so a frame's tasks are all
-    /// estimated by devices of one kind. `"host"` by default.
+    /// What [`PathDevice::estimate`]'s counts of the trace walk are counted on: devices of
+    /// one kind give the same work for the same tasks, devices of different kinds do not (the
+    /// host's traces walk the 8-wide tree, the GPU kernels the binary one), so a frame's tasks
+    /// are all estimated by devices of one kind. The reduced walks count on the binary tree
+    /// everywhere. `"host"` by default.
     fn estimate_kind(&self) -> &'static str {
         "host"
     }

@@ -96,7 +96,7 @@ where
 
 /// The estimated work of each of `tasks` from its sampled paths' camera rays, walked by
 /// `walk` on the binary tree (the thesis's reduced traversal, or first-leaf; see the module
-/// documentation), in the caller's rayon pool. [`Walk::Trace`] renders the sampled paths
+/// documentation), in the caller's rayon pool; a GPU counts the same on the device. [`Walk::Trace`] renders the sampled paths
 /// instead, as [`estimate_paths`] does.
 pub fn walk_paths<T>(frame: &Frame<'_>, tasks: &[T], rate: SampleRate, walk: Walk) -> Vec<Work>
 where

@@ -13,6 +13,7 @@ use super::{Estimate, Frame, Launch, PathDevice};
 use crate::cost::Work;
 use crate::gpu::{FrameParams, GpuContext, GpuError, GpuRenderer};
 use crate::shade::Shader;
+use crate::traverse::walk::Walk;
 use crate::{Bvh, Scene};
 
 /// One GPU. See the module documentation.
@@ -81,15 +82,20 @@ impl PathDevice for GpuPaths {
         })
     }
 
-    /// On the GPU: the sample is made, traced and summed by the path kernels
-    /// ([`GpuRenderer::sample_paths`]); one pair of sums per task and kind comes back.
+    /// On the GPU: the sample is made, traced (or its camera rays walked) and summed by the
+    /// path kernels ([`GpuRenderer::sample_paths`]); one pair of sums per task and kind comes
+    /// back.
     fn estimate(
         &mut self,
         frame: &Frame<'_>,
         tasks: &[&Range<usize>],
         rate: SampleRate,
+        walk: Walk,
     ) -> Result<Estimate, DeviceError> {
-        let (options, probe_scale) = sampled_options(frame.options, rate);
+        let (options, probe_scale) = match walk {
+            Walk::Trace { .. } => sampled_options(frame.options, rate),
+            _ => (*frame.options, 1.0),
+        };
         let params = FrameParams {
             width: options.width,
             height: options.height,
@@ -98,7 +104,7 @@ impl PathDevice for GpuPaths {
         let stride = u32::try_from(rate.stride()).unwrap_or(u32::MAX);
         let sampled = self
             .renderer
-            .sample_paths(&params, tasks, &options.shader, stride)?;
+            .sample_paths(&params, tasks, &options.shader, stride, walk)?;
         // `task_work` sets the task's `R`.
         let work = |[nodes, tris]: [u64; 2]| Work {
             nodes: nodes as f64,

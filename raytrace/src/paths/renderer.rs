@@ -14,8 +14,7 @@ use super::choice::{ChoiceKey, SetTimes, choice_key};
 use super::history::History;
 use super::learn::{Learnt, launches, learn, relative_speeds};
 use super::{
-    BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, Traffic, estimate_paths,
-    walk_paths,
+    BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, Traffic, walk_paths,
 };
 use super::{Mode, Settings, TaskStats};
 use crate::cost::{CostModel, Work};
@@ -475,18 +474,16 @@ impl<'a> PathRenderer<'a> {
         active: &[usize],
         speeds: &[f64],
     ) -> (Vec<Work>, Vec<Traffic>) {
-        let rate = self.settings.sample_rate;
-        if !matches!(self.settings.walk, Walk::Trace { .. }) {
-            // The thesis's walks count camera rays alone, on the host's cores.
-            let work = walk_paths(frame, tasks, rate, self.settings.walk);
-            return (work, vec![Traffic::default(); active.len()]);
-        }
+        let (rate, walk) = (self.settings.sample_rate, self.settings.walk);
+        // The reduced walks count the same on every device; the trace walk's counts are of
+        // the first device's kind.
+        let traced = matches!(walk, Walk::Trace { .. });
         let kind = self.devices[active[0]].estimate_kind();
         let estimating: Vec<f64> = active
             .iter()
             .zip(speeds)
             .map(|(&d, &s)| {
-                if self.devices[d].estimate_kind() == kind {
+                if !traced || self.devices[d].estimate_kind() == kind {
                     s
                 } else {
                     0.0
@@ -514,9 +511,9 @@ impl<'a> PathRenderer<'a> {
                             return Estimate::default();
                         }
                         device
-                            .estimate(frame, &held, rate)
+                            .estimate(frame, &held, rate, walk)
                             .unwrap_or_else(|_| Estimate {
-                                work: estimate_paths(frame, &held, rate),
+                                work: walk_paths(frame, &held, rate, walk),
                                 traffic: Traffic::default(),
                             })
                     })
@@ -534,7 +531,7 @@ impl<'a> PathRenderer<'a> {
                 work.extend(e.work);
             } else {
                 // A device that answered for other tasks than it was given (or panicked).
-                work.extend(estimate_paths(frame, &tasks[share.clone()], rate));
+                work.extend(walk_paths(frame, &tasks[share.clone()], rate, walk));
             }
             traffic.push(e.traffic);
         }

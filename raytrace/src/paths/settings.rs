@@ -63,10 +63,9 @@ pub struct Settings {
     pub task_size: NonZeroUsize,
     /// Fraction of each task's paths the estimate samples (cost mode).
     pub sample_rate: SampleRate,
-    /// How the estimate counts a sampled path (cost mode): rendered for real
-    /// ([`Walk::Trace`], the default, on the devices), or its camera ray walked by the
-    /// thesis's reduced traversal or the first-leaf walk (on the host's cores); see
-    /// [`super::walk_paths`].
+    /// How the estimate counts a sampled path (cost mode), on the devices: rendered for real
+    /// ([`Walk::Trace`], the default), or its camera ray walked by the thesis's reduced
+    /// traversal or the first-leaf walk; see [`super::walk_paths`].
     pub walk: Walk,
 }
 

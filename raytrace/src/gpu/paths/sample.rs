@@ -6,7 +6,9 @@
 //!
 //! The traces are the render's, counting as the CPU's counted traces count, so the sums equal
 //! [`crate::paths::estimate_paths`]'s sample bit for bit wherever the kernels find the CPU's
-//! hits (on lavapipe, always). A sum that would not fit 32 bits (billions of node visits in
+//! hits (on lavapipe, always). With the thesis's walks ([`Walk::Reduced`],
+//! [`Walk::FirstLeaf`]) only the sampled paths' camera rays are made and walked, by the trace
+//! kernels' counting modes, as [`crate::paths::walk_paths`] walks them on the host. A sum that would not fit 32 bits (billions of node visits in
 //! one task's sample) saturates, and the launch fails with [`GpuError::CountOverflow`]: the
 //! caller estimates on the host.
 
@@ -15,9 +17,12 @@ use std::ops::Range;
 use super::render::{FrameParams, GpuRenderer, Tally};
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{check_size, storage};
+use crate::gpu::launch::Count;
+use crate::gpu::trace::TraceMode;
 use crate::gpu::trace::grid;
 use crate::shade::{AoSettings, Shader};
 use crate::traffic::Traffic;
+use crate::traverse::walk::Walk;
 
 /// One task's sample as the GPU summed it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -40,8 +45,9 @@ pub struct SampledPaths {
 }
 
 impl GpuRenderer {
-    /// Traces every `stride`-th path of each of `tasks` (from its first) with `shader` and
-    /// sums its rays' counts per task (see the module docs).
+    /// Traces every `stride`-th path of each of `tasks` (from its first) with `shader`, or
+    /// walks its camera ray alone by a reduced `walk`, and sums its rays' counts per task
+    /// (see the module docs).
     ///
     /// # Errors
     /// [`GpuError::TooLarge`] when the sampled paths or their probes exceed one binding,
@@ -55,8 +61,9 @@ impl GpuRenderer {
         tasks: &[&Range<usize>],
         shader: &Shader,
         stride: u32,
+        walk: Walk,
     ) -> Result<SampledPaths, GpuError> {
-        self.sample_launch(frame, tasks, shader, stride)?
+        self.sample_launch(frame, tasks, shader, stride, walk)?
             .ok_or_else(|| GpuError::LoopCut {
                 adapter: self.ctx.info.name.clone(),
                 batches: crate::gpu::trace::BATCHES,
@@ -71,9 +78,19 @@ impl GpuRenderer {
         tasks: &[&Range<usize>],
         shader: &Shader,
         stride: u32,
+        walk: Walk,
     ) -> Result<Option<SampledPaths>, GpuError> {
         let mut traffic = Traffic::default();
+        let reduced = !matches!(walk, Walk::Trace { .. });
         let (ao, secondary) = match shader {
+            // A reduced walk makes the camera rays alone.
+            _ if reduced => (
+                AoSettings {
+                    samples: 0,
+                    ..AoSettings::default()
+                },
+                0,
+            ),
             Shader::Ao(s) => (*s, s.samples),
             Shader::Whitted(_) => (
                 AoSettings {
@@ -118,6 +135,22 @@ impl GpuRenderer {
         };
         let mut launch = self.recorder(&stage, false);
         match shader {
+            _ if reduced => {
+                launch.pass_over(&self.raygen, &first, stage.n);
+                let count = Count::Counted {
+                    counts: &tally.paths,
+                    per_path: 1,
+                };
+                let mode = TraceMode::counts(walk)?;
+                launch.trace(
+                    &stage.primary,
+                    &stage.hits,
+                    stage.n,
+                    mode,
+                    count,
+                    &mut traffic,
+                )?;
+            }
             Shader::Ao(s) => {
                 self.record_ao(
                     &mut launch,
