@@ -12,11 +12,12 @@ use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::cost::SampleRate;
 use crate::paths::Settings;
-use crate::paths::{Frame, FrameStats, PathRenderer, build_path_devices, estimate_paths};
+use crate::paths::{Frame, FrameStats, PathRenderer, build_path_devices, walk_paths};
 use crate::run::{CalibrationReport, workload};
 use crate::scene::Scene;
 use crate::shade::RenderOptions;
 use crate::traffic::Traffic;
+use crate::traverse::walk::Walk;
 
 impl SceneMatrix<'_> {
     /// Renders every camera once with `settings` through one path renderer (each frame plans
@@ -72,7 +73,7 @@ impl SceneMatrix<'_> {
             }
             // A frame on one device is not estimated: there is no estimate to judge.
             if measure_error && frame.stats.estimated {
-                sums += frame_error(self.scene, self.bvh, &options, &frame.stats)?;
+                sums += frame_error(self.scene, self.bvh, &options, &frame.stats, settings.walk)?;
             }
             frames.push(frame.stats);
         }
@@ -136,13 +137,15 @@ impl SceneMatrix<'_> {
     }
 }
 
-/// The frame's estimate judged against every path of each task counted (the estimate at
-/// full sampling), in the renderer's cost units; outside every clock of the frame.
+/// The frame's estimate judged against every path of each task counted by the same `walk`
+/// (the estimate at full sampling, as the thesis judges a walk by its own full count), in the
+/// renderer's cost units; outside every clock of the frame.
 fn frame_error(
     scene: &Scene,
     bvh: &Bvh,
     options: &RenderOptions,
     stats: &FrameStats,
+    walk: Walk,
 ) -> Result<ErrorSums, BenchError> {
     let frame = Frame {
         scene,
@@ -152,7 +155,7 @@ fn frame_error(
     let tasks = sched::split_ranges(stats.paths, stats.task_size.max(1));
     let full = stats
         .cost_model
-        .costs(&estimate_paths(&frame, &tasks, SampleRate::FULL));
+        .costs(&walk_paths(&frame, &tasks, SampleRate::FULL, walk));
     let estimated = stats.task_stats.iter().map(|t| t.cost);
     Ok(ErrorSums {
         diff: estimated.zip(&full).map(|(e, f)| (e - f).abs()).sum(),
