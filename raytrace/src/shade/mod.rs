@@ -29,7 +29,6 @@ pub use generation::Generation;
 pub use tracer::{CpuTracer, Recorder, Tracer};
 pub use whitted::{AMBIENT, SKY, WhittedSettings};
 
-use crate::traverse::counts::Counts;
 use crate::{Camera, Film, Scene, SceneNeeds};
 use generation::Generations;
 
@@ -71,20 +70,16 @@ pub struct RenderOptions {
     pub camera: Camera,
     /// The shader.
     pub shader: Shader,
-    /// Also count `B` and `T` of every primary ray, for a cost image (an extra, untimed-by-
-    /// generation pass, so the generations' times stay those of plain tracing).
-    pub count_primary: bool,
 }
 
 impl RenderOptions {
-    /// Options without cost counting.
+    /// A `width × height` image of `shader` seen from `camera`.
     pub fn new(width: u32, height: u32, camera: Camera, shader: Shader) -> Self {
         Self {
             width,
             height,
             camera,
             shader,
-            count_primary: false,
         }
     }
 }
@@ -96,12 +91,7 @@ pub struct Rendering {
     pub film: Film,
     /// Every traced generation, in order.
     pub generations: Vec<Generation>,
-    /// Per-pixel `B`, `T` of the primary rays (row-major), when counting was asked for and
-    /// the tracer can count.
-    pub primary_counts: Option<Vec<Counts>>,
-    /// Time of the counting pass.
-    pub count_seconds: f64,
-    /// Wall time of the whole render (ray generation, tracing and shading), without counting.
+    /// Wall time of the whole render (ray generation, tracing and shading).
     pub seconds: f64,
 }
 
@@ -138,36 +128,16 @@ pub fn render<T: Tracer + ?Sized>(
     let (w, h) = (options.width, options.height);
     let start = Instant::now();
     let primary = options.camera.primary_rays(w, h);
-    let camera_seconds = start.elapsed().as_secs_f64();
-
-    // Counting goes first, so the shader can then consume the primary rays without a copy.
-    let (mut primary_counts, mut count_seconds) = (None, 0.0);
-    if options.count_primary {
-        let start = Instant::now();
-        primary_counts = tracer.counts(&primary.rays).map(|counts| {
-            let mut by_pixel = vec![Counts::default(); counts.len()];
-            for (c, &p) in counts.iter().zip(&primary.pixels) {
-                by_pixel[p as usize] = *c;
-            }
-            by_pixel
-        });
-        count_seconds = start.elapsed().as_secs_f64();
-    }
-
-    let start = Instant::now();
     let mut film = Film::new(w, h);
     let mut gens = Generations::new(tracer);
     match options.shader {
         Shader::Ao(s) => ao::render(scene, &mut gens, primary, &mut film, s, None),
         Shader::Whitted(s) => whitted::render(scene, &mut gens, primary, &mut film, s),
     }
-    let seconds = camera_seconds + start.elapsed().as_secs_f64();
     Rendering {
         film,
         generations: gens.log,
-        primary_counts,
-        count_seconds,
-        seconds,
+        seconds: start.elapsed().as_secs_f64(),
     }
 }
 

@@ -2,8 +2,7 @@
 //! a [`Tracer`] and get hits back. [`CpuTracer`] traces them on the host's threads; a counting
 //! tracer wraps it where an estimate renders a sample of paths (`crate::paths::estimate_paths`).
 
-use crate::traverse::batch::{any_hits, closest_hits, closest_hits_counted};
-use crate::traverse::counts::Counts;
+use crate::traverse::batch::{any_hits, closest_hits};
 use crate::{Bvh, HitBatch, RayBatch, RayKind, Result};
 
 /// Traces generations of rays. There is one required method.
@@ -15,13 +14,6 @@ use crate::{Bvh, HitBatch, RayBatch, RayKind, Result};
 pub trait Tracer {
     /// Traces one generation.
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch;
-
-    /// Per-ray work `B`, `T` of a closest-hit trace of `rays`, for cost images; `None` when
-    /// this tracer cannot count (the default).
-    fn counts(&mut self, rays: &RayBatch) -> Option<Vec<Counts>> {
-        let _ = rays;
-        None
-    }
 }
 
 /// The CPU tracer: rayon over the batch functions of [`crate::traverse`], in its own pool of
@@ -70,11 +62,6 @@ impl Tracer for CpuTracer<'_> {
             self.run(|| closest_hits(bvh, rays))
         }
     }
-
-    fn counts(&mut self, rays: &RayBatch) -> Option<Vec<Counts>> {
-        let bvh = self.bvh;
-        Some(self.run(|| closest_hits_counted(bvh, rays).1))
-    }
 }
 
 /// A tracer that keeps a copy of every generation it is handed (kind and rays) and traces
@@ -100,9 +87,5 @@ impl<T: Tracer> Tracer for Recorder<T> {
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
         self.generations.push((kind, rays.clone()));
         self.inner.trace(kind, rays)
-    }
-
-    fn counts(&mut self, rays: &RayBatch) -> Option<Vec<Counts>> {
-        self.inner.counts(rays)
     }
 }

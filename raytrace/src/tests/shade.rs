@@ -213,18 +213,7 @@ fn ao_is_one_on_open_ground_and_darker_in_a_corner() {
 fn primary_counts_cover_every_pixel() {
     let scene = cornell(SceneNeeds::AO);
     let bvh = Bvh::build(&scene, BuildPreset::Medium).unwrap();
-    let mut options = RenderOptions::new(
-        N,
-        N / 2,
-        front_camera(),
-        Shader::Ao(AoSettings {
-            samples: 4,
-            ..Default::default()
-        }),
-    );
-    options.count_primary = true;
-    let r = render(&scene, &mut CpuTracer::new(&bvh), &options);
-    let counts = r.primary_counts.unwrap();
+    let counts = crate::cost_image::primary_counts(&bvh, &front_camera(), N, N / 2);
     assert_eq!(counts.len(), (N * N / 2) as usize);
     // Counts land on their own pixel (row-major, not Morton order): each is its ray's count
     // in the batch trace of the frame's rays (which walks neighbours together, so a count
