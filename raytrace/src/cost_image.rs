@@ -43,6 +43,12 @@ pub fn primary_counts(bvh: &Bvh, camera: &Camera, width: u32, height: u32) -> Ve
     by_pixel
 }
 
+/// The cost image of `camera`'s `width x height` primary rays: [`primary_counts`] drawn by
+/// [`cost_image`].
+pub fn primary_cost_image(bvh: &Bvh, camera: &Camera, width: u32, height: u32) -> Film {
+    cost_image(&primary_counts(bvh, camera, width, height), width, height)
+}
+
 /// Largest `B` and `T` over the pixels: the values each panel's top colour stands for.
 pub fn max_counts(counts: &[Counts]) -> Counts {
     counts.iter().fold(Counts::default(), |m, c| Counts {

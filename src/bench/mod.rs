@@ -418,7 +418,6 @@ fn run_mpi(args: &Args, mut m: Matrix, started: Instant) -> Result<(), CliError>
 /// every primary ray.
 fn cost_image(scene: &Scene, bvh: &Bvh, width: u32, height: u32) -> Result<Vec<u8>, CliError> {
     let camera = Camera::orbit(&scene.bounds(), 0);
-    let counts = raytrace::cost_image::primary_counts(bvh, &camera, width, height);
-    Ok(raytrace::cost_image::cost_image(&counts, width, height)
-        .png(raytrace::film::ToneMap::Display)?)
+    let film = raytrace::cost_image::primary_cost_image(bvh, &camera, width, height);
+    Ok(film.png(raytrace::film::ToneMap::Display)?)
 }

@@ -1,6 +1,6 @@
 //! `cobalt render`'s run ([`raytrace::run::Run`]), its report and its summary.
 
-use raytrace::cost_image::{cost_image, primary_counts};
+use raytrace::cost_image::primary_cost_image;
 use raytrace::film::ToneMap;
 use raytrace::run::{CalibrationReport, Run, RunReport, Store};
 use raytrace::shade::RenderOptions;
@@ -71,8 +71,7 @@ pub fn render(
     // The devices count nothing per pixel: the cost image's counts are traced apart.
     let cost_image = if cost_image_wanted {
         let (w, h) = (options.width, options.height);
-        let counts = primary_counts(bvh, &options.camera, w, h);
-        Some(cost_image(&counts, w, h).png(ToneMap::Display)?)
+        Some(primary_cost_image(bvh, &options.camera, w, h).png(ToneMap::Display)?)
     } else {
         None
     };

@@ -295,30 +295,34 @@ fn bad_device_lists_and_faults_are_named() {
     assert!(PathRenderer::new(Vec::new(), Settings::default()).is_err());
 }
 
+/// A 64 × 64 AO frame of a small forest from orbit camera 0.
+fn forest_64() -> (Scene, Bvh, RenderOptions) {
+    let shader = SHADERS[0];
+    let (scene, bvh) = scene("builtin:forest:0.05", &shader);
+    let options = RenderOptions::new(64, 64, Camera::orbit(&scene.bounds(), 0), shader);
+    (scene, bvh, options)
+}
+
+/// Each task's cost in the default model.
+fn costs(work: Vec<crate::cost::Work>) -> Vec<f64> {
+    let model = crate::cost::CostModel::default();
+    work.into_iter().map(|w| model.cost(w)).collect()
+}
+
 /// The cost of a task, estimated from a sample of its paths traced for real, ranks tasks as
 /// their measured work does: a task of sky costs less than a task of forest.
 #[test]
 fn sampled_paths_rank_tasks_by_their_work() {
-    use crate::cost::CostModel;
     use crate::paths::{Frame, estimate_paths};
-    let shader = SHADERS[0];
-    let (scene, bvh) = scene("builtin:forest:0.05", &shader);
-    let options = RenderOptions::new(64, 64, Camera::orbit(&scene.bounds(), 0), shader);
+    let (scene, bvh, options) = forest_64();
     let frame = Frame {
         scene: &scene,
         bvh: &bvh,
         options: &options,
     };
     let tasks = sched::split_ranges(64 * 64, 256);
-    let model = CostModel::default();
-    let full: Vec<f64> = estimate_paths(&frame, &tasks, sched::SampleRate::FULL)
-        .into_iter()
-        .map(|w| model.cost(w))
-        .collect();
-    let sampled: Vec<f64> = estimate_paths(&frame, &tasks, sched::SampleRate::THESIS)
-        .into_iter()
-        .map(|w| model.cost(w))
-        .collect();
+    let full = costs(estimate_paths(&frame, &tasks, sched::SampleRate::FULL));
+    let sampled = costs(estimate_paths(&frame, &tasks, sched::SampleRate::THESIS));
     let error = sched::prediction_error(&sampled, &full).expect("tasks");
     assert!(error < 0.25, "error {error}");
     let (lo, hi) = full
@@ -333,19 +337,15 @@ fn sampled_paths_rank_tasks_by_their_work() {
 #[test]
 fn the_thesis_walks_estimate_camera_rays_and_leave_the_image_alone() {
     use crate::Walk;
-    use crate::cost::{CostModel, Work};
+    use crate::cost::Work;
     use crate::paths::{Frame, estimate_paths, walk_paths};
-    let shader = SHADERS[0];
-    let (scene, bvh) = scene("builtin:forest:0.05", &shader);
-    let options = RenderOptions::new(64, 64, Camera::orbit(&scene.bounds(), 0), shader);
+    let (scene, bvh, options) = forest_64();
     let frame = Frame {
         scene: &scene,
         bvh: &bvh,
         options: &options,
     };
     let tasks = sched::split_ranges(64 * 64, 256);
-    let model = CostModel::default();
-    let costs = |w: Vec<Work>| -> Vec<f64> { w.into_iter().map(|w| model.cost(w)).collect() };
     let traced = costs(estimate_paths(&frame, &tasks, sched::SampleRate::FULL));
     for walk in Walk::ALL {
         let full = walk_paths(&frame, &tasks, sched::SampleRate::FULL, walk);

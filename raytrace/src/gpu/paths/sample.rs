@@ -6,11 +6,11 @@
 //!
 //! The traces are the render's, counting as the CPU's counted traces count, so the sums equal
 //! [`crate::paths::estimate_paths`]'s sample bit for bit wherever the kernels find the CPU's
-//! hits (on lavapipe, always). With the thesis's walks ([`Walk::Reduced`],
-//! [`Walk::FirstLeaf`]) only the sampled paths' camera rays are made and walked, by the trace
-//! kernels' counting modes, as [`crate::paths::walk_paths`] walks them on the host. A sum that would not fit 32 bits (billions of node visits in
-//! one task's sample) saturates, and the launch fails with [`GpuError::CountOverflow`]: the
-//! caller estimates on the host.
+//! hits (on lavapipe, always). With the thesis's walks ([`Walk::Reduced`], [`Walk::FirstLeaf`])
+//! only the sampled paths' camera rays are made and walked, by the trace kernels' counting
+//! modes, as [`crate::paths::walk_paths`] walks them on the host. A sum that would not fit 32
+//! bits (billions of node visits in one task's sample) saturates, and the launch fails with
+//! [`GpuError::CountOverflow`]: the caller estimates on the host.
 
 use std::ops::Range;
 
@@ -18,8 +18,7 @@ use super::render::{FrameParams, GpuRenderer, Tally};
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{check_size, storage};
 use crate::gpu::launch::Count;
-use crate::gpu::trace::TraceMode;
-use crate::gpu::trace::grid;
+use crate::gpu::trace::{TraceMode, grid};
 use crate::shade::{AoSettings, Shader};
 use crate::traffic::Traffic;
 use crate::traverse::walk::Walk;
@@ -82,23 +81,15 @@ impl GpuRenderer {
     ) -> Result<Option<SampledPaths>, GpuError> {
         let mut traffic = Traffic::default();
         let reduced = !matches!(walk, Walk::Trace { .. });
+        let no_ao = AoSettings {
+            samples: 0,
+            ..AoSettings::default()
+        };
         let (ao, secondary) = match shader {
+            Shader::Ao(s) if !reduced => (*s, s.samples),
+            Shader::Whitted(_) if !reduced => (no_ao, self.whitted.light_count),
             // A reduced walk makes the camera rays alone.
-            _ if reduced => (
-                AoSettings {
-                    samples: 0,
-                    ..AoSettings::default()
-                },
-                0,
-            ),
-            Shader::Ao(s) => (*s, s.samples),
-            Shader::Whitted(_) => (
-                AoSettings {
-                    samples: 0,
-                    ..AoSettings::default()
-                },
-                self.whitted.light_count,
-            ),
+            _ => (no_ao, 0),
         };
         let (stage, first) = self.begin(frame, tasks, &ao, secondary, stride, &mut traffic)?;
         let stride = stride.max(1) as usize;
