@@ -3,8 +3,8 @@
 //! 32-sample AO rays (any-hit, and closest-hit) from one camera's hits. Scenes: `builtin:forest`
 //! and, when present, `../shared/scenes/conference.obj`.
 //!
-//! Run: `cargo bench --bench raytrace` (filter with e.g. `-- conference`). For the ratio to
-//! obvhs in one printout: `cargo run --release -p raytrace --example measure -- SCENE`.
+//! Run: `cargo bench --bench raytrace` (filter with e.g. `-- conference`); each group prints
+//! both traversals' throughput, so the ratio to obvhs is read from one run.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use raytrace::baseline::CwBvhBaseline;

@@ -1,6 +1,6 @@
 //! The yardstick: obvhs's own 8-wide compressed BVH (`CwBvh`) and its traversal, over the
-//! same triangles, with obvhs's (Möller–Trumbore, not watertight) triangle test. Benches and
-//! `cobalt`'s reports trace the same rays through it and through [`Bvh`](crate::Bvh), so the
+//! same triangles, with obvhs's (Möller–Trumbore, not watertight) triangle test. The
+//! `raytrace` bench traces the same rays through it and through [`Bvh`](crate::Bvh), so the
 //! throughput ratio is measured in one run.
 
 use glam::Vec3A;
