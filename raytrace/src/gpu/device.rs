@@ -13,7 +13,7 @@ use super::buffers::{SceneBuffers, pack_rays};
 use super::program::Kernel;
 use super::sampling::{SampledCounts, Sampling, estimate_kernel, sampled_counts};
 use super::staging::{Staging, staged_hits};
-use super::trace::{Threads, TraceKernels, TraceMode, launch};
+use super::trace::{TraceKernels, TraceMode, launch};
 use super::{GpuContext, GpuError};
 
 /// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a batch of rays, all
@@ -25,7 +25,6 @@ pub struct GpuDevice {
     kernels: TraceKernels,
     estimate: Kernel,
     scene: SceneBuffers,
-    threads: Threads,
     /// The last launch's GPU seconds as `f64` bits; NaN when unknown (launches take `&self`).
     last_seconds: AtomicU64,
     /// The hit launches' buffers, kept from one launch to the next.
@@ -49,22 +48,10 @@ impl GpuDevice {
             kernels,
             estimate,
             scene,
-            threads: Threads::default(),
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
             staging: Mutex::new(None),
             traffic: Mutex::new(Traffic::default()),
         })
-    }
-
-    /// The same device handing rays to invocations as `threads` says (persistent threads by
-    /// default).
-    pub fn with_threads(self, threads: Threads) -> Self {
-        Self { threads, ..self }
-    }
-
-    /// How rays are handed to invocations.
-    pub fn threads(&self) -> Threads {
-        self.threads
     }
 
     /// The GPU time of the last hit launch in seconds, from timestamp queries; `None` where
@@ -112,7 +99,6 @@ impl GpuDevice {
             rays,
             ranges,
             mode,
-            self.threads,
             &mut traffic,
         );
         self.count(traffic);

@@ -14,7 +14,7 @@
 use super::buffers::{SceneBuffers, init, read_back, storage};
 use super::program::{Kernel, READ, WRITE};
 use super::trace::{
-    Threads, TraceKernels, TraceMode, TraceRound, grid, stamp_seconds, timestamps, trace_resident,
+    TraceKernels, TraceMode, TraceRound, grid, stamp_seconds, timestamps, trace_resident,
 };
 use super::{GpuContext, GpuError};
 use crate::Traffic;
@@ -60,7 +60,6 @@ pub(super) struct Recorder<'a> {
     kernels: &'a TraceKernels,
     scene: &'a SceneBuffers,
     verdict: &'a Kernel,
-    threads: Threads,
     encoder: wgpu::CommandEncoder,
     traces: Vec<Recorded>,
     /// Passes recorded so far.
@@ -96,14 +95,13 @@ fn encoder(ctx: &GpuContext) -> wgpu::CommandEncoder {
 }
 
 impl<'a> Recorder<'a> {
-    /// A launch on `ctx` tracing `scene` with `kernels` and `threads`; `checked` has the host
+    /// A launch on `ctx` tracing `scene` with `kernels`; `checked` has the host
     /// check every trace's queue before the next step is recorded.
     pub(super) fn new(
         ctx: &'a GpuContext,
         kernels: &'a TraceKernels,
         scene: &'a SceneBuffers,
         verdict: &'a Kernel,
-        threads: Threads,
         checked: bool,
     ) -> Self {
         Self {
@@ -111,7 +109,6 @@ impl<'a> Recorder<'a> {
             kernels,
             scene,
             verdict,
-            threads,
             encoder: encoder(ctx),
             traces: Vec::new(),
             passes: 0,
@@ -218,7 +215,6 @@ impl<'a> Recorder<'a> {
                 out,
                 n,
                 mode,
-                self.threads,
                 traffic,
             )?;
             self.checked_seconds += seconds.unwrap_or(0.0);
@@ -261,7 +257,6 @@ impl<'a> Recorder<'a> {
             out,
             n,
             mode,
-            self.threads,
             queue,
             params.clone(),
             counts,
@@ -356,8 +351,7 @@ impl<'a> Recorder<'a> {
                 batches: super::trace::BATCHES,
             });
         }
-        // One thread per ray covers its rays in one dispatch and leaves the queue untouched.
-        let drained = self.threads == Threads::PerRay || verdict & NOT_DRAINED == 0;
+        let drained = verdict & NOT_DRAINED == 0;
         let kernel_seconds = match &self.timing {
             Some(_) => Some(stamp_seconds(
                 self.ctx,

@@ -46,7 +46,7 @@ pub use estimate::GpuReducedTraversal;
 pub use paths::render::{FrameParams, GpuRenderer, PathValues};
 pub use paths::sample::{PathSums, SampledPaths};
 pub use sampling::SampledCounts;
-pub use trace::{Threads, TraceKernels, TraceMode};
+pub use trace::{TraceKernels, TraceMode};
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or
 /// the limit that was hit.

@@ -20,7 +20,7 @@ use super::buffers::{
 };
 use super::context::GpuContext;
 use super::program::{Kernel, READ, UNIFORM, WRITE, dispatch};
-use super::trace::{Threads, TraceKernels, TraceMode, grid, trace_resident};
+use super::trace::{TraceKernels, TraceMode, grid, trace_resident};
 use crate::cost::{Compacted, CostError, SampleRate, Work};
 use crate::ray::RayBatch;
 use crate::traffic::Traffic;
@@ -198,15 +198,7 @@ fn group(
         wgpu::BufferUsages::COPY_SRC,
     );
     trace_resident(
-        ctx,
-        kernels,
-        scene,
-        &sampled,
-        &counts,
-        n_samples,
-        mode,
-        Threads::Persistent,
-        traffic,
+        ctx, kernels, scene, &sampled, &counts, n_samples, mode, traffic,
     )?;
     let bind = estimate.program.bind(
         device,

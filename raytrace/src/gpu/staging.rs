@@ -17,7 +17,7 @@ use crate::{HitBatch, RayBatch};
 use super::buffers::{
     GpuRay, RESULT_BYTES, SceneBuffers, copy, map, rays_per_launch, readback_err,
 };
-use super::trace::{Threads, TraceKernels, TraceMode, trace_resident};
+use super::trace::{TraceKernels, TraceMode, trace_resident};
 use super::{GpuContext, GpuError};
 
 const RAY_BYTES: u64 = size_of::<GpuRay>() as u64;
@@ -95,7 +95,6 @@ pub(crate) fn staged_hits(
     rays: &RayBatch,
     ranges: &[&Range<usize>],
     mode: TraceMode,
-    threads: Threads,
     traffic: &mut Traffic,
 ) -> Result<(HitBatch, Option<f64>), GpuError> {
     let total: usize = ranges.iter().map(|r| r.len()).sum();
@@ -113,7 +112,7 @@ pub(crate) fn staged_hits(
         let n: usize = launch.iter().map(Range::len).sum();
         let s = Staging::fit(staging.take(), ctx, n as u64);
         let launched = run(
-            &s, ctx, kernels, scene, rays, &launch, mode, threads, &mut hits, traffic,
+            &s, ctx, kernels, scene, rays, &launch, mode, &mut hits, traffic,
         );
         // A launch that failed may have left a buffer mapped: the next one starts afresh.
         if launched.is_ok() {
@@ -156,7 +155,6 @@ fn run(
     rays: &RayBatch,
     chunk: &[Range<usize>],
     mode: TraceMode,
-    threads: Threads,
     hits: &mut HitBatch,
     traffic: &mut Traffic,
 ) -> Result<Option<f64>, GpuError> {
@@ -188,9 +186,7 @@ fn run(
     copy(ctx, "cobalt ray upload", &s.upload, &s.rays, n * RAY_BYTES);
     // `n` is at most one binding of rays, far below 2^32.
     let count = u32::try_from(n).unwrap_or(u32::MAX);
-    let seconds = trace_resident(
-        ctx, kernels, scene, &s.rays, &s.out, count, mode, threads, traffic,
-    )?;
+    let seconds = trace_resident(ctx, kernels, scene, &s.rays, &s.out, count, mode, traffic)?;
     copy(
         ctx,
         "cobalt results read-back",

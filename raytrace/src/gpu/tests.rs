@@ -11,9 +11,7 @@ use glam::Vec3;
 use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers, pack_rays};
-use super::trace::{
-    BATCHES, MAX_WORKGROUPS, Threads, TraceKernels, TraceMode, launch, launch_timed,
-};
+use super::trace::{BATCHES, MAX_WORKGROUPS, TraceKernels, TraceMode, launch, launch_timed};
 use super::{
     FrameParams, GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, GpuRenderer,
 };
@@ -286,7 +284,7 @@ fn splits_launches_and_names_the_limit() {
 }
 
 /// Throughput on the first adapter against the CPU (all cores), for forest primary and AO
-/// rays, with persistent threads and with one thread per ray:
+/// rays:
 /// `cargo test -p raytrace --features gpu --lib gpu::tests::throughput -- --ignored
 /// --nocapture`. Wall time includes the rays' upload and the results' read-back; kernel time
 /// is from timestamp queries where the device has them. Each figure is the best of three.
@@ -299,7 +297,7 @@ fn throughput() {
         .and_then(|s| s.load(SceneNeeds::AO))
         .expect("built-in scene");
     let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
-    let mut dev = GpuDevice::new(ctx, &bvh).expect("upload");
+    let dev = GpuDevice::new(ctx, &bvh).expect("upload");
     let primary = workload::orbit_primary(&scene, 512, 512, [0]);
     let ao = workload::orbit_ao(&scene, &bvh, 256, 256, 0, 8).rays;
     for (what, rays, any) in [("primary", &primary, false), ("ao", &ao, true)] {
@@ -319,25 +317,21 @@ fn throughput() {
             rayon::current_num_threads(),
             mrays(cpu_s),
         );
-        for threads in [Threads::Persistent, Threads::PerRay] {
-            dev = dev.with_threads(threads);
-            dev.hits(any, rays, &[&all]).expect("warm-up");
-            let (mut wall, mut kernel) = (f64::INFINITY, f64::INFINITY);
-            let mut same = 0;
-            for _ in 0..3 {
-                let t = std::time::Instant::now();
-                let g = dev.hits(any, rays, &[&all]).expect("GPU");
-                wall = wall.min(t.elapsed().as_secs_f64());
-                kernel = kernel.min(dev.last_gpu_seconds().unwrap_or(f64::NAN));
-                same = (0..rays.len()).filter(|&i| g.prim[i] == c.prim[i]).count();
-            }
-            eprintln!(
-                "  GPU ({name}) {:<10} {:.2} MRays/s wall, {:.2} MRays/s kernels; same ids {same}",
-                threads.name(),
-                mrays(wall),
-                mrays(kernel),
-            );
+        dev.hits(any, rays, &[&all]).expect("warm-up");
+        let (mut wall, mut kernel) = (f64::INFINITY, f64::INFINITY);
+        let mut same = 0;
+        for _ in 0..3 {
+            let t = std::time::Instant::now();
+            let g = dev.hits(any, rays, &[&all]).expect("GPU");
+            wall = wall.min(t.elapsed().as_secs_f64());
+            kernel = kernel.min(dev.last_gpu_seconds().unwrap_or(f64::NAN));
+            same = (0..rays.len()).filter(|&i| g.prim[i] == c.prim[i]).count();
         }
+        eprintln!(
+            "  GPU ({name}) {:.2} MRays/s wall, {:.2} MRays/s kernels; same ids {same}",
+            mrays(wall),
+            mrays(kernel),
+        );
     }
 }
 
@@ -480,30 +474,6 @@ fn estimator_refuses_bad_tasks_and_serves_sched() {
     );
 }
 
-/// One thread per ray finds exactly what persistent threads find, for every mode, including
-/// a launch whose last workgroup is partial.
-#[test]
-fn per_ray_threads_equal_persistent() {
-    let Some(ctx) = gpu() else { return };
-    let (kernels, scene, rays) = launch_kit(&ctx, "builtin:forest:0.05", 14);
-    let all = 0..rays.len();
-    let packed = pack_rays(&rays, &[&all]);
-    assert_ne!(packed.len() % 64, 0);
-    for mode in [
-        TraceMode::Closest,
-        TraceMode::Any,
-        TraceMode::Reduced,
-        TraceMode::FirstLeaf,
-    ] {
-        let run = |threads| {
-            launch_timed(&ctx, &kernels, &scene, &packed, mode, threads)
-                .expect("launch")
-                .0
-        };
-        assert_eq!(run(Threads::Persistent), run(Threads::PerRay), "{mode:?}");
-    }
-}
-
 /// A persistent launch of more rays than one pass covers runs in several passes, of which only
 /// the first and the last write a timestamp (wgpu refuses a pass whose writes name neither):
 /// three passes here, where an H100's AO launches took 32. Every ray is still traced once.
@@ -515,24 +485,10 @@ fn a_launch_of_three_passes_is_timed_and_traced_whole() {
     let packed = pack_rays(&rays, &[&all]);
     let pass = (MAX_WORKGROUPS * BATCHES * 64) as usize;
     let many: Vec<GpuRay> = packed.iter().copied().cycle().take(2 * pass + 65).collect();
-    let (one, _) = launch_timed(
-        &ctx,
-        &kernels,
-        &scene,
-        &packed,
-        TraceMode::Reduced,
-        Threads::Persistent,
-    )
-    .expect("one pass");
-    let (out, seconds) = launch_timed(
-        &ctx,
-        &kernels,
-        &scene,
-        &many,
-        TraceMode::Reduced,
-        Threads::Persistent,
-    )
-    .expect("three passes");
+    let (one, _) =
+        launch_timed(&ctx, &kernels, &scene, &packed, TraceMode::Reduced).expect("one pass");
+    let (out, seconds) =
+        launch_timed(&ctx, &kernels, &scene, &many, TraceMode::Reduced).expect("three passes");
     assert_eq!(seconds.is_some(), ctx.timestamps);
     assert_eq!(out.len(), many.len());
     for (i, r) in out.iter().enumerate() {

@@ -63,41 +63,12 @@ impl TraceMode {
     }
 }
 
-/// How rays are handed to invocations (persistent threads, measured against one
-/// thread per ray).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Threads {
-    /// Persistent workgroups take batches of 64 rays from a queue head ([`BATCHES`] per
-    /// dispatch), so a workgroup whose rays finish early takes more: intra-GPU balancing.
-    #[default]
-    Persistent,
-    /// One invocation per ray in one dispatch, no queue: the hardware scheduler alone balances.
-    PerRay,
-}
-
-impl Threads {
-    fn index(self) -> usize {
-        match self {
-            Self::Persistent => 0,
-            Self::PerRay => 1,
-        }
-    }
-
-    /// The name used in reports: `persistent` or `per-ray`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Persistent => "persistent",
-            Self::PerRay => "per-ray",
-        }
-    }
-}
-
 /// The compiled kernels for trees up to a given depth.
 #[derive(Debug)]
 pub struct TraceKernels {
     program: Program,
-    /// By [`Threads::index`], then [`TraceMode::index`].
-    pipelines: [[wgpu::ComputePipeline; 4]; 2],
+    /// By [`TraceMode::index`].
+    pipelines: [wgpu::ComputePipeline; 4],
     stack: usize,
     /// Bound as the per-path counts of a trace that counts nothing.
     no_counts: wgpu::Buffer,
@@ -128,10 +99,10 @@ impl TraceKernels {
             &[READ, READ, READ, WRITE, WRITE, UNIFORM, WRITE],
         );
         let far_scale = f64::from(crate::slab::far_scale());
-        let make = |mode: u32, entry: &str, label: &str| {
+        let make = |mode: u32, label: &str| {
             program.pipeline_with(
                 device,
-                entry,
+                "main",
                 label,
                 wgpu::PipelineCompilationOptions {
                     constants: &[
@@ -146,30 +117,10 @@ impl TraceKernels {
         };
         Ok(Self {
             pipelines: [
-                [
-                    make(0, "main", "cobalt closest-hit pipeline"),
-                    make(1, "main", "cobalt any-hit pipeline"),
-                    make(2, "main", "cobalt reduced-traversal pipeline"),
-                    make(3, "main", "cobalt first-leaf reduced-traversal pipeline"),
-                ],
-                [
-                    make(
-                        0,
-                        "per_ray",
-                        "cobalt closest-hit pipeline, one thread per ray",
-                    ),
-                    make(1, "per_ray", "cobalt any-hit pipeline, one thread per ray"),
-                    make(
-                        2,
-                        "per_ray",
-                        "cobalt reduced-traversal pipeline, one thread per ray",
-                    ),
-                    make(
-                        3,
-                        "per_ray",
-                        "cobalt first-leaf reduced-traversal pipeline, one thread per ray",
-                    ),
-                ],
+                make(0, "cobalt closest-hit pipeline"),
+                make(1, "cobalt any-hit pipeline"),
+                make(2, "cobalt reduced-traversal pipeline"),
+                make(3, "cobalt first-leaf reduced-traversal pipeline"),
             ],
             program,
             stack,
@@ -202,10 +153,10 @@ pub fn launch(
     rays: &[GpuRay],
     mode: TraceMode,
 ) -> Result<Vec<[u32; 2]>, GpuError> {
-    Ok(launch_timed(ctx, kernels, scene, rays, mode, Threads::Persistent)?.0)
+    Ok(launch_timed(ctx, kernels, scene, rays, mode)?.0)
 }
 
-/// [`launch`] with a choice of [`Threads`], also returning the kernels' GPU time in seconds
+/// [`launch`], also returning the kernels' GPU time in seconds
 /// (from timestamp queries, summed over the dispatch rounds) where the device has them.
 ///
 /// # Errors
@@ -216,7 +167,6 @@ pub fn launch_timed(
     scene: &SceneBuffers,
     rays: &[GpuRay],
     mode: TraceMode,
-    threads: Threads,
 ) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     if scene.empty {
         let none = match mode {
@@ -228,7 +178,7 @@ pub fn launch_timed(
     let mut out = Vec::with_capacity(rays.len());
     let mut seconds = ctx.timestamps.then_some(0.0);
     for chunk in rays.chunks(rays_per_launch(&ctx.limits)) {
-        let (r, s) = launch_one(ctx, kernels, scene, chunk, mode, threads)?;
+        let (r, s) = launch_one(ctx, kernels, scene, chunk, mode)?;
         out.extend(r);
         seconds = seconds.zip(s).map(|(a, b)| a + b);
     }
@@ -242,7 +192,6 @@ fn launch_one(
     scene: &SceneBuffers,
     rays: &[GpuRay],
     mode: TraceMode,
-    threads: Threads,
 ) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     if rays.is_empty() {
         return Ok((Vec::new(), Some(0.0)));
@@ -271,7 +220,6 @@ fn launch_one(
         &out_buf,
         n,
         mode,
-        threads,
         &mut Traffic::default(),
     )?;
     let bytes = fetch(ctx, &out_buf, out_bytes)?;
@@ -307,19 +255,18 @@ pub(crate) fn grid(limits: &wgpu::Limits, workgroups: u32) -> (u32, u32) {
 /// loop to the end.
 pub(crate) struct TraceRound {
     bind: wgpu::BindGroup,
-    grid: (u32, u32),
+    workgroups: u32,
     per_dispatch: u64,
     /// The queue head and the loop-cut flag, zeroed.
     pub(crate) queue: wgpu::Buffer,
     /// Dispatches of the first round.
     pub(crate) dispatches: u64,
-    pipeline: usize,
     mode: usize,
 }
 
 impl TraceRound {
-    /// Binds the first `n` rays of `rays` and their results in `out` for a trace in `mode`
-    /// with `threads`; uploads the queue's two words and the parameters (counted).
+    /// Binds the first `n` rays of `rays` and their results in `out` for a trace in `mode`;
+    /// uploads the queue's two words and the parameters (counted).
     #[allow(clippy::too_many_arguments)] // the buffers and the two choices of a trace
     pub(crate) fn new(
         ctx: &GpuContext,
@@ -329,7 +276,6 @@ impl TraceRound {
         out: &wgpu::Buffer,
         n: u32,
         mode: TraceMode,
-        threads: Threads,
         traffic: &mut Traffic,
     ) -> Self {
         let device = &ctx.device;
@@ -347,9 +293,7 @@ impl TraceRound {
         );
         // The queue's two words and the parameters.
         traffic.host_to_device_bytes += 8 + 16;
-        Self::bound(
-            ctx, kernels, scene, rays, out, n, mode, threads, queue, params, None,
-        )
+        Self::bound(ctx, kernels, scene, rays, out, n, mode, queue, params, None)
     }
 
     /// As [`TraceRound::new`] with the queue (two words, zero) and the parameters (the ray
@@ -364,7 +308,6 @@ impl TraceRound {
         out: &wgpu::Buffer,
         n: u32,
         mode: TraceMode,
-        threads: Threads,
         queue: wgpu::Buffer,
         params: wgpu::Buffer,
         counts: Option<&wgpu::Buffer>,
@@ -392,28 +335,15 @@ impl TraceRound {
             ],
         );
         let batches = n.div_ceil(64);
-        let (grid_x, grid_y, per_dispatch) = match threads {
-            Threads::Persistent => {
-                let max_wg = MAX_WORKGROUPS.min(ctx.limits.max_compute_workgroups_per_dimension);
-                let workgroups = batches.div_ceil(BATCHES).clamp(1, max_wg);
-                (
-                    workgroups,
-                    1,
-                    u64::from(workgroups) * u64::from(BATCHES) * 64,
-                )
-            }
-            Threads::PerRay => {
-                let (x, y) = grid(&ctx.limits, batches);
-                (x, y, u64::from(x) * u64::from(y) * 64)
-            }
-        };
+        let max_wg = MAX_WORKGROUPS.min(ctx.limits.max_compute_workgroups_per_dimension);
+        let workgroups = batches.div_ceil(BATCHES).clamp(1, max_wg);
+        let per_dispatch = u64::from(workgroups) * u64::from(BATCHES) * 64;
         Self {
             bind,
-            grid: (grid_x, grid_y),
+            workgroups,
             per_dispatch,
             queue,
             dispatches: u64::from(n).div_ceil(per_dispatch),
-            pipeline: threads.index(),
             mode: mode.index(),
         }
     }
@@ -427,7 +357,7 @@ impl TraceRound {
         dispatches: u64,
         timing: Option<&wgpu::QuerySet>,
     ) {
-        let pipeline = &kernels.pipelines[self.pipeline][self.mode];
+        let pipeline = &kernels.pipelines[self.mode];
         for k in 0..dispatches {
             let timestamp_writes = timing.and_then(|set| pass_timestamps(set, k, dispatches));
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -436,19 +366,17 @@ impl TraceRound {
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &self.bind, &[]);
-            pass.dispatch_workgroups(self.grid.0, self.grid.1, 1);
+            pass.dispatch_workgroups(self.workgroups, 1, 1);
         }
     }
 
-    /// Whether the queue's state `[head, cut]` read after the trace of `n` rays with `threads`
-    /// says it is done; `Err` when a traversal loop was cut short, `Ok(Some(dispatches))` for
+    /// Whether the queue's state `[head, cut]` read after the trace of `n` rays says it is done; `Err` when a traversal loop was cut short, `Ok(Some(dispatches))` for
     /// the dispatches still needed.
     pub(crate) fn check(
         &self,
         adapter: &str,
         state: [u32; 2],
         n: u32,
-        threads: Threads,
     ) -> Result<Option<u64>, GpuError> {
         if state[1] != 0 {
             return Err(GpuError::LoopCut {
@@ -456,8 +384,7 @@ impl TraceRound {
                 batches: BATCHES,
             });
         }
-        // One thread per ray covers every ray in its one dispatch; the queue is not used.
-        if threads == Threads::PerRay || state[0] >= n {
+        if state[0] >= n {
             return Ok(None);
         }
         Ok(Some(
@@ -508,7 +435,6 @@ pub(crate) fn trace_resident(
     out: &wgpu::Buffer,
     n: u32,
     mode: TraceMode,
-    threads: Threads,
     traffic: &mut Traffic,
 ) -> Result<Option<f64>, GpuError> {
     if n == 0 {
@@ -516,7 +442,7 @@ pub(crate) fn trace_resident(
     }
     let device = &ctx.device;
     let name = ctx.info.name.as_str();
-    let round = TraceRound::new(ctx, kernels, scene, rays, out, n, mode, threads, traffic);
+    let round = TraceRound::new(ctx, kernels, scene, rays, out, n, mode, traffic);
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("cobalt queue state read-back"),
         size: 8 + 16,
@@ -547,7 +473,7 @@ pub(crate) fn trace_resident(
         traffic.host_waits += 1;
         let (status, stamps) = bytes.split_at(8);
         gpu_seconds += stamp_seconds(ctx, bytemuck::pod_read_unaligned(stamps));
-        match round.check(name, bytemuck::pod_read_unaligned(status), n, threads)? {
+        match round.check(name, bytemuck::pod_read_unaligned(status), n)? {
             None => return Ok(timing.is_some().then_some(gpu_seconds)),
             // Some workgroups stopped early: dispatch again for what is left.
             Some(left) => dispatches = left,

@@ -15,8 +15,7 @@
 // Persistent threads (`main`): each workgroup of 64 invocations takes batches of 64 rays from a
 // global queue head (`atomicAdd`), at most `BATCHES` per dispatch; the host re-dispatches until
 // the queue is drained (Debian 12's lavapipe silently ends loops after ~65 535 iterations of one
-// invocation, so no invocation may loop for long). `per_ray` is the plain alternative: one
-// invocation per ray in a single dispatch.
+// invocation, so no invocation may loop for long).
 
 // 0: closest hit, 1: any hit, 2: reduced traversal (counts B and T), 3: the first-leaf
 // reduced traversal (`Walk::FirstLeaf`: counts B and T, each ray ending at the exit of the
@@ -349,19 +348,5 @@ fn main(@builtin(local_invocation_index) lid: u32) {
         }
         // Nobody may still read `wg_base` when invocation 0 overwrites it.
         workgroupBarrier();
-    }
-}
-
-// One invocation per ray, no queue: the baseline that persistent threads are measured against.
-// The grid is two-dimensional because one dimension holds at most 65 535 workgroups.
-@compute @workgroup_size(64)
-fn per_ray(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let r = (wid.y * nwg.x + wid.x) * LANES + lid;
-    if r < params.count {
-        trace(r);
     }
 }

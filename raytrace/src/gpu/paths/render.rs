@@ -30,7 +30,7 @@ use crate::gpu::header::{self, Header, Setup, task_list};
 use crate::gpu::launch::{Count, Recorder, verdict_kernel};
 use crate::gpu::program::{Kernel, Program, READ, UNIFORM, WRITE};
 use crate::gpu::resident::Resident;
-use crate::gpu::trace::{Threads, TraceKernels, TraceMode};
+use crate::gpu::trace::{TraceKernels, TraceMode};
 use crate::scene::Scene;
 use crate::shade::AoSettings;
 use crate::traffic::Traffic;
@@ -127,7 +127,6 @@ pub struct GpuRenderer {
     pub(in crate::gpu) raygen: wgpu::ComputePipeline,
     shade_ao: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
-    pub(in crate::gpu) threads: Threads,
     /// The scene's bounding-box diagonal, for the default probe length.
     diagonal: f32,
     /// Buffers and parameters kept across launches and frames.
@@ -193,7 +192,6 @@ impl GpuRenderer {
             ctx,
             kernels,
             scene: scene_buffers,
-            threads: Threads::default(),
             resident: Resident::default(),
             verdict,
             header,
@@ -201,11 +199,6 @@ impl GpuRenderer {
             #[cfg(test)]
             starved: false,
         })
-    }
-
-    /// The same renderer tracing with `threads` (persistent threads by default).
-    pub fn with_threads(self, threads: Threads) -> Self {
-        Self { threads, ..self }
     }
 
     /// The opened adapter.
@@ -372,7 +365,6 @@ impl GpuRenderer {
             &self.kernels,
             &self.scene,
             &self.verdict,
-            self.threads,
             checked,
         );
         header::record(
