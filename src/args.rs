@@ -357,11 +357,15 @@ impl CameraArgs {
 }
 
 impl CameraChoice {
-    /// The camera for a scene with these bounds, and the orbit camera's index if it is one.
-    pub fn resolve(&self, bounds: &raytrace::Aabb) -> (Camera, Option<usize>) {
+    /// The camera for `scene` (`--eye` and `--at` are in the source's units), and the orbit
+    /// camera's index if it is one.
+    pub fn resolve(&self, scene: &raytrace::Scene) -> (Camera, Option<usize>) {
         match *self {
-            CameraChoice::Orbit(i) => (Camera::orbit(bounds, i), Some(i)),
-            CameraChoice::LookAt(eye, at) => (Camera::look_at(eye, at), None),
+            CameraChoice::Orbit(i) => (Camera::orbit(&scene.bounds(), i), Some(i)),
+            CameraChoice::LookAt(eye, at) => {
+                let camera = Camera::look_at(scene.to_scene(eye), scene.to_scene(at));
+                (camera, None)
+            }
         }
     }
 }

@@ -111,7 +111,7 @@ pub(crate) fn render(job: Job<'_>) -> Result<(), CliError> {
     let run = &job.run;
     let local = build_path_devices(&scene, &bvh, run.specs, run.faults);
     let devices = cluster.agree("opening this rank's devices", local)?;
-    let (camera, _) = job.camera.resolve(&scene.bounds());
+    let (camera, _) = job.camera.resolve(&scene);
     let options = RenderOptions::new(job.width, job.height, camera, job.shader);
     let rendered = render_over_ranks(&cluster, devices, run.settings, &scene, &bvh, &options);
     let Some(outputs) = outputs else {

@@ -97,7 +97,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let loading = Instant::now();
     let scene = SceneSource::parse(&args.scene.scene)?.load(SceneNeeds::AO)?;
     let load_seconds = loading.elapsed().as_secs_f64();
-    let rays = read_rays(&args.rays)?;
+    let mut rays = read_rays(&args.rays)?;
+    scene.rays_to_scene(&mut rays);
     let bvh = Bvh::build(&scene, preset)?;
 
     let (hits, seconds, adapter) = match args.device {

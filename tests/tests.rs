@@ -26,6 +26,9 @@ mod render;
 // `cobalt tradeoff`: the preset and AO-sample tables and their JSON.
 mod tradeoff;
 
+// Scenes in any units: the same image at every power-of-two scale, CPU and GPU.
+mod scale;
+
 // `cobalt estimate`: the JSON contract, exact estimates at full sampling, ray files, bad input.
 mod estimate;
 

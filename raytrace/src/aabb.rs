@@ -56,12 +56,13 @@ impl Aabb {
         self.max - self.min
     }
 
-    /// Half the surface area, the quantity the SAH needs (0 for an empty box).
-    pub fn half_area(&self) -> f32 {
+    /// Half the surface area, the quantity the SAH needs (0 for an empty box), in `f64`: the
+    /// products of a box's sides overflow `f32` beyond about 10¹⁹ units.
+    pub fn half_area(&self) -> f64 {
         if self.is_empty() {
             return 0.0;
         }
-        let e = self.extent();
+        let e = self.max.as_dvec3() - self.min.as_dvec3();
         e.x * e.y + e.y * e.z + e.z * e.x
     }
 

@@ -118,6 +118,7 @@ pub(crate) fn load(path: &Path, needs: SceneNeeds) -> Result<Scene> {
         warnings,
     };
     let mut scene = Scene::from_parts(path.display().to_string(), positions, triangles, report)?;
+    scene.normalise();
     if needs.normals {
         if have_all_normals && normals.len() == scene.positions.len() {
             scene.normals = Some(normals);

@@ -68,7 +68,9 @@ impl RaySource {
             ),
             Self::Whitted => Generations::whitted((scene, bvh), camera, width, height),
             Self::File(path, kind) => {
-                Generations::of(crate::trace::read_rays(Path::new(&path))?, kind)
+                let mut rays = crate::trace::read_rays(Path::new(&path))?;
+                scene.rays_to_scene(&mut rays);
+                Generations::of(rays, kind)
             }
         })
     }

@@ -48,7 +48,10 @@ impl Header {
     /// The header of a render of `d`.
     pub fn new(d: &Drawn<'_>) -> Self {
         let (ao, whitted) = match d.shader {
-            Shader::Ao(s) => (Some((s.samples, s.distance(d.scene))), None),
+            Shader::Ao(s) => {
+                let distance = d.scene.length_to_source(s.distance(d.scene));
+                (Some((s.samples, distance)), None)
+            }
             Shader::Whitted(s) => (None, Some(s.bounces)),
         };
         Self {
@@ -59,8 +62,8 @@ impl Header {
             width: d.size.width,
             height: d.size.height,
             camera: d.camera_index,
-            eye: d.camera.eye.to_array(),
-            at: d.camera.at.to_array(),
+            eye: d.scene.to_source(d.camera.eye).to_array(),
+            at: d.scene.to_source(d.camera.at).to_array(),
             preset: d.preset.name().to_string(),
             ao_samples: ao.map(|(samples, _)| samples),
             ao_distance: ao.map(|(_, distance)| distance),

@@ -123,7 +123,7 @@ fn load(
     let scene = SceneSource::parse(&args.scene.scene)?.load(shader.needs())?;
     let load_seconds = loading.elapsed().as_secs_f64();
     let bvh = Bvh::build(&scene, args.scene.preset)?;
-    let (view, camera_index) = camera.resolve(&scene.bounds());
+    let (view, camera_index) = camera.resolve(&scene);
     let header = Header::new(&Drawn {
         source: &args.scene.scene,
         scene: &scene,

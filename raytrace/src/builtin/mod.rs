@@ -65,6 +65,10 @@ impl Builtin {
             ..Default::default()
         };
         let mut scene = Scene::from_parts(name, mesh.positions, mesh.triangles, report)?;
+        if needs.lights {
+            scene.lights = lights;
+        }
+        scene.normalise();
         if needs.normals {
             scene.compute_vertex_normals();
         }
@@ -76,12 +80,8 @@ impl Builtin {
                 scene.material_ids = mesh.material_ids;
             }
         }
-        if needs.lights {
-            if lights.is_empty() {
-                scene.add_default_light();
-            } else {
-                scene.lights = lights;
-            }
+        if needs.lights && scene.lights.is_empty() {
+            scene.add_default_light();
         }
         Ok(scene)
     }

@@ -209,10 +209,10 @@ impl Bvh {
             });
         }
 
-        let root_area = nodes[0].aabb().half_area().max(f32::MIN_POSITIVE) as f64;
+        let root_area = nodes[0].aabb().half_area().max(f64::MIN_POSITIVE);
         let mut sah = 0.0f64;
         for n in nodes.iter().filter(|n| **n != Node::PAD) {
-            let a = n.aabb().half_area() as f64;
+            let a = n.aabb().half_area();
             sah += if n.is_leaf() { a * n.count as f64 } else { a };
             report.leaves += n.is_leaf() as usize;
         }

@@ -230,8 +230,9 @@ impl Plan {
                 continue;
             }
             let l = node.index as usize;
-            // `split[i - 1]`: the cheapest cover by the two subtrees with at most `i` children.
-            let mut split = [(f64::INFINITY, 0u8); WIDTH];
+            // `split[i - 1]`: the cheapest cover by the two subtrees with at most `i` children;
+            // one child on the left where no cost compares (an infinite or NaN area).
+            let mut split = [(f64::INFINITY, 1u8); WIDTH];
             for i in 2..=WIDTH {
                 for k in 1..i {
                     let c = cost[l][k - 1] + cost[l + 1][i - k - 1];
@@ -240,7 +241,7 @@ impl Plan {
                     }
                 }
             }
-            cost[n][0] = f64::from(node.aabb().half_area()) + split[WIDTH - 1].0;
+            cost[n][0] = node.aabb().half_area() + split[WIDTH - 1].0;
             for i in 2..=WIDTH {
                 let (c, k) = split[i - 1];
                 if c < cost[n][i - 2] {

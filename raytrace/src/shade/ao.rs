@@ -33,10 +33,19 @@ impl AoSettings {
     /// creases and contacts, short enough that open ground stays white.
     pub const DISTANCE_FRACTION: f32 = 0.05;
 
-    /// The probe length used for `scene`.
+    /// The probe length used for `scene`, in the scene's units (`max_distance` is in the
+    /// source's, see [`Scene::unit`]).
     pub fn distance(&self, scene: &Scene) -> f32 {
+        self.probe_length(scene.bounds().extent().length(), scene.unit)
+    }
+
+    /// The probe length for a scene of bounding-box diagonal `diagonal` whose source was
+    /// scaled by `2^-unit`.
+    pub(crate) fn probe_length(&self, diagonal: f32, unit: i32) -> f32 {
         self.max_distance
-            .unwrap_or_else(|| Self::DISTANCE_FRACTION * scene.bounds().extent().length())
+            .map_or(Self::DISTANCE_FRACTION * diagonal, |d| {
+                crate::scene::scaled_length(d, -unit)
+            })
     }
 }
 

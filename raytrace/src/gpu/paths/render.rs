@@ -129,6 +129,8 @@ pub struct GpuRenderer {
     accumulate: wgpu::ComputePipeline,
     /// The scene's bounding-box diagonal, for the default probe length.
     diagonal: f32,
+    /// The scene's [`Scene::unit`], for a probe length given in the source's units.
+    unit: i32,
     /// Buffers and parameters kept across launches and frames.
     pub(in crate::gpu) resident: Resident,
     verdict: Kernel,
@@ -189,6 +191,7 @@ impl GpuRenderer {
             program,
             tris,
             diagonal: scene.bounds().extent().length(),
+            unit: scene.unit,
             ctx,
             kernels,
             scene: scene_buffers,
@@ -291,9 +294,7 @@ impl GpuRenderer {
             up: v4(f.up),
             plane_w: f.half_width,
             plane_h: f.half_height,
-            max_distance: settings
-                .max_distance
-                .unwrap_or(AoSettings::DISTANCE_FRACTION * self.diagonal),
+            max_distance: settings.probe_length(self.diagonal, self.unit),
             gamma8: crate::spawn::gamma(8),
             width,
             height,
