@@ -12,7 +12,7 @@ use crate::testkit::{self, reference_closest};
 use crate::traverse::{
     any_hits, any_hits_counted, closest_hits, closest_hits_counted, reduced_counts,
 };
-use crate::{BuildPreset, Bvh, Ray, RayBatch, Rng, Scene, Walk};
+use crate::{BuildPreset, Bvh, Ray, RayBatch, RayShear, Rng, Scene, Walk, intersect_watertight};
 
 fn build(scene: &Scene) -> Bvh {
     let bvh = Bvh::build(scene, BuildPreset::Medium).unwrap();
@@ -488,5 +488,112 @@ fn ao_rays_leave_their_surface() {
                 "AO ray {i} hit a coplanar neighbour"
             );
         }
+    }
+}
+
+/// A triangle and a ray at its barycentric point `(u, v)`, both multiplied by `2^k`.
+fn scaled_case(c: [f32; 12], (u, v): (f32, f32), k: i32) -> (RayShear, [[f32; 3]; 3]) {
+    let s = 2f32.powi(k);
+    let p = |i: usize| Vec3::new(c[3 * i], c[3 * i + 1], c[3 * i + 2]);
+    let [a, b, t, o] = [p(0), p(1), p(2), p(3)];
+    let target = a + u * (b - a) + v * (t - a);
+    let dir = (target - o) * s;
+    let shear = RayShear::new(o * s, dir).unwrap_or_else(|| RayShear::new(o * s, Vec3::X).unwrap());
+    (shear, [a * s, b * s, t * s].map(|p| p.to_array()))
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(512))]
+
+    /// The watertight test is exact under power-of-two scaling: a triangle and a ray (origin
+    /// and direction) multiplied by `2^k` give the same hit, `t`, `u` and `v` bit for bit,
+    /// wherever the products stay inside `f32` (|k| ≤ 30 for coordinates up to 4).
+    #[test]
+    fn the_triangle_test_does_not_depend_on_the_units(
+        c in proptest::array::uniform12(-4.0f32..4.0),
+        u in 0.0f32..1.0,
+        v in 0.0f32..1.0,
+        k in -30i32..=30,
+    ) {
+        let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+        let hit = |k| {
+            let (s, [a, b, t]) = scaled_case(c, (u, v), k);
+            intersect_watertight(&s, &a, &b, &t, 0.0, f32::INFINITY)
+                .map(|(t, u, v)| [t, u, v].map(f32::to_bits))
+        };
+        proptest::prop_assert_eq!(hit(0), hit(k));
+    }
+
+    /// A ray spawned from any point of a triangle, in any direction off its plane, never hits
+    /// that triangle again, at every scale from 2⁻⁶⁰ to 2⁶⁰ (the offset is relative to the
+    /// point's own rounding error, never absolute).
+    #[test]
+    fn a_spawned_ray_never_hits_its_own_triangle(
+        c in proptest::array::uniform12(-4.0f32..4.0),
+        u in 0.0f32..1.0,
+        v in 0.0f32..1.0,
+        d in proptest::array::uniform3(-1.0f32..1.0),
+        k in -60i32..=60,
+    ) {
+        let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+        let s = 2f32.powi(k);
+        let p = |i: usize| Vec3::new(c[3 * i], c[3 * i + 1], c[3 * i + 2]) * s;
+        let scene = Scene::from_parts(
+            "triangle".into(),
+            vec![p(0), p(1), p(2)],
+            vec![[0, 1, 2]],
+            Default::default(),
+        )
+        .unwrap();
+        proptest::prop_assume!(!scene.is_degenerate(0));
+        let sp = scene.surface_point(&crate::Hit { t: 1.0, prim: 0, u, v });
+        let dir = Vec3::from(d);
+        proptest::prop_assume!(sp.normal != Vec3::ZERO && dir.dot(sp.normal).abs() > 1e-3);
+        let ray = sp.spawn_ray(dir * s, f32::INFINITY);
+        let shear = RayShear::new(ray.origin, ray.dir).unwrap();
+        let [a, b, t] = scene.vertices(0).map(|p| p.to_array());
+        let again = intersect_watertight(&shear, &a, &b, &t, ray.tmin, ray.tmax);
+        proptest::prop_assert!(again.is_none(), "re-hit at {again:?} from {sp:?}");
+    }
+}
+
+/// Boxes of every extent a float can hold build, validate and trace without a panic: huge
+/// triangles (10³⁰ units, whose box areas overflow `f32`), tiny ones (10⁻³⁰), flat ones (a
+/// zero side) and degenerate ones, side by side in a scene that was not normalised.
+#[test]
+fn a_tree_of_huge_tiny_and_flat_boxes_builds_and_traces() {
+    let mut m = MeshBuilder::default();
+    // Enough huge quads that whole subtrees have infinite areas.
+    let sizes = [1e30f32; 40].into_iter().chain([1e-30, 1.0, 1e20, 1e-20]);
+    for (i, size) in sizes.enumerate() {
+        let o = Vec3::new((i % 7) as f32 * 3.0, (i / 7) as f32 * 3.0, i as f32) * size;
+        m.quad(
+            [
+                o,
+                o + Vec3::X * size,
+                o + Vec3::new(1.0, 1.0, 0.0) * size,
+                o + Vec3::Y * size,
+            ],
+            0,
+        );
+    }
+    let (positions, mut triangles) = (m.positions, m.triangles);
+    triangles.push([0, 0, 1]);
+    let scene =
+        Scene::from_parts("extremes".into(), positions, triangles, Default::default()).unwrap();
+    for preset in [
+        BuildPreset::Fastest,
+        BuildPreset::Medium,
+        BuildPreset::VerySlow,
+    ] {
+        let bvh = Bvh::build(&scene, preset).unwrap();
+        validate(&bvh, &scene).unwrap();
+        let mut rays = RayBatch::with_capacity(0);
+        for &o in &scene.positions {
+            rays.push(&Ray::new(o + Vec3::Z, -Vec3::Z));
+        }
+        let hits = closest_hits(&bvh, &rays);
+        assert_eq!(hits.len(), scene.positions.len());
+        let _ = any_hits(&bvh, &rays);
     }
 }
