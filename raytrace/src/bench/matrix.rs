@@ -100,6 +100,7 @@ impl Record {
             makespan_over_bound: None,
             calibration: None,
             left_idle: Vec::new(),
+            mpi: None,
         }
     }
 }
@@ -147,8 +148,10 @@ pub struct SceneMatrix<'a> {
     pub workloads: &'a [Workload],
     /// Paths per task, each a cell of every workload.
     pub task_sizes: &'a [NonZeroUsize],
-    /// The policies, each in regular and in cost mode.
+    /// The policies, each in every mode of `modes`.
     pub policies: &'a [Policy],
+    /// `regular` (equal costs), `cost` (estimates) or both.
+    pub modes: &'a [Mode],
     /// Orbit cameras, each a frame of every run.
     pub cameras: usize,
     /// The image size.
@@ -170,6 +173,10 @@ pub struct SceneMatrix<'a> {
     /// not its first on the device, and a cell runs on every device or on the fastest class
     /// alone by what the cells before it measured.
     pub path_devices: std::cell::RefCell<Option<KeptDevices<'a>>>,
+    /// The MPI job whose other ranks render beside this rank's devices, every cell anew
+    /// (`None`: this process alone).
+    #[cfg(feature = "mpi")]
+    pub cluster: Option<&'a sched::mpi::Cluster>,
 }
 
 impl SceneMatrix<'_> {
@@ -178,7 +185,7 @@ impl SceneMatrix<'_> {
         self.workloads.len()
             * self.task_sizes.len()
             * self.policies.len()
-            * Mode::ALL.len()
+            * self.modes.len()
             * self.repeats
     }
 
@@ -198,7 +205,7 @@ impl SceneMatrix<'_> {
         for &w in self.workloads {
             for &size in self.task_sizes {
                 for &policy in self.policies {
-                    for mode in Mode::ALL {
+                    for &mode in self.modes {
                         let settings = Settings {
                             policy,
                             mode,

@@ -25,6 +25,6 @@ mod trade;
 
 pub use error::BenchError;
 pub use matrix::{Replays, SceneMatrix, Workload};
-pub use record::Record;
-pub use simulate::{SimRecord, simulate};
+pub use record::{MpiFigures, Record};
+pub use simulate::{Machines, SimRecord, simulate};
 pub use trade::{TradePoint, sampling_trade};

@@ -29,6 +29,10 @@ impl SceneMatrix<'_> {
         settings: Settings,
         measure_error: bool,
     ) -> Result<CellRun, BenchError> {
+        #[cfg(feature = "mpi")]
+        if let Some(cluster) = self.cluster {
+            return self.run_over_ranks(cluster, w, settings);
+        }
         let kept = self.path_devices.borrow_mut().take();
         let mut renderer = match kept {
             Some(kept) => PathRenderer::from_kept(kept, settings)?,
@@ -53,15 +57,7 @@ impl SceneMatrix<'_> {
             let options = self.options(w, cam);
             let frame = renderer
                 .render(self.scene, self.bvh, &options)
-                .map_err(|e| match e {
-                    sched::SchedError::AllDevicesFailed { failures, .. } => {
-                        BenchError::DevicesFailed {
-                            devices: self.device_list.to_string(),
-                            failures,
-                        }
-                    }
-                    e => e.into(),
-                })?;
+                .map_err(|e| self.failed(e))?;
             for f in &frame.stats.failures {
                 eprintln!(
                     "cobalt bench: {} {} {} {}, camera {cam}: {f}",
@@ -92,7 +88,24 @@ impl SceneMatrix<'_> {
         })
     }
 
-    fn frames_record(&self, w: Workload, settings: Settings, frames: &[FrameStats]) -> Record {
+    /// The bench's error for a frame that could not be rendered: every device failing names
+    /// the devices.
+    pub(super) fn failed(&self, e: sched::SchedError) -> BenchError {
+        match e {
+            sched::SchedError::AllDevicesFailed { failures, .. } => BenchError::DevicesFailed {
+                devices: self.device_list.to_string(),
+                failures,
+            },
+            e => e.into(),
+        }
+    }
+
+    pub(super) fn frames_record(
+        &self,
+        w: Workload,
+        settings: Settings,
+        frames: &[FrameStats],
+    ) -> Record {
         let mut t = Totals::default();
         let mut traffic = Traffic::default();
         let mut film_bytes = 0;
