@@ -15,7 +15,6 @@ mod matrix;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 mod paths;
-mod prediction;
 mod record;
 mod repeats;
 mod replay;
