@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 /// One run of the matrix: the fields `cobalt bench --json` promises, plus context.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Default, Serialize)]
 pub struct Record {
     /// `measured` (a run on real devices) or `mpi` (a run over the ranks of an MPI job).
     pub source: &'static str,

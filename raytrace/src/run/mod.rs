@@ -26,7 +26,7 @@
 mod report;
 mod store;
 
-pub use report::{DeviceReport, RunReport};
+pub use report::RunReport;
 pub use store::{CalibrationReport, Store, workload};
 
 use sched::{DeviceFailure, SchedError};
