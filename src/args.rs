@@ -232,23 +232,27 @@ impl FromStr for Devices {
     }
 }
 
+/// `DEVICE@WHEN`: a device index and when it fails, `what` naming `WHEN` in errors;
+/// `usage` is the error when there is no `@`.
+fn device_at<T: FromStr>(text: &str, what: &str, usage: &str) -> Result<(usize, T), String> {
+    let (device, when) = text.trim().split_once('@').ok_or(usage)?;
+    let device = device
+        .trim()
+        .parse()
+        .map_err(|_| format!("{device:?} is not a device index"))?;
+    let when = when
+        .trim()
+        .parse()
+        .map_err(|_| format!("{when:?} is not a {what}"))?;
+    Ok((device, when))
+}
+
 /// One fault of `cobalt render --fail DEVICE@TASKS[,…]`: device DEVICE fails after TASKS
 /// tasks. Whether the device exists depends on `--devices`: [`check_faults`].
 pub fn fail_after(text: &str) -> Result<FailAfter, String> {
-    let (device, tasks) = text
-        .trim()
-        .split_once('@')
-        .ok_or("expected DEVICE@TASKS, e.g. 1@3 (device 1 fails after 3 tasks)")?;
-    Ok(FailAfter {
-        device: device
-            .trim()
-            .parse()
-            .map_err(|_| format!("{device:?} is not a device index"))?,
-        tasks: tasks
-            .trim()
-            .parse()
-            .map_err(|_| format!("{tasks:?} is not a task count"))?,
-    })
+    let usage = "expected DEVICE@TASKS, e.g. 1@3 (device 1 fails after 3 tasks)";
+    let (device, tasks) = device_at(text, "task count", usage)?;
+    Ok(FailAfter { device, tasks })
 }
 
 /// The faults of `--fail`, each device an index below `devices` (`usize::MAX` where GPU
@@ -287,18 +291,8 @@ pub fn speed(text: &str) -> Result<f64, String> {
 /// costs' unit, finite and non-negative. Whether the device exists depends on `--speeds`;
 /// the simulation checks it.
 pub fn fault_time(text: &str) -> Result<Fault, String> {
-    let (device, at) = text
-        .trim()
-        .split_once('@')
-        .ok_or("expected DEVICE@TIME, e.g. 1@0.5 (device 1 stops at time 0.5)")?;
-    let device = device
-        .trim()
-        .parse()
-        .map_err(|_| format!("{device:?} is not a device index"))?;
-    let at: f64 = at
-        .trim()
-        .parse()
-        .map_err(|_| format!("{at:?} is not a time"))?;
+    let usage = "expected DEVICE@TIME, e.g. 1@0.5 (device 1 stops at time 0.5)";
+    let (device, at): (usize, f64) = device_at(text, "time", usage)?;
     if !(at.is_finite() && at >= 0.0) {
         return Err(format!("the time {at} is not finite and non-negative"));
     }

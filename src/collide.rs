@@ -7,12 +7,12 @@ use collision::{
     BroadPhaseCount, Device, SampleRate, Swarms, World, random_bodies, terrain, unit_cube_mesh,
 };
 use raytrace::{SceneNeeds, SceneSource};
-use sched::{CostEstimator, Policy};
+use sched::CostEstimator;
 
 use crate::args::{count, sample_rate};
 use crate::error::CliError;
-use crate::limits::{MAX_THREADS, memory};
-use crate::spatial::{Workload, measure, tables};
+use crate::limits::memory;
+use crate::spatial::{RunArgs, Workload};
 
 /// Arguments of `cobalt collide`.
 #[derive(Debug, clap::Args)]
@@ -32,18 +32,11 @@ pub struct Args {
     /// Share of each task's bodies whose broad phase the estimator counts, in (0, 1].
     #[arg(long, default_value = "0.125", value_parser = sample_rate)]
     sample_rate: SampleRate,
-    /// One policy instead of all five.
-    #[arg(long)]
-    policy: Option<Policy>,
-    /// Real CPU devices (threads), 1..=4096.
-    #[arg(long, default_value_t = 2, value_parser = count::<MAX_THREADS>)]
-    devices: usize,
     /// Seed of the bodies.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Print the report as one JSON object instead of tables.
-    #[arg(long)]
-    json: bool,
+    #[command(flatten)]
+    run: RunArgs,
 }
 
 /// Runs the command.
@@ -85,24 +78,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
         items: world.len(),
         task_size: args.task_size,
         tasks: sched::split_ranges(world.len(), args.task_size),
-        estimate: Box::new(move |rate| {
-            let rate = SampleRate::new(rate).map_err(|e| CliError::Arg {
-                flag: "sample-rate",
-                value: rate.to_string(),
-                message: e.to_string(),
-            })?;
-            let tasks = sched::split_ranges(world.len(), args.task_size);
-            let e = BroadPhaseCount::new(world, rate).estimate_timed(&tasks)?;
+        estimate: Box::new(move |rate, tasks| {
+            let e = BroadPhaseCount::new(world, rate).estimate_timed(tasks)?;
             Ok((e.costs.as_slice().to_vec(), e.seconds))
         }),
         devices: Box::new(move |n| Device::many(world, n)),
         check: Box::new(|_| Ok(())),
     };
-    let policies = args.policy.map_or(Policy::ALL.to_vec(), |p| vec![p]);
-    let report = measure(&work, &policies, args.devices, args.sample_rate.get())?;
-    if args.json {
-        crate::print::print_json(&report)
-    } else {
-        crate::print::print_text(&format!("{}\n\n{}", work.name, tables(&report)))
-    }
+    crate::spatial::run(&work, &args.run, args.sample_rate)
 }

@@ -8,12 +8,12 @@ use knn::{
     SampledQueries,
 };
 use raytrace::{SceneNeeds, SceneSource};
-use sched::{CostEstimator, Policy};
+use sched::CostEstimator;
 
 use crate::args::{count, sample_rate};
 use crate::error::CliError;
-use crate::limits::{MAX_THREADS, memory};
-use crate::spatial::{Workload, measure, tables};
+use crate::limits::memory;
+use crate::spatial::{RunArgs, Workload};
 
 /// How a task's cost is estimated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -58,18 +58,11 @@ pub struct Args {
     /// the real search of sampled queries: better ranks, timing noise, costlier).
     #[arg(long, value_enum, default_value = "density")]
     estimator: Estimator,
-    /// One policy instead of all five.
-    #[arg(long)]
-    policy: Option<Policy>,
-    /// Real CPU devices (threads), 1..=4096.
-    #[arg(long, default_value_t = 2, value_parser = count::<MAX_THREADS>)]
-    devices: usize,
     /// Seed of the cloud and the queries.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Print the report as one JSON object instead of tables.
-    #[arg(long)]
-    json: bool,
+    #[command(flatten)]
+    run: RunArgs,
 }
 
 /// Runs the command.
@@ -123,14 +116,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
         items: batch.len(),
         task_size: args.task_size,
         tasks: sched::split_ranges(batch.len(), args.task_size),
-        estimate: Box::new(move |rate| {
-            let rate = SampleRate::new(rate)
-                .map_err(|e| knn_err("sample-rate", rate.to_string())(e.into()))?;
-            let tasks = sched::split_ranges(batch.len(), args.task_size);
+        estimate: Box::new(move |rate, tasks| {
             let e = if density {
-                DensityEstimator::new(grid, batch, rate).estimate_timed(&tasks)?
+                DensityEstimator::new(grid, batch, rate).estimate_timed(tasks)?
             } else {
-                SampledQueries::new(index, batch, rate).estimate_timed(&tasks)?
+                SampledQueries::new(index, batch, rate).estimate_timed(tasks)?
             };
             Ok((e.costs.as_slice().to_vec(), e.seconds))
         }),
@@ -148,11 +138,5 @@ pub fn run(args: Args) -> Result<(), CliError> {
             Ok(())
         }),
     };
-    let policies = args.policy.map_or(Policy::ALL.to_vec(), |p| vec![p]);
-    let report = measure(&work, &policies, args.devices, args.sample_rate.get())?;
-    if args.json {
-        crate::print::print_json(&report)
-    } else {
-        crate::print::print_text(&format!("{}\n\n{}", work.name, tables(&report)))
-    }
+    crate::spatial::run(&work, &args.run, args.sample_rate)
 }

@@ -3,8 +3,6 @@
 mod args;
 mod bench;
 mod calibration;
-#[cfg(feature = "mpi")]
-mod cluster;
 mod collide;
 mod error;
 mod estimate;

@@ -4,10 +4,12 @@
 
 use std::ops::Range;
 
-use sched::{Costs, Executor, Policy, Runtime, Simulation, Speeds};
+use sched::{Costs, Executor, Metrics, Policy, Runtime, SampleRate, Simulation, Speeds};
 use serde::Serialize;
 
+use crate::args::count;
 use crate::error::CliError;
+use crate::limits::MAX_THREADS;
 
 /// Mixed speeds of the simulated machine: four slow, two double and two quadruple devices.
 pub const SIM_SPEEDS: [f64; 8] = [1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 4.0, 4.0];
@@ -65,7 +67,8 @@ pub struct Report {
 }
 
 /// Task costs at a sampling rate, with the seconds they took.
-pub type EstimateFn<'a> = dyn Fn(f64) -> Result<(Vec<f64>, f64), CliError> + 'a;
+pub type EstimateFn<'a> =
+    dyn Fn(SampleRate, &[Range<usize>]) -> Result<(Vec<f64>, f64), CliError> + 'a;
 /// Checks a run's outputs.
 pub type CheckFn<'a, O> = dyn Fn(&[O]) -> Result<(), CliError> + 'a;
 
@@ -75,7 +78,7 @@ pub struct Workload<'a, E: Executor<Range<usize>>> {
     pub items: usize,
     pub task_size: usize,
     pub tasks: Vec<Range<usize>>,
-    /// Estimates at a sampling rate, with their wall time.
+    /// Estimates of `tasks` at a sampling rate, with their wall time.
     pub estimate: Box<EstimateFn<'a>>,
     /// Fresh devices.
     pub devices: Box<dyn Fn(usize) -> Vec<E> + 'a>,
@@ -83,23 +86,82 @@ pub struct Workload<'a, E: Executor<Range<usize>>> {
     pub check: Box<CheckFn<'a, E::Output>>,
 }
 
+/// How `cobalt knn` and `cobalt collide` run their workload.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// One policy instead of all five.
+    #[arg(long)]
+    policy: Option<Policy>,
+    /// Real CPU devices (threads), 1..=4096.
+    #[arg(long, default_value_t = 2, value_parser = count::<MAX_THREADS>)]
+    devices: usize,
+    /// Print the report as one JSON object instead of tables.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Measures `work` as `args` say, with estimates at `rate`, and prints the report.
+pub fn run<E: Executor<Range<usize>>>(
+    work: &Workload<'_, E>,
+    args: &RunArgs,
+    rate: SampleRate,
+) -> Result<(), CliError> {
+    let policies = args.policy.map_or(Policy::ALL.to_vec(), |p| vec![p]);
+    let report = measure(work, &policies, args.devices, rate)?;
+    if args.json {
+        crate::print::print_json(&report)
+    } else {
+        crate::print::print_text(&format!("{}\n\n{}", work.name, tables(&report)))
+    }
+}
+
 /// Measures `work` under `policies` on `devices` real devices, then simulates and trades.
-pub fn measure<E: Executor<Range<usize>>>(
+fn measure<E: Executor<Range<usize>>>(
     work: &Workload<'_, E>,
     policies: &[Policy],
     devices: usize,
-    rate: f64,
+    rate: SampleRate,
 ) -> Result<Report, CliError> {
     let n = work.tasks.len();
-    let (estimated, estimate_seconds) = (work.estimate)(rate)?;
-    let (full, _) = (work.estimate)(1.0)?;
+    let (estimated, estimate_seconds) = (work.estimate)(rate, &work.tasks)?;
+    let (full, _) = (work.estimate)(SampleRate::FULL, &work.tasks)?;
     let error = knn::prediction_error(&estimated, &full);
     let estimated = Costs::new(estimated)?;
     let uniform = Costs::uniform(n);
+    let modes = [("regular", &uniform), ("cost", &estimated)];
+    // A run's record; its overhead is known once every task has been measured.
+    let record = |(policy, mode): (Policy, &'static str),
+                  (simulated, speeds): (bool, &[f64]),
+                  estimate_seconds: f64,
+                  plan_seconds: f64,
+                  metrics: &Metrics,
+                  launches: &[u64]| {
+        let seconds = estimate_seconds + plan_seconds + metrics.makespan;
+        Record {
+            workload: work.name.clone(),
+            policy,
+            mode,
+            simulated,
+            task_size: work.task_size,
+            tasks: n,
+            devices: speeds.len(),
+            speeds: speeds.to_vec(),
+            queries: work.items,
+            seconds,
+            queries_per_s: work.items as f64 / seconds,
+            balance_efficiency: metrics.balance_efficiency,
+            estimate_seconds,
+            plan_seconds,
+            prediction_error: (mode == "cost").then_some(error).flatten(),
+            overhead: None,
+            launches: launches.iter().sum(),
+        }
+    };
     let mut measured = vec![f64::INFINITY; n];
     let mut records = Vec::new();
+    let real = vec![1.0; devices];
     for &policy in policies {
-        for (mode, plan) in [("regular", &uniform), ("cost", &estimated)] {
+        for (mode, plan) in modes {
             let mut devs = (work.devices)(devices);
             let run = Runtime::new(policy).run(&work.tasks, plan, &mut devs)?;
             (work.check)(&run.outputs)?;
@@ -112,77 +174,47 @@ pub fn measure<E: Executor<Range<usize>>>(
             } else {
                 0.0
             };
-            let seconds = est + run.plan_seconds + run.metrics.makespan;
-            records.push(Record {
-                workload: work.name.clone(),
-                policy,
-                mode,
-                simulated: false,
-                task_size: work.task_size,
-                tasks: n,
-                devices,
-                speeds: vec![1.0; devices],
-                queries: work.items,
-                seconds,
-                queries_per_s: work.items as f64 / seconds,
-                balance_efficiency: run.metrics.balance_efficiency,
-                estimate_seconds: est,
-                plan_seconds: run.plan_seconds,
-                prediction_error: (mode == "cost").then_some(error).flatten(),
-                overhead: None,
-                launches: run.launches.iter().sum(),
-            });
+            let (plan_s, m, l) = (run.plan_seconds, &run.metrics, &run.launches);
+            records.push(record((policy, mode), (false, &real), est, plan_s, m, l));
         }
     }
     let work_seconds: f64 = measured.iter().sum();
+    let actual = Costs::new(measured.clone())?;
+    let speeds = Speeds::new(SIM_SPEEDS.to_vec())?;
+    let simulate = |policy: Policy, plan: &Costs| {
+        Simulation::new(policy, speeds.clone())
+            .latency(SIM_LATENCY)
+            .run_actual(plan, &actual)
+    };
+    // Estimation is data-parallel over tasks, so on the simulated machine it is spread over
+    // the devices like any other work.
+    let spread = estimate_seconds / SIM_SPEEDS.iter().sum::<f64>();
+    for &policy in policies {
+        for (mode, plan) in modes {
+            let sim = simulate(policy, plan)?;
+            let est = if mode == "cost" { spread } else { 0.0 };
+            let (plan_s, m, l) = (sim.plan_seconds, &sim.metrics, &sim.launches);
+            records.push(record(
+                (policy, mode),
+                (true, &SIM_SPEEDS),
+                est,
+                plan_s,
+                m,
+                l,
+            ));
+        }
+    }
     for r in &mut records {
         if r.mode == "cost" {
             r.overhead = Some(r.estimate_seconds / work_seconds);
         }
     }
-    let actual = Costs::new(measured.clone())?;
-    let speeds = Speeds::new(SIM_SPEEDS.to_vec())?;
-    for &policy in policies {
-        for (mode, plan) in [("regular", &uniform), ("cost", &estimated)] {
-            let sim = Simulation::new(policy, speeds.clone())
-                .latency(SIM_LATENCY)
-                .run_actual(plan, &actual)?;
-            let cost = mode == "cost";
-            // Estimation is data-parallel over tasks, so on the simulated machine it is
-            // spread over the devices like any other work.
-            let spread = estimate_seconds / SIM_SPEEDS.iter().sum::<f64>();
-            let est = if cost { spread } else { 0.0 };
-            let seconds = est + sim.plan_seconds + sim.metrics.makespan;
-            records.push(Record {
-                workload: work.name.clone(),
-                policy,
-                mode,
-                simulated: true,
-                task_size: work.task_size,
-                tasks: n,
-                devices: SIM_SPEEDS.len(),
-                speeds: SIM_SPEEDS.to_vec(),
-                queries: work.items,
-                seconds,
-                queries_per_s: work.items as f64 / seconds,
-                balance_efficiency: sim.metrics.balance_efficiency,
-                estimate_seconds: est,
-                plan_seconds: sim.plan_seconds,
-                prediction_error: cost.then_some(error).flatten(),
-                overhead: cost.then(|| est / work_seconds),
-                launches: sim.launches.iter().sum(),
-            });
-        }
-    }
     let mut trade = Vec::new();
-    for r in RATES {
-        let (est, seconds) = (work.estimate)(r)?;
-        let costs = Costs::new(est.clone())?;
-        let sim = Simulation::new(Policy::StaticLpt, speeds.clone())
-            .latency(SIM_LATENCY)
-            .run_actual(&costs, &actual)?;
+    for rate in RATES.into_iter().filter_map(|r| SampleRate::new(r).ok()) {
+        let (est, seconds) = (work.estimate)(rate, &work.tasks)?;
+        let sim = simulate(Policy::StaticLpt, &Costs::new(est.clone())?)?;
         trade.push(Trade {
-            sample_rate: r,
+            sample_rate: rate.get(),
             estimate_seconds: seconds,
             overhead: seconds / work_seconds,
             prediction_error: knn::prediction_error(&est, &full),

@@ -238,7 +238,7 @@ fn bench_over_mpi_reports_balance_communication_and_simulated_clusters() {
     assert_eq!(simulated.len(), 16);
     for r in &simulated {
         assert!(
-            [16, 64].contains(&r["nodes"].as_u64().expect("nodes")),
+            [16, 64].contains(&r["devices"].as_u64().expect("devices")),
             "{r}"
         );
         assert!(r["latency"].as_f64().expect("latency") > 0.0, "{r}");

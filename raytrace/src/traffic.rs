@@ -4,7 +4,7 @@ use std::ops::AddAssign;
 
 /// Bytes moved and host waits, counted where they happen (a buffer written or read back, a
 /// wait for the device). A CPU device shares the host's memory and counts nothing.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct Traffic {
     /// Bytes written from the host to the device: task lists, parameters, tables.
     pub host_to_device_bytes: u64,

@@ -15,8 +15,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use raytrace::bench::{Record, SceneMatrix, SimRecord, TradePoint, Workload, table};
+use raytrace::bench::{Machines, Record, SceneMatrix, SimRecord, TradePoint, Workload, table};
 use raytrace::cost::SampleRate;
+use raytrace::paths::Mode;
 use raytrace::{BuildPreset, Bvh, Camera, Scene, SceneNeeds, SceneSource};
 use sched::Policy;
 
@@ -108,6 +109,7 @@ struct Matrix {
     cameras: usize,
     task_sizes: Vec<NonZeroUsize>,
     policies: Vec<Policy>,
+    modes: Vec<Mode>,
     workloads: Vec<Workload>,
     scenes: Vec<String>,
     /// What every scene must provide for the workloads.
@@ -131,6 +133,7 @@ impl Matrix {
                 .policies
                 .clone()
                 .unwrap_or_else(|| Policy::ALL.to_vec()),
+            modes: Mode::ALL.to_vec(),
             scenes: if args.scenes.is_empty() {
                 vec![String::from("builtin:forest")]
             } else {
@@ -213,21 +216,64 @@ pub fn run(args: Args) -> Result<(), CliError> {
         started.elapsed().as_secs_f64()
     );
     crate::print::print_text(&out)?;
-    if let Some(path) = &args.json {
-        let mut all: Vec<serde_json::Value> = Vec::with_capacity(records.len() + sims.len());
-        for r in &records {
-            all.push(serde_json::to_value(r).map_err(|e| CliError::Write(e.to_string()))?);
-        }
-        for r in &sims {
-            all.push(serde_json::to_value(r).map_err(|e| CliError::Write(e.to_string()))?);
-        }
-        for p in &points {
-            all.push(serde_json::to_value(p).map_err(|e| CliError::Write(e.to_string()))?);
-        }
-        let text = serde_json::to_vec_pretty(&all).map_err(|e| CliError::Write(e.to_string()))?;
-        crate::output::write_file(path, &text)?;
+    write_json(args.json.as_deref(), &records, &sims, &points)
+}
+
+/// Writes every record (measured or over the ranks, simulated, then the sampling trade) as one
+/// JSON array to `path`, if given.
+fn write_json(
+    path: Option<&std::path::Path>,
+    records: &[Record],
+    sims: &[SimRecord],
+    points: &[TradePoint],
+) -> Result<(), CliError> {
+    let Some(path) = path else {
+        return Ok(());
+    };
+    let json = |e: serde_json::Error| CliError::Write(e.to_string());
+    let mut all: Vec<serde_json::Value> = Vec::with_capacity(records.len() + sims.len());
+    for r in records {
+        all.push(serde_json::to_value(r).map_err(json)?);
     }
-    Ok(())
+    for r in sims {
+        all.push(serde_json::to_value(r).map_err(json)?);
+    }
+    for p in points {
+        all.push(serde_json::to_value(p).map_err(json)?);
+    }
+    let text = serde_json::to_vec_pretty(&all).map_err(json)?;
+    crate::output::write_file(path, &text)
+}
+
+/// The matrix of one scene as the arguments ask for it, on this process's devices.
+fn scene_matrix<'a>(
+    args: &'a Args,
+    m: &'a Matrix,
+    (name, scene, bvh): (&'a str, &'a Scene, &'a Bvh),
+    store: Option<&'a std::cell::RefCell<raytrace::run::Store>>,
+) -> SceneMatrix<'a> {
+    SceneMatrix {
+        scene_name: name,
+        scene,
+        bvh,
+        devices: args.devices.specs(),
+        device_list: args.devices.as_str(),
+        workloads: &m.workloads,
+        task_sizes: &m.task_sizes,
+        policies: &m.policies,
+        modes: &m.modes,
+        cameras: m.cameras,
+        width: m.width,
+        height: m.height,
+        ao_samples: args.ao_samples,
+        sample_rate: args.sample_rate,
+        walk: args.walk,
+        repeats: args.repeats as usize,
+        calibration: store,
+        path_devices: Default::default(),
+        #[cfg(feature = "mpi")]
+        cluster: None,
+    }
 }
 
 /// One scene's matrix, with a progress bar, then its simulated machines, its sampling trade
@@ -240,25 +286,7 @@ fn measure_scene(
     out: &mut Measured,
 ) -> Result<(), CliError> {
     let bvh = Bvh::build(scene, args.preset)?;
-    let matrix = SceneMatrix {
-        scene_name: name,
-        scene,
-        bvh: &bvh,
-        devices: args.devices.specs(),
-        device_list: args.devices.as_str(),
-        workloads: &m.workloads,
-        task_sizes: &m.task_sizes,
-        policies: &m.policies,
-        cameras: m.cameras,
-        width: m.width,
-        height: m.height,
-        ao_samples: args.ao_samples,
-        sample_rate: args.sample_rate,
-        walk: args.walk,
-        repeats: args.repeats as usize,
-        calibration: store,
-        path_devices: Default::default(),
-    };
+    let matrix = scene_matrix(args, m, (name, scene, &bvh), store);
     let bar = ProgressBar::new(matrix.runs() as u64);
     bar.set_style(
         ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
@@ -273,8 +301,9 @@ fn measure_scene(
     bar.finish_and_clear();
     let error_bar = table::replay_error(&recs).map(|(median, _, _)| median);
     let counts: Vec<usize> = args.simulate.iter().map(|&c| c as usize).collect();
+    let machines = Machines::mixed(&counts);
     out.sims.extend(raytrace::bench::simulate(
-        name, &replays, &counts, error_bar,
+        name, &replays, &machines, error_bar,
     )?);
     if !args.no_trade {
         out.points.extend(raytrace::bench::sampling_trade(&matrix)?);
@@ -354,6 +383,9 @@ fn run_mpi(args: &Args, mut m: Matrix, started: Instant) -> Result<(), CliError>
             Policy::Hybrid,
         ];
     }
+    // Cost mode, camera 0: the thesis's comparison of the policies between nodes.
+    m.modes = vec![Mode::Cost];
+    m.cameras = 1;
     let cluster = sched::mpi::Cluster::init()?;
     let loaded: Result<Vec<_>, raytrace::Error> = m
         .scenes
@@ -365,24 +397,13 @@ fn run_mpi(args: &Args, mut m: Matrix, started: Instant) -> Result<(), CliError>
         })
         .collect();
     let loaded = cluster.agree("loading the scenes", loaded)?;
-    let matrices: Vec<mpi::SceneMatrix<'_>> = m
+    let matrices: Vec<SceneMatrix<'_>> = m
         .scenes
         .iter()
         .zip(&loaded)
-        .map(|(name, (scene, bvh))| mpi::SceneMatrix {
-            scene_name: name,
-            scene,
-            bvh,
-            devices: args.devices.specs(),
-            device_list: args.devices.as_str(),
-            workloads: &m.workloads,
-            task_sizes: &m.task_sizes,
-            policies: &m.policies,
-            width: m.width,
-            height: m.height,
-            ao_samples: args.ao_samples,
-            sample_rate: args.sample_rate,
-            walk: args.walk,
+        .map(|(name, (scene, bvh))| SceneMatrix {
+            cluster: Some(&cluster),
+            ..scene_matrix(args, &m, (name, scene, bvh), None)
         })
         .collect();
     let Some(bench) = mpi::bench(&cluster, &matrices)? else {
@@ -400,18 +421,7 @@ fn run_mpi(args: &Args, mut m: Matrix, started: Instant) -> Result<(), CliError>
         started.elapsed().as_secs_f64(),
     );
     crate::print::print_text(&text)?;
-    if let Some(path) = &args.json {
-        let mut json = Vec::new();
-        for r in &bench.records {
-            json.push(serde_json::to_value(r).map_err(|e| CliError::Write(e.to_string()))?);
-        }
-        for r in &bench.sims {
-            json.push(serde_json::to_value(r).map_err(|e| CliError::Write(e.to_string()))?);
-        }
-        let bytes = serde_json::to_vec_pretty(&json).map_err(|e| CliError::Write(e.to_string()))?;
-        crate::output::write_file(path, &bytes)?;
-    }
-    Ok(())
+    write_json(args.json.as_deref(), &bench.records, &bench.sims, &[])
 }
 
 /// The cost image of thesis Figure 3.2 for camera 0: nodes `B` and triangle tests `T` of

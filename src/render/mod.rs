@@ -13,7 +13,11 @@ mod rendered;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use raytrace::paths::FailAfter;
+#[cfg(feature = "mpi")]
+use raytrace::distributed::render_over_ranks;
+use raytrace::paths::{FailAfter, Settings};
+#[cfg(feature = "mpi")]
+use raytrace::paths::{Frame, build_path_devices};
 use raytrace::run::Run;
 use raytrace::shade::{RenderOptions, Shader};
 use raytrace::{Bvh, Camera, Scene, SceneSource};
@@ -75,31 +79,21 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let camera = args.camera.choice()?;
     let shader = args.shader.shader();
 
-    // Under `mpirun`, every rank renders the same image together (see `crate::cluster`).
+    // Under `mpirun`, every rank renders the same image together.
     #[cfg(feature = "mpi")]
     if sched::mpi::Cluster::launched() {
         return mpi(&args, shader, camera, &faults, settings);
     }
 
-    let outputs = Outputs::check(
-        &[
-            ("out", Some(&args.out)),
-            ("cost-image", args.cost_image.as_deref()),
-            ("report", args.output.report.as_deref()),
-        ],
-        &[("scene", Path::new(&args.scene.scene))],
-    )?;
+    let outputs = outputs(&args)?;
     // Read before the scene, so that a calibration file that cannot be used fails first.
     let store = args.calibration.open()?;
     let (scene, bvh, view, header) = load(&args, &shader, camera)?;
     let workload = raytrace::run::workload(&args.scene.scene, &shader);
     let options = RenderOptions::new(args.size.width, args.size.height, view, shader);
     let run = Run {
-        specs: args.schedule.devices.specs(),
-        faults: &faults,
-        settings,
         frames: args.repeats,
-        host_fallback: args.host_fallback,
+        ..one_frame(&args, &faults, settings)
     };
     let rendered = paths::render(
         &scene,
@@ -111,6 +105,30 @@ pub fn run(args: Args) -> Result<(), CliError> {
     )?;
     let summary = rendered.report.summary();
     rendered.write(&outputs, args.output.json, &summary)
+}
+
+/// Checks every output path before any work: none may be the scene or another output.
+fn outputs(args: &Args) -> Result<Outputs, CliError> {
+    Outputs::check(
+        &[
+            ("out", Some(&args.out)),
+            ("cost-image", args.cost_image.as_deref()),
+            ("report", args.output.report.as_deref()),
+        ],
+        &[("scene", Path::new(&args.scene.scene))],
+    )
+}
+
+/// One frame on `--devices` with `faults` and `settings`, finished on the host if every
+/// device fails and `--host-fallback` allows it.
+fn one_frame<'a>(args: &'a Args, faults: &'a [FailAfter], settings: Settings) -> Run<'a> {
+    Run {
+        specs: args.schedule.devices.specs(),
+        faults,
+        settings,
+        frames: 1,
+        host_fallback: args.host_fallback,
+    }
 }
 
 /// Loads the scene and builds its BVH, and the report's header of a render of it.
@@ -151,43 +169,57 @@ fn faults(args: &Args) -> Result<Vec<FailAfter>, CliError> {
 }
 
 /// `cobalt render` under `mpirun`: the flags a cluster cannot honour are refused, then every
-/// rank renders the same image together ([`crate::cluster`]).
+/// rank renders the same image together ([`raytrace::distributed`]); rank 0 writes the PNG,
+/// the report and the summary. Every fallible step before the render (checking rank 0's
+/// outputs, loading the scene, opening this node's devices) ends with an agreement between
+/// all ranks, so a failure on any rank ends every rank with an error naming the ranks at
+/// fault, never a hang. One frame: `--repeats` is not offered over ranks.
 #[cfg(feature = "mpi")]
 fn mpi(
     args: &Args,
-    shader: raytrace::shade::Shader,
+    shader: Shader,
     camera: CameraChoice,
     faults: &[FailAfter],
-    settings: raytrace::paths::Settings,
+    settings: Settings,
 ) -> Result<(), CliError> {
-    let refuse = |flag: &'static str, value: String, why: &str| {
-        Err(CliError::Arg {
-            flag,
-            value,
-            message: why.to_string(),
-        })
-    };
     if let Some(path) = &args.cost_image {
-        let why = "not available under mpirun; render the cost image in one process";
-        return refuse("cost-image", path.display().to_string(), why);
+        return Err(CliError::Arg {
+            flag: "cost-image",
+            value: path.display().to_string(),
+            message: "not available under mpirun; render the cost image in one process".into(),
+        });
     }
-    let job = crate::cluster::Job {
-        scene: &args.scene.scene,
-        shader,
-        width: args.size.width,
-        height: args.size.height,
-        camera,
-        preset: args.scene.preset,
-        run: Run {
-            specs: args.schedule.devices.specs(),
-            faults,
-            settings,
-            frames: 1,
-            host_fallback: args.host_fallback,
-        },
-        out: &args.out,
-        report: args.output.report.as_deref(),
-        json: args.output.json,
+    let cluster = sched::mpi::Cluster::init()?;
+    // Rank 0 writes every output, so they are checked before any rank starts work.
+    let outputs = cluster.is_root().then(|| outputs(args));
+    let outputs = cluster.agree("checking the outputs", outputs.transpose())?;
+    let (scene, bvh, view, header) =
+        cluster.agree("loading the scene", load(args, &shader, camera))?;
+    let run = one_frame(args, faults, settings);
+    let local = build_path_devices(&scene, &bvh, run.specs, run.faults);
+    let devices = cluster.agree("opening this rank's devices", local)?;
+    let options = RenderOptions::new(args.size.width, args.size.height, view, shader);
+    let frame = Frame {
+        scene: &scene,
+        bvh: &bvh,
+        options: &options,
     };
-    crate::cluster::render(job)
+    let device_list = args.schedule.devices.as_str();
+    let rendered = render_over_ranks(&cluster, devices, settings, &frame, |renderer| {
+        run.render_on(renderer, &scene, &bvh, &options, None)
+    });
+    let rendered = rendered.map_err(|e| CliError::run(device_list, e))?;
+    // Only rank 0 has outputs and a frame: the others rendered what it sent them.
+    let (Some(outputs), Some((film, report))) = (outputs, rendered) else {
+        return Ok(());
+    };
+    let report = paths::RenderReport::new(header, (&run, device_list), report, Default::default())
+        .over_ranks(cluster.size());
+    let rendered = rendered::Rendered {
+        image: film.png(raytrace::film::ToneMap::Srgb)?,
+        cost_image: None,
+        report,
+    };
+    let summary = rendered.report.summary();
+    rendered.write(&outputs, args.output.json, &summary)
 }

@@ -30,16 +30,54 @@ pub struct RenderReport {
     run: RunReport,
     /// The calibration file read before the first frame and written after the run.
     calibration: CalibrationReport,
+    /// Under `mpirun`: the ranks of the job, each with the devices of `device_list`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ranks: Option<usize>,
 }
 
 impl RenderReport {
+    /// The report of `run` on `devices` (the `--devices` text): its header, settings and
+    /// figures, and the calibration it read and wrote.
+    pub fn new(
+        header: Header,
+        (run, devices): (&Run<'_>, &str),
+        report: RunReport,
+        calibration: CalibrationReport,
+    ) -> Self {
+        Self {
+            header,
+            device_list: devices.to_string(),
+            policy: run.settings.policy,
+            mode: run.settings.mode.name(),
+            requested_task_size: run.settings.task_size.get(),
+            sample_rate: run.settings.sample_rate.get(),
+            walk: run.settings.walk.name(),
+            run: report,
+            calibration,
+            ranks: None,
+        }
+    }
+
+    /// The same report, of a render over `ranks` ranks of an MPI job.
+    #[cfg(feature = "mpi")]
+    pub fn over_ranks(self, ranks: usize) -> Self {
+        Self {
+            ranks: Some(ranks),
+            ..self
+        }
+    }
+
     /// The summary printed without `--json`.
     pub fn summary(&self) -> String {
         let r = &self.run;
+        let devices = match self.ranks {
+            Some(ranks) => format!("{ranks} rank(s) × {}", self.device_list),
+            None => self.device_list.clone(),
+        };
         format!(
             "{} on {}, {} {}, {} tasks of {} paths: {}; fastest of {} frame(s)\n{}",
             self.header.what(),
-            self.device_list,
+            devices,
             self.policy.name(),
             self.mode,
             r.tasks,
@@ -75,17 +113,7 @@ pub fn render(
     } else {
         None
     };
-    let report = RenderReport {
-        header,
-        device_list: devices.to_string(),
-        policy: run.settings.policy,
-        mode: run.settings.mode.name(),
-        requested_task_size: run.settings.task_size.get(),
-        sample_rate: run.settings.sample_rate.get(),
-        walk: run.settings.walk.name(),
-        run: report,
-        calibration,
-    };
+    let report = RenderReport::new(header, (run, devices), report, calibration);
     Ok(Rendered {
         image,
         cost_image,

@@ -9,7 +9,6 @@ use sched::Policy;
 use super::error::BenchError;
 use super::record::Record;
 use super::repeats;
-use super::replay::Replayed;
 use crate::bvh::Bvh;
 use crate::cost::SampleRate;
 use crate::paths::{KeptDevices, Mode, Settings};
@@ -68,38 +67,14 @@ impl Record {
             mode: settings.mode.name(),
             walk: settings.walk.name(),
             task_size: settings.task_size.get(),
-            tasks: 0,
-            cut_task_size: 0,
             devices,
             device_list: matrix.device_list.to_string(),
             cameras: matrix.cameras,
             width: matrix.width,
             height: matrix.height,
-            rays: 0,
-            seconds: 0.0,
-            mrays_per_s: 0.0,
             balance_efficiency: 1.0,
-            estimate_seconds: 0.0,
-            plan_seconds: 0.0,
-            prediction_error: None,
-            launches: 0,
-            reruns: 0,
             repeats: 1,
-            run_mrays_per_s: Vec::new(),
-            run_balance_efficiency: Vec::new(),
-            host_to_device_bytes: None,
-            device_to_host_bytes: None,
-            host_waits: None,
-            film_bytes: None,
-            simulated_seconds: None,
-            run_simulated_over_measured: Vec::new(),
-            makespan_seconds: 0.0,
-            simulated_makespan_seconds: None,
-            lower_bound_seconds: None,
-            fractional_bound_seconds: None,
-            makespan_over_bound: None,
-            calibration: None,
-            left_idle: Vec::new(),
+            ..Default::default()
         }
     }
 }
@@ -147,8 +122,10 @@ pub struct SceneMatrix<'a> {
     pub workloads: &'a [Workload],
     /// Paths per task, each a cell of every workload.
     pub task_sizes: &'a [NonZeroUsize],
-    /// The policies, each in regular and in cost mode.
+    /// The policies, each in every mode of `modes`.
     pub policies: &'a [Policy],
+    /// `regular` (equal costs), `cost` (estimates) or both.
+    pub modes: &'a [Mode],
     /// Orbit cameras, each a frame of every run.
     pub cameras: usize,
     /// The image size.
@@ -170,6 +147,10 @@ pub struct SceneMatrix<'a> {
     /// not its first on the device, and a cell runs on every device or on the fastest class
     /// alone by what the cells before it measured.
     pub path_devices: std::cell::RefCell<Option<KeptDevices<'a>>>,
+    /// The MPI job whose other ranks render beside this rank's devices, every cell anew
+    /// (`None`: this process alone).
+    #[cfg(feature = "mpi")]
+    pub cluster: Option<&'a sched::mpi::Cluster>,
 }
 
 impl SceneMatrix<'_> {
@@ -178,7 +159,7 @@ impl SceneMatrix<'_> {
         self.workloads.len()
             * self.task_sizes.len()
             * self.policies.len()
-            * Mode::ALL.len()
+            * self.modes.len()
             * self.repeats
     }
 
@@ -198,7 +179,7 @@ impl SceneMatrix<'_> {
         for &w in self.workloads {
             for &size in self.task_sizes {
                 for &policy in self.policies {
-                    for mode in Mode::ALL {
+                    for &mode in self.modes {
                         let settings = Settings {
                             policy,
                             mode,
@@ -261,91 +242,6 @@ impl SceneMatrix<'_> {
             records.push(r);
         }
         Ok((records, replays))
-    }
-}
-
-/// What a run's measured frames add up to.
-#[derive(Clone, Copy, Debug)]
-pub struct Totals {
-    pub rays: usize,
-    /// Wall seconds: estimation, planning and the run.
-    pub seconds: f64,
-    pub estimate: f64,
-    pub plan: f64,
-    /// Device busy seconds, and makespan × devices: balance is their ratio.
-    pub busy: f64,
-    pub capacity: f64,
-    pub launches: u64,
-    pub reruns: u64,
-    /// The replays and bounds, where every part could be replayed.
-    pub replayed: Option<Replayed>,
-}
-
-impl Default for Totals {
-    fn default() -> Self {
-        Self {
-            rays: 0,
-            seconds: 0.0,
-            estimate: 0.0,
-            plan: 0.0,
-            busy: 0.0,
-            capacity: 0.0,
-            launches: 0,
-            reruns: 0,
-            replayed: Some(Replayed::default()),
-        }
-    }
-}
-
-impl Totals {
-    pub fn add(&mut self, o: Totals) {
-        self.rays += o.rays;
-        self.seconds += o.seconds;
-        self.estimate += o.estimate;
-        self.plan += o.plan;
-        self.busy += o.busy;
-        self.capacity += o.capacity;
-        self.launches += o.launches;
-        self.reruns += o.reruns;
-        self.replayed = match (self.replayed, o.replayed) {
-            (Some(mut a), Some(b)) => {
-                a += b;
-                Some(a)
-            }
-            _ => None,
-        };
-    }
-
-    /// `r` with these figures, as the record of a single run.
-    pub fn record(self, mut r: Record) -> Record {
-        let balance = if self.capacity > 0.0 {
-            self.busy / self.capacity
-        } else {
-            1.0
-        };
-        r.rays = self.rays;
-        r.seconds = self.seconds;
-        r.mrays_per_s = self.rays as f64 / self.seconds.max(1e-12) / 1e6;
-        r.balance_efficiency = balance;
-        r.estimate_seconds = self.estimate;
-        r.plan_seconds = self.plan;
-        r.launches = self.launches;
-        r.reruns = self.reruns;
-        r.run_mrays_per_s = vec![r.mrays_per_s];
-        r.run_balance_efficiency = vec![balance];
-        if let Some(p) = self.replayed {
-            r.makespan_seconds = p.makespan;
-            r.simulated_makespan_seconds = Some(p.simulated_makespan);
-            // Only the makespan is simulated: estimating, planning, starting the devices'
-            // threads and writing the film are taken as measured.
-            let simulated = self.seconds - p.makespan + p.simulated_makespan;
-            r.simulated_seconds = Some(simulated);
-            r.run_simulated_over_measured = vec![simulated / self.seconds.max(1e-12)];
-            r.lower_bound_seconds = Some(p.lower_bound);
-            r.fractional_bound_seconds = Some(p.fractional_bound);
-            r.makespan_over_bound = Some(p.makespan / p.lower_bound.max(1e-300));
-        }
-        r
     }
 }
 

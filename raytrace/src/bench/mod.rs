@@ -15,7 +15,6 @@ mod matrix;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 mod paths;
-mod prediction;
 mod record;
 mod repeats;
 mod replay;
@@ -25,6 +24,6 @@ mod trade;
 
 pub use error::BenchError;
 pub use matrix::{Replays, SceneMatrix, Workload};
-pub use record::Record;
-pub use simulate::{SimRecord, simulate};
+pub use record::{MpiFigures, Record};
+pub use simulate::{Machines, SimRecord, simulate};
 pub use trade::{TradePoint, sampling_trade};

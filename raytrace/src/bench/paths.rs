@@ -4,17 +4,14 @@
 //! the simulator replays each frame's tasks.
 
 use super::error::BenchError;
-use super::matrix::{CellRun, Replay, SceneMatrix, Totals, Workload};
-use super::prediction::ErrorSums;
+use super::matrix::{CellRun, Replay, SceneMatrix, Workload};
 use super::record::Record;
-use super::replay::{Replayed, RunDevice};
-use crate::bvh::Bvh;
+use super::replay::{Replayed, replay};
 use crate::camera::Camera;
 use crate::cost::SampleRate;
 use crate::paths::Settings;
 use crate::paths::{Frame, FrameStats, PathRenderer, build_path_devices, walk_paths};
 use crate::run::{CalibrationReport, workload};
-use crate::scene::Scene;
 use crate::shade::RenderOptions;
 use crate::traffic::Traffic;
 use crate::traverse::walk::Walk;
@@ -29,6 +26,10 @@ impl SceneMatrix<'_> {
         settings: Settings,
         measure_error: bool,
     ) -> Result<CellRun, BenchError> {
+        #[cfg(feature = "mpi")]
+        if let Some(cluster) = self.cluster {
+            return self.run_over_ranks(cluster, w, settings);
+        }
         let kept = self.path_devices.borrow_mut().take();
         let mut renderer = match kept {
             Some(kept) => PathRenderer::from_kept(kept, settings)?,
@@ -48,20 +49,12 @@ impl SceneMatrix<'_> {
             }
         });
         let mut frames = Vec::with_capacity(self.cameras);
-        let mut sums = ErrorSums::default();
+        let (mut estimated, mut full) = (Vec::new(), Vec::new());
         for cam in 0..self.cameras {
             let options = self.options(w, cam);
             let frame = renderer
                 .render(self.scene, self.bvh, &options)
-                .map_err(|e| match e {
-                    sched::SchedError::AllDevicesFailed { failures, .. } => {
-                        BenchError::DevicesFailed {
-                            devices: self.device_list.to_string(),
-                            failures,
-                        }
-                    }
-                    e => e.into(),
-                })?;
+                .map_err(|e| self.failed(e))?;
             for f in &frame.stats.failures {
                 eprintln!(
                     "cobalt bench: {} {} {} {}, camera {cam}: {f}",
@@ -73,7 +66,14 @@ impl SceneMatrix<'_> {
             }
             // A frame on one device is not estimated: there is no estimate to judge.
             if measure_error && frame.stats.estimated {
-                sums += frame_error(self.scene, self.bvh, &options, &frame.stats, settings.walk)?;
+                let frame_of = Frame {
+                    scene: self.scene,
+                    bvh: self.bvh,
+                    options: &options,
+                };
+                let (e, f) = frame_error(&frame_of, &frame.stats, settings.walk);
+                estimated.extend(e);
+                full.extend(f);
             }
             frames.push(frame.stats);
         }
@@ -82,7 +82,9 @@ impl SceneMatrix<'_> {
         }
         // A device that failed is built anew for the next cell.
         *self.path_devices.borrow_mut() = renderer.into_kept();
-        let error = measure_error.then(|| sums.ratio());
+        // Σ|estimated − full| / Σ full over the frames (0 for no work).
+        let error =
+            measure_error.then(|| sched::prediction_error(&estimated, &full).unwrap_or(0.0));
         let mut record = self.frames_record(w, settings, &frames);
         record.calibration = recalled;
         Ok(CellRun {
@@ -92,34 +94,67 @@ impl SceneMatrix<'_> {
         })
     }
 
-    fn frames_record(&self, w: Workload, settings: Settings, frames: &[FrameStats]) -> Record {
-        let mut t = Totals::default();
-        let mut traffic = Traffic::default();
-        let mut film_bytes = 0;
-        for f in frames {
-            t.add(Totals {
-                rays: f.rays,
-                seconds: f.seconds,
-                estimate: f.estimate_seconds,
-                plan: f.plan_seconds,
-                busy: f.devices.iter().map(|d| d.busy).sum(),
-                capacity: f.makespan * f.devices.len() as f64,
-                launches: f.launches(),
-                reruns: f.reruns,
-                replayed: replayed_frame(f),
-            });
-            traffic += f.traffic();
-            film_bytes += f.film_bytes();
+    /// The bench's error for a frame that could not be rendered: every device failing names
+    /// the devices.
+    pub(super) fn failed(&self, e: sched::SchedError) -> BenchError {
+        match e {
+            sched::SchedError::AllDevicesFailed { failures, .. } => BenchError::DevicesFailed {
+                devices: self.device_list.to_string(),
+                failures,
+            },
+            e => e.into(),
         }
+    }
+
+    /// The record of one run of the cell (`w`, `settings`) from its frames: their sums, and
+    /// their replays where every frame could be replayed.
+    pub(super) fn frames_record(
+        &self,
+        w: Workload,
+        settings: Settings,
+        frames: &[FrameStats],
+    ) -> Record {
         let devices = frames.first().map_or(0, |f| f.devices.len());
-        let mut r = t.record(Record::new(self, w, settings, devices));
+        let mut r = Record::new(self, w, settings, devices);
+        let sum = |f: &dyn Fn(&FrameStats) -> f64| frames.iter().map(f).sum::<f64>();
+        r.rays = frames.iter().map(|f| f.rays).sum();
+        r.seconds = sum(&|f| f.seconds);
+        r.mrays_per_s = r.rays as f64 / r.seconds.max(1e-12) / 1e6;
+        let capacity = sum(&|f| f.makespan * f.devices.len() as f64);
+        if capacity > 0.0 {
+            r.balance_efficiency = sum(&|f| f.devices.iter().map(|d| d.busy).sum()) / capacity;
+        }
+        r.estimate_seconds = sum(&|f| f.estimate_seconds);
+        r.plan_seconds = sum(&|f| f.plan_seconds);
+        r.launches = frames.iter().map(FrameStats::launches).sum();
+        r.reruns = frames.iter().map(|f| f.reruns).sum();
+        r.run_mrays_per_s = vec![r.mrays_per_s];
+        r.run_balance_efficiency = vec![r.balance_efficiency];
+        let replayed: Option<Vec<Replayed>> = frames.iter().map(replay).collect();
+        if let Some(p) = replayed.map(|all| all.into_iter().fold(Replayed::default(), |a, b| a + b))
+        {
+            r.makespan_seconds = p.makespan;
+            r.simulated_makespan_seconds = Some(p.simulated_makespan);
+            // Only the makespan is simulated: estimating, planning, starting the devices'
+            // threads and writing the film are taken as measured.
+            let simulated = r.seconds - p.makespan + p.simulated_makespan;
+            r.simulated_seconds = Some(simulated);
+            r.run_simulated_over_measured = vec![simulated / r.seconds.max(1e-12)];
+            r.lower_bound_seconds = Some(p.lower_bound);
+            r.fractional_bound_seconds = Some(p.fractional_bound);
+            r.makespan_over_bound = Some(p.makespan / p.lower_bound.max(1e-300));
+        }
+        let mut traffic = Traffic::default();
+        for f in frames {
+            traffic += f.traffic();
+        }
         if let Some(f) = frames.first() {
             (r.tasks, r.cut_task_size) = (f.tasks, f.task_size);
         }
         r.host_to_device_bytes = Some(traffic.host_to_device_bytes);
         r.device_to_host_bytes = Some(traffic.device_to_host_bytes);
         r.host_waits = Some(traffic.host_waits);
-        r.film_bytes = Some(film_bytes);
+        r.film_bytes = Some(frames.iter().map(FrameStats::film_bytes).sum());
         r.left_idle = frames.iter().flat_map(|f| f.left_idle.clone()).collect();
         r.left_idle.sort();
         r.left_idle.dedup();
@@ -137,44 +172,15 @@ impl SceneMatrix<'_> {
     }
 }
 
-/// The frame's estimate judged against every path of each task counted by the same `walk`
-/// (the estimate at full sampling, as the thesis judges a walk by its own full count), in the
+/// The frame's estimates, and every path of each task counted by the same `walk` (the
+/// estimate at full sampling, as the thesis judges a walk by its own full count), in the
 /// renderer's cost units; outside every clock of the frame.
-fn frame_error(
-    scene: &Scene,
-    bvh: &Bvh,
-    options: &RenderOptions,
-    stats: &FrameStats,
-    walk: Walk,
-) -> Result<ErrorSums, BenchError> {
-    let frame = Frame {
-        scene,
-        bvh,
-        options,
-    };
+fn frame_error(frame: &Frame<'_>, stats: &FrameStats, walk: Walk) -> (Vec<f64>, Vec<f64>) {
     let tasks = sched::split_ranges(stats.paths, stats.task_size.max(1));
     let full = stats
         .cost_model
-        .costs(&walk_paths(&frame, &tasks, SampleRate::FULL, walk));
-    let estimated = stats.task_stats.iter().map(|t| t.cost);
-    Ok(ErrorSums {
-        diff: estimated.zip(&full).map(|(e, f)| (e - f).abs()).sum(),
-        full: full.iter().sum(),
-    })
-}
-
-/// A frame's replay in the simulator and its bounds.
-fn replayed_frame(f: &FrameStats) -> Option<Replayed> {
-    let devices: Vec<RunDevice> = f
-        .devices
-        .iter()
-        .map(|d| RunDevice {
-            index: d.index,
-            speed: d.speed,
-            launch_overhead: d.launch_overhead,
-        })
-        .collect();
-    super::replay::replay(f.policy, f.makespan, &f.task_stats, &devices)
+        .costs(&walk_paths(frame, &tasks, SampleRate::FULL, walk));
+    (stats.task_stats.iter().map(|t| t.cost).collect(), full)
 }
 
 /// A frame's tasks for the simulator: each one's planned cost and measured time.

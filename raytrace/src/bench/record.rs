@@ -5,9 +5,9 @@
 use serde::Serialize;
 
 /// One run of the matrix: the fields `cobalt bench --json` promises, plus context.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Default, Serialize)]
 pub struct Record {
-    /// `measured` (here a run on real devices) or `simulated`.
+    /// `measured` (a run on real devices) or `mpi` (a run over the ranks of an MPI job).
     pub source: &'static str,
     /// The scene (`--scene`).
     pub scene: String,
@@ -101,4 +101,22 @@ pub struct Record {
     /// frames faster (path pipeline; absent when none was).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub left_idle: Vec<String>,
+    /// What a run over MPI ranks adds (`mpi` records only).
+    #[serde(flatten)]
+    pub mpi: Option<MpiFigures>,
+}
+
+/// What a run over the ranks of an MPI job measures beside a record's figures.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct MpiFigures {
+    /// Ranks of the MPI job.
+    pub ranks: usize,
+    /// Seconds rank 0 spent inside MPI calls.
+    pub comm_seconds: f64,
+    /// `comm_seconds` over the record's `seconds`.
+    pub comm_share: f64,
+    /// Σ over the other ranks of their round trips' time not spent working.
+    pub dispatch_overhead_seconds: f64,
+    /// Batches sent to the other ranks.
+    pub batches: u64,
 }

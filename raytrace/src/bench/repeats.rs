@@ -103,6 +103,7 @@ mod tests {
             makespan_over_bound: Some(2.0),
             calibration: None,
             left_idle: Vec::new(),
+            mpi: None,
         }
     }
 

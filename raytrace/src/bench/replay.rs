@@ -3,17 +3,9 @@
 //! worth is how close its replay of a run comes to the run.
 
 use sched::bounds::{fractional_bound, lower_bound};
-use sched::{Costs, MeasuredRun, MeasuredTask, Policy, Speeds};
+use sched::{Costs, MeasuredRun, MeasuredTask, Speeds};
 
-use crate::paths::TaskStats;
-
-/// One device of a frame: its index among the renderer's devices, the speed it
-/// was planned with and the launch overhead it declared.
-pub struct RunDevice {
-    pub index: usize,
-    pub speed: f64,
-    pub launch_overhead: Option<f64>,
-}
+use crate::paths::FrameStats;
 
 /// What a frame's replay and bounds came to, in seconds.
 #[derive(Clone, Copy, Debug, Default)]
@@ -28,25 +20,26 @@ pub struct Replayed {
     pub fractional_bound: f64,
 }
 
-impl std::ops::AddAssign for Replayed {
-    fn add_assign(&mut self, o: Self) {
-        self.makespan += o.makespan;
-        self.simulated_makespan += o.simulated_makespan;
-        self.lower_bound += o.lower_bound;
-        self.fractional_bound += o.fractional_bound;
+impl std::ops::Add for Replayed {
+    type Output = Self;
+
+    fn add(self, o: Self) -> Self {
+        Self {
+            makespan: self.makespan + o.makespan,
+            simulated_makespan: self.simulated_makespan + o.simulated_makespan,
+            lower_bound: self.lower_bound + o.lower_bound,
+            fractional_bound: self.fractional_bound + o.fractional_bound,
+        }
     }
 }
 
-/// Replays one frame (`makespan` as measured). `None` when it cannot be
-/// replayed: a task undelivered or a device unknown (after a failure), or nothing measured.
-pub fn replay(
-    policy: Policy,
-    makespan: f64,
-    tasks: &[TaskStats],
-    devices: &[RunDevice],
-) -> Option<Replayed> {
-    let position = |index: usize| devices.iter().position(|d| d.index == index);
-    let measured: Option<Vec<MeasuredTask>> = tasks
+/// Replays one frame with its own task times, the speeds it was planned with and the launch
+/// overheads its devices declared. `None` when it cannot be replayed: a task undelivered or a
+/// device unknown (after a failure), or nothing measured.
+pub fn replay(f: &FrameStats) -> Option<Replayed> {
+    let position = |index: usize| f.devices.iter().position(|d| d.index == index);
+    let measured: Option<Vec<MeasuredTask>> = f
+        .task_stats
         .iter()
         .map(|t| {
             Some(MeasuredTask {
@@ -57,10 +50,10 @@ pub fn replay(
         })
         .collect();
     let run = MeasuredRun {
-        policy,
-        planned: Costs::new(tasks.iter().map(|t| t.cost).collect()).ok()?,
-        speeds: Speeds::new(devices.iter().map(|d| d.speed).collect()).ok()?,
-        overheads: devices.iter().map(|d| d.launch_overhead).collect(),
+        policy: f.policy,
+        planned: Costs::new(f.task_stats.iter().map(|t| t.cost).collect()).ok()?,
+        speeds: Speeds::new(f.devices.iter().map(|d| d.speed).collect()).ok()?,
+        overheads: f.devices.iter().map(|d| d.launch_overhead).collect(),
         tasks: measured?,
     };
     let simulated = run.replay().ok()?.metrics.makespan;
@@ -76,7 +69,7 @@ pub fn replay(
     .ok()?;
     let speeds = Speeds::new(rates).ok()?;
     Some(Replayed {
-        makespan,
+        makespan: f.makespan,
         simulated_makespan: simulated,
         lower_bound: lower_bound(&work, &speeds),
         fractional_bound: fractional_bound(&work, &speeds),

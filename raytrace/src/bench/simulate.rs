@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use super::error::BenchError;
 use super::matrix::Replays;
+use crate::paths::Mode;
 
 /// Launch latencies: a kernel launch over PCIe, and a message to another node.
 pub const LINKS: [(&str, f64); 2] = [("pcie", 10e-6), ("network", 200e-6)];
@@ -23,7 +24,7 @@ pub fn mixed_speeds(m: usize) -> Vec<f64> {
 /// One simulated run.
 #[derive(Clone, Debug, Serialize)]
 pub struct SimRecord {
-    /// Always `simulated`.
+    /// `simulated`, or `simulated-cluster` (`cobalt bench --mpi`).
     pub source: &'static str,
     /// The scene (`--scene`).
     pub scene: String,
@@ -41,13 +42,14 @@ pub struct SimRecord {
     pub devices: usize,
     /// The simulated devices' speeds.
     pub speeds: Vec<f64>,
-    /// The link: `pcie` or `network`.
+    /// The link: `pcie` or `network`; over MPI, `ping-pong` (MPI's one-way latency between the
+    /// ranks) or `dispatch` (what a batch's round trip cost beyond the remote work).
     pub link: &'static str,
     /// Launch latency of the link, in seconds.
     pub latency: f64,
     /// Rays traced over the frames.
     pub rays: usize,
-    /// Σ of the frames' simulated makespans.
+    /// Σ of the frames' simulated makespans; over MPI, with the estimate split over the nodes.
     pub seconds: f64,
     /// Rays over `seconds`, in millions per second.
     pub mrays_per_s: f64,
@@ -70,27 +72,64 @@ pub struct SimRecord {
     pub replay_error: Option<f64>,
 }
 
-/// Replays every (workload, task size) on every device count, link, policy and mode.
+/// The machines measured tasks are replayed on: every device count, behind every link, under
+/// every policy and mode.
+pub struct Machines<'a> {
+    /// What the records are: `simulated`, or `simulated-cluster` (`cobalt bench --mpi`).
+    pub source: &'static str,
+    /// Devices of each machine.
+    pub counts: &'a [usize],
+    /// The speeds of a machine of so many devices.
+    pub speeds: fn(usize) -> Vec<f64>,
+    /// Each link's name and launch latency, in seconds.
+    pub links: &'a [(&'static str, f64)],
+    /// The policies that plan the frames.
+    pub policies: &'a [Policy],
+    /// Regular (equal costs) or cost (the real run's estimates).
+    pub modes: &'a [Mode],
+    /// Whether `seconds` includes the real run's estimate split over the devices (nodes of a
+    /// cluster each estimating their share), or is the makespans alone.
+    pub spread_estimate: bool,
+}
+
+impl<'a> Machines<'a> {
+    /// `cobalt bench --simulate`: machines of `counts` devices of mixed speeds, behind each of
+    /// [`LINKS`], under every policy in both modes.
+    pub fn mixed(counts: &'a [usize]) -> Self {
+        Self {
+            source: "simulated",
+            counts,
+            speeds: mixed_speeds,
+            links: &LINKS,
+            policies: &Policy::ALL,
+            modes: &Mode::ALL,
+            spread_estimate: false,
+        }
+    }
+}
+
+/// Replays every (workload, task size) on every machine of `machines`.
 pub fn simulate(
     scene: &str,
     replays: &[Replays],
-    counts: &[usize],
+    machines: &Machines<'_>,
     replay_error: Option<f64>,
 ) -> Result<Vec<SimRecord>, BenchError> {
     let mut out = Vec::new();
     for rep in replays {
         let (w, task_size, gens) = (rep.workload, rep.task_size, &rep.gens);
-        for &m in counts {
-            let speeds = Speeds::new(mixed_speeds(m))?;
-            for (link, latency) in LINKS {
-                for policy in Policy::ALL {
-                    for mode in ["regular", "cost"] {
+        for &m in machines.counts {
+            let speeds = Speeds::new((machines.speeds)(m))?;
+            for &(link, latency) in machines.links {
+                for &policy in machines.policies {
+                    for &mode in machines.modes {
+                        let cost = mode == Mode::Cost;
                         let (mut seconds, mut bound, mut busy, mut capacity) = (0.0, 0.0, 0.0, 0.0);
                         let (mut rays, mut launches) = (0usize, 0u64);
                         let (mut est, mut plan_s) = (0.0, 0.0);
                         for g in gens {
                             let actual = Costs::new(g.seconds.clone())?;
-                            let plan = if mode == "cost" {
+                            let plan = if cost {
                                 Costs::new(g.estimated.clone())?
                             } else {
                                 Costs::uniform(actual.len())
@@ -105,17 +144,20 @@ pub fn simulate(
                             rays += g.rays;
                             launches += r.launches.iter().sum::<u64>();
                             plan_s += r.plan_seconds;
-                            if mode == "cost" {
+                            if cost {
                                 est += g.estimate_seconds;
                             }
                         }
+                        if machines.spread_estimate {
+                            seconds += est / m as f64;
+                        }
                         out.push(SimRecord {
-                            source: "simulated",
+                            source: machines.source,
                             scene: scene.to_string(),
                             shader: w.name(),
                             ray_kind: w.ray_kind(),
                             policy: policy.name(),
-                            mode,
+                            mode: mode.name(),
                             task_size,
                             devices: m,
                             speeds: speeds.as_slice().to_vec(),
@@ -127,11 +169,7 @@ pub fn simulate(
                             balance_efficiency: if capacity > 0.0 { busy / capacity } else { 1.0 },
                             estimate_seconds: est,
                             plan_seconds: plan_s,
-                            prediction_error: if mode == "cost" {
-                                rep.prediction_error
-                            } else {
-                                None
-                            },
+                            prediction_error: rep.prediction_error.filter(|_| cost),
                             makespan_over_bound: seconds / bound.max(1e-300),
                             launches,
                             replay_error,

@@ -17,9 +17,7 @@ use sched::{DeviceError, Executor, Sink};
 use sched::SchedError;
 
 use crate::paths::Settings;
-use crate::paths::{Frame, FrameRendering, Launch, PathDevice, PathRenderer, Traffic};
-use crate::shade::RenderOptions;
-use crate::{Bvh, Scene};
+use crate::paths::{Frame, Launch, PathDevice, PathRenderer, Traffic};
 
 /// One task's paths rendered on a rank: their values (bit patterns travel) and the rays traced.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -128,36 +126,32 @@ pub fn serve_paths(cluster: &Cluster, renderer: &mut PathRenderer<'_>, frame: &F
     })
 }
 
-/// Every rank renders the frame of `scene`, `bvh` and `options` by paths: on rank 0 the other
-/// ranks are path devices beside its own `devices`, and the frame is rendered and returned;
-/// every other rank renders the task ranges it is sent on its `devices` until rank 0 ends
-/// the frame, and gets `None`. Rank 0 ends the frame whatever happened to it, so that no
-/// rank is left waiting.
+/// Every rank takes part in what rank 0 renders with `devices` and `settings`: on rank 0 the
+/// other ranks are path devices beside its own `devices`, and `on_root` renders with that
+/// renderer (a frame, or a [`Run`](crate::run::Run)'s frames) and its result is returned;
+/// every other rank renders the task ranges of `frame` it is sent on its `devices` until rank
+/// 0 ends the frame, and gets `None`. Rank 0 ends the frame whatever happened to it, so that
+/// no rank is left waiting.
 ///
 /// # Errors
-/// As [`PathRenderer::new`] and [`PathRenderer::render`].
-pub fn render_over_ranks<'a>(
+/// As [`PathRenderer::new`], and whatever `on_root` returns.
+pub fn render_over_ranks<'a, T, E: From<SchedError>>(
     cluster: &'a Cluster,
     mut devices: Vec<Box<dyn PathDevice + 'a>>,
     settings: Settings,
-    scene: &Scene,
-    bvh: &Bvh,
-    options: &RenderOptions,
-) -> Result<Option<FrameRendering>, SchedError> {
+    frame: &Frame<'_>,
+    on_root: impl FnOnce(PathRenderer<'a>) -> Result<T, E>,
+) -> Result<Option<T>, E> {
     if !cluster.is_root() {
-        let frame = Frame {
-            scene,
-            bvh,
-            options,
-        };
-        serve_paths(cluster, &mut PathRenderer::new(devices, settings)?, &frame);
+        serve_paths(cluster, &mut PathRenderer::new(devices, settings)?, frame);
         return Ok(None);
     }
     for rank in 1..cluster.size() {
         devices.push(Box::new(RankPaths::new(cluster, rank)));
     }
-    let rendered =
-        PathRenderer::new(devices, settings).and_then(|mut r| r.render(scene, bvh, options));
+    let rendered = PathRenderer::new(devices, settings)
+        .map_err(E::from)
+        .and_then(on_root);
     cluster.finish();
     rendered.map(Some)
 }

@@ -23,10 +23,12 @@ pub struct TaskStats {
     pub device_seconds: Option<f64>,
 }
 
-/// One device's part of a frame.
-#[derive(Clone, Debug, PartialEq)]
+/// One device's part of a frame, as a run's report lists it (the JSON field names are what
+/// users read).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PathDeviceStats {
     /// Index among the renderer's devices.
+    #[serde(skip)]
     pub index: usize,
     /// Its name.
     pub name: String,
@@ -37,16 +39,20 @@ pub struct PathDeviceStats {
     /// Launches it ran.
     pub launches: u64,
     /// Seconds busy (wall time of its launches).
+    #[serde(rename = "busy_seconds")]
     pub busy: f64,
     /// Rays it traced.
     pub rays: usize,
     /// What crossed between the host and it, the paths' values excepted.
+    #[serde(flatten)]
     pub traffic: Traffic,
     /// Bytes of paths' values it sent to the host.
     pub film_bytes: u64,
     /// Kernel seconds it measured itself, where it can.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub device_seconds: Option<f64>,
     /// The launch overhead it declared to the policy, if any.
+    #[serde(skip)]
     pub launch_overhead: Option<f64>,
 }
 

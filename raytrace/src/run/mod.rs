@@ -26,7 +26,7 @@
 mod report;
 mod store;
 
-pub use report::{DeviceReport, RunReport};
+pub use report::RunReport;
 pub use store::{CalibrationReport, Store, workload};
 
 use sched::{DeviceFailure, SchedError};
@@ -94,10 +94,26 @@ impl<'a> Run<'a> {
         scene: &Scene,
         bvh: &Bvh,
         options: &RenderOptions,
-        mut calibration: Option<(&mut Store, &str)>,
+        calibration: Option<(&mut Store, &str)>,
     ) -> Result<(Film, RunReport), RunError> {
         let devices = build_path_devices(scene, bvh, self.specs, self.faults)?;
-        let mut renderer = PathRenderer::new(devices, self.settings)?;
+        let renderer = PathRenderer::new(devices, self.settings)?;
+        self.render_on(renderer, scene, bvh, options, calibration)
+    }
+
+    /// [`Run::render`] on `renderer`, made of the devices the caller chose (the ranks of an MPI
+    /// job among them: `distributed::render_over_ranks`).
+    ///
+    /// # Errors
+    /// As [`Run::render`].
+    pub fn render_on(
+        &self,
+        mut renderer: PathRenderer<'_>,
+        scene: &Scene,
+        bvh: &Bvh,
+        options: &RenderOptions,
+        mut calibration: Option<(&mut Store, &str)>,
+    ) -> Result<(Film, RunReport), RunError> {
         if let Some((store, workload)) = calibration.as_mut() {
             store.recall(&mut renderer, workload);
         }

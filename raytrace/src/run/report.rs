@@ -3,24 +3,7 @@
 
 use serde::Serialize;
 
-use crate::paths::FrameStats;
-
-/// One device's part of the reported frame.
-#[derive(Debug, Serialize)]
-pub struct DeviceReport {
-    name: String,
-    speed: f64,
-    tasks: usize,
-    launches: u64,
-    busy_seconds: f64,
-    rays: usize,
-    host_to_device_bytes: u64,
-    device_to_host_bytes: u64,
-    host_waits: u64,
-    film_bytes: u64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    device_seconds: Option<f64>,
-}
+use crate::paths::{FrameStats, PathDeviceStats, Traffic};
 
 /// What a run reports beside the image: the fastest of `frames` frames. Every render reports
 /// it, in one process or over MPI ranks.
@@ -62,19 +45,16 @@ pub struct RunReport {
     pub host_fallback: bool,
     /// Devices that failed, with why.
     pub failures: Vec<String>,
-    /// Bytes sent from the host to the devices, the paths' values excepted.
-    pub host_to_device_bytes: u64,
-    /// Bytes sent from the devices to the host, the paths' values excepted.
-    pub device_to_host_bytes: u64,
-    /// Times the host blocked on a device.
-    pub host_waits: u64,
+    /// What crossed between the host and the devices, the paths' values excepted.
+    #[serde(flatten)]
+    pub traffic: Traffic,
     /// Bytes of the paths' values sent to the host.
     pub film_bytes: u64,
     /// Devices the reported frame left idle: the fastest class alone had rendered frames
     /// faster than every device together.
     pub left_idle: Vec<String>,
     /// Each device's part.
-    pub devices: Vec<DeviceReport>,
+    pub devices: Vec<PathDeviceStats>,
 }
 
 impl RunReport {
@@ -87,9 +67,9 @@ impl RunReport {
             self.render_seconds,
             self.mrays_per_s,
             100.0 * self.balance_efficiency,
-            self.host_to_device_bytes,
-            self.device_to_host_bytes,
-            self.host_waits,
+            self.traffic.host_to_device_bytes,
+            self.traffic.device_to_host_bytes,
+            self.traffic.host_waits,
             self.film_bytes,
         )
     }
@@ -116,7 +96,6 @@ impl RunReport {
     /// The report of `frames` frames whose first took `first_render_seconds`, from the
     /// reported (fastest) frame's statistics `s`.
     pub fn new(frames: u32, first_render_seconds: f64, s: &FrameStats) -> Self {
-        let t = s.traffic();
         Self {
             frames,
             first_render_seconds,
@@ -135,28 +114,10 @@ impl RunReport {
             spikes: s.spikes,
             host_fallback: false,
             failures: s.failures.iter().map(ToString::to_string).collect(),
-            host_to_device_bytes: t.host_to_device_bytes,
-            device_to_host_bytes: t.device_to_host_bytes,
-            host_waits: t.host_waits,
+            traffic: s.traffic(),
             film_bytes: s.film_bytes(),
             left_idle: s.left_idle.clone(),
-            devices: s
-                .devices
-                .iter()
-                .map(|d| DeviceReport {
-                    name: d.name.clone(),
-                    speed: d.speed,
-                    tasks: d.tasks,
-                    launches: d.launches,
-                    busy_seconds: d.busy,
-                    rays: d.rays,
-                    host_to_device_bytes: d.traffic.host_to_device_bytes,
-                    device_to_host_bytes: d.traffic.device_to_host_bytes,
-                    host_waits: d.traffic.host_waits,
-                    film_bytes: d.film_bytes,
-                    device_seconds: d.device_seconds,
-                })
-                .collect(),
+            devices: s.devices.clone(),
         }
     }
 }
