@@ -3,6 +3,8 @@
 //! 32-sample AO rays (any-hit, and closest-hit) from one camera's hits. Scenes: `builtin:forest`
 //! and, when present, `../shared/scenes/conference.obj`.
 //!
+//! `load/SCENE` times bringing a scene into range (`Scene::normalise`) beside loading it whole.
+//!
 //! Run: `cargo bench --bench raytrace` (filter with e.g. `-- conference`); each group prints
 //! both traversals' throughput, so the ratio to obvhs is read from one run.
 
@@ -56,5 +58,24 @@ fn trace(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, trace);
+/// What bringing a scene into range costs on loading (`Scene::normalise`, one pass to find the
+/// largest coordinate and one to scale), beside loading it whole.
+fn normalise(c: &mut Criterion) {
+    for (name, source) in scenes() {
+        let source = SceneSource::parse(&source).expect("bench scene");
+        let scene = source.load(SceneNeeds::AO).expect("bench scene loads");
+        let mut g = c.benchmark_group(format!("load/{name}"));
+        g.sample_size(10);
+        g.throughput(Throughput::Elements(scene.positions.len() as u64));
+        g.bench_function("normalise", |b| {
+            b.iter(|| black_box(scene.clone()).normalise())
+        });
+        g.bench_function("load", |b| {
+            b.iter(|| source.load(black_box(SceneNeeds::AO)))
+        });
+        g.finish();
+    }
+}
+
+criterion_group!(benches, trace, normalise);
 criterion_main!(benches);
