@@ -1,6 +1,7 @@
 //! The reduced-traversal estimator (thesis, section 3.1): trace a compacted uniform sample of
 //! each task's rays through the boxes only, count nodes `B` and reached triangles `T`, scale
-//! to the task's length and weigh by `C = kB·B + kT·T`.
+//! to the task's length and weigh by `C = kB·B + kT·T`. It is written once over what counts
+//! the sample ([`CountRays`]): the host's tree, or a GPU's trace kernels.
 
 use std::ops::Range;
 
@@ -10,17 +11,60 @@ use super::refine::refine;
 use super::sample::{Compacted, check_tasks};
 use super::{CostError, CostModel, SampleRate, SampleRun, Work};
 use crate::traverse::batch::{reduced_counts_at, traced_at};
+use crate::traverse::counts::Counts;
 use crate::traverse::walk::Walk;
 use crate::{Bvh, HitBatch, RayBatch};
 
-/// Estimates ray tasks (ranges of one [`RayBatch`]) by the reduced traversal of a sample.
+/// What counts an estimate's sample: a list of rays of a batch, walked in one pass. The
+/// host's tree counts on all cores (the 8-wide tree for the trace walk, the binary one for
+/// the reduced walks); a GPU (`gpu::GpuDevice`) counts the reduced walks with its trace
+/// kernels, exactly as the host does.
+pub trait CountRays {
+    /// Why a sample could not be counted; a bad task is one.
+    type Error: From<CostError>;
+
+    /// `walk`'s counts of the rays `index` of `rays`, in order, and with [`Walk::Trace`]
+    /// their hits.
+    ///
+    /// # Errors
+    /// A walk the counter cannot take, and the counter's own failures.
+    fn count_at(
+        &self,
+        rays: &RayBatch,
+        walk: Walk,
+        index: &[usize],
+    ) -> Result<(Option<HitBatch>, Vec<Counts>), Self::Error>;
+}
+
+impl CountRays for Bvh {
+    type Error = CostError;
+
+    fn count_at(
+        &self,
+        rays: &RayBatch,
+        walk: Walk,
+        index: &[usize],
+    ) -> Result<(Option<HitBatch>, Vec<Counts>), CostError> {
+        Ok(match walk {
+            Walk::Trace { any } => {
+                let (hits, counts) = traced_at(self, rays, any, index);
+                (Some(hits), counts)
+            }
+            walk => (None, reduced_counts_at(self, rays, walk, index)),
+        })
+    }
+}
+
+/// Estimates ray tasks (ranges of one [`RayBatch`]) by the reduced traversal of a sample,
+/// counted by `C` (the host's [`Bvh`], or a GPU).
 ///
 /// As a [`sched::CostEstimator`] it cannot return an error: a task that is empty or outside
 /// the batch gets a NaN cost, which [`sched::CostEstimator::estimate_timed`] rejects naming
-/// that task. [`ReducedTraversal::try_estimate`] says why.
-#[derive(Clone, Copy, Debug)]
-pub struct ReducedTraversal<'a> {
-    bvh: &'a Bvh,
+/// that task, and a counter that fails gives every task a NaN cost.
+/// [`ReducedTraversal::try_estimate`] says why.
+#[derive(Debug)]
+pub struct ReducedTraversal<'a, C = Bvh> {
+    counter: &'a C,
     rays: &'a RayBatch,
     rate: SampleRate,
     run: SampleRun,
@@ -29,16 +73,28 @@ pub struct ReducedTraversal<'a> {
     sample_error: Option<f64>,
 }
 
-impl<'a> ReducedTraversal<'a> {
+// Derived, they would ask `C` to be `Clone` and `Copy`: only the reference is copied.
+impl<C> Clone for ReducedTraversal<'_, C> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<C> Copy for ReducedTraversal<'_, C> {}
+
+impl ReducedTraversal<'_> {
     /// The halves' disagreement `cobalt estimate` refines its sample to unless told otherwise
     /// (see [`ReducedTraversal::with_sample_error`]; `docs/results.md`, "Sample-error
     /// targets compared", has the figures that chose it).
     pub const DEFAULT_SAMPLE_ERROR: f64 = 0.08;
+}
 
-    /// An estimator of tasks of `rays` sampling at `rate`, with the default [`CostModel`].
-    pub fn new(bvh: &'a Bvh, rays: &'a RayBatch, rate: SampleRate) -> Self {
+impl<'a, C: CountRays> ReducedTraversal<'a, C> {
+    /// An estimator of tasks of `rays` counted by `counter`, sampling at `rate`, with the
+    /// default [`CostModel`].
+    pub fn new(counter: &'a C, rays: &'a RayBatch, rate: SampleRate) -> Self {
         Self {
-            bvh,
+            counter,
             rays,
             rate,
             run: SampleRun::DEFAULT,
@@ -52,7 +108,7 @@ impl<'a> ReducedTraversal<'a> {
     /// `cost/refine.rs`): it starts at a quarter of the rate and doubles, up to the rate,
     /// while its two interleaved halves disagree by more than `target` (`Σ|A − B| / Σ(A + B)`
     /// over the tasks, the sample's expected share of `error_vs_time`). `None` takes the
-    /// whole sample at the rate, as the thesis does and as the GPU estimator always does.
+    /// whole sample at the rate, as the thesis does.
     pub fn with_sample_error(self, target: Option<f64>) -> Self {
         Self {
             sample_error: target,
@@ -101,7 +157,7 @@ impl<'a> ReducedTraversal<'a> {
     }
 
     /// Estimated `B` and `T` of every task: the sample's sums scaled by `len / sampled`.
-    pub fn try_work(&self, tasks: &[Range<usize>]) -> Result<Vec<Work>, CostError> {
+    pub fn try_work(&self, tasks: &[Range<usize>]) -> Result<Vec<Work>, C::Error> {
         Ok(self.try_work_traced(tasks)?.0)
     }
 
@@ -110,26 +166,20 @@ impl<'a> ReducedTraversal<'a> {
     pub fn try_work_traced(
         &self,
         tasks: &[Range<usize>],
-    ) -> Result<(Vec<Work>, Option<Traced>), CostError> {
+    ) -> Result<(Vec<Work>, Option<Traced>), C::Error> {
         let s = self.try_sample(tasks)?;
         Ok((s.work, s.traced))
     }
 
     /// Every task's estimated work, the rays sampled, and with [`Walk::Trace`] their hits.
-    pub fn try_sample(&self, tasks: &[Range<usize>]) -> Result<Sample, CostError> {
-        // One parallel pass over the whole compacted list (rayon chunks of it), not one per
-        // task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
-        let trace = |index: &[usize]| match self.walk {
-            Walk::Trace { any } => {
-                let (hits, counts) = traced_at(self.bvh, self.rays, any, index);
-                (Some(hits), counts)
-            }
-            walk => (None, reduced_counts_at(self.bvh, self.rays, walk, index)),
-        };
+    pub fn try_sample(&self, tasks: &[Range<usize>]) -> Result<Sample, C::Error> {
+        // One pass over the whole compacted list (rayon chunks of it, or one launch), not one
+        // per task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
+        let trace = |index: &[usize]| self.counter.count_at(self.rays, self.walk, index);
         // A sample of every ray is asked for exactly; nothing is left to refine towards.
         if let Some(target) = self.sample_error.filter(|_| self.rate < SampleRate::FULL) {
             check_tasks(self.rays, tasks)?;
-            let r = refine(tasks, self.rate, self.run, self.model, target, trace);
+            let r = refine(tasks, self.rate, self.run, self.model, target, trace)?;
             return Ok(Sample {
                 sampled: r.index.len(),
                 work: r.work,
@@ -140,7 +190,7 @@ impl<'a> ReducedTraversal<'a> {
             });
         }
         let sample = Compacted::gather_in_runs(self.rays, tasks, self.rate, self.run)?;
-        let (traced, counts) = trace(&sample.index);
+        let (traced, counts) = trace(&sample.index)?;
         let work = sample
             .offsets
             .windows(2)
@@ -158,22 +208,23 @@ impl<'a> ReducedTraversal<'a> {
     }
 
     /// Estimated cost of every task, or why there is none.
-    pub fn try_estimate(&self, tasks: &[Range<usize>]) -> Result<Vec<f64>, CostError> {
+    pub fn try_estimate(&self, tasks: &[Range<usize>]) -> Result<Vec<f64>, C::Error> {
         Ok(self.model.costs(&self.try_work(tasks)?))
     }
 }
 
-impl sched::CostEstimator<Range<usize>> for ReducedTraversal<'_> {
+impl<C: CountRays> sched::CostEstimator<Range<usize>> for ReducedTraversal<'_, C> {
     fn estimate(&self, tasks: &[Range<usize>]) -> Vec<f64> {
-        match self.try_estimate(tasks) {
+        let checked = check_tasks(self.rays, tasks).map_err(Some);
+        match checked.and_then(|()| self.try_estimate(tasks).map_err(|_| None)) {
             Ok(costs) => costs,
             Err(e) => {
-                // Mark the task at fault (or all, for a broken batch) so the caller's
-                // validation names it instead of scheduling on a made-up cost.
+                // Mark the task at fault (or all, for a broken batch or a failed counter) so
+                // the caller's validation names it instead of scheduling on a made-up cost.
                 let bad = match e {
-                    CostError::EmptyTask { task } | CostError::TaskOutOfRange { task, .. } => {
-                        Some(task)
-                    }
+                    Some(
+                        CostError::EmptyTask { task } | CostError::TaskOutOfRange { task, .. },
+                    ) => Some(task),
                     _ => None,
                 };
                 (0..tasks.len())

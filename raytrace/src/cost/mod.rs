@@ -7,7 +7,8 @@
 //! - [`SampleRate`] and [`Compacted`]: a uniform stride sample of every task, compacted into one
 //!   contiguous list of ray indices (the thesis compacts the sample before the reduced trace;
 //!   the CPU reads the sampled rays in place through it);
-//! - [`ReducedTraversal`]: the estimator, a [`sched::CostEstimator`]; [`full_work`] is the same
+//! - [`ReducedTraversal`]: the estimator, a [`sched::CostEstimator`], written once over what
+//!   counts its sample ([`CountRays`]: the host's tree or a GPU); [`full_work`] is the same
 //!   count over *all* rays, the reference of the prediction error;
 //! - [`measure_seconds`]: the measured trace time of each task;
 //! - [`CostModel`], [`Calibrations`] and [`calibrate`]: `kB`, `kT` per device and [`RayKind`](crate::RayKind);
@@ -49,7 +50,7 @@ mod sample;
 
 pub use calibrate::{Fit, FitForm, calibrate};
 pub use error::CostError;
-pub use estimator::{ReducedTraversal, Sample, Traced, full_work};
+pub use estimator::{CountRays, ReducedTraversal, Sample, Traced, full_work};
 pub use measure::measure_seconds;
 pub use metrics::{error_vs_time, prediction_error, spearman};
 pub use model::{Calibrations, CostModel, Work};

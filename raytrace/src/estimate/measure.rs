@@ -408,17 +408,19 @@ fn time_on_gpu(
     jobs: &[(&[Range<usize>], Walk)],
 ) -> Result<Timed, EstimateError> {
     use crate::devices::GpuSelect;
-    use crate::gpu::{GpuContext, GpuDevice, GpuOptions, GpuReducedTraversal};
+    use crate::gpu::{GpuContext, GpuDevice, GpuOptions};
     let ctx = GpuContext::open(GpuSelect::All, GpuOptions::from_env())?.swap_remove(0);
     let name = ctx.info.name.clone();
     let dev = GpuDevice::new(ctx, cut.bvh)?;
-    let estimator = GpuReducedTraversal::new(&dev, &cut.rays, s.sample_rate);
-    let (estimate_seconds, est) = min_time(s.repeats, || {
-        let mut work = Vec::new();
+    let estimator = ReducedTraversal::new(&dev, &cut.rays, s.sample_rate);
+    let (estimate_seconds, (est, sampled_rays)) = min_time(s.repeats, || {
+        let (mut work, mut sampled) = (Vec::new(), 0);
         for &(own, p) in jobs {
-            work.extend(estimator.with_walk(p).try_work(own)?);
+            let s = estimator.with_walk(p).try_sample(own)?;
+            work.extend(s.work);
+            sampled += s.sampled;
         }
-        Ok::<_, EstimateError>(work)
+        Ok::<_, EstimateError>((work, sampled))
     })?;
     let (trace_seconds, ()) = min_time(s.repeats, || {
         for (batch, kind) in cut.segments {
@@ -427,11 +429,6 @@ fn time_on_gpu(
         }
         Ok::<_, EstimateError>(())
     })?;
-    let sampled_rays = cut
-        .tasks
-        .iter()
-        .map(|t| s.sample_rate.samples(t.len()))
-        .sum();
     Ok(Timed {
         estimate_seconds,
         est,
