@@ -96,6 +96,7 @@ fn checked(args: &Args) -> Result<Settings<'_>, CliError> {
         sample_error: args.sample_error.0,
         clock: args.clock,
         repeats: args.repeats,
+        budget: raytrace::cost::Budget::estimate(args.repeats),
         device: if gpu { Device::Gpu } else { Device::Cpu },
         walk,
     })

@@ -72,8 +72,12 @@ pub struct Settings<'a> {
     pub sample_error: Option<f64>,
     /// What times are taken on.
     pub clock: sched::Clock,
-    /// Every timing's repeats; on the CPU, the rounds at least.
+    /// Every timing's repeats: each task's measured time, and on the GPU the estimate's and
+    /// the trace's.
     pub repeats: usize,
+    /// How long the CPU's rounds go on ([`Budget::estimate`] of `repeats` for `cobalt
+    /// estimate`, [`Budget::trade`] for the bench's trade).
+    pub budget: Budget,
     /// Where the estimate and the full trace run. The GPU's walk is never `trace`, its clock
     /// is wall time and its sample run the default: the caller checks.
     pub device: Device,
@@ -88,13 +92,38 @@ pub fn measure(
     bvh: &Bvh,
     rays: Generations,
 ) -> Result<Report, EstimateError> {
+    let sample = [(s.sample_rate, s.sample_error)];
+    let mut reports = measure_samples(s, scene, bvh, &rays, &sample)?;
+    Ok(reports.swap_remove(0))
+}
+
+/// [`measure`] at each of `samples` (a sample rate, and how far the sample refines, in place
+/// of the settings' own), the tasks' times measured once: one report each, in order. The
+/// bench's sampling trade is these reports.
+pub fn measure_samples(
+    s: &Settings<'_>,
+    scene: &Scene,
+    bvh: &Bvh,
+    rays: &Generations,
+    samples: &[(SampleRate, Option<f64>)],
+) -> Result<Vec<Report>, EstimateError> {
     let cut = Cut::new(bvh, &rays.segments, s)?;
-    let chosen = cut.choose(s.walk)?;
-    let timed = match s.device {
-        Device::Cpu => time_on_cpu(&cut, s, chosen.walk, &chosen.full)?,
-        Device::Gpu => time_on_gpu(&cut, s, &cut.jobs(chosen.walk))?,
-    };
-    Ok(report(&cut, s, (scene, &rays), chosen, timed))
+    samples
+        .iter()
+        .map(|&(sample_rate, sample_error)| {
+            let s = &Settings {
+                sample_rate,
+                sample_error,
+                ..*s
+            };
+            let chosen = cut.choose(s.walk)?;
+            let timed = match s.device {
+                Device::Cpu => time_on_cpu(&cut, s, chosen.walk, &chosen.full)?,
+                Device::Gpu => time_on_gpu(&cut, s, &cut.jobs(chosen.walk))?,
+            };
+            Ok(report(&cut, s, (scene, rays), chosen, timed))
+        })
+        .collect()
 }
 
 /// The walk the estimate takes, its full counts, and with [`WalkChoice::Auto`] how each walk
@@ -118,6 +147,9 @@ struct Cut<'a> {
     parts: Vec<(Range<usize>, RayKind)>,
     /// Each task's single-thread trace time.
     measured: Vec<f64>,
+    /// Each task's counts of the real trace, traced as its generation is (closest or any
+    /// hit).
+    trace_work: Vec<Work>,
 }
 
 impl<'a> Cut<'a> {
@@ -131,6 +163,7 @@ impl<'a> Cut<'a> {
         let mut tasks = Vec::new();
         let mut parts = Vec::new();
         let mut measured = Vec::new();
+        let mut trace_work = Vec::new();
         for (batch, kind) in segments {
             let (base, first) = (rays.len(), tasks.len());
             let own = sched::split_ranges(batch.len(), task_size);
@@ -140,6 +173,12 @@ impl<'a> Cut<'a> {
             measured.extend(measure_seconds(
                 bvh, batch, &own, *kind, s.repeats, s.clock,
             )?);
+            let counts = if kind.is_occlusion() {
+                traverse::any_hits_counted(bvh, batch).1
+            } else {
+                traverse::closest_hits_counted(bvh, batch).1
+            };
+            trace_work.extend(own.into_iter().map(|r| Work::sum(&counts[r])));
         }
         Ok(Self {
             bvh,
@@ -149,6 +188,7 @@ impl<'a> Cut<'a> {
             tasks,
             parts,
             measured,
+            trace_work,
         })
     }
 
@@ -223,22 +263,6 @@ impl<'a> Cut<'a> {
                 }))
             })
             .collect()
-    }
-
-    /// Each task's counts of the real trace, traced as its generation is (closest or any
-    /// hit).
-    fn trace_work(&self) -> Vec<Work> {
-        let mut work = Vec::with_capacity(self.tasks.len());
-        for (batch, kind) in self.segments {
-            let counts = if kind.is_occlusion() {
-                traverse::any_hits_counted(self.bvh, batch).1
-            } else {
-                traverse::closest_hits_counted(self.bvh, batch).1
-            };
-            let own = sched::split_ranges(batch.len(), self.task_size);
-            work.extend(own.into_iter().map(|r| Work::sum(&counts[r])));
-        }
-        work
     }
 }
 
@@ -391,7 +415,7 @@ fn time_rounds(
     let mut whole: Vec<&mut dyn FnMut() -> Result<(), CostError>> =
         estimates.iter_mut().map(|e| e.as_mut() as _).collect();
     Rounds::time(
-        Budget::estimate(s.repeats),
+        s.budget,
         s.clock,
         traces.count(),
         &mut [&mut trace, &mut rest],
@@ -478,8 +502,8 @@ fn report(
     t: Timed,
 ) -> Report {
     let per_ray = |total: f64| total / cut.rays.len() as f64;
-    let trace_work = cut.trace_work();
-    let (trace_nodes, trace_tris) = trace_work
+    let (trace_nodes, trace_tris) = cut
+        .trace_work
         .iter()
         .fold((0.0, 0.0), |(b, t), w| (b + w.nodes, t + w.tris));
     let model = CostModel::default();
@@ -490,7 +514,7 @@ fn report(
     let (est_b, full_b) = part(|w| w.nodes);
     let (est_t, full_t) = part(|w| w.tris);
     let (judged, full_judged) = (cut.judge(est), cut.judge(&full));
-    let trace_judged = cut.judge(&trace_work);
+    let trace_judged = cut.judge(&cut.trace_work);
     // On the GPU, the overheads from the least times; a reduced walk's sample is wasted: its
     // net overhead is its overhead, exactly.
     let least = t.estimate_seconds / t.trace_seconds.max(1e-12);
