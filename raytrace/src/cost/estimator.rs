@@ -141,11 +141,6 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
         self.walk
     }
 
-    /// The same estimator weighing `B` and `T` by a calibrated model.
-    pub fn with_model(self, model: CostModel) -> Self {
-        Self { model, ..self }
-    }
-
     /// The model costs are weighed by.
     pub fn model(&self) -> CostModel {
         self.model
@@ -262,19 +257,6 @@ pub struct Traced {
     pub hits: HitBatch,
 }
 
-impl Traced {
-    /// Writes the traced hits into `hits`, the batch's (every ray's) hits.
-    ///
-    /// # Panics
-    /// Panics if an index is beyond `hits`.
-    pub fn write_into(&self, hits: &mut HitBatch) {
-        for (k, &i) in self.index.iter().enumerate() {
-            hits.t[i] = self.hits.t[k];
-            hits.prim[i] = self.hits.prim[k];
-        }
-    }
-}
-
 /// `walk`'s reduced traversal of *every* ray of every task: the "full" of the thesis's
 /// prediction error, which a sample rate of 1 reproduces exactly. Tasks run in parallel, each
 /// summed on one thread (it is a reference, not timed). The trace walk's counts come from the
@@ -321,8 +303,8 @@ pub(super) mod tests {
     use sched::CostEstimator;
 
     use super::*;
-    use crate::cost::prediction_error;
     use crate::{BuildPreset, Camera, Ray, SceneNeeds, SceneSource};
+    use sched::prediction_error;
 
     /// A small forest and its camera rays, `size`² of them, for the estimator's tests.
     pub(in crate::cost) fn forest_of(size: u32) -> (Bvh, RayBatch) {
@@ -350,7 +332,7 @@ pub(super) mod tests {
         let m = CostModel::default();
         assert_eq!(
             prediction_error(&est.estimate(&tasks), &m.costs(&full)),
-            Ok(0.0)
+            Some(0.0)
         );
         assert!(
             full.iter().all(|w| w.nodes > 0.0),

@@ -12,7 +12,7 @@ use crate::bvh::Bvh;
 use crate::cost::judge::{self, Judged, judge};
 use crate::cost::{
     Budget, CostError, CostModel, ReducedTraversal, Rounds, SampleRate, SampleRun, SlicedTraces,
-    Work, full_work, measure_seconds, prediction_error,
+    Work, full_work, measure_seconds,
 };
 use crate::ray::{RayBatch, RayKind};
 use crate::scene::Scene;
@@ -354,7 +354,7 @@ fn time_on_cpu(
                 error_vs_time: judged.error_vs_time,
                 spearman_vs_time: judged.spearman_vs_time,
                 prediction_error: full
-                    .and_then(|f| prediction_error(&model.costs(est), &model.costs(&f)).ok()),
+                    .and_then(|f| sched::prediction_error(&model.costs(est), &model.costs(&f))),
                 estimate_seconds: seconds,
                 overhead,
                 net_overhead,
@@ -547,9 +547,9 @@ fn report(
             Device::Gpu => "gpu",
         },
         adapter: t.adapter,
-        prediction_error: prediction_error(&model.costs(est), &model.costs(&full)).ok(),
-        prediction_error_nodes: prediction_error(&est_b, &full_b).ok(),
-        prediction_error_tris: prediction_error(&est_t, &full_t).ok(),
+        prediction_error: sched::prediction_error(&model.costs(est), &model.costs(&full)),
+        prediction_error_nodes: sched::prediction_error(&est_b, &full_b),
+        prediction_error_tris: sched::prediction_error(&est_t, &full_t),
         estimate_seconds: t.estimate_seconds,
         trace_seconds: t.trace_seconds,
         overhead: t.shares.map_or(least, |s| s.0),
