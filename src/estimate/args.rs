@@ -72,7 +72,7 @@ pub struct Args {
     /// compaction, reduced traversal and per-task sums on the device, the same estimates as
     /// the CPU's. Measured task times (the calibration) stay single-thread CPU times.
     #[arg(long, value_enum, default_value = "cpu")]
-    pub(super) device: DeviceArg,
+    pub(super) device: crate::trace::Device,
     /// How the sample is traced: `trace` (the real trace, closest or any hit, counted as
     /// traced, its hits kept for the render; the default on the CPU), `reduced` (the reduced
     /// traversal of the whole range of every ray; the default, and the only one, on the
@@ -84,13 +84,4 @@ pub struct Args {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub(super) json: bool,
-}
-
-/// Where the estimate runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub(super) enum DeviceArg {
-    /// All CPU cores.
-    Cpu,
-    /// The first usable GPU adapter.
-    Gpu,
 }

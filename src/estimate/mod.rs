@@ -19,7 +19,7 @@ use raytrace::estimate::{Device, Settings, WalkChoice};
 use raytrace::{Bvh, Camera, SceneSource, Walk};
 
 use crate::error::CliError;
-use args::DeviceArg;
+use crate::trace::Device as DeviceArg;
 use rays::{RaySettings, RaySource};
 
 pub use args::Args;

@@ -58,7 +58,7 @@ impl Work {
 
 /// The constants of `C = kR·R + kB·B + kT·T`: what one ray, one node visit and one triangle
 /// test cost, in seconds after a calibration or in node-visit units by default.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct CostModel {
     /// `kR`: cost of one ray apart from its nodes and triangles.
     pub kr: f64,

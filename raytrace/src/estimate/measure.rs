@@ -7,7 +7,7 @@ use std::ops::Range;
 
 use super::error::EstimateError;
 use super::rays::Generations;
-use super::report::{Calibration, Model, Report, WalkFigures, WalkFit};
+use super::report::{Calibration, Report, WalkFigures, WalkFit};
 use crate::bvh::Bvh;
 use crate::cost::judge::{self, Judged, judge};
 use crate::cost::{
@@ -567,11 +567,7 @@ fn report(
         reduced_tris_per_ray: per_ray(full_t.iter().sum()),
         trace_nodes_per_ray: per_ray(trace_nodes),
         trace_tris_per_ray: per_ray(trace_tris),
-        default_model: Model {
-            kr: model.kr,
-            kb: model.kb,
-            kt: model.kt,
-        },
+        default_model: model,
         calibration: judged.fit.map(Calibration::from),
         build_seconds: cut.bvh.report().build_seconds,
     }

@@ -5,7 +5,7 @@
 
 use serde::Serialize;
 
-use crate::cost::Fit;
+use crate::cost::{CostModel, Fit};
 
 /// The device name calibrations are recorded under: one CPU thread, as measured.
 const DEVICE: &str = "cpu-thread";
@@ -199,20 +199,9 @@ pub struct Report {
     /// Mean `T` per ray of the real trace.
     pub trace_tris_per_ray: f64,
     /// The default cost model, which the prediction errors are taken in.
-    pub default_model: Model,
+    pub default_model: CostModel,
     /// The model calibrated to the measured task times.
     pub calibration: Option<Calibration>,
     /// Seconds the BVH took to build.
     pub build_seconds: f64,
-}
-
-/// A cost model's weights, in its own units.
-#[derive(Debug, Serialize)]
-pub struct Model {
-    /// The weight of a ray.
-    pub kr: f64,
-    /// The weight of a node entered.
-    pub kb: f64,
-    /// The weight of a triangle test.
-    pub kt: f64,
 }
