@@ -1184,7 +1184,7 @@ fn an_undrained_launch_is_run_again_checked() {
 /// cross: 24 bytes a task beyond a launch's fixed bytes.
 #[test]
 fn a_gpu_estimates_its_paths_as_the_host_does() {
-    use crate::paths::{GpuPaths, PathDevice, estimate_paths_in};
+    use crate::paths::{GpuPaths, PathDevice, sample_paths};
     let Some(ctx) = gpu() else { return };
     for name in ["builtin:cornell:0.2", "builtin:forest:0.05"] {
         let (scene, bvh) = testkit::builtin_with_bvh(name).expect("scene");
@@ -1211,7 +1211,8 @@ fn a_gpu_estimates_its_paths_as_the_host_does() {
                 let on_gpu = device
                     .estimate(&frame, &refs, rate, crate::Walk::Trace { any: false })
                     .expect("estimate");
-                let on_host = estimate_paths_in(&frame, &tasks, rate, crate::Layout::Binary);
+                let on_host = sample_paths(&frame, &tasks, rate, crate::Layout::Binary);
+                let on_host: Vec<_> = on_host.into_iter().map(|s| s.work).collect();
                 assert_eq!(on_gpu.work, on_host, "{name} {} {rate:?}", shader.name());
                 assert!(on_gpu.work[2].nodes > 0.0, "{name}: {:?}", on_gpu.work);
                 let t = &on_gpu.traffic;
