@@ -5,8 +5,6 @@
 
 use std::ops::Range;
 
-use rayon::prelude::*;
-
 use super::refine::refine;
 use super::sample::{Compacted, check_tasks};
 use super::{CostError, CostModel, SampleRate, SampleRun, Work};
@@ -258,43 +256,17 @@ pub struct Traced {
 }
 
 /// `walk`'s reduced traversal of *every* ray of every task: the "full" of the thesis's
-/// prediction error, which a sample rate of 1 reproduces exactly. Tasks run in parallel, each
-/// summed on one thread (it is a reference, not timed). The trace walk's counts come from the
-/// batch trace its sample takes: its leaf test may take two groups of triangles in one pass,
-/// which the single-ray test counts as they come.
+/// prediction error, the estimator's count at a sample rate of 1 (which takes every ray and
+/// never refines). It is a reference, not timed.
 pub fn full_work(
     bvh: &Bvh,
     rays: &RayBatch,
     tasks: &[Range<usize>],
     walk: Walk,
 ) -> Result<Vec<Work>, CostError> {
-    check_tasks(rays, tasks)?;
-    if let Walk::Trace { any } = walk {
-        let index: Vec<usize> = tasks.iter().flat_map(Range::clone).collect();
-        let (_, counts) = traced_at(bvh, rays, any, &index);
-        let mut at = 0;
-        return Ok(tasks
-            .iter()
-            .map(|r| {
-                at += r.len();
-                Work::sum(&counts[at - r.len()..at])
-            })
-            .collect());
-    }
-    Ok(tasks
-        .par_iter()
-        .map(|r| {
-            let (b, t) = r.clone().fold((0u64, 0u64), |(b, t), i| {
-                let c = bvh.walk(&rays.get(i), walk);
-                (b + u64::from(c.nodes), t + u64::from(c.tris))
-            });
-            Work {
-                nodes: b as f64,
-                tris: t as f64,
-                rays: r.len() as f64,
-            }
-        })
-        .collect())
+    ReducedTraversal::new(bvh, rays, SampleRate::FULL)
+        .with_walk(walk)
+        .try_work(tasks)
 }
 
 #[cfg(test)]
@@ -329,6 +301,17 @@ pub(super) mod tests {
         let est = ReducedTraversal::new(&bvh, &rays, SampleRate::FULL);
         let full = full_work(&bvh, &rays, &tasks, Walk::Reduced).unwrap();
         assert_eq!(est.try_work(&tasks).unwrap(), full);
+        // The full count is every ray's own walk, one ray at a time.
+        for walk in Walk::ALL {
+            let single: Vec<Work> = tasks
+                .iter()
+                .map(|r| {
+                    let counts: Vec<_> = r.clone().map(|i| bvh.walk(&rays.get(i), walk)).collect();
+                    Work::sum(&counts)
+                })
+                .collect();
+            assert_eq!(full_work(&bvh, &rays, &tasks, walk).unwrap(), single);
+        }
         let m = CostModel::default();
         assert_eq!(
             prediction_error(&est.estimate(&tasks), &m.costs(&full)),
