@@ -2,8 +2,8 @@
 //! `cobalt estimate`, beside the host's traversal (`crate::traverse`).
 
 use std::ops::Range;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Mutex, PoisonError};
 
 use crate::Traffic;
 use crate::cost::CountRays;
@@ -28,8 +28,6 @@ pub struct GpuDevice {
     last_seconds: AtomicU64,
     /// The hit launches' buffers, kept from one launch to the next.
     staging: Mutex<Option<Staging>>,
-    /// What crossed since [`GpuDevice::take_traffic`] last took it.
-    traffic: Mutex<Traffic>,
 }
 
 impl GpuDevice {
@@ -48,7 +46,6 @@ impl GpuDevice {
             threads: Threads::default(),
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
             staging: Mutex::new(None),
-            traffic: Mutex::new(Traffic::default()),
         })
     }
 
@@ -99,7 +96,7 @@ impl GpuDevice {
             *s = None;
             s
         });
-        let mut traffic = Traffic::default();
+        // What crosses is counted for the path devices' reports; a batch's trace has none.
         let staged = staged_hits(
             &mut staging,
             &self.ctx,
@@ -109,9 +106,8 @@ impl GpuDevice {
             ranges,
             mode,
             self.threads,
-            &mut traffic,
+            &mut Traffic::default(),
         );
-        self.count(traffic);
         let (hits, seconds) = staged?;
         self.last_seconds
             .store(seconds.unwrap_or(f64::NAN).to_bits(), Ordering::Relaxed);
@@ -147,23 +143,5 @@ impl CountRays for GpuDevice {
             .map(|[nodes, tris]| Counts { nodes, tris })
             .collect();
         Ok((None, counts))
-    }
-}
-
-impl GpuDevice {
-    /// What crossed between the host and the device since the last call: the rays uploaded
-    /// and hits read back, and an estimate's samples and sums.
-    pub fn take_traffic(&mut self) -> Traffic {
-        std::mem::take(
-            self.traffic
-                .get_mut()
-                .unwrap_or_else(PoisonError::into_inner),
-        )
-    }
-
-    /// Adds `traffic` to what [`GpuDevice::take_traffic`] will take.
-    fn count(&self, traffic: Traffic) {
-        // A poisoned lock only means another launch panicked; the counts are still valid.
-        *self.traffic.lock().unwrap_or_else(PoisonError::into_inner) += traffic;
     }
 }
