@@ -66,7 +66,6 @@ pub struct ReducedTraversal<'a, C = Bvh> {
     rays: &'a RayBatch,
     rate: SampleRate,
     run: SampleRun,
-    model: CostModel,
     walk: Walk,
     sample_error: Option<f64>,
 }
@@ -88,15 +87,14 @@ impl ReducedTraversal<'_> {
 }
 
 impl<'a, C: CountRays> ReducedTraversal<'a, C> {
-    /// An estimator of tasks of `rays` counted by `counter`, sampling at `rate`, with the
-    /// default [`CostModel`].
+    /// An estimator of tasks of `rays` counted by `counter`, sampling at `rate`; its costs are
+    /// the default [`CostModel`]'s.
     pub fn new(counter: &'a C, rays: &'a RayBatch, rate: SampleRate) -> Self {
         Self {
             counter,
             rays,
             rate,
             run: SampleRun::DEFAULT,
-            model: CostModel::default(),
             walk: Walk::Reduced,
             sample_error: None,
         }
@@ -114,19 +112,9 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
         }
     }
 
-    /// The target the sample refines to, if it refines.
-    pub fn sample_error(&self) -> Option<f64> {
-        self.sample_error
-    }
-
     /// The same estimator keeping its samples in runs of `run` adjacent rays.
     pub fn with_run(self, run: SampleRun) -> Self {
         Self { run, ..self }
-    }
-
-    /// The sample's runs of adjacent rays.
-    pub fn run(&self) -> SampleRun {
-        self.run
     }
 
     /// The same estimator tracing its sample with another reduced traversal.
@@ -139,29 +127,9 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
         self.walk
     }
 
-    /// The model costs are weighed by.
-    pub fn model(&self) -> CostModel {
-        self.model
-    }
-
-    /// The sampling rate.
-    pub fn rate(&self) -> SampleRate {
-        self.rate
-    }
-
     /// Estimated `B` and `T` of every task: the sample's sums scaled by `len / sampled`.
     pub fn try_work(&self, tasks: &[Range<usize>]) -> Result<Vec<Work>, C::Error> {
-        Ok(self.try_work_traced(tasks)?.0)
-    }
-
-    /// [`ReducedTraversal::try_work`], and with [`Walk::Trace`] the hits of the sampled rays,
-    /// which a tracer then need not trace again.
-    pub fn try_work_traced(
-        &self,
-        tasks: &[Range<usize>],
-    ) -> Result<(Vec<Work>, Option<Traced>), C::Error> {
-        let s = self.try_sample(tasks)?;
-        Ok((s.work, s.traced))
+        Ok(self.try_sample(tasks)?.work)
     }
 
     /// Every task's estimated work, the rays sampled, and with [`Walk::Trace`] their hits.
@@ -172,7 +140,7 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
         // A sample of every ray is asked for exactly; nothing is left to refine towards.
         if let Some(target) = self.sample_error.filter(|_| self.rate < SampleRate::FULL) {
             check_tasks(self.rays, tasks)?;
-            let r = refine(tasks, self.rate, self.run, self.model, target, trace)?;
+            let r = refine(tasks, self.rate, self.run, target, trace)?;
             return Ok(Sample {
                 sampled: r.index.len(),
                 work: r.work,
@@ -202,7 +170,7 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
 
     /// Estimated cost of every task, or why there is none.
     pub fn try_estimate(&self, tasks: &[Range<usize>]) -> Result<Vec<f64>, C::Error> {
-        Ok(self.model.costs(&self.try_work(tasks)?))
+        Ok(CostModel::default().costs(&self.try_work(tasks)?))
     }
 }
 
@@ -369,7 +337,7 @@ pub(super) mod tests {
         for any in [false, true] {
             let walk = Walk::Trace { any };
             let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS).with_walk(walk);
-            let (work, traced) = e.try_work_traced(&tasks).unwrap();
+            let Sample { work, traced, .. } = e.try_sample(&tasks).unwrap();
             let traced = traced.expect("the sample's hits");
             let sample = Compacted::gather(&rays, &tasks, SampleRate::THESIS).unwrap();
             assert_eq!(traced.index, sample.index);
@@ -399,7 +367,7 @@ pub(super) mod tests {
             assert_eq!(full_work(&bvh, &rays, &tasks, e.walk()).unwrap(), want);
         }
         let reduced = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS);
-        assert_eq!(reduced.try_work_traced(&tasks).unwrap().1, None);
+        assert_eq!(reduced.try_sample(&tasks).unwrap().traced, None);
     }
 
     #[test]

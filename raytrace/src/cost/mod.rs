@@ -20,7 +20,7 @@
 //! ## Example
 //!
 //! ```
-//! use raytrace::cost::{ReducedTraversal, SampleRate, full_work};
+//! use raytrace::cost::{CostModel, ReducedTraversal, SampleRate, full_work};
 //! use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
 //! use sched::{CostEstimator, prediction_error};
 //!
@@ -32,7 +32,7 @@
 //! let estimator = ReducedTraversal::new(&bvh, &rays, SampleRate::new(0.125)?);
 //! let estimate = estimator.estimate_timed(&tasks)?; // costs and overhead
 //! let (est, full) = (estimator.try_work(&tasks)?, full_work(&bvh, &rays, &tasks, estimator.walk())?);
-//! let model = estimator.model();
+//! let model = CostModel::default();
 //! let error = prediction_error(&model.costs(&est), &model.costs(&full)).ok_or("no full cost")?;
 //! assert!(estimate.costs.len() == 8 && error < 0.5);
 //! # Ok::<(), Box<dyn std::error::Error>>(())

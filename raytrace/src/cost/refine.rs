@@ -49,13 +49,12 @@ type Found = Option<(usize, usize, Work)>;
 
 /// The refined sample of `tasks` (checked non-empty and inside the batch): the full sample is
 /// `rate`'s in runs of `run`; `trace` walks a list of ray indices, all in one parallel pass;
-/// `model` weighs the halves' counts; refinement stops once the halves disagree by at most
-/// `target`. An error of `trace` ends the refinement.
+/// the default [`CostModel`] weighs the halves' counts; refinement stops once the halves
+/// disagree by at most `target`. An error of `trace` ends the refinement.
 pub(super) fn refine<E>(
     tasks: &[Range<usize>],
     rate: SampleRate,
     run: SampleRun,
-    model: CostModel,
     target: f64,
     mut trace: impl FnMut(&[usize]) -> Result<(Option<HitBatch>, Vec<Counts>), E>,
 ) -> Result<Refined, E> {
@@ -114,7 +113,7 @@ pub(super) fn refine<E>(
             .filter(|&t| stride[t] > 1)
             .map(|t| {
                 let own = &found[from[t]..from[t + 1]];
-                let (a, b) = halves(own, stride[t], model, tasks[t].len());
+                let (a, b) = halves(own, stride[t], tasks[t].len());
                 (t, (a - b).abs(), a + b)
             })
             .collect();
@@ -146,7 +145,8 @@ pub(super) fn refine<E>(
 
 /// A task's two halves at `stride` (see the module docs), from its runs' `found`: each half's
 /// cost per ray, times the task's `len` rays.
-fn halves(found: &[Found], stride: usize, model: CostModel, len: usize) -> (f64, f64) {
+fn halves(found: &[Found], stride: usize, len: usize) -> (f64, f64) {
+    let model = CostModel::default();
     let mut half = [Work::default(); 2];
     for (i, f) in found.iter().step_by(stride).enumerate() {
         if let Some((_, _, w)) = *f {
