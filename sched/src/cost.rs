@@ -186,6 +186,15 @@ mod tests {
     }
 
     #[test]
+    fn prediction_error_is_relative_to_the_full_total() {
+        assert_eq!(prediction_error(&[1.0, 2.0], &[1.0, 2.0]), Some(0.0));
+        assert_eq!(prediction_error(&[2.0, 2.0], &[1.0, 3.0]), Some(0.5));
+        assert_eq!(prediction_error(&[1.0], &[0.0]), None);
+        assert_eq!(prediction_error(&[], &[]), None);
+        assert_eq!(prediction_error(&[1.0], &[1.0, 1.0]), None);
+    }
+
+    #[test]
     fn decreasing_order_is_stable() {
         let c = Costs::new(vec![1.0, 3.0, 1.0, 3.0, -0.0, 0.0, 1e-300, 2.5]).unwrap();
         assert_eq!(c.decreasing_order(), vec![1, 3, 7, 0, 2, 6, 4, 5]);

@@ -68,11 +68,12 @@ pub struct Args {
     #[arg(long, default_value_t = 3, value_parser = count::<1000>)]
     pub(super) repeats: usize,
     /// Where the estimator and the full trace run: `cpu` (all cores) or `gpu` (the first
-    /// usable adapter; software ones only with `COBALT_GPU_SOFTWARE=1`): sampling,
-    /// compaction, reduced traversal and per-task sums on the device, the same estimates as
-    /// the CPU's. Measured task times (the calibration) stay single-thread CPU times.
+    /// usable adapter; software ones only with `COBALT_GPU_SOFTWARE=1`): the sample taken on
+    /// the host, its rays traced by the reduced traversal on the device and their counts
+    /// summed on the host, the same estimates as the CPU's. Measured task times (the
+    /// calibration) stay single-thread CPU times.
     #[arg(long, value_enum, default_value = "cpu")]
-    pub(super) device: DeviceArg,
+    pub(super) device: crate::trace::Device,
     /// How the sample is traced: `trace` (the real trace, closest or any hit, counted as
     /// traced, its hits kept for the render; the default on the CPU), `reduced` (the reduced
     /// traversal of the whole range of every ray; the default, and the only one, on the
@@ -84,13 +85,4 @@ pub struct Args {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub(super) json: bool,
-}
-
-/// Where the estimate runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub(super) enum DeviceArg {
-    /// All CPU cores.
-    Cpu,
-    /// The first usable GPU adapter.
-    Gpu,
 }

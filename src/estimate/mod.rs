@@ -19,7 +19,7 @@ use raytrace::estimate::{Device, Settings, WalkChoice};
 use raytrace::{Bvh, Camera, SceneSource, Walk};
 
 use crate::error::CliError;
-use args::DeviceArg;
+use crate::trace::Device as DeviceArg;
 use rays::{RaySettings, RaySource};
 
 pub use args::Args;
@@ -96,6 +96,7 @@ fn checked(args: &Args) -> Result<Settings<'_>, CliError> {
         sample_error: args.sample_error.0,
         clock: args.clock,
         repeats: args.repeats,
+        budget: raytrace::cost::Budget::estimate(args.repeats),
         device: if gpu { Device::Gpu } else { Device::Cpu },
         walk,
     })

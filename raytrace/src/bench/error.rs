@@ -3,7 +3,7 @@
 
 use sched::{DeviceFailure, SchedError};
 
-use crate::cost::CostError;
+use crate::estimate::EstimateError;
 
 /// Why the bench stopped.
 #[derive(Debug, thiserror::Error)]
@@ -24,7 +24,7 @@ pub enum BenchError {
     Sched(#[from] SchedError),
     /// An estimate of the sampling trade could not be made or judged.
     #[error("estimate: {0}")]
-    Estimate(#[from] CostError),
+    Estimate(#[from] EstimateError),
     /// A step of the bench over MPI ranks failed on some rank.
     #[cfg(feature = "mpi")]
     #[error(transparent)]

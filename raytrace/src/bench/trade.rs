@@ -8,14 +8,12 @@ use serde::Serialize;
 
 use super::error::BenchError;
 use super::matrix::SceneMatrix;
-use crate::bvh::Bvh;
-use crate::cost::judge::judge;
-use crate::cost::{
-    Budget, CostModel, ReducedTraversal, Rounds, Sample, SampleRate, SlicedStep, SlicedTraces,
-    Work, full_work, measure_seconds, prediction_error,
+use crate::cost::{Budget, CostError, ReducedTraversal, SampleRate, SampleRun};
+use crate::estimate::{
+    Device, EstimateError, Generations, Report, Settings, WalkChoice, WalkFigures, measure_samples,
 };
 use crate::ray::{RayBatch, RayKind};
-use crate::traverse::{self, Walk};
+use crate::traverse::Walk;
 use crate::workload;
 
 /// The sampling rates measured: the thesis's four, and two below them.
@@ -99,7 +97,7 @@ pub struct TradePoint {
     /// The thesis's, against the walk's own full count (secondary: it does not see time).
     pub prediction_error: f64,
     /// Estimation time over the full trace's time, both on all cores: the median over pairs
-    /// of rounds of each pair's share (see [`Rounds`]).
+    /// of rounds of each pair's share (see [`Rounds`](crate::cost::Rounds)).
     pub overhead: f64,
     /// What estimating costs a render: the overhead less the sample's trace, where the walk
     /// traced it for real and the render reuses its hits; else the overhead.
@@ -115,199 +113,124 @@ pub struct TradePoint {
     pub lpt_balance: Option<f64>,
 }
 
-/// `estimator`'s overhead and net overhead on `tasks` of `rays` (traced for any hits with
-/// `any`, else closest hits): the trace, the trace left after the sample (where `known`, the
-/// sampled rays, are reused) and the estimate timed in rounds, each figure the median of its
-/// pairs of rounds' own shares of the trace, as `cobalt estimate` takes them (see
-/// [`Rounds`]).
-fn shares(
-    (bvh, rays, any): (&Bvh, &RayBatch, bool),
-    estimator: &ReducedTraversal<'_>,
-    tasks: &[std::ops::Range<usize>],
-    known: Option<Vec<usize>>,
-) -> Result<(f64, f64), BenchError> {
-    let reuses = known.is_some();
-    let known = known.unwrap_or_default();
-    let traces = SlicedTraces::new(bvh, [(rays, any, &known[..])]);
-    let mut trace = |s: usize| {
-        traces.run(s, false);
-        Ok(())
-    };
-    let mut rest = |s: usize| {
-        traces.run(s, true);
-        Ok(())
-    };
-    let mut estimate = || -> Result<(), BenchError> {
-        std::hint::black_box(estimator.try_sample(tasks)?);
-        Ok(())
-    };
-    // The rest is timed only where the render reuses the sample's hits.
-    let sliced: &mut [SlicedStep<'_, BenchError>] = if reuses {
-        &mut [&mut trace, &mut rest]
-    } else {
-        &mut [&mut trace]
-    };
-    let steps = sliced.len();
-    let timed = Rounds::time(
-        Budget::trade(),
-        sched::Clock::Wall,
-        traces.count(),
-        sliced,
-        &mut [&mut estimate],
-    )?;
-    let overhead = timed.median_share(|r| r[steps]);
-    let net = if reuses {
-        timed.median_share(|r| r[2] + r[1] - r[0])
-    } else {
-        overhead
-    };
-    Ok((overhead, net))
-}
-
 /// The rates the trace walk is measured at: its net overhead is what matters, and above
 /// these the sample costs what the trace it saves does.
 const TRACE_RATES: [f64; 4] = [0.03125, 0.0625, 0.125, 0.25];
 
-/// Greatest common divisor, for the finest task size every size is made of.
-fn gcd(a: usize, b: usize) -> usize {
-    if b == 0 { a } else { gcd(b, a % b) }
-}
-
-/// Sums `per` (values of consecutive chunks of `unit` rays) into tasks of `size` rays, a
-/// multiple of `unit`.
-fn regroup(per: &[f64], unit: usize, size: usize) -> Vec<f64> {
-    per.chunks(size / unit).map(|c| c.iter().sum()).collect()
-}
-
+/// The trade's points of `rays` (`kind` rays, the table's `ray_kind`), for tasks of each of the
+/// matrix's sizes: `cobalt estimate`'s measurement ([`measure_samples`]) at every rate and at
+/// the thesis's rate refined as `cobalt estimate` refines it by default, every walk timed in
+/// the same rounds; of its walks, the thesis's reduced traversal at every rate, the trace walk
+/// at [`TRACE_RATES`] and refined.
 fn points(
-    scene: &str,
-    bvh: &Bvh,
-    rays: &RayBatch,
-    kind: &'static str,
-    occlusion: bool,
-    walk: Walk,
-    task_sizes: &[usize],
+    matrix: &SceneMatrix,
+    rays: RayBatch,
+    kind: RayKind,
+    ray_kind: &'static str,
 ) -> Result<Vec<TradePoint>, BenchError> {
-    let model = CostModel::default();
-    // Each task's measured time and real-trace counts, from chunks of the finest size that
-    // all task sizes are made of, so the rays are timed once.
-    let unit = task_sizes.iter().copied().fold(0, gcd).max(1);
-    let chunks = sched::split_ranges(rays.len(), unit);
-    let ray_kind = if occlusion {
-        RayKind::Ao
-    } else {
-        RayKind::Primary
-    };
-    let chunk_seconds = measure_seconds(bvh, rays, &chunks, ray_kind, 3, sched::Clock::Wall)?;
-    let counts = if occlusion {
-        traverse::any_hits_counted(bvh, rays).1
-    } else {
-        traverse::closest_hits_counted(bvh, rays).1
-    };
-    let chunk_work: Vec<Work> = chunks
-        .iter()
-        .map(|r| Work::sum(&counts[r.clone()]))
-        .collect();
-    let thesis = THESIS.iter().find(|(k, _)| *k == kind).map(|(_, t)| t);
+    let rays = Generations::of(rays, kind);
+    let refined = (
+        SampleRate::THESIS,
+        Some(ReducedTraversal::DEFAULT_SAMPLE_ERROR),
+    );
+    let cost = |e: CostError| BenchError::from(EstimateError::from(e));
+    let mut samples = Vec::new();
+    for rate in RATES {
+        samples.push((SampleRate::new(rate).map_err(|e| cost(e.into()))?, None));
+    }
+    samples.push(refined);
+    let thesis = THESIS.iter().find(|(k, _)| *k == ray_kind).map(|(_, t)| t);
     let mut out = Vec::new();
-    for &task_size in task_sizes {
-        let tasks = sched::split_ranges(rays.len(), task_size);
-        let seconds = regroup(&chunk_seconds, unit, task_size);
-        let trace_work: Vec<Work> = chunk_work
-            .chunks(task_size / unit)
-            .map(|c| c.iter().fold(Work::default(), |a, &w| a.plus(w)))
-            .collect();
-        let trace_judged = judge(&trace_work, &seconds);
-        let (error_vs_time_trace, spearman_trace_vs_time) =
-            (trace_judged.error_vs_time, trace_judged.spearman_vs_time);
-        let traced = Walk::Trace { any: occlusion };
-        // Every rate fixed, and the trace walk's sample refined up to the thesis's rate as
-        // `cobalt estimate` takes it by default.
-        let refined = Some(ReducedTraversal::DEFAULT_SAMPLE_ERROR);
-        let runs = RATES
+    for &task_size in matrix.task_sizes {
+        let settings = Settings {
+            scene: matrix.scene_name,
+            task_size,
+            sample_rate: SampleRate::THESIS,
+            sample_run: SampleRun::DEFAULT,
+            sample_error: None,
+            clock: sched::Clock::Wall,
+            repeats: 3,
+            budget: Budget::trade(),
+            device: Device::Cpu,
+            // The trace walk's sample is every report's `sampled_rays`.
+            walk: WalkChoice::Fixed(Walk::Trace { any: false }),
+        };
+        let reports = measure_samples(&settings, matrix.scene, matrix.bvh, &rays, &samples)?;
+        // The bench's walk: the thesis's reduced traversal.
+        let bench_walk = Walk::Reduced.for_kind(kind);
+        let traced = reports
             .iter()
-            .map(|&r| (walk, r, None))
-            .chain(TRACE_RATES.iter().map(|&r| (traced, r, None)))
-            .chain(std::iter::once((traced, SampleRate::THESIS.get(), refined)));
-        let mut fulls: Vec<(&'static str, Vec<f64>)> = Vec::new();
-        for (p, rate, sample_error) in runs {
-            let full = match fulls.iter().find(|(name, _)| *name == p.name()) {
-                Some((_, f)) => f.clone(),
-                None => {
-                    let f = model.costs(&full_work(bvh, rays, &tasks, p)?);
-                    fulls.push((p.name(), f.clone()));
-                    f
-                }
+            .filter(|r| r.sample_error.is_some() || TRACE_RATES.contains(&r.sample_rate));
+        let picked = reports[..RATES.len()]
+            .iter()
+            .map(|r| (r, bench_walk))
+            .chain(traced.map(|r| (r, Walk::Trace { any: false })));
+        for (r, walk) in picked {
+            // Every report has every walk's figures: the trace walk's and the reduced ones.
+            let Some(f) = r.walks.iter().find(|f| f.walk == walk.name()) else {
+                continue;
             };
-            let rate = SampleRate::new(rate).map_err(crate::cost::CostError::from)?;
-            let estimator = ReducedTraversal::new(bvh, rays, rate)
-                .with_walk(p)
-                .with_sample_error(sample_error);
-            let Sample {
-                work,
-                sampled,
-                traced: traced_sample,
-            } = estimator.try_sample(&tasks)?;
-            let est = model.costs(&work);
-            let prediction_error = prediction_error(&est, &full)?;
-            let (overhead, net_overhead) = shares(
-                (bvh, rays, occlusion),
-                &estimator,
-                &tasks,
-                (p == traced).then(|| traced_sample.map(|t| t.index).unwrap_or_default()),
-            )?;
-            let judged = judge(&work, &seconds);
-            let (error_vs_time, spearman_vs_time) = (judged.error_vs_time, judged.spearman_vs_time);
-            let lpt_balance = judged.lpt_balance;
-            let thesis_at = thesis
-                .filter(|_| p != traced)
-                .and_then(|t| t.iter().find(|x| x.rate == rate.get()));
-            out.push(TradePoint {
-                source: "sampling_trade",
-                scene: scene.to_string(),
-                ray_kind: kind,
-                task_size,
-                rays: rays.len(),
-                sample_rate: sampled as f64 / rays.len().max(1) as f64,
-                sample_error,
-                walk: if sample_error.is_some() {
-                    "trace-refined"
-                } else {
-                    p.name()
-                },
-                error_vs_time,
-                spearman_vs_time,
-                error_vs_time_trace,
-                spearman_trace_vs_time,
-                prediction_error,
-                overhead,
-                net_overhead,
-                thesis_prediction_error: thesis_at.map(|x| x.error),
-                thesis_overhead: thesis_at.map(|x| x.overhead),
-                meets_target: meets_target(kind, prediction_error, overhead),
-                lpt_balance,
-            });
+            let prediction_error = f.prediction_error.ok_or_else(|| {
+                cost(CostError::Degenerate {
+                    what: "prediction error",
+                    why: "the full costs sum to zero",
+                })
+            })?;
+            out.push(point((r, f), prediction_error, ray_kind, thesis));
         }
     }
     Ok(out)
 }
 
+/// The point of walk `f` of report `r`, beside the thesis's `published` figures where it has
+/// them (its own walk, at its rates).
+fn point(
+    (r, f): (&Report, &WalkFigures),
+    prediction_error: f64,
+    ray_kind: &'static str,
+    published: Option<&[Published; 4]>,
+) -> TradePoint {
+    let traced = f.walk == Walk::Trace { any: false }.name();
+    let thesis_at = published
+        .filter(|_| !traced)
+        .and_then(|t| t.iter().find(|x| x.rate == r.sample_rate));
+    TradePoint {
+        source: "sampling_trade",
+        scene: r.scene.clone(),
+        ray_kind,
+        task_size: r.task_size,
+        rays: r.rays,
+        sample_rate: r.sampled_rays as f64 / r.rays.max(1) as f64,
+        sample_error: r.sample_error,
+        walk: if r.sample_error.is_some() {
+            "trace-refined"
+        } else {
+            f.walk
+        },
+        error_vs_time: f.error_vs_time,
+        spearman_vs_time: f.spearman_vs_time,
+        error_vs_time_trace: r.error_vs_time_trace,
+        spearman_trace_vs_time: r.spearman_trace_vs_time,
+        prediction_error,
+        overhead: f.overhead,
+        net_overhead: f.net_overhead,
+        thesis_prediction_error: thesis_at.map(|x| x.error),
+        thesis_overhead: thesis_at.map(|x| x.overhead),
+        meets_target: meets_target(ray_kind, prediction_error, f.overhead),
+        lpt_balance: f.lpt_balance,
+    }
+}
+
 /// The trade on orbit camera 0 at the matrix's size, for tasks of each of its task sizes, with
 /// the thesis's reduced traversal.
 pub fn sampling_trade(matrix: &SceneMatrix) -> Result<Vec<TradePoint>, BenchError> {
-    let (name, scene, bvh) = (matrix.scene_name, matrix.scene, matrix.bvh);
+    let (scene, bvh) = (matrix.scene, matrix.bvh);
     let (width, height, ao_samples) = (matrix.width, matrix.height, matrix.ao_samples);
-    let task_sizes: Vec<usize> = matrix.task_sizes.iter().map(|t| t.get()).collect();
-    let (task_sizes, walk) = (&task_sizes[..], Walk::Reduced);
     let primary = workload::orbit_primary(scene, width, height, 0..1);
     let ao = workload::orbit_ao(scene, bvh, width, height, 0, ao_samples).rays;
-    let coherent = walk.for_kind(RayKind::Primary);
-    let mut out = points(name, bvh, &primary, "coherent", false, coherent, task_sizes)?;
+    let mut out = points(matrix, primary, RayKind::Primary, "coherent")?;
     if !ao.is_empty() {
-        let diffuse = walk.for_kind(RayKind::Ao);
-        out.extend(points(
-            name, bvh, &ao, "diffuse", true, diffuse, task_sizes,
-        )?);
+        out.extend(points(matrix, ao, RayKind::Ao, "diffuse")?);
     }
     Ok(out)
 }

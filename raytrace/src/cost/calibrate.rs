@@ -39,13 +39,20 @@ impl FitForm {
     }
 }
 
-/// A calibrated model and how well it explains the measurements.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Serialized as its [`FitForm::name`].
+impl serde::Serialize for FitForm {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
+    }
+}
+
+/// A calibrated model and how well it explains the measurements; serialized as `kr`, `kb`,
+/// `kt`, `r2`, `rms_residual`, `n` and `form`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Fit {
     /// `kR`, `kB`, `kT` in seconds per ray, node visit and triangle test.
+    #[serde(flatten)]
     pub model: CostModel,
-    /// Which terms were kept.
-    pub form: FitForm,
     /// Coefficient of determination `1 − SSres / SStot` (can be negative: the model has no
     /// free intercept); 1 when the times are constant and fitted exactly.
     pub r2: f64,
@@ -53,6 +60,8 @@ pub struct Fit {
     pub rms_residual: f64,
     /// Number of tasks fitted.
     pub n: usize,
+    /// Which terms were kept.
+    pub form: FitForm,
 }
 
 /// Fits `seconds[i] ≈ kR·work[i].rays + kB·work[i].nodes + kT·work[i].tris` with every

@@ -1,48 +1,100 @@
 //! The reduced-traversal estimator (thesis, section 3.1): trace a compacted uniform sample of
 //! each task's rays through the boxes only, count nodes `B` and reached triangles `T`, scale
-//! to the task's length and weigh by `C = kB·B + kT·T`.
+//! to the task's length and weigh by `C = kB·B + kT·T`. It is written once over what counts
+//! the sample ([`CountRays`]): the host's tree, or a GPU's trace kernels.
 
 use std::ops::Range;
-
-use rayon::prelude::*;
 
 use super::refine::refine;
 use super::sample::{Compacted, check_tasks};
 use super::{CostError, CostModel, SampleRate, SampleRun, Work};
 use crate::traverse::batch::{reduced_counts_at, traced_at};
+use crate::traverse::counts::Counts;
 use crate::traverse::walk::Walk;
 use crate::{Bvh, HitBatch, RayBatch};
 
-/// Estimates ray tasks (ranges of one [`RayBatch`]) by the reduced traversal of a sample.
+/// What counts an estimate's sample: a list of rays of a batch, walked in one pass. The
+/// host's tree counts on all cores (the 8-wide tree for the trace walk, the binary one for
+/// the reduced walks); a GPU (`gpu::GpuDevice`) counts the reduced walks with its trace
+/// kernels, exactly as the host does.
+pub trait CountRays {
+    /// Why a sample could not be counted; a bad task is one.
+    type Error: From<CostError>;
+
+    /// `walk`'s counts of the rays `index` of `rays`, in order, and with [`Walk::Trace`]
+    /// their hits.
+    ///
+    /// # Errors
+    /// A walk the counter cannot take, and the counter's own failures.
+    fn count_at(
+        &self,
+        rays: &RayBatch,
+        walk: Walk,
+        index: &[usize],
+    ) -> Result<(Option<HitBatch>, Vec<Counts>), Self::Error>;
+}
+
+impl CountRays for Bvh {
+    type Error = CostError;
+
+    fn count_at(
+        &self,
+        rays: &RayBatch,
+        walk: Walk,
+        index: &[usize],
+    ) -> Result<(Option<HitBatch>, Vec<Counts>), CostError> {
+        Ok(match walk {
+            Walk::Trace { any } => {
+                let (hits, counts) = traced_at(self, rays, any, index);
+                (Some(hits), counts)
+            }
+            walk => (None, reduced_counts_at(self, rays, walk, index)),
+        })
+    }
+}
+
+/// Estimates ray tasks (ranges of one [`RayBatch`]) by the reduced traversal of a sample,
+/// counted by `C` (the host's [`Bvh`], or a GPU).
 ///
 /// As a [`sched::CostEstimator`] it cannot return an error: a task that is empty or outside
 /// the batch gets a NaN cost, which [`sched::CostEstimator::estimate_timed`] rejects naming
-/// that task. [`ReducedTraversal::try_estimate`] says why.
-#[derive(Clone, Copy, Debug)]
-pub struct ReducedTraversal<'a> {
-    bvh: &'a Bvh,
+/// that task, and a counter that fails gives every task a NaN cost.
+/// [`ReducedTraversal::try_estimate`] says why.
+#[derive(Debug)]
+pub struct ReducedTraversal<'a, C = Bvh> {
+    counter: &'a C,
     rays: &'a RayBatch,
     rate: SampleRate,
     run: SampleRun,
-    model: CostModel,
     walk: Walk,
     sample_error: Option<f64>,
 }
 
-impl<'a> ReducedTraversal<'a> {
+// Derived, they would ask `C` to be `Clone` and `Copy`: only the reference is copied.
+impl<C> Clone for ReducedTraversal<'_, C> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<C> Copy for ReducedTraversal<'_, C> {}
+
+impl ReducedTraversal<'_> {
     /// The halves' disagreement `cobalt estimate` refines its sample to unless told otherwise
     /// (see [`ReducedTraversal::with_sample_error`]; `docs/results.md`, "Sample-error
     /// targets compared", has the figures that chose it).
     pub const DEFAULT_SAMPLE_ERROR: f64 = 0.08;
+}
 
-    /// An estimator of tasks of `rays` sampling at `rate`, with the default [`CostModel`].
-    pub fn new(bvh: &'a Bvh, rays: &'a RayBatch, rate: SampleRate) -> Self {
+impl<'a, C: CountRays> ReducedTraversal<'a, C> {
+    /// An estimator of tasks of `rays` counted by `counter`, sampling at `rate`; its costs are
+    /// the default [`CostModel`]'s.
+    pub fn new(counter: &'a C, rays: &'a RayBatch, rate: SampleRate) -> Self {
         Self {
-            bvh,
+            counter,
             rays,
             rate,
             run: SampleRun::DEFAULT,
-            model: CostModel::default(),
             walk: Walk::Reduced,
             sample_error: None,
         }
@@ -52,7 +104,7 @@ impl<'a> ReducedTraversal<'a> {
     /// `cost/refine.rs`): it starts at a quarter of the rate and doubles, up to the rate,
     /// while its two interleaved halves disagree by more than `target` (`Σ|A − B| / Σ(A + B)`
     /// over the tasks, the sample's expected share of `error_vs_time`). `None` takes the
-    /// whole sample at the rate, as the thesis does and as the GPU estimator always does.
+    /// whole sample at the rate, as the thesis does.
     pub fn with_sample_error(self, target: Option<f64>) -> Self {
         Self {
             sample_error: target,
@@ -60,19 +112,9 @@ impl<'a> ReducedTraversal<'a> {
         }
     }
 
-    /// The target the sample refines to, if it refines.
-    pub fn sample_error(&self) -> Option<f64> {
-        self.sample_error
-    }
-
     /// The same estimator keeping its samples in runs of `run` adjacent rays.
     pub fn with_run(self, run: SampleRun) -> Self {
         Self { run, ..self }
-    }
-
-    /// The sample's runs of adjacent rays.
-    pub fn run(&self) -> SampleRun {
-        self.run
     }
 
     /// The same estimator tracing its sample with another reduced traversal.
@@ -85,51 +127,20 @@ impl<'a> ReducedTraversal<'a> {
         self.walk
     }
 
-    /// The same estimator weighing `B` and `T` by a calibrated model.
-    pub fn with_model(self, model: CostModel) -> Self {
-        Self { model, ..self }
-    }
-
-    /// The model costs are weighed by.
-    pub fn model(&self) -> CostModel {
-        self.model
-    }
-
-    /// The sampling rate.
-    pub fn rate(&self) -> SampleRate {
-        self.rate
-    }
-
     /// Estimated `B` and `T` of every task: the sample's sums scaled by `len / sampled`.
-    pub fn try_work(&self, tasks: &[Range<usize>]) -> Result<Vec<Work>, CostError> {
-        Ok(self.try_work_traced(tasks)?.0)
-    }
-
-    /// [`ReducedTraversal::try_work`], and with [`Walk::Trace`] the hits of the sampled rays,
-    /// which a tracer then need not trace again.
-    pub fn try_work_traced(
-        &self,
-        tasks: &[Range<usize>],
-    ) -> Result<(Vec<Work>, Option<Traced>), CostError> {
-        let s = self.try_sample(tasks)?;
-        Ok((s.work, s.traced))
+    pub fn try_work(&self, tasks: &[Range<usize>]) -> Result<Vec<Work>, C::Error> {
+        Ok(self.try_sample(tasks)?.work)
     }
 
     /// Every task's estimated work, the rays sampled, and with [`Walk::Trace`] their hits.
-    pub fn try_sample(&self, tasks: &[Range<usize>]) -> Result<Sample, CostError> {
-        // One parallel pass over the whole compacted list (rayon chunks of it), not one per
-        // task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
-        let trace = |index: &[usize]| match self.walk {
-            Walk::Trace { any } => {
-                let (hits, counts) = traced_at(self.bvh, self.rays, any, index);
-                (Some(hits), counts)
-            }
-            walk => (None, reduced_counts_at(self.bvh, self.rays, walk, index)),
-        };
+    pub fn try_sample(&self, tasks: &[Range<usize>]) -> Result<Sample, C::Error> {
+        // One pass over the whole compacted list (rayon chunks of it, or one launch), not one
+        // per task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
+        let trace = |index: &[usize]| self.counter.count_at(self.rays, self.walk, index);
         // A sample of every ray is asked for exactly; nothing is left to refine towards.
         if let Some(target) = self.sample_error.filter(|_| self.rate < SampleRate::FULL) {
             check_tasks(self.rays, tasks)?;
-            let r = refine(tasks, self.rate, self.run, self.model, target, trace);
+            let r = refine(tasks, self.rate, self.run, target, trace)?;
             return Ok(Sample {
                 sampled: r.index.len(),
                 work: r.work,
@@ -140,7 +151,7 @@ impl<'a> ReducedTraversal<'a> {
             });
         }
         let sample = Compacted::gather_in_runs(self.rays, tasks, self.rate, self.run)?;
-        let (traced, counts) = trace(&sample.index);
+        let (traced, counts) = trace(&sample.index)?;
         let work = sample
             .offsets
             .windows(2)
@@ -158,22 +169,23 @@ impl<'a> ReducedTraversal<'a> {
     }
 
     /// Estimated cost of every task, or why there is none.
-    pub fn try_estimate(&self, tasks: &[Range<usize>]) -> Result<Vec<f64>, CostError> {
-        Ok(self.model.costs(&self.try_work(tasks)?))
+    pub fn try_estimate(&self, tasks: &[Range<usize>]) -> Result<Vec<f64>, C::Error> {
+        Ok(CostModel::default().costs(&self.try_work(tasks)?))
     }
 }
 
-impl sched::CostEstimator<Range<usize>> for ReducedTraversal<'_> {
+impl<C: CountRays> sched::CostEstimator<Range<usize>> for ReducedTraversal<'_, C> {
     fn estimate(&self, tasks: &[Range<usize>]) -> Vec<f64> {
-        match self.try_estimate(tasks) {
+        let checked = check_tasks(self.rays, tasks).map_err(Some);
+        match checked.and_then(|()| self.try_estimate(tasks).map_err(|_| None)) {
             Ok(costs) => costs,
             Err(e) => {
-                // Mark the task at fault (or all, for a broken batch) so the caller's
-                // validation names it instead of scheduling on a made-up cost.
+                // Mark the task at fault (or all, for a broken batch or a failed counter) so
+                // the caller's validation names it instead of scheduling on a made-up cost.
                 let bad = match e {
-                    CostError::EmptyTask { task } | CostError::TaskOutOfRange { task, .. } => {
-                        Some(task)
-                    }
+                    Some(
+                        CostError::EmptyTask { task } | CostError::TaskOutOfRange { task, .. },
+                    ) => Some(task),
                     _ => None,
                 };
                 (0..tasks.len())
@@ -211,57 +223,18 @@ pub struct Traced {
     pub hits: HitBatch,
 }
 
-impl Traced {
-    /// Writes the traced hits into `hits`, the batch's (every ray's) hits.
-    ///
-    /// # Panics
-    /// Panics if an index is beyond `hits`.
-    pub fn write_into(&self, hits: &mut HitBatch) {
-        for (k, &i) in self.index.iter().enumerate() {
-            hits.t[i] = self.hits.t[k];
-            hits.prim[i] = self.hits.prim[k];
-        }
-    }
-}
-
 /// `walk`'s reduced traversal of *every* ray of every task: the "full" of the thesis's
-/// prediction error, which a sample rate of 1 reproduces exactly. Tasks run in parallel, each
-/// summed on one thread (it is a reference, not timed). The trace walk's counts come from the
-/// batch trace its sample takes: its leaf test may take two groups of triangles in one pass,
-/// which the single-ray test counts as they come.
+/// prediction error, the estimator's count at a sample rate of 1 (which takes every ray and
+/// never refines). It is a reference, not timed.
 pub fn full_work(
     bvh: &Bvh,
     rays: &RayBatch,
     tasks: &[Range<usize>],
     walk: Walk,
 ) -> Result<Vec<Work>, CostError> {
-    check_tasks(rays, tasks)?;
-    if let Walk::Trace { any } = walk {
-        let index: Vec<usize> = tasks.iter().flat_map(Range::clone).collect();
-        let (_, counts) = traced_at(bvh, rays, any, &index);
-        let mut at = 0;
-        return Ok(tasks
-            .iter()
-            .map(|r| {
-                at += r.len();
-                Work::sum(&counts[at - r.len()..at])
-            })
-            .collect());
-    }
-    Ok(tasks
-        .par_iter()
-        .map(|r| {
-            let (b, t) = r.clone().fold((0u64, 0u64), |(b, t), i| {
-                let c = bvh.walk(&rays.get(i), walk);
-                (b + u64::from(c.nodes), t + u64::from(c.tris))
-            });
-            Work {
-                nodes: b as f64,
-                tris: t as f64,
-                rays: r.len() as f64,
-            }
-        })
-        .collect())
+    ReducedTraversal::new(bvh, rays, SampleRate::FULL)
+        .with_walk(walk)
+        .try_work(tasks)
 }
 
 #[cfg(test)]
@@ -270,8 +243,8 @@ pub(super) mod tests {
     use sched::CostEstimator;
 
     use super::*;
-    use crate::cost::prediction_error;
     use crate::{BuildPreset, Camera, Ray, SceneNeeds, SceneSource};
+    use sched::prediction_error;
 
     /// A small forest and its camera rays, `size`² of them, for the estimator's tests.
     pub(in crate::cost) fn forest_of(size: u32) -> (Bvh, RayBatch) {
@@ -296,10 +269,21 @@ pub(super) mod tests {
         let est = ReducedTraversal::new(&bvh, &rays, SampleRate::FULL);
         let full = full_work(&bvh, &rays, &tasks, Walk::Reduced).unwrap();
         assert_eq!(est.try_work(&tasks).unwrap(), full);
+        // The full count is every ray's own walk, one ray at a time.
+        for walk in Walk::ALL {
+            let single: Vec<Work> = tasks
+                .iter()
+                .map(|r| {
+                    let counts: Vec<_> = r.clone().map(|i| bvh.walk(&rays.get(i), walk)).collect();
+                    Work::sum(&counts)
+                })
+                .collect();
+            assert_eq!(full_work(&bvh, &rays, &tasks, walk).unwrap(), single);
+        }
         let m = CostModel::default();
         assert_eq!(
             prediction_error(&est.estimate(&tasks), &m.costs(&full)),
-            Ok(0.0)
+            Some(0.0)
         );
         assert!(
             full.iter().all(|w| w.nodes > 0.0),
@@ -353,7 +337,7 @@ pub(super) mod tests {
         for any in [false, true] {
             let walk = Walk::Trace { any };
             let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS).with_walk(walk);
-            let (work, traced) = e.try_work_traced(&tasks).unwrap();
+            let Sample { work, traced, .. } = e.try_sample(&tasks).unwrap();
             let traced = traced.expect("the sample's hits");
             let sample = Compacted::gather(&rays, &tasks, SampleRate::THESIS).unwrap();
             assert_eq!(traced.index, sample.index);
@@ -383,7 +367,7 @@ pub(super) mod tests {
             assert_eq!(full_work(&bvh, &rays, &tasks, e.walk()).unwrap(), want);
         }
         let reduced = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS);
-        assert_eq!(reduced.try_work_traced(&tasks).unwrap().1, None);
+        assert_eq!(reduced.try_sample(&tasks).unwrap().traced, None);
     }
 
     #[test]

@@ -1,6 +1,6 @@
-//! How good an estimate is: the thesis's prediction error against
-//! the full reduced traversal, and, beyond the thesis, error and rank correlation against
-//! measured time. All are fractions, not percentages.
+//! How good an estimate is beyond the thesis's prediction error (`sched::prediction_error`,
+//! against the full reduced traversal): error and rank correlation against measured time.
+//! Both are fractions, not percentages.
 
 use super::CostError;
 
@@ -40,25 +40,6 @@ fn check(
         }
     }
     Ok(())
-}
-
-/// The thesis's prediction error: `Σ|estimated − full| / Σ full` over the tasks.
-pub fn prediction_error(estimated: &[f64], full: &[f64]) -> Result<f64, CostError> {
-    check(
-        "prediction error",
-        ("estimated cost", estimated),
-        ("full cost", full),
-        1,
-    )?;
-    let total: f64 = full.iter().sum();
-    if total <= 0.0 {
-        return Err(CostError::Degenerate {
-            what: "prediction error",
-            why: "the full costs sum to zero",
-        });
-    }
-    let diff: f64 = estimated.iter().zip(full).map(|(e, f)| (e - f).abs()).sum();
-    Ok(diff / total)
 }
 
 /// Error against measured time: the estimates are scaled to seconds by the least-squares
@@ -139,25 +120,6 @@ pub fn spearman(a: &[f64], b: &[f64]) -> Result<f64, CostError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn prediction_error_is_relative_to_the_full_total() {
-        assert_eq!(prediction_error(&[1.0, 2.0], &[1.0, 2.0]), Ok(0.0));
-        assert_eq!(prediction_error(&[2.0, 2.0], &[1.0, 3.0]), Ok(0.5));
-        assert!(matches!(
-            prediction_error(&[1.0], &[0.0]),
-            Err(CostError::Degenerate { .. })
-        ));
-        assert!(matches!(
-            prediction_error(&[], &[]),
-            Err(CostError::TooFewTasks { .. })
-        ));
-        let err = prediction_error(&[1.0, -1.0], &[1.0, 1.0]).unwrap_err();
-        assert!(
-            err.to_string().contains("estimated cost of task 1 is -1"),
-            "{err}"
-        );
-    }
 
     #[test]
     fn error_vs_time_ignores_the_unit() {

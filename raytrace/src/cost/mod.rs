@@ -1,26 +1,28 @@
 //! Cost estimation of ray tasks by the thesis's reduced traversal (section 3.1), and what is
 //! needed to judge it: full counts, measured task times, a least-squares calibration of
-//! `C = kB·B + kT·T`, and the error metrics ([`prediction_error`], [`error_vs_time`], [`spearman`]).
+//! `C = kB·B + kT·T`, and the error metrics (the thesis's [`sched::prediction_error`],
+//! [`error_vs_time`], [`spearman`]).
 //!
 //! A task is a `Range<usize>` of a [`RayBatch`](crate::RayBatch) (`sched` implements
 //! [`sched::Task`] for ranges). The pieces:
 //! - [`SampleRate`] and [`Compacted`]: a uniform stride sample of every task, compacted into one
 //!   contiguous list of ray indices (the thesis compacts the sample before the reduced trace;
 //!   the CPU reads the sampled rays in place through it);
-//! - [`ReducedTraversal`]: the estimator, a [`sched::CostEstimator`]; [`full_work`] is the same
+//! - [`ReducedTraversal`]: the estimator, a [`sched::CostEstimator`], written once over what
+//!   counts its sample ([`CountRays`]: the host's tree or a GPU); [`full_work`] is the same
 //!   count over *all* rays, the reference of the prediction error;
 //! - [`measure_seconds`]: the measured trace time of each task;
-//! - [`CostModel`], [`Calibrations`] and [`calibrate`]: `kB`, `kT` per device and [`RayKind`](crate::RayKind);
-//! - [`prediction_error`], [`error_vs_time`] and [`spearman`]: the metrics, and [`judge`]:
+//! - [`CostModel`] and [`calibrate`]: `kB`, `kT` fitted to measured times;
+//! - [`error_vs_time`] and [`spearman`]: the metrics beyond the thesis's, and [`judge`]:
 //!   estimates judged by measured times, with the balance they buy a plan;
 //! - [`Rounds`]: an estimate timed against the trace it saves, in rounds.
 //!
 //! ## Example
 //!
 //! ```
-//! use raytrace::cost::{ReducedTraversal, SampleRate, full_work, prediction_error};
+//! use raytrace::cost::{CostModel, ReducedTraversal, SampleRate, full_work};
 //! use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
-//! use sched::CostEstimator;
+//! use sched::{CostEstimator, prediction_error};
 //!
 //! let scene = SceneSource::parse("builtin:cornell:0.2")?.load(SceneNeeds::AO)?;
 //! let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
@@ -30,8 +32,8 @@
 //! let estimator = ReducedTraversal::new(&bvh, &rays, SampleRate::new(0.125)?);
 //! let estimate = estimator.estimate_timed(&tasks)?; // costs and overhead
 //! let (est, full) = (estimator.try_work(&tasks)?, full_work(&bvh, &rays, &tasks, estimator.walk())?);
-//! let model = estimator.model();
-//! let error = prediction_error(&model.costs(&est), &model.costs(&full))?;
+//! let model = CostModel::default();
+//! let error = prediction_error(&model.costs(&est), &model.costs(&full)).ok_or("no full cost")?;
 //! assert!(estimate.costs.len() == 8 && error < 0.5);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -49,9 +51,9 @@ mod sample;
 
 pub use calibrate::{Fit, FitForm, calibrate};
 pub use error::CostError;
-pub use estimator::{ReducedTraversal, Sample, Traced, full_work};
+pub use estimator::{CountRays, ReducedTraversal, Sample, Traced, full_work};
 pub use measure::measure_seconds;
-pub use metrics::{error_vs_time, prediction_error, spearman};
-pub use model::{Calibrations, CostModel, Work};
+pub use metrics::{error_vs_time, spearman};
+pub use model::{CostModel, Work};
 pub use rounds::{Budget, Rounds, SlicedStep, SlicedTraces, WholeStep};
 pub use sample::{Compacted, SampleRate, SampleRun};

@@ -1,5 +1,5 @@
 //! The cost model `C = kR·R + kB·B + kT·T`: the thesis's `kB·B + kT·T` (equation 3.1) and
-//! a per-ray term, with the per-device, per-ray-kind table of calibrated constants.
+//! a per-ray term.
 //!
 //! The per-ray term is what a ray costs apart from its nodes and triangles (its setup, the
 //! root's box tests, writing its hit). Without it a task of rays that miss everything looks
@@ -7,9 +7,6 @@
 //! counts calibrated without it left a plan of eight devices at 62 % balance where the
 //! measured times gave 98 %.
 
-use std::collections::HashMap;
-
-use crate::RayKind;
 use crate::traverse::counts::Counts;
 
 /// Nodes entered `B` and triangles reached `T` of a task, and the rays `R` they were counted
@@ -61,7 +58,7 @@ impl Work {
 
 /// The constants of `C = kR·R + kB·B + kT·T`: what one ray, one node visit and one triangle
 /// test cost, in seconds after a calibration or in node-visit units by default.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct CostModel {
     /// `kR`: cost of one ray apart from its nodes and triangles.
     pub kr: f64,
@@ -107,53 +104,13 @@ impl CostModel {
     }
 }
 
-/// Calibrated models keyed by device name and ray kind: a GPU and a CPU core weigh node
-/// visits and triangle tests differently, and coherent rays hit the caches that diffuse ones
-/// miss, so each pair gets its own `kB`, `kT`.
-#[derive(Clone, Debug, Default)]
-pub struct Calibrations {
-    models: HashMap<(String, RayKind), CostModel>,
-}
-
-impl Calibrations {
-    /// Records (or replaces) the model of `device` for rays of `kind`.
-    pub fn insert(&mut self, device: &str, kind: RayKind, model: CostModel) {
-        self.models.insert((device.to_owned(), kind), model);
-    }
-
-    /// The calibrated model, if there is one.
-    pub fn get(&self, device: &str, kind: RayKind) -> Option<CostModel> {
-        self.models.get(&(device.to_owned(), kind)).copied()
-    }
-
-    /// The calibrated model, or the default one before any calibration.
-    pub fn model(&self, device: &str, kind: RayKind) -> CostModel {
-        self.get(device, kind).unwrap_or_default()
-    }
-
-    /// Number of calibrated pairs.
-    pub fn len(&self) -> usize {
-        self.models.len()
-    }
-
-    /// True when nothing is calibrated yet.
-    pub fn is_empty(&self) -> bool {
-        self.models.is_empty()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn calibrations_are_per_device_and_kind_with_a_default() {
-        let mut c = Calibrations::default();
+    fn a_model_weighs_counts() {
         let m = CostModel::counts_only(3.0, 0.5);
-        c.insert("cpu", RayKind::Ao, m);
-        assert_eq!(c.model("cpu", RayKind::Ao), m);
-        assert_eq!(c.model("cpu", RayKind::Primary), CostModel::default());
-        assert_eq!(c.get("gpu0", RayKind::Ao), None);
         assert_eq!(
             m.cost(Work {
                 nodes: 2.0,

@@ -49,16 +49,15 @@ type Found = Option<(usize, usize, Work)>;
 
 /// The refined sample of `tasks` (checked non-empty and inside the batch): the full sample is
 /// `rate`'s in runs of `run`; `trace` walks a list of ray indices, all in one parallel pass;
-/// `model` weighs the halves' counts; refinement stops once the halves disagree by at most
-/// `target`.
-pub(super) fn refine(
+/// the default [`CostModel`] weighs the halves' counts; refinement stops once the halves
+/// disagree by at most `target`. An error of `trace` ends the refinement.
+pub(super) fn refine<E>(
     tasks: &[Range<usize>],
     rate: SampleRate,
     run: SampleRun,
-    model: CostModel,
     target: f64,
-    mut trace: impl FnMut(&[usize]) -> (Option<HitBatch>, Vec<Counts>),
-) -> Refined {
+    mut trace: impl FnMut(&[usize]) -> Result<(Option<HitBatch>, Vec<Counts>), E>,
+) -> Result<Refined, E> {
     // Every task's runs in one list, task `t`'s at `runs[from[t]..from[t + 1]]`: this
     // bookkeeping runs on one thread between parallel passes, and with a list per task and a
     // scan of all of a task's runs for each half, camera-ray estimates took 8–10 % longer.
@@ -98,14 +97,15 @@ pub(super) fn refine(
                 index.extend(runs[k].clone());
             }
         }
-        let (hits, counts) = trace(&index);
+        let (hits, counts) = trace(&index)?;
         for (k, at) in starts {
             let len = runs[k].len();
             found[k] = Some((passes.len(), at, Work::sum(&counts[at..at + len])));
         }
         passes.push(hits);
+        Ok(())
     };
-    take(&|t| Some((0, stride[t])), &mut found);
+    take(&|t| Some((0, stride[t])), &mut found)?;
     loop {
         // Each task that can still grow: `|A − B|` and `A + B`. Tasks already whole are left
         // out of both sums, which only makes the target harder to meet.
@@ -113,7 +113,7 @@ pub(super) fn refine(
             .filter(|&t| stride[t] > 1)
             .map(|t| {
                 let own = &found[from[t]..from[t + 1]];
-                let (a, b) = halves(own, stride[t], model, tasks[t].len());
+                let (a, b) = halves(own, stride[t], tasks[t].len());
                 (t, (a - b).abs(), a + b)
             })
             .collect();
@@ -133,19 +133,20 @@ pub(super) fn refine(
             grow[t] = true;
             apart -= gap * (1.0 - std::f64::consts::FRAC_1_SQRT_2);
         }
-        take(&|t| grow[t].then(|| (stride[t] / 2, stride[t])), &mut found);
+        take(&|t| grow[t].then(|| (stride[t] / 2, stride[t])), &mut found)?;
         for (t, g) in grow.into_iter().enumerate() {
             if g {
                 stride[t] /= 2;
             }
         }
     }
-    assemble(tasks, &from, &runs, &found, &passes)
+    Ok(assemble(tasks, &from, &runs, &found, &passes))
 }
 
 /// A task's two halves at `stride` (see the module docs), from its runs' `found`: each half's
 /// cost per ray, times the task's `len` rays.
-fn halves(found: &[Found], stride: usize, model: CostModel, len: usize) -> (f64, f64) {
+fn halves(found: &[Found], stride: usize, len: usize) -> (f64, f64) {
+    let model = CostModel::default();
     let mut half = [Work::default(); 2];
     for (i, f) in found.iter().step_by(stride).enumerate() {
         if let Some((_, _, w)) = *f {

@@ -218,15 +218,10 @@ impl Rounds {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// The median over the pairs of rounds of `part(pair) / pair[0]`, each step's times summed
-    /// over the pair: a share of the trace, each pair's steps against its own trace.
-    pub fn median_share(&self, part: impl Fn(&[f64]) -> f64) -> f64 {
-        self.quartile_shares(part)[1]
-    }
-
     /// The first quartile, the median and the third quartile over the pairs of rounds of
-    /// `part(pair) / pair[0]` (see [`Rounds::median_share`]): the middle half tells how far
-    /// the machine moved the median's parts.
+    /// `part(pair) / pair[0]`, each step's times summed over the pair: a share of the trace,
+    /// each pair's steps against its own trace. The middle half tells how far the machine
+    /// moved the median's parts.
     pub fn quartile_shares(&self, part: impl Fn(&[f64]) -> f64) -> [f64; 3] {
         let mut shares: Vec<f64> = self
             .times
@@ -277,9 +272,9 @@ mod tests {
             [66.0, 64.02, 3.3],
             [65.0, 63.05, 3.25],
         ]);
-        let net = r.median_share(|t| t[2] + t[1] - t[0]);
+        let net = r.quartile_shares(|t| t[2] + t[1] - t[0])[1];
         assert!((net - 0.02).abs() < 1e-9, "{net}");
-        assert!((r.median_share(|t| t[2]) - 0.05).abs() < 1e-9);
+        assert!((r.quartile_shares(|t| t[2])[1] - 0.05).abs() < 1e-9);
         // The least times pair the trace of one round with the rest of another.
         let least = (r.least(2) + r.least(1) - r.least(0)) / r.least(0);
         assert!((least - 0.0318).abs() < 1e-3, "{least}");

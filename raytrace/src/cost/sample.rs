@@ -103,7 +103,7 @@ pub(super) fn sample_runs(
 /// The sampled rays of all tasks, compacted into one contiguous list of ray indices: task
 /// `t`'s samples are `index[offsets[t]..offsets[t + 1]]`, and together they stand for the
 /// task's `lens[t]` rays. The CPU's reduced traversal reads the sampled rays in place through
-/// the list; [`Compacted::rays`] copies them out for a device that wants them contiguous.
+/// the list; a GPU uploads the rays it lists.
 #[derive(Clone, Debug, Default)]
 pub struct Compacted {
     /// Index in the batch of every sampled ray, task after task.
@@ -153,54 +153,6 @@ impl Compacted {
             lens: tasks.iter().map(|r| r.len()).collect(),
         })
     }
-
-    /// Number of tasks.
-    pub fn tasks(&self) -> usize {
-        self.lens.len()
-    }
-
-    /// The sampled rays of `rays` (the batch this sample was taken of), copied out in order.
-    ///
-    /// # Panics
-    /// Panics if `rays` is shorter than the batch sampled.
-    pub fn rays(&self, rays: &RayBatch) -> RayBatch {
-        gather_columns(rays, &self.index)
-    }
-}
-
-/// `rays[index[i]]` for every `i`, column by column: each pass reads one source column and
-/// writes one destination column, and asks for the source it reads a few runs ahead, since the
-/// runs lie too far apart for the hardware's stream prefetchers. The eight columns are gathered
-/// in parallel (this copy is part of the estimation overhead).
-fn gather_columns(rays: &RayBatch, index: &[usize]) -> RayBatch {
-    /// Rays ahead of the one copied whose cache line is asked for.
-    const GATHER_AHEAD: usize = 64;
-    use rayon::prelude::*;
-    let mut cols: Vec<Vec<f32>> = rays
-        .columns()
-        .par_iter()
-        .map(|c| {
-            (0..index.len())
-                .map(|j| {
-                    if let Some(&ahead) = index.get(j + GATHER_AHEAD) {
-                        crate::ray::prefetch(c, ahead);
-                    }
-                    c[index[j]]
-                })
-                .collect()
-        })
-        .collect();
-    let mut next = || cols.remove(0);
-    RayBatch {
-        ox: next(),
-        oy: next(),
-        oz: next(),
-        dx: next(),
-        dy: next(),
-        dz: next(),
-        tmin: next(),
-        tmax: next(),
-    }
 }
 
 /// Every task non-empty and inside a consistent batch: checked before any ray is read.
@@ -240,11 +192,11 @@ mod tests {
     fn every_task_keeps_at_least_one_ray_even_at_tiny_rates() {
         let rate = SampleRate::new(1e-9).unwrap();
         let c = Compacted::gather(&batch(1000), &sched::split_ranges(1000, 7), rate).unwrap();
-        assert_eq!(c.tasks(), 143);
+        assert_eq!(c.lens.len(), 143);
         assert!(c.offsets.windows(2).all(|w| w[1] - w[0] == 1));
-        assert_eq!(c.rays(&batch(1000)).len(), 143);
+        assert_eq!(c.index.len(), 143);
         // The single sample of a 7-ray task is its middle ray, standing for all seven.
-        assert_eq!(c.rays(&batch(1000)).ox[0], 3.0);
+        assert_eq!(c.index[0], 3);
         assert_eq!((c.lens[0], c.lens[142]), (7, 6)); // the last task has 1000 - 142·7 rays
     }
 
@@ -255,13 +207,10 @@ mod tests {
         let c =
             Compacted::gather_in_runs(&rays, &[0..32, 32..64], SampleRate::THESIS, pairs).unwrap();
         // Each pair starts on the even ray just before its stratum's middle.
-        assert_eq!(
-            c.rays(&rays).ox,
-            vec![6.0, 7.0, 22.0, 23.0, 38.0, 39.0, 54.0, 55.0]
-        );
+        assert_eq!(c.index, vec![6, 7, 22, 23, 38, 39, 54, 55]);
         assert_eq!(c.offsets, vec![0, 4, 8]);
         let all = Compacted::gather(&rays, &[0..40, 40..64], SampleRate::FULL).unwrap();
-        assert_eq!(all.rays(&rays), rays);
+        assert!(all.index.iter().copied().eq(0..64));
         assert_eq!(all.offsets, vec![0, 40, 64]);
         assert_eq!(SampleRate::THESIS.samples(4096), 512);
         assert_eq!(SampleRate::THESIS.samples(513), 65);
@@ -294,9 +243,9 @@ mod tests {
             Compacted::gather_in_runs(&rays, &[0..128, 128..256], SampleRate::THESIS, run).unwrap();
         // 16 samples a task: two runs of 8, each in the middle of a stratum of 64, on the
         // multiple of 8 before it.
-        let first: Vec<f32> = (24..32).chain(88..96).map(|i| i as f32).collect();
-        let second: Vec<f32> = first.iter().map(|x| x + 128.0).collect();
-        assert_eq!(c.rays(&rays).ox, [first, second].concat());
+        let first: Vec<usize> = (24..32).chain(88..96).collect();
+        let second: Vec<usize> = first.iter().map(|x| x + 128).collect();
+        assert_eq!(c.index, [first, second].concat());
         assert!("0".parse::<SampleRun>().is_err() && "x".parse::<SampleRun>().is_err());
         assert_eq!("16".parse::<SampleRun>(), Ok(SampleRun::new(16).unwrap()));
     }

@@ -7,12 +7,12 @@ use std::ops::Range;
 
 use super::error::EstimateError;
 use super::rays::Generations;
-use super::report::{Calibration, Model, Report, WalkFigures, WalkFit};
+use super::report::{Calibration, Report, WalkFigures, WalkFit};
 use crate::bvh::Bvh;
 use crate::cost::judge::{self, Judged, judge};
 use crate::cost::{
     Budget, CostError, CostModel, ReducedTraversal, Rounds, SampleRate, SampleRun, SlicedTraces,
-    Work, full_work, measure_seconds, prediction_error,
+    Work, full_work, measure_seconds,
 };
 use crate::ray::{RayBatch, RayKind};
 use crate::scene::Scene;
@@ -72,8 +72,12 @@ pub struct Settings<'a> {
     pub sample_error: Option<f64>,
     /// What times are taken on.
     pub clock: sched::Clock,
-    /// Every timing's repeats; on the CPU, the rounds at least.
+    /// Every timing's repeats: each task's measured time, and on the GPU the estimate's and
+    /// the trace's.
     pub repeats: usize,
+    /// How long the CPU's rounds go on ([`Budget::estimate`] of `repeats` for `cobalt
+    /// estimate`, [`Budget::trade`] for the bench's trade).
+    pub budget: Budget,
     /// Where the estimate and the full trace run. The GPU's walk is never `trace`, its clock
     /// is wall time and its sample run the default: the caller checks.
     pub device: Device,
@@ -88,13 +92,38 @@ pub fn measure(
     bvh: &Bvh,
     rays: Generations,
 ) -> Result<Report, EstimateError> {
+    let sample = [(s.sample_rate, s.sample_error)];
+    let mut reports = measure_samples(s, scene, bvh, &rays, &sample)?;
+    Ok(reports.swap_remove(0))
+}
+
+/// [`measure`] at each of `samples` (a sample rate, and how far the sample refines, in place
+/// of the settings' own), the tasks' times measured once: one report each, in order. The
+/// bench's sampling trade is these reports.
+pub fn measure_samples(
+    s: &Settings<'_>,
+    scene: &Scene,
+    bvh: &Bvh,
+    rays: &Generations,
+    samples: &[(SampleRate, Option<f64>)],
+) -> Result<Vec<Report>, EstimateError> {
     let cut = Cut::new(bvh, &rays.segments, s)?;
-    let chosen = cut.choose(s.walk)?;
-    let timed = match s.device {
-        Device::Cpu => time_on_cpu(&cut, s, chosen.walk, &chosen.full)?,
-        Device::Gpu => time_on_gpu(&cut, s, &cut.jobs(chosen.walk))?,
-    };
-    Ok(report(&cut, s, (scene, &rays), chosen, timed))
+    samples
+        .iter()
+        .map(|&(sample_rate, sample_error)| {
+            let s = &Settings {
+                sample_rate,
+                sample_error,
+                ..*s
+            };
+            let chosen = cut.choose(s.walk)?;
+            let timed = match s.device {
+                Device::Cpu => time_on_cpu(&cut, s, chosen.walk, &chosen.full)?,
+                Device::Gpu => time_on_gpu(&cut, s, &cut.jobs(chosen.walk))?,
+            };
+            Ok(report(&cut, s, (scene, rays), chosen, timed))
+        })
+        .collect()
 }
 
 /// The walk the estimate takes, its full counts, and with [`WalkChoice::Auto`] how each walk
@@ -118,6 +147,9 @@ struct Cut<'a> {
     parts: Vec<(Range<usize>, RayKind)>,
     /// Each task's single-thread trace time.
     measured: Vec<f64>,
+    /// Each task's counts of the real trace, traced as its generation is (closest or any
+    /// hit).
+    trace_work: Vec<Work>,
 }
 
 impl<'a> Cut<'a> {
@@ -131,6 +163,7 @@ impl<'a> Cut<'a> {
         let mut tasks = Vec::new();
         let mut parts = Vec::new();
         let mut measured = Vec::new();
+        let mut trace_work = Vec::new();
         for (batch, kind) in segments {
             let (base, first) = (rays.len(), tasks.len());
             let own = sched::split_ranges(batch.len(), task_size);
@@ -140,6 +173,12 @@ impl<'a> Cut<'a> {
             measured.extend(measure_seconds(
                 bvh, batch, &own, *kind, s.repeats, s.clock,
             )?);
+            let counts = if kind.is_occlusion() {
+                traverse::any_hits_counted(bvh, batch).1
+            } else {
+                traverse::closest_hits_counted(bvh, batch).1
+            };
+            trace_work.extend(own.into_iter().map(|r| Work::sum(&counts[r])));
         }
         Ok(Self {
             bvh,
@@ -149,6 +188,7 @@ impl<'a> Cut<'a> {
             tasks,
             parts,
             measured,
+            trace_work,
         })
     }
 
@@ -223,22 +263,6 @@ impl<'a> Cut<'a> {
                 }))
             })
             .collect()
-    }
-
-    /// Each task's counts of the real trace, traced as its generation is (closest or any
-    /// hit).
-    fn trace_work(&self) -> Vec<Work> {
-        let mut work = Vec::with_capacity(self.tasks.len());
-        for (batch, kind) in self.segments {
-            let counts = if kind.is_occlusion() {
-                traverse::any_hits_counted(self.bvh, batch).1
-            } else {
-                traverse::closest_hits_counted(self.bvh, batch).1
-            };
-            let own = sched::split_ranges(batch.len(), self.task_size);
-            work.extend(own.into_iter().map(|r| Work::sum(&counts[r])));
-        }
-        work
     }
 }
 
@@ -330,7 +354,7 @@ fn time_on_cpu(
                 error_vs_time: judged.error_vs_time,
                 spearman_vs_time: judged.spearman_vs_time,
                 prediction_error: full
-                    .and_then(|f| prediction_error(&model.costs(est), &model.costs(&f)).ok()),
+                    .and_then(|f| sched::prediction_error(&model.costs(est), &model.costs(&f))),
                 estimate_seconds: seconds,
                 overhead,
                 net_overhead,
@@ -391,7 +415,7 @@ fn time_rounds(
     let mut whole: Vec<&mut dyn FnMut() -> Result<(), CostError>> =
         estimates.iter_mut().map(|e| e.as_mut() as _).collect();
     Rounds::time(
-        Budget::estimate(s.repeats),
+        s.budget,
         s.clock,
         traces.count(),
         &mut [&mut trace, &mut rest],
@@ -408,17 +432,19 @@ fn time_on_gpu(
     jobs: &[(&[Range<usize>], Walk)],
 ) -> Result<Timed, EstimateError> {
     use crate::devices::GpuSelect;
-    use crate::gpu::{GpuContext, GpuDevice, GpuOptions, GpuReducedTraversal};
+    use crate::gpu::{GpuContext, GpuDevice, GpuOptions};
     let ctx = GpuContext::open(GpuSelect::All, GpuOptions::from_env())?.swap_remove(0);
     let name = ctx.info.name.clone();
     let dev = GpuDevice::new(ctx, cut.bvh)?;
-    let estimator = GpuReducedTraversal::new(&dev, &cut.rays, s.sample_rate);
-    let (estimate_seconds, est) = min_time(s.repeats, || {
-        let mut work = Vec::new();
+    let estimator = ReducedTraversal::new(&dev, &cut.rays, s.sample_rate);
+    let (estimate_seconds, (est, sampled_rays)) = min_time(s.repeats, || {
+        let (mut work, mut sampled) = (Vec::new(), 0);
         for &(own, p) in jobs {
-            work.extend(estimator.with_walk(p).try_work(own)?);
+            let s = estimator.with_walk(p).try_sample(own)?;
+            work.extend(s.work);
+            sampled += s.sampled;
         }
-        Ok::<_, EstimateError>(work)
+        Ok::<_, EstimateError>((work, sampled))
     })?;
     let (trace_seconds, ()) = min_time(s.repeats, || {
         for (batch, kind) in cut.segments {
@@ -427,11 +453,6 @@ fn time_on_gpu(
         }
         Ok::<_, EstimateError>(())
     })?;
-    let sampled_rays = cut
-        .tasks
-        .iter()
-        .map(|t| s.sample_rate.samples(t.len()))
-        .sum();
     Ok(Timed {
         estimate_seconds,
         est,
@@ -481,8 +502,8 @@ fn report(
     t: Timed,
 ) -> Report {
     let per_ray = |total: f64| total / cut.rays.len() as f64;
-    let trace_work = cut.trace_work();
-    let (trace_nodes, trace_tris) = trace_work
+    let (trace_nodes, trace_tris) = cut
+        .trace_work
         .iter()
         .fold((0.0, 0.0), |(b, t), w| (b + w.nodes, t + w.tris));
     let model = CostModel::default();
@@ -493,7 +514,7 @@ fn report(
     let (est_b, full_b) = part(|w| w.nodes);
     let (est_t, full_t) = part(|w| w.tris);
     let (judged, full_judged) = (cut.judge(est), cut.judge(&full));
-    let trace_judged = cut.judge(&trace_work);
+    let trace_judged = cut.judge(&cut.trace_work);
     // On the GPU, the overheads from the least times; a reduced walk's sample is wasted: its
     // net overhead is its overhead, exactly.
     let least = t.estimate_seconds / t.trace_seconds.max(1e-12);
@@ -526,9 +547,9 @@ fn report(
             Device::Gpu => "gpu",
         },
         adapter: t.adapter,
-        prediction_error: prediction_error(&model.costs(est), &model.costs(&full)).ok(),
-        prediction_error_nodes: prediction_error(&est_b, &full_b).ok(),
-        prediction_error_tris: prediction_error(&est_t, &full_t).ok(),
+        prediction_error: sched::prediction_error(&model.costs(est), &model.costs(&full)),
+        prediction_error_nodes: sched::prediction_error(&est_b, &full_b),
+        prediction_error_tris: sched::prediction_error(&est_t, &full_t),
         estimate_seconds: t.estimate_seconds,
         trace_seconds: t.trace_seconds,
         overhead: t.shares.map_or(least, |s| s.0),
@@ -546,11 +567,7 @@ fn report(
         reduced_tris_per_ray: per_ray(full_t.iter().sum()),
         trace_nodes_per_ray: per_ray(trace_nodes),
         trace_tris_per_ray: per_ray(trace_tris),
-        default_model: Model {
-            kr: model.kr,
-            kb: model.kb,
-            kt: model.kt,
-        },
+        default_model: model,
         calibration: judged.fit.map(Calibration::from),
         build_seconds: cut.bvh.report().build_seconds,
     }

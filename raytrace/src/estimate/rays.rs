@@ -25,11 +25,7 @@ pub struct Generations {
 impl Generations {
     /// The camera rays of a `width × height` image.
     pub fn primary(camera: &Camera, width: u32, height: u32) -> Self {
-        Self {
-            segments: vec![(camera.primary_rays(width, height).rays, RayKind::Primary)],
-            kind_name: RayKind::Primary.name(),
-            coherent: true,
-        }
+        Self::of(camera.primary_rays(width, height).rays, RayKind::Primary)
     }
 
     /// `samples` AO rays per camera ray's hit, each `distance` × the scene's bounding-box
@@ -45,11 +41,7 @@ impl Generations {
         let hits = traverse::closest_hits(bvh, &primary);
         let length = distance * scene.bounds().extent().length();
         let ao = crate::ao::ao_rays(scene, &primary, &hits, samples, length, AO_SEED);
-        Self {
-            segments: vec![(ao.rays, RayKind::Ao)],
-            kind_name: RayKind::Ao.name(),
-            coherent: false,
-        }
+        Self::of(ao.rays, RayKind::Ao)
     }
 
     /// Every generation of a Whitted render: primary, shadow and reflection rays.

@@ -5,10 +5,7 @@
 
 use serde::Serialize;
 
-use crate::cost::Fit;
-
-/// The device name calibrations are recorded under: one CPU thread, as measured.
-const DEVICE: &str = "cpu-thread";
+use crate::cost::{CostModel, Fit};
 
 /// How well one walk's full reduced traversal, calibrated, explains the measured times.
 #[derive(Debug, Serialize)]
@@ -44,38 +41,21 @@ pub struct WalkFigures {
     pub lpt_balance: Option<f64>,
 }
 
-/// A calibrated model, for the report.
+/// A calibrated model, for the report: the fit of the estimates to the measured times.
 #[derive(Debug, Serialize)]
 pub struct Calibration {
-    /// The device the model is for: one CPU thread, as the times were measured.
+    /// The device the model is for: one CPU thread (`cpu-thread`), as the times were measured.
     pub device: &'static str,
-    /// Seconds per ray.
-    pub kr: f64,
-    /// Seconds per node entered.
-    pub kb: f64,
-    /// Seconds per triangle test.
-    pub kt: f64,
-    /// The fit's coefficient of determination.
-    pub r2: f64,
-    /// The root mean square of its residuals, in seconds.
-    pub rms_residual: f64,
-    /// Tasks fitted.
-    pub n: usize,
-    /// The form fitted (`FitForm::name`).
-    pub form: &'static str,
+    /// The model and how well it fits (its fields flattened into this object).
+    #[serde(flatten)]
+    pub fit: Fit,
 }
 
 impl From<Fit> for Calibration {
-    fn from(f: Fit) -> Self {
+    fn from(fit: Fit) -> Self {
         Self {
-            device: DEVICE,
-            kr: f.model.kr,
-            kb: f.model.kb,
-            kt: f.model.kt,
-            r2: f.r2,
-            rms_residual: f.rms_residual,
-            n: f.n,
-            form: f.form.name(),
+            device: "cpu-thread",
+            fit,
         }
     }
 }
@@ -199,20 +179,9 @@ pub struct Report {
     /// Mean `T` per ray of the real trace.
     pub trace_tris_per_ray: f64,
     /// The default cost model, which the prediction errors are taken in.
-    pub default_model: Model,
+    pub default_model: CostModel,
     /// The model calibrated to the measured task times.
     pub calibration: Option<Calibration>,
     /// Seconds the BVH took to build.
     pub build_seconds: f64,
-}
-
-/// A cost model's weights, in its own units.
-#[derive(Debug, Serialize)]
-pub struct Model {
-    /// The weight of a ray.
-    pub kr: f64,
-    /// The weight of a node entered.
-    pub kb: f64,
-    /// The weight of a triangle test.
-    pub kt: f64,
 }

@@ -86,9 +86,10 @@ impl Report {
     fn run_rows(&self) -> Vec<(&'static str, String)> {
         let r = self;
         let cal = r.calibration.as_ref().map_or("n/a".to_string(), |c| {
+            let (m, form) = (c.fit.model, c.fit.form.name());
             format!(
-                "kR = {:.3e} s, kB = {:.3e} s, kT = {:.3e} s ({}), R² = {:.3}",
-                c.kr, c.kb, c.kt, c.form, c.r2
+                "kR = {:.3e} s, kB = {:.3e} s, kT = {:.3e} s ({form}), R² = {:.3}",
+                m.kr, m.kb, m.kt, c.fit.r2
             )
         });
         vec![

@@ -2,35 +2,31 @@
 //! `cobalt estimate`, beside the host's traversal (`crate::traverse`).
 
 use std::ops::Range;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Mutex, PoisonError};
 
 use crate::Traffic;
+use crate::cost::CountRays;
 use crate::traverse::counts::Counts;
-use crate::{Bvh, HitBatch, RayBatch};
+use crate::{Bvh, HitBatch, RayBatch, Walk};
 
-use super::buffers::{SceneBuffers, pack_rays};
-use super::program::Kernel;
-use super::sampling::{SampledCounts, Sampling, estimate_kernel, sampled_counts};
+use super::buffers::{SceneBuffers, pack_at};
 use super::staging::{Staging, staged_hits};
 use super::trace::{TraceKernels, TraceMode, launch};
 use super::{GpuContext, GpuError};
 
 /// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a batch of rays, all
-/// of them in one launch ([`GpuDevice::hits`]), and counts an estimate's samples on the
-/// device ([`GpuDevice::sampled_counts`]).
+/// of them in one launch ([`GpuDevice::hits`]), and counts an estimate's samples by the trace
+/// kernels' counting modes (as a [`CountRays`], under [`crate::cost::ReducedTraversal`]).
 #[derive(Debug)]
 pub struct GpuDevice {
     ctx: GpuContext,
     kernels: TraceKernels,
-    estimate: Kernel,
     scene: SceneBuffers,
     /// The last launch's GPU seconds as `f64` bits; NaN when unknown (launches take `&self`).
     last_seconds: AtomicU64,
     /// The hit launches' buffers, kept from one launch to the next.
     staging: Mutex<Option<Staging>>,
-    /// What crossed since [`GpuDevice::take_traffic`] last took it.
-    traffic: Mutex<Traffic>,
 }
 
 impl GpuDevice {
@@ -42,15 +38,12 @@ impl GpuDevice {
     pub fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
         let kernels = TraceKernels::new(&ctx.device, bvh.depth())?;
         let scene = SceneBuffers::upload(&ctx, bvh)?;
-        let estimate = estimate_kernel(&ctx.device);
         Ok(Self {
             ctx,
             kernels,
-            estimate,
             scene,
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
             staging: Mutex::new(None),
-            traffic: Mutex::new(Traffic::default()),
         })
     }
 
@@ -90,7 +83,7 @@ impl GpuDevice {
             *s = None;
             s
         });
-        let mut traffic = Traffic::default();
+        // What crosses is counted for the path devices' reports; a batch's trace has none.
         let staged = staged_hits(
             &mut staging,
             &self.ctx,
@@ -99,87 +92,42 @@ impl GpuDevice {
             rays,
             ranges,
             mode,
-            &mut traffic,
+            &mut Traffic::default(),
         );
-        self.count(traffic);
         let (hits, seconds) = staged?;
         self.last_seconds
             .store(seconds.unwrap_or(f64::NAN).to_bits(), Ordering::Relaxed);
         Ok(hits)
     }
+}
 
-    /// `walk`'s counts of the rays of `range` (equal to [`crate::traverse::reduced_counts`]'s).
-    ///
+/// The reduced walks' counts of an estimate's sample: only the sampled rays are uploaded,
+/// traced by the trace kernels' counting modes, and their counts `B`, `T` (8 bytes a ray) come
+/// back, equal to the host's.
+impl CountRays for GpuDevice {
+    type Error = GpuError;
+
     /// # Errors
-    /// See [`launch`].
-    ///
-    /// # Panics
-    /// Panics if `range` is beyond the batch.
-    pub fn reduced_counts(
+    /// [`GpuError::WalkUnsupported`] for the trace walk (before anything is uploaded), and
+    /// the errors of [`launch`].
+    fn count_at(
         &self,
         rays: &RayBatch,
-        walk: crate::Walk,
-        range: &Range<usize>,
-    ) -> Result<Vec<Counts>, GpuError> {
-        let packed = pack_rays(rays, &[range]);
+        walk: Walk,
+        index: &[usize],
+    ) -> Result<(Option<HitBatch>, Vec<Counts>), GpuError> {
+        let mode = TraceMode::counts(walk)?;
         let out = launch(
             &self.ctx,
             &self.kernels,
             &self.scene,
-            &packed,
-            TraceMode::counts(walk)?,
+            &pack_at(rays, index),
+            mode,
         )?;
-        Ok(out
+        let counts = out
             .into_iter()
             .map(|[nodes, tris]| Counts { nodes, tris })
-            .collect())
-    }
-}
-
-impl GpuDevice {
-    /// The estimator's sums on the device: every task of `rays` sampled at `rate` by
-    /// [`crate::cost::Compacted::gather`] on the host, only the samples uploaded and traced by
-    /// the reduced traversal, and their `B` and `T` summed per task (see
-    /// [`super::GpuReducedTraversal`] for the estimator built on it).
-    ///
-    /// # Errors
-    /// [`GpuError::BadTasks`] for an empty task or one beyond the batch, and the errors of
-    /// [`launch`].
-    pub fn sampled_counts(
-        &self,
-        rays: &RayBatch,
-        tasks: &[Range<usize>],
-        rate: crate::cost::SampleRate,
-        walk: crate::Walk,
-    ) -> Result<Vec<SampledCounts>, GpuError> {
-        let mut traffic = Traffic::default();
-        let counts = sampled_counts(
-            &self.ctx,
-            &self.kernels,
-            &self.estimate,
-            &self.scene,
-            rays,
-            tasks,
-            Sampling { rate, walk },
-            &mut traffic,
-        );
-        self.count(traffic);
-        counts
-    }
-
-    /// What crossed between the host and the device since the last call: the rays uploaded
-    /// and hits read back, and an estimate's samples and sums.
-    pub fn take_traffic(&mut self) -> Traffic {
-        std::mem::take(
-            self.traffic
-                .get_mut()
-                .unwrap_or_else(PoisonError::into_inner),
-        )
-    }
-
-    /// Adds `traffic` to what [`GpuDevice::take_traffic`] will take.
-    fn count(&self, traffic: Traffic) {
-        // A poisoned lock only means another launch panicked; the counts are still valid.
-        *self.traffic.lock().unwrap_or_else(PoisonError::into_inner) += traffic;
+            .collect();
+        Ok((None, counts))
     }
 }

@@ -11,9 +11,9 @@
 //!   every kernel family shares;
 //! - `launch`, `header` and `resident`: a launch of path kernels recorded as one submission,
 //!   its counts made on the device, and the buffers kept there across launches;
-//! - [`GpuDevice`]: one adapter tracing batches of rays (`cobalt trace`, `cobalt estimate`);
-//! - [`GpuReducedTraversal`]: the cost estimator (sampling, compaction, reduced traversal and
-//!   per-task sums) on the device, equal to the CPU's; its kernel is `sampling`;
+//! - [`GpuDevice`]: one adapter tracing batches of rays (`cobalt trace`), and counting an
+//!   estimate's sample (`cobalt estimate`) under the host's estimator,
+//!   [`crate::cost::ReducedTraversal`], equal to the CPU's counts;
 //! - `paths/`, the path kernels: [`GpuRenderer`], ambient occlusion and Whitted shading
 //!   rendered entirely on the device (ray generation in Morton order, traces, AO probes or
 //!   shadow and mirror rays, image), and an estimate's sample of its paths counted there.
@@ -28,13 +28,11 @@
 pub mod buffers;
 pub mod context;
 mod device;
-mod estimate;
 mod header;
 mod launch;
 mod paths;
 mod program;
 mod resident;
-mod sampling;
 mod staging;
 #[cfg(test)]
 pub(crate) mod tests;
@@ -42,10 +40,8 @@ pub mod trace;
 
 pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
-pub use estimate::GpuReducedTraversal;
 pub use paths::render::{FrameParams, GpuRenderer, PathValues};
 pub use paths::sample::{PathSums, SampledPaths};
-pub use sampling::SampledCounts;
 pub use trace::{TraceKernels, TraceMode};
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or
@@ -169,4 +165,10 @@ pub enum GpuError {
         /// Batches per dispatch in the failed launch.
         batches: u32,
     },
+}
+
+impl From<crate::cost::CostError> for GpuError {
+    fn from(e: crate::cost::CostError) -> Self {
+        Self::BadTasks { why: e.to_string() }
+    }
 }

@@ -1,6 +1,5 @@
 //! One WGSL shader module with the bind group of buffers all its kernels share: the host side
-//! every kernel family (`traverse.wgsl`, `estimate.wgsl`, `render.wgsl`, `whitted.wgsl`)
-//! needs, written once.
+//! every kernel family (`traverse.wgsl`, `render.wgsl`, `whitted.wgsl`) needs, written once.
 //!
 //! Every binding of a family is a buffer seen by compute shaders, numbered from 0 in the
 //! order given, so a layout is a list of [`BufferBindingType`]s and a bind group a list of
@@ -150,27 +149,4 @@ impl Kernel {
         let pipeline = program.pipeline(device, "main", &format!("cobalt {name} pipeline"));
         Self { program, pipeline }
     }
-}
-
-/// Commands running `pipeline` with `group` over a `(x, y)` grid of workgroups, in one pass
-/// (more may be recorded on the encoder before it is submitted).
-pub(crate) fn dispatch(
-    device: &wgpu::Device,
-    label: &str,
-    pipeline: &wgpu::ComputePipeline,
-    group: &wgpu::BindGroup,
-    (x, y): (u32, u32),
-) -> wgpu::CommandEncoder {
-    let mut encoder =
-        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-    {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(label),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(x, y, 1);
-    }
-    encoder
 }

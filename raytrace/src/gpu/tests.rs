@@ -12,10 +12,8 @@ use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers, pack_rays};
 use super::trace::{BATCHES, MAX_WORKGROUPS, TraceKernels, TraceMode, launch, launch_timed};
-use super::{
-    FrameParams, GpuContext, GpuDevice, GpuError, GpuOptions, GpuReducedTraversal, GpuRenderer,
-};
-use crate::cost::{Compacted, ReducedTraversal, SampleRate, full_work};
+use super::{FrameParams, GpuContext, GpuDevice, GpuError, GpuOptions, GpuRenderer};
+use crate::cost::{Compacted, CountRays, ReducedTraversal, SampleRate, full_work};
 use crate::devices::GpuSelect;
 use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, WhittedSettings, render};
 use crate::{BuildPreset, Bvh, Camera, HitBatch, Ray, RayBatch, Rng, SceneNeeds, SceneSource};
@@ -206,8 +204,9 @@ fn check_scene(name: &str, seed: u64) {
         &traverse::hits_in(&bvh, &rays, true, traverse::Layout::Binary),
         &any,
     );
+    let index: Vec<usize> = all.clone().collect();
     for walk in [crate::Walk::Reduced, crate::Walk::FirstLeaf] {
-        let counts = dev.reduced_counts(&rays, walk, &all).expect("GPU counts");
+        let counts = dev.count_at(&rays, walk, &index).expect("GPU counts").1;
         let want = traverse::reduced_counts(&bvh, &rays, walk, all.clone());
         let bad: Vec<usize> = (0..n).filter(|&i| counts[i] != want[i]).collect();
         assert!(
@@ -220,8 +219,9 @@ fn check_scene(name: &str, seed: u64) {
         );
     }
     let counts = dev
-        .reduced_counts(&rays, crate::Walk::Reduced, &all)
-        .expect("GPU counts");
+        .count_at(&rays, crate::Walk::Reduced, &index)
+        .expect("GPU counts")
+        .1;
     // Some rays hit, some miss, and the counts are not trivial.
     let hits = closest
         .prim
@@ -335,10 +335,10 @@ fn throughput() {
     }
 }
 
-/// The GPU estimator samples the CPU's rays and sums their counts exactly: per-task sums equal
-/// the CPU's (the CPU sample traced on the CPU, summed in integers), and so does the scaled
-/// work, bit for bit, for primary and AO rays, several task sizes (a last task shorter than
-/// the rest, tasks of one ray) and every thesis rate.
+/// The estimator counted on the GPU counts the CPU's sample exactly: every sampled ray's
+/// counts equal the CPU's, and so does the scaled work, bit for bit, for primary and AO rays,
+/// several task sizes (a last task shorter than the rest, tasks of one ray) and every thesis
+/// rate.
 fn check_estimates(name: &str) {
     let Some(ctx) = gpu() else { return };
     let scene = SceneSource::parse(name)
@@ -355,28 +355,17 @@ fn check_estimates(name: &str) {
             for rate in [0.125, 0.25, 0.5, 1.0] {
                 let rate = SampleRate::new(rate).expect("rate");
                 let at = format!("{name} {what}, tasks of {size}, rate {}", rate.get());
-                let gpu = dev
-                    .sampled_counts(rays, &tasks, rate, crate::Walk::Reduced)
-                    .expect("GPU estimate");
                 let sample = Compacted::gather(rays, &tasks, rate).expect("CPU sample");
-                let counts =
+                let gpu = dev
+                    .count_at(rays, crate::Walk::Reduced, &sample.index)
+                    .expect("GPU counts");
+                let cpu =
                     traverse::reduced_counts_at(&bvh, rays, crate::Walk::Reduced, &sample.index);
-                assert_eq!(gpu.len(), tasks.len(), "{at}");
-                for (t, g) in gpu.iter().enumerate() {
-                    let (a, b) = (sample.offsets[t], sample.offsets[t + 1]);
-                    let cpu = counts[a..b].iter().fold((0u64, 0u64), |(n, k), c| {
-                        (n + u64::from(c.nodes), k + u64::from(c.tris))
-                    });
-                    assert_eq!(
-                        (g.nodes, g.tris, g.sampled, g.len),
-                        (cpu.0, cpu.1, b - a, tasks[t].len()),
-                        "{at}: task {t}"
-                    );
-                }
+                assert_eq!(gpu, (None, cpu), "{at}");
                 let cpu_work = ReducedTraversal::new(&bvh, rays, rate)
                     .try_work(&tasks)
                     .expect("CPU estimate");
-                let gpu_work = GpuReducedTraversal::new(&dev, rays, rate)
+                let gpu_work = ReducedTraversal::new(&dev, rays, rate)
                     .try_work(&tasks)
                     .expect("GPU estimate");
                 assert_eq!(gpu_work, cpu_work, "{at}");
@@ -384,7 +373,7 @@ fn check_estimates(name: &str) {
                 if what == "primary" {
                     let walk = crate::Walk::FirstLeaf;
                     let cpu = ReducedTraversal::new(&bvh, rays, rate).with_walk(walk);
-                    let gpu = GpuReducedTraversal::new(&dev, rays, rate).with_walk(walk);
+                    let gpu = ReducedTraversal::new(&dev, rays, rate).with_walk(walk);
                     assert_eq!(gpu.try_work(&tasks).ok(), cpu.try_work(&tasks).ok(), "{at}");
                 }
                 if rate == SampleRate::FULL {
@@ -398,15 +387,10 @@ fn check_estimates(name: &str) {
         }
         // The estimate is not trivial: the rays see the scene.
         let one = 0..rays.len();
-        let all = dev
-            .sampled_counts(
-                rays,
-                std::slice::from_ref(&one),
-                SampleRate::FULL,
-                crate::Walk::Reduced,
-            )
+        let all = ReducedTraversal::new(&dev, rays, SampleRate::FULL)
+            .try_work(std::slice::from_ref(&one))
             .expect("one task");
-        assert!(all[0].nodes > all[0].len as u64, "{name} {what}: {all:?}");
+        assert!(all[0].nodes > all[0].rays, "{name} {what}: {all:?}");
     }
 }
 
@@ -420,8 +404,9 @@ fn forest_estimates_equal_cpu() {
     check_estimates("builtin:forest:0.05");
 }
 
-/// Bad tasks are refused before anything runs, naming the task; as a `sched` estimator the
-/// GPU's costs are the CPU's, and a failure gives NaN costs that `estimate_timed` rejects.
+/// Bad tasks are refused before anything runs, naming the task, and so is the trace walk; as
+/// a `sched` estimator the GPU's costs are the CPU's, and a failure gives NaN costs that
+/// `estimate_timed` rejects.
 #[test]
 fn estimator_refuses_bad_tasks_and_serves_sched() {
     let Some(ctx) = gpu() else { return };
@@ -433,43 +418,41 @@ fn estimator_refuses_bad_tasks_and_serves_sched() {
     let rays = workload::orbit_primary(&scene, 32, 32, [0]);
     let n = rays.len();
     let rate = SampleRate::THESIS;
-    let e = dev
-        .sampled_counts(&rays, &[0..10, 10..10], rate, crate::Walk::Reduced)
-        .expect_err("empty task");
+    let gpu = ReducedTraversal::new(&dev, &rays, rate);
+    let e = gpu.try_work(&[0..10, 10..10]).expect_err("empty task");
     assert!(e.to_string().contains("task 1 is empty"), "{e}");
-    let e = dev
-        .sampled_counts(&rays, &[0..10, 5..n + 1], rate, crate::Walk::Reduced)
+    let e = gpu
+        .try_work(&[0..10, 5..n + 1])
         .expect_err("beyond the batch");
     assert!(e.to_string().contains("task 1"), "{e}");
+    let e = gpu
+        .with_walk(crate::Walk::Trace { any: false })
+        .try_work(&[0..10, 10..20])
+        .expect_err("the trace walk");
+    assert!(matches!(e, GpuError::WalkUnsupported { .. }), "{e}");
     // A task beyond the 46 340 rays the device's u32 sample arithmetic once allowed is
     // sampled like any other, exactly as the CPU samples it.
     let long: RayBatch = (0..50_000)
         .map(|i| Ray::new(Vec3::new(0.0, 0.0, i as f32 * 1e-4), Vec3::X))
         .collect();
     let tasks = [0..1, 1..long.len()];
-    let gpu = GpuReducedTraversal::new(&dev, &long, rate)
+    let gpu_long = ReducedTraversal::new(&dev, &long, rate)
         .try_work(&tasks)
         .expect("a long task");
     let cpu = ReducedTraversal::new(&bvh, &long, rate)
         .try_work(&tasks)
         .expect("a long task");
-    assert_eq!(gpu, cpu);
-    assert!(
-        dev.sampled_counts(&rays, &[], rate, crate::Walk::Reduced)
-            .expect("none")
-            .is_empty()
-    );
+    assert_eq!(gpu_long, cpu);
+    assert!(gpu.try_work(&[]).expect("none").is_empty());
     let tasks = sched::split_ranges(n, 128);
-    let gpu = GpuReducedTraversal::new(&dev, &rays, rate)
-        .estimate_timed(&tasks)
-        .expect("GPU costs");
+    let gpu_costs = gpu.estimate_timed(&tasks).expect("GPU costs");
     let cpu = ReducedTraversal::new(&bvh, &rays, rate)
         .estimate_timed(&tasks)
         .expect("CPU costs");
-    assert_eq!(gpu.costs, cpu.costs);
-    let bad = GpuReducedTraversal::new(&dev, &rays, rate).estimate_timed(&[0..1, 1..1]);
+    assert_eq!(gpu_costs.costs, cpu.costs);
+    let bad = gpu.estimate_timed(&[0..1, 1..1]);
     assert!(
-        matches!(bad, Err(sched::SchedError::BadCost { .. })),
+        matches!(bad, Err(sched::SchedError::BadCost { task: 1, .. })),
         "{bad:?}"
     );
 }
@@ -1158,7 +1141,7 @@ fn an_undrained_launch_is_run_again_checked() {
 /// cross: 24 bytes a task beyond a launch's fixed bytes.
 #[test]
 fn a_gpu_estimates_its_paths_as_the_host_does() {
-    use crate::paths::{GpuPaths, PathDevice, estimate_paths_in};
+    use crate::paths::{GpuPaths, PathDevice, sample_paths};
     let Some(ctx) = gpu() else { return };
     for name in ["builtin:cornell:0.2", "builtin:forest:0.05"] {
         let (scene, bvh) = testkit::builtin_with_bvh(name).expect("scene");
@@ -1185,7 +1168,8 @@ fn a_gpu_estimates_its_paths_as_the_host_does() {
                 let on_gpu = device
                     .estimate(&frame, &refs, rate, crate::Walk::Trace { any: false })
                     .expect("estimate");
-                let on_host = estimate_paths_in(&frame, &tasks, rate, crate::Layout::Binary);
+                let on_host = sample_paths(&frame, &tasks, rate, crate::Layout::Binary);
+                let on_host: Vec<_> = on_host.into_iter().map(|s| s.work).collect();
                 assert_eq!(on_gpu.work, on_host, "{name} {} {rate:?}", shader.name());
                 assert!(on_gpu.work[2].nodes > 0.0, "{name}: {:?}", on_gpu.work);
                 let t = &on_gpu.traffic;

@@ -21,6 +21,7 @@ use super::{
 };
 use crate::Result;
 use crate::shade::{CpuTracer, RenderOptions, render_paths};
+use crate::traverse::layout::Layout;
 use crate::traverse::walk::Walk;
 
 /// One CPU device. See the module documentation.
@@ -220,7 +221,9 @@ impl PathDevice for CpuPaths {
                 traffic: Traffic::default(),
             });
         }
-        let sampled = self.pool.install(|| sample_paths(frame, tasks, rate));
+        let sampled = self
+            .pool
+            .install(|| sample_paths(frame, tasks, rate, Layout::Wide));
         let work = sampled.iter().map(|s| s.work).collect();
         // The sample's values are the image's only where it rendered the frame's options.
         let is_final = sampled_options(frame.options, rate).0 == *frame.options;

@@ -84,26 +84,17 @@ pub fn task_work(paths: Work, probes: Work, len: usize, sampled: usize, probe_sc
     }
 }
 
-/// The estimated work of each of `tasks` (ranges of `frame`'s paths), sampling at `rate`,
-/// traced on the host on the 8-wide tree its hit queries walk. Tasks are estimated in
-/// parallel in the caller's rayon pool.
-pub fn estimate_paths<T>(frame: &Frame<'_>, tasks: &[T], rate: SampleRate) -> Vec<Work>
-where
-    T: Borrow<Range<usize>> + Sync,
-{
-    estimate_paths_in(frame, tasks, rate, Layout::Wide)
-}
-
 /// The estimated work of each of `tasks` from its sampled paths' camera rays, walked by
 /// `walk` on the binary tree (the thesis's reduced traversal, or first-leaf; see the module
-/// documentation), in the caller's rayon pool; a GPU counts the same on the device. [`Walk::Trace`] renders the sampled paths
-/// instead, as [`estimate_paths`] does.
+/// documentation), in the caller's rayon pool; a GPU counts the same on the device.
+/// [`Walk::Trace`] renders the sampled paths instead, as [`sample_paths`] does.
 pub fn walk_paths<T>(frame: &Frame<'_>, tasks: &[T], rate: SampleRate, walk: Walk) -> Vec<Work>
 where
     T: Borrow<Range<usize>> + Sync,
 {
     if let Walk::Trace { .. } = walk {
-        return estimate_paths(frame, tasks, rate);
+        let sampled = sample_paths(frame, tasks, rate, Layout::Wide);
+        return sampled.into_iter().map(|s| s.work).collect();
     }
     let options = frame.options;
     let (w, h) = (options.width, options.height);
@@ -130,22 +121,6 @@ where
         .collect()
 }
 
-/// [`estimate_paths`] counted on the tree `layout` names (the binary one is the GPU's).
-pub fn estimate_paths_in<T>(
-    frame: &Frame<'_>,
-    tasks: &[T],
-    rate: SampleRate,
-    layout: Layout,
-) -> Vec<Work>
-where
-    T: Borrow<Range<usize>> + Sync,
-{
-    sampled_paths(frame, tasks, rate, layout)
-        .into_iter()
-        .map(|s| s.work)
-        .collect()
-}
-
 /// One task's sample: its estimated work, and the paths rendered for it with their values
 /// and rays, which are the render's own where the sample renders the frame's options
 /// ([`sampled_options`] left them as they were: a Whitted frame, not an AO one, whose sample
@@ -164,16 +139,11 @@ pub struct SampledTask {
     pub rays: usize,
 }
 
-/// [`estimate_paths`], keeping what each task's sample rendered ([`SampledTask`]): on the
-/// wide tree, in the caller's rayon pool.
-pub fn sample_paths<T>(frame: &Frame<'_>, tasks: &[T], rate: SampleRate) -> Vec<SampledTask>
-where
-    T: Borrow<Range<usize>> + Sync,
-{
-    sampled_paths(frame, tasks, rate, Layout::Wide)
-}
-
-fn sampled_paths<T>(
+/// The estimated work of each of `tasks` (ranges of `frame`'s paths), sampling at `rate`,
+/// and what each task's sample rendered ([`SampledTask`]): traced on the host on the tree
+/// `layout` names (the 8-wide one its hit queries walk; the binary one is the GPU's), tasks
+/// estimated in parallel in the caller's rayon pool.
+pub fn sample_paths<T>(
     frame: &Frame<'_>,
     tasks: &[T],
     rate: SampleRate,

@@ -12,7 +12,7 @@
 //! - [`build_path_devices`]: a `--devices` list (with injected faults, [`FailAfter`]) made
 //!   into devices;
 //! - [`Settings`] and [`Mode`]: policy, regular or cost-based, task size, sample rate;
-//! - [`estimate_paths`]: a task's cost from a sample of its paths traced for real, or
+//! - [`sample_paths`]: a task's cost from a sample of its paths traced for real, or
 //!   ([`walk_paths`]) from their camera rays walked as the thesis does;
 //! - [`PathRenderer`]: a frame cut into tasks, costed, planned and run; [`FrameStats`] says
 //!   what it did, [`Traffic`] what crossed between host and devices;
@@ -61,10 +61,7 @@ pub use crate::traffic::Traffic;
 pub use build::build_path_devices;
 pub use cpu::CpuPaths;
 pub use device::{BoundPaths, Estimate, Launch, PathDevice, TaskValues};
-pub use estimate::{
-    SampledTask, estimate_paths, estimate_paths_in, sample_paths, sampled_options, task_work,
-    walk_paths,
-};
+pub use estimate::{SampledTask, sample_paths, sampled_options, task_work, walk_paths};
 pub use fault::{FailAfter, FailingPaths, InjectedFault};
 pub use frame::Frame;
 #[cfg(feature = "gpu")]

@@ -1,6 +1,6 @@
 //! The seam between shading and tracing: the host's shaders hand whole generations of rays to
 //! a [`Tracer`] and get hits back. [`CpuTracer`] traces them on the host's threads; a counting
-//! tracer wraps it where an estimate renders a sample of paths (`crate::paths::estimate_paths`).
+//! tracer wraps it where an estimate renders a sample of paths (`crate::paths::sample_paths`).
 
 use crate::traverse::batch::{any_hits, closest_hits};
 use crate::{Bvh, HitBatch, RayBatch, RayKind, Result};

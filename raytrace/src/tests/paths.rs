@@ -309,11 +309,21 @@ fn costs(work: Vec<crate::cost::Work>) -> Vec<f64> {
     work.into_iter().map(|w| model.cost(w)).collect()
 }
 
+/// The costs of `tasks` of `frame` from a sample of their paths traced for real at `rate`.
+fn sampled_costs(
+    frame: &crate::paths::Frame<'_>,
+    tasks: &[std::ops::Range<usize>],
+    rate: sched::SampleRate,
+) -> Vec<f64> {
+    let sampled = crate::paths::sample_paths(frame, tasks, rate, crate::Layout::Wide);
+    costs(sampled.into_iter().map(|s| s.work).collect())
+}
+
 /// The cost of a task, estimated from a sample of its paths traced for real, ranks tasks as
 /// their measured work does: a task of sky costs less than a task of forest.
 #[test]
 fn sampled_paths_rank_tasks_by_their_work() {
-    use crate::paths::{Frame, estimate_paths};
+    use crate::paths::Frame;
     let (scene, bvh, options) = forest_64();
     let frame = Frame {
         scene: &scene,
@@ -321,8 +331,8 @@ fn sampled_paths_rank_tasks_by_their_work() {
         options: &options,
     };
     let tasks = sched::split_ranges(64 * 64, 256);
-    let full = costs(estimate_paths(&frame, &tasks, sched::SampleRate::FULL));
-    let sampled = costs(estimate_paths(&frame, &tasks, sched::SampleRate::THESIS));
+    let full = sampled_costs(&frame, &tasks, sched::SampleRate::FULL);
+    let sampled = sampled_costs(&frame, &tasks, sched::SampleRate::THESIS);
     let error = sched::prediction_error(&sampled, &full).expect("tasks");
     assert!(error < 0.25, "error {error}");
     let (lo, hi) = full
@@ -338,7 +348,7 @@ fn sampled_paths_rank_tasks_by_their_work() {
 fn the_thesis_walks_estimate_camera_rays_and_leave_the_image_alone() {
     use crate::Walk;
     use crate::cost::Work;
-    use crate::paths::{Frame, estimate_paths, walk_paths};
+    use crate::paths::{Frame, walk_paths};
     let (scene, bvh, options) = forest_64();
     let frame = Frame {
         scene: &scene,
@@ -346,7 +356,7 @@ fn the_thesis_walks_estimate_camera_rays_and_leave_the_image_alone() {
         options: &options,
     };
     let tasks = sched::split_ranges(64 * 64, 256);
-    let traced = costs(estimate_paths(&frame, &tasks, sched::SampleRate::FULL));
+    let traced = sampled_costs(&frame, &tasks, sched::SampleRate::FULL);
     for walk in Walk::ALL {
         let full = walk_paths(&frame, &tasks, sched::SampleRate::FULL, walk);
         let rays = options.camera.primary_rays_of(64, 64, 0..256).rays;

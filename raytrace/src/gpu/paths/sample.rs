@@ -5,7 +5,7 @@
 //! pair of 32-bit sums per task and kind comes back (8 and 16 bytes a task): no ray crosses.
 //!
 //! The traces are the render's, counting as the CPU's counted traces count, so the sums equal
-//! [`crate::paths::estimate_paths`]'s sample bit for bit wherever the kernels find the CPU's
+//! [`crate::paths::sample_paths`]'s sample bit for bit wherever the kernels find the CPU's
 //! hits (on lavapipe, always). With the thesis's walks ([`Walk::Reduced`], [`Walk::FirstLeaf`])
 //! only the sampled paths' camera rays are made and walked, by the trace kernels' counting
 //! modes, as [`crate::paths::walk_paths`] walks them on the host. A sum that would not fit 32
