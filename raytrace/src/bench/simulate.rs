@@ -93,8 +93,8 @@ pub struct Machines<'a> {
 }
 
 impl<'a> Machines<'a> {
-    /// `cobalt bench --simulate`: machines of `counts` devices of mixed speeds, behind each of
-    /// [`LINKS`], under every policy in both modes.
+    /// `cobalt bench --simulate`: machines of `counts` devices of mixed speeds, behind each
+    /// link of `LINKS` (PCIe-like and network-like), under every policy in both modes.
     pub fn mixed(counts: &'a [usize]) -> Self {
         Self {
             source: "simulated",

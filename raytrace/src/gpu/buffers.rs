@@ -5,7 +5,6 @@
 //! before it is created: scene buffers that do not fit give [`GpuError::TooLarge`] naming the
 //! limit; ray batches are split into launches that fit ([`rays_per_launch`]).
 
-use std::ops::Range;
 
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
@@ -29,27 +28,6 @@ const _: () = assert!(size_of::<GpuRay>() == 32);
 
 /// Bytes of one result (`vec2<u32>`: t bits and primitive, or B and T).
 pub const RESULT_BYTES: u64 = 8;
-
-/// The rays of `ranges` of `rays`, one after another, in the kernels' layout.
-///
-/// # Panics
-/// Panics if a range is beyond the batch.
-pub fn pack_rays(rays: &RayBatch, ranges: &[&Range<usize>]) -> Vec<GpuRay> {
-    let n = ranges.iter().map(|r| r.len()).sum();
-    let mut out = Vec::with_capacity(n);
-    for r in ranges {
-        out.extend((*r).clone().map(|i| GpuRay::of(rays, i)));
-    }
-    out
-}
-
-/// Rays `index[0], index[1], …` of `rays` in the kernels' layout (a compacted sample).
-///
-/// # Panics
-/// Panics if an index is beyond the batch.
-pub fn pack_at(rays: &RayBatch, index: &[usize]) -> Vec<GpuRay> {
-    index.iter().map(|&i| GpuRay::of(rays, i)).collect()
-}
 
 impl GpuRay {
     /// Ray `i` of `rays`.

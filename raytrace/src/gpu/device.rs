@@ -10,9 +10,9 @@ use crate::cost::CountRays;
 use crate::traverse::counts::Counts;
 use crate::{Bvh, HitBatch, RayBatch, Walk};
 
-use super::buffers::{SceneBuffers, pack_at};
-use super::staging::{Staging, staged_hits};
-use super::trace::{TraceKernels, TraceMode, launch};
+use super::buffers::SceneBuffers;
+use super::staging::{Staging, staged};
+use super::trace::{TraceKernels, TraceMode};
 use super::{GpuContext, GpuError};
 
 /// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a batch of rays, all
@@ -62,7 +62,8 @@ impl GpuDevice {
     /// kinds, closest hits otherwise.
     ///
     /// # Errors
-    /// See [`launch`].
+    /// [`GpuError::Readback`] when the GPU cannot be waited for or read, [`GpuError::LoopCut`]
+    /// when the implementation ended a traversal loop early.
     ///
     /// # Panics
     /// Panics if a range is beyond the batch.
@@ -77,6 +78,25 @@ impl GpuDevice {
         } else {
             TraceMode::Closest
         };
+        let out = self.trace(rays, ranges, mode)?;
+        Ok(HitBatch {
+            t: out.iter().map(|r| f32::from_bits(r[0])).collect(),
+            prim: out.iter().map(|r| r[1]).collect(),
+        })
+    }
+
+    /// `mode`'s results for the rays of `ranges` (see [`staged`]), through the buffers kept
+    /// from the last launch; the kernels' GPU seconds are kept for [`GpuDevice::last_gpu_seconds`].
+    ///
+    /// # Errors
+    /// [`GpuError::Readback`] when the GPU cannot be waited for or read, [`GpuError::LoopCut`]
+    /// when the implementation ended a traversal loop early.
+    fn trace(
+        &self,
+        rays: &RayBatch,
+        ranges: &[&Range<usize>],
+        mode: TraceMode,
+    ) -> Result<Vec<[u32; 2]>, GpuError> {
         // A launch that panicked left nothing worth keeping: its buffers are dropped.
         let mut staging = self.staging.lock().unwrap_or_else(|poisoned| {
             let mut s = poisoned.into_inner();
@@ -84,7 +104,7 @@ impl GpuDevice {
             s
         });
         // What crosses is counted for the path devices' reports; a batch's trace has none.
-        let staged = staged_hits(
+        let (out, seconds) = staged(
             &mut staging,
             &self.ctx,
             &self.kernels,
@@ -93,11 +113,10 @@ impl GpuDevice {
             ranges,
             mode,
             &mut Traffic::default(),
-        );
-        let (hits, seconds) = staged?;
+        )?;
         self.last_seconds
             .store(seconds.unwrap_or(f64::NAN).to_bits(), Ordering::Relaxed);
-        Ok(hits)
+        Ok(out)
     }
 }
 
@@ -109,7 +128,7 @@ impl CountRays for GpuDevice {
 
     /// # Errors
     /// [`GpuError::WalkUnsupported`] for the trace walk (before anything is uploaded), and
-    /// the errors of [`launch`].
+    /// the errors of [`GpuDevice::hits`].
     fn count_at(
         &self,
         rays: &RayBatch,
@@ -117,13 +136,15 @@ impl CountRays for GpuDevice {
         index: &[usize],
     ) -> Result<(Option<HitBatch>, Vec<Counts>), GpuError> {
         let mode = TraceMode::counts(walk)?;
-        let out = launch(
-            &self.ctx,
-            &self.kernels,
-            &self.scene,
-            &pack_at(rays, index),
-            mode,
-        )?;
+        // The samples come in runs of neighbours: one range a run.
+        let mut runs: Vec<Range<usize>> = Vec::new();
+        for &i in index {
+            match runs.last_mut() {
+                Some(r) if r.end == i => r.end += 1,
+                _ => runs.push(i..i + 1),
+            }
+        }
+        let out = self.trace(rays, &runs.iter().collect::<Vec<_>>(), mode)?;
         let counts = out
             .into_iter()
             .map(|[nodes, tris]| Counts { nodes, tris })

@@ -11,8 +11,8 @@
 
 use std::ops::Range;
 
+use crate::RayBatch;
 use crate::Traffic;
-use crate::{HitBatch, RayBatch};
 
 use super::buffers::{
     GpuRay, RESULT_BYTES, SceneBuffers, copy, map, rays_per_launch, readback_err,
@@ -81,13 +81,15 @@ impl Staging {
     }
 }
 
-/// Hits of the rays of `ranges`, one after another, through `staging`'s buffers (grown or
-/// made as needed), with the kernels' GPU seconds where timestamps measured them.
+/// `mode`'s results for the rays of `ranges`, one after another, through `staging`'s buffers
+/// (grown or made as needed): one `[u32; 2]` per ray, `[t bits, prim]` (a miss is `[+inf
+/// bits, u32::MAX]`) or the counts `[B, T]`; with the kernels' GPU seconds where timestamps
+/// measured them.
 ///
 /// # Errors
 /// The errors of [`trace_resident`], and [`GpuError::Readback`] when mapping fails.
-#[allow(clippy::too_many_arguments)] // the device's parts, its buffers and the two choices
-pub(crate) fn staged_hits(
+#[allow(clippy::too_many_arguments)] // the device's parts, its buffers and the choice of a trace
+pub(crate) fn staged(
     staging: &mut Option<Staging>,
     ctx: &GpuContext,
     kernels: &TraceKernels,
@@ -96,23 +98,23 @@ pub(crate) fn staged_hits(
     ranges: &[&Range<usize>],
     mode: TraceMode,
     traffic: &mut Traffic,
-) -> Result<(HitBatch, Option<f64>), GpuError> {
+) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     let total: usize = ranges.iter().map(|r| r.len()).sum();
     if scene.empty {
-        let none = HitBatch::misses(total);
-        return Ok((none, None));
+        let none = match mode {
+            TraceMode::Reduced | TraceMode::FirstLeaf => [0, 0],
+            TraceMode::Closest | TraceMode::Any => [f32::INFINITY.to_bits(), u32::MAX],
+        };
+        return Ok((vec![none; total], None));
     }
-    let mut hits = HitBatch {
-        t: Vec::with_capacity(total),
-        prim: Vec::with_capacity(total),
-    };
+    let mut out = Vec::with_capacity(total);
     let mut seconds = ctx.timestamps.then_some(0.0);
     let most = rays_per_launch(&ctx.limits).min(MOST_RAYS);
     for launch in launches(ranges, most) {
         let n: usize = launch.iter().map(Range::len).sum();
         let s = Staging::fit(staging.take(), ctx, n as u64);
         let launched = run(
-            &s, ctx, kernels, scene, rays, &launch, mode, &mut hits, traffic,
+            &s, ctx, kernels, scene, rays, &launch, mode, &mut out, traffic,
         );
         // A launch that failed may have left a buffer mapped: the next one starts afresh.
         if launched.is_ok() {
@@ -120,7 +122,7 @@ pub(crate) fn staged_hits(
         }
         seconds = seconds.zip(launched?).map(|(a, b)| a + b);
     }
-    Ok((hits, seconds))
+    Ok((out, seconds))
 }
 
 /// `ranges` cut into launches of at most `most` rays each, in order.
@@ -145,7 +147,7 @@ fn launches(ranges: &[&Range<usize>], most: usize) -> Vec<Vec<Range<usize>>> {
     all
 }
 
-/// One launch of the rays of `chunk`, its hits appended to `hits`.
+/// One launch of the rays of `chunk`, its results appended to `out`.
 #[allow(clippy::too_many_arguments)] // as `staged_hits`, plus the launch's rays and output
 fn run(
     s: &Staging,
@@ -155,7 +157,7 @@ fn run(
     rays: &RayBatch,
     chunk: &[Range<usize>],
     mode: TraceMode,
-    hits: &mut HitBatch,
+    out: &mut Vec<[u32; 2]>,
     traffic: &mut Traffic,
 ) -> Result<Option<f64>, GpuError> {
     let name = ctx.info.name.as_str();
@@ -205,9 +207,7 @@ fn run(
             .download
             .get_mapped_range(..n * RESULT_BYTES)
             .map_err(|e| readback_err(name, "reading results", e.to_string()))?;
-        let results: &[[u32; 2]] = bytemuck::cast_slice(&view);
-        hits.t.extend(results.iter().map(|r| f32::from_bits(r[0])));
-        hits.prim.extend(results.iter().map(|r| r[1]));
+        out.extend_from_slice(bytemuck::cast_slice(&view));
     }
     s.download.unmap();
     // The rays went up and their hits came back, a wait each way.

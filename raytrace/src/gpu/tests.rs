@@ -10,8 +10,9 @@ use std::sync::Once;
 use glam::Vec3;
 use sched::CostEstimator;
 
-use super::buffers::{GpuRay, SceneBuffers, pack_rays};
-use super::trace::{BATCHES, MAX_WORKGROUPS, TraceKernels, TraceMode, launch, launch_timed};
+use super::buffers::{GpuRay, SceneBuffers};
+use super::staging::staged;
+use super::trace::{BATCHES, MAX_WORKGROUPS, TraceKernels, TraceMode};
 use super::{FrameParams, GpuContext, GpuDevice, GpuError, GpuOptions, GpuRenderer};
 use crate::cost::{Compacted, CountRays, ReducedTraversal, SampleRate, full_work};
 use crate::devices::GpuSelect;
@@ -252,12 +253,26 @@ fn splits_launches_and_names_the_limit() {
     let kernels = TraceKernels::new(&ctx.device, bvh.depth()).expect("kernels");
     let scene = SceneBuffers::upload(&ctx, &bvh).expect("upload");
     let (a, b) = (0..1000, 1500..rays.len());
-    let packed = pack_rays(&rays, &[&a, &b]);
-    let whole = launch(&ctx, &kernels, &scene, &packed, TraceMode::Closest).expect("launch");
+    let run = |ctx: &GpuContext, ranges: &[&std::ops::Range<usize>]| {
+        let mut traffic = crate::Traffic::default();
+        let mut staging = None;
+        staged(
+            &mut staging,
+            ctx,
+            &kernels,
+            &scene,
+            &rays,
+            ranges,
+            TraceMode::Closest,
+            &mut traffic,
+        )
+        .expect("launch")
+        .0
+    };
+    let whole = run(&ctx, &[&a, &b]);
     // 640 rays a launch: several launches, the last one partial.
     ctx.limits.max_storage_buffer_binding_size = 640 * size_of::<GpuRay>() as u64;
-    let split = launch(&ctx, &kernels, &scene, &packed, TraceMode::Closest).expect("split launch");
-    assert_eq!(whole, split);
+    assert_eq!(whole, run(&ctx, &[&a, &b]));
     let cpu = traverse::closest_hits(&bvh, &rays);
     let mut want = HitBatch::misses(0);
     let mut got = HitBatch::misses(0);
@@ -276,11 +291,7 @@ fn splits_launches_and_names_the_limit() {
         "{e}"
     );
     // Empty launches return nothing.
-    assert!(
-        launch(&ctx, &kernels, &scene, &[], TraceMode::Any)
-            .expect("empty")
-            .is_empty()
-    );
+    assert!(run(&ctx, &[]).is_empty());
 }
 
 /// Throughput on the first adapter against the CPU (all cores), for forest primary and AO
@@ -464,14 +475,29 @@ fn estimator_refuses_bad_tasks_and_serves_sched() {
 fn a_launch_of_three_passes_is_timed_and_traced_whole() {
     let Some(ctx) = gpu() else { return };
     let (kernels, scene, rays) = launch_kit(&ctx, "builtin:cornell:0.2", 15);
-    let all = 0..rays.len();
-    let packed = pack_rays(&rays, &[&all]);
     let pass = (MAX_WORKGROUPS * BATCHES * 64) as usize;
-    let many: Vec<GpuRay> = packed.iter().copied().cycle().take(2 * pass + 65).collect();
-    let (one, _) =
-        launch_timed(&ctx, &kernels, &scene, &packed, TraceMode::Reduced).expect("one pass");
-    let (out, seconds) =
-        launch_timed(&ctx, &kernels, &scene, &many, TraceMode::Reduced).expect("three passes");
+    let mut many = RayBatch::with_capacity(2 * pass + 65);
+    for i in 0..2 * pass + 65 {
+        many.push(&rays.get(i % rays.len()));
+    }
+    let run = |rays: &RayBatch| {
+        let mut staging = None;
+        let all = 0..rays.len();
+        let mut traffic = crate::Traffic::default();
+        staged(
+            &mut staging,
+            &ctx,
+            &kernels,
+            &scene,
+            rays,
+            &[&all],
+            TraceMode::Reduced,
+            &mut traffic,
+        )
+        .expect("launch")
+    };
+    let (one, _) = run(&rays);
+    let (out, seconds) = run(&many);
     assert_eq!(seconds.is_some(), ctx.timestamps);
     assert_eq!(out.len(), many.len());
     for (i, r) in out.iter().enumerate() {
@@ -518,7 +544,11 @@ fn raygen_equals_cpu_primary_rays() {
             .map(|r| r as u32)
             .collect();
         assert_eq!(ranks, order, "{w}x{h}: ranks");
-        let want = pack_rays(&cpu.rays, &[&late, &early]);
+        let want: Vec<GpuRay> = late
+            .clone()
+            .chain(early.clone())
+            .map(|i| GpuRay::of(&cpu.rays, i))
+            .collect();
         if exact {
             assert_eq!(rays, want, "{w}x{h}: rays");
             continue;

@@ -9,9 +9,7 @@
 //! again while rays remain (an implementation that ends loops early, as lavapipe may, still
 //! drains), and fails with [`GpuError::LoopCut`] if a traversal loop itself was cut short.
 
-use super::buffers::{
-    GpuRay, RESULT_BYTES, SceneBuffers, fetch, init, rays_per_launch, read_back, storage,
-};
+use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, init, read_back, storage};
 use super::program::{Program, READ, UNIFORM, WRITE};
 use super::{GpuContext, GpuError};
 use crate::Traffic;
@@ -139,93 +137,6 @@ impl TraceKernels {
     }
 }
 
-/// Runs `mode` over `rays` on `ctx`'s device, in as many launches as the binding limits
-/// require; returns one `[u32; 2]` per ray: `[t bits, prim]` (a miss is `[+inf bits,
-/// u32::MAX]`) or `[B, T]`.
-///
-/// # Errors
-/// [`GpuError::Readback`] when the GPU cannot be waited for or read, [`GpuError::LoopCut`]
-/// when the implementation ended a traversal loop early.
-pub fn launch(
-    ctx: &GpuContext,
-    kernels: &TraceKernels,
-    scene: &SceneBuffers,
-    rays: &[GpuRay],
-    mode: TraceMode,
-) -> Result<Vec<[u32; 2]>, GpuError> {
-    Ok(launch_timed(ctx, kernels, scene, rays, mode)?.0)
-}
-
-/// [`launch`], also returning the kernels' GPU time in seconds
-/// (from timestamp queries, summed over the dispatch rounds) where the device has them.
-///
-/// # Errors
-/// As [`launch`].
-pub fn launch_timed(
-    ctx: &GpuContext,
-    kernels: &TraceKernels,
-    scene: &SceneBuffers,
-    rays: &[GpuRay],
-    mode: TraceMode,
-) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
-    if scene.empty {
-        let none = match mode {
-            TraceMode::Reduced | TraceMode::FirstLeaf => [0, 0],
-            _ => [f32::INFINITY.to_bits(), u32::MAX],
-        };
-        return Ok((vec![none; rays.len()], None));
-    }
-    let mut out = Vec::with_capacity(rays.len());
-    let mut seconds = ctx.timestamps.then_some(0.0);
-    for chunk in rays.chunks(rays_per_launch(&ctx.limits)) {
-        let (r, s) = launch_one(ctx, kernels, scene, chunk, mode)?;
-        out.extend(r);
-        seconds = seconds.zip(s).map(|(a, b)| a + b);
-    }
-    Ok((out, seconds))
-}
-
-/// Uploads `rays`, traces them and reads the results back.
-fn launch_one(
-    ctx: &GpuContext,
-    kernels: &TraceKernels,
-    scene: &SceneBuffers,
-    rays: &[GpuRay],
-    mode: TraceMode,
-) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
-    if rays.is_empty() {
-        return Ok((Vec::new(), Some(0.0)));
-    }
-    let device = &ctx.device;
-    // `rays_per_launch` keeps a launch far below 2^32 rays.
-    let n = u32::try_from(rays.len()).unwrap_or(u32::MAX);
-    let out_bytes = u64::from(n) * RESULT_BYTES;
-    let ray_buf = init(
-        device,
-        "cobalt rays",
-        bytemuck::cast_slice(rays),
-        wgpu::BufferUsages::STORAGE,
-    );
-    let out_buf = storage(
-        device,
-        "cobalt results",
-        out_bytes,
-        wgpu::BufferUsages::COPY_SRC,
-    );
-    let seconds = trace_resident(
-        ctx,
-        kernels,
-        scene,
-        &ray_buf,
-        &out_buf,
-        n,
-        mode,
-        &mut Traffic::default(),
-    )?;
-    let bytes = fetch(ctx, &out_buf, out_bytes)?;
-    Ok((bytemuck::pod_collect_to_vec(&bytes), seconds))
-}
-
 /// The timestamp writes of pass `k` of `passes`: the start of the first and the end of the
 /// last. A pass in between gets none at all, since wgpu refuses writes that name neither index
 /// (a large GPU's launch may take dozens of passes).
@@ -267,7 +178,7 @@ pub(crate) struct TraceRound {
 impl TraceRound {
     /// Binds the first `n` rays of `rays` and their results in `out` for a trace in `mode`;
     /// uploads the queue's two words and the parameters (counted).
-    #[allow(clippy::too_many_arguments)] // the buffers and the two choices of a trace
+    #[allow(clippy::too_many_arguments)] // the buffers and the choice of a trace
     pub(crate) fn new(
         ctx: &GpuContext,
         kernels: &TraceKernels,
@@ -299,7 +210,7 @@ impl TraceRound {
     /// As [`TraceRound::new`] with the queue (two words, zero) and the parameters (the ray
     /// count first) already on the device: nothing is uploaded. `counts` holds the per-path
     /// counts of a trace whose parameters ask for them.
-    #[allow(clippy::too_many_arguments)] // the buffers and the two choices of a trace
+    #[allow(clippy::too_many_arguments)] // the buffers and the choice of a trace
     pub(crate) fn bound(
         ctx: &GpuContext,
         kernels: &TraceKernels,
@@ -425,8 +336,9 @@ pub(crate) fn stamp_seconds(ctx: &GpuContext, stamps: [u64; 2]) -> f64 {
 /// the queue's state (8 bytes) and the timestamps are read back.
 ///
 /// # Errors
-/// As [`launch`].
-#[allow(clippy::too_many_arguments)] // the buffers and the two choices of a trace
+/// [`GpuError::Readback`] when the GPU cannot be waited for or read, [`GpuError::LoopCut`]
+/// when the implementation ended a traversal loop early.
+#[allow(clippy::too_many_arguments)] // the buffers and the choice of a trace
 pub(crate) fn trace_resident(
     ctx: &GpuContext,
     kernels: &TraceKernels,
