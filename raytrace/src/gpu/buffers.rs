@@ -5,7 +5,6 @@
 //! before it is created: scene buffers that do not fit give [`GpuError::TooLarge`] naming the
 //! limit; ray batches are split into launches that fit ([`rays_per_launch`]).
 
-
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 

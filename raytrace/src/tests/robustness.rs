@@ -597,3 +597,30 @@ fn a_tree_of_huge_tiny_and_flat_boxes_builds_and_traces() {
         let _ = any_hits(&bvh, &rays);
     }
 }
+
+/// Cameras far outside the scene: rays from 10² to 10⁶ scene diagonals away, aimed at the
+/// scene's centre, still find the scene at the distance they were sent from, and rays aimed
+/// beside it find nothing.
+#[test]
+fn far_cameras_still_hit_the_scene() {
+    use crate::{SceneNeeds, SceneSource};
+    let scene = SceneSource::parse("builtin:cornell:0.3")
+        .unwrap()
+        .load(SceneNeeds::AO)
+        .unwrap();
+    let bvh = build(&scene);
+    let (b, mut rng) = (scene.bounds(), Rng::new(testkit::seed(8)));
+    let (center, diag) = (b.center(), b.extent().length());
+    for far in [1e2f32, 1e4, 1e6] {
+        for _ in 0..64 {
+            let dir = Vec3::from(rng.unit_vector());
+            let o = center + dir * far * diag;
+            let hit = bvh.closest_hit(&Ray::new(o, center - o));
+            let hit = hit.unwrap_or_else(|| panic!("a ray from {far} diagonals away escaped"));
+            // `t` is along `center - o`: the scene is met within a diagonal of the centre.
+            assert!((hit.t - 1.0).abs() <= 1.0 / far, "{far}: t {}", hit.t);
+            let beside = center + dir.any_orthonormal_vector() * 2.0 * diag;
+            assert!(bvh.closest_hit(&Ray::new(o, beside - o)).is_none(), "{far}");
+        }
+    }
+}
