@@ -433,228 +433,147 @@ mod x86 {
         }
     }
 
-    /// The four-lane operations of the watertight kernel, on SSE2 (the x86_64 baseline).
+    /// The lane operations of the watertight kernel at one width, each compiled for the
+    /// kernel's instruction set so that it inlines into the kernel, which alone calls them.
+    macro_rules! lane_ops {
+        (
+            $feature:literal, $v:ty, $n:literal, $set1:path, $zero:path, $cast:path,
+            $set1i:path, $sub:path, $add:path, $mul:path, $or:path, $and:path,
+            $andnot:path, $xor:path, $eq:path, $lt:path, $gt:path, $movemask:path,
+            $loadu:path, $storeu:path
+        ) => {
+            pub(super) type V = $v;
+            pub(super) const N: usize = $n;
+            #[target_feature(enable = $feature)]
+            #[inline]
+            pub(super) fn splat(x: f32) -> V {
+                $set1(x)
+            }
+            #[target_feature(enable = $feature)]
+            #[inline]
+            pub(super) fn zero() -> V {
+                $zero()
+            }
+            #[target_feature(enable = $feature)]
+            #[inline]
+            pub(super) fn sign() -> V {
+                $cast($set1i(i32::MIN))
+            }
+            #[target_feature(enable = $feature)]
+            #[inline]
+            pub(super) fn ones() -> V {
+                $cast($set1i(-1))
+            }
+            lane_ops!(@binary $feature, sub $sub, add $add, mul $mul, or $or, and $and,
+                andnot $andnot, xor $xor, eq $eq, lt $lt, gt $gt);
+            #[target_feature(enable = $feature)]
+            #[inline]
+            pub(super) fn movemask(a: V) -> u32 {
+                $movemask(a) as u32
+            }
+            #[target_feature(enable = $feature)]
+            #[inline]
+            pub(super) fn load(a: &[f32; N]) -> V {
+                // SAFETY: `a` is `N` readable floats, and the lanes' instructions are enabled.
+                unsafe { $loadu(a.as_ptr()) }
+            }
+            #[target_feature(enable = $feature)]
+            #[inline]
+            pub(super) fn store(v: V) -> [f32; N] {
+                let mut a = [0f32; N];
+                // SAFETY: `a` is `N` writable floats, and the lanes' instructions are enabled.
+                unsafe { $storeu(a.as_mut_ptr(), v) };
+                a
+            }
+            /// A vertex (rows `x`, `y`, `z` along `kx`, `ky`, `kz`) minus the origin `o`,
+            /// sheared.
+            #[target_feature(enable = $feature)]
+            #[inline]
+            pub(super) fn rel(x: V, y: V, z: V, o: [V; 3], sx: V, sy: V) -> (V, V, V) {
+                let (x, y, z) = (sub(x, o[0]), sub(y, o[1]), sub(z, o[2]));
+                (sub(x, mul(sx, z)), sub(y, mul(sy, z)), z)
+            }
+        };
+        (@binary $feature:literal, $($name:ident $op:path),*) => {
+            $(
+                #[target_feature(enable = $feature)]
+                #[inline]
+                pub(super) fn $name(a: V, b: V) -> V {
+                    $op(a, b)
+                }
+            )*
+        };
+    }
+
+    /// The four-lane operations, on SSE2 (the x86_64 baseline).
     mod l4 {
         use super::*;
-        pub(super) type V = __m128;
-        pub(super) const N: usize = 4;
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn splat(x: f32) -> V {
-            _mm_set1_ps(x)
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn zero() -> V {
-            _mm_setzero_ps()
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn sign() -> V {
-            _mm_castsi128_ps(_mm_set1_epi32(i32::MIN))
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn ones() -> V {
-            _mm_castsi128_ps(_mm_set1_epi32(-1))
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn sub(a: V, b: V) -> V {
-            _mm_sub_ps(a, b)
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn add(a: V, b: V) -> V {
-            _mm_add_ps(a, b)
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn mul(a: V, b: V) -> V {
-            _mm_mul_ps(a, b)
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn or(a: V, b: V) -> V {
-            _mm_or_ps(a, b)
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn and(a: V, b: V) -> V {
-            _mm_and_ps(a, b)
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn andnot(a: V, b: V) -> V {
-            _mm_andnot_ps(a, b)
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn xor(a: V, b: V) -> V {
-            _mm_xor_ps(a, b)
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn eq(a: V, b: V) -> V {
-            _mm_cmpeq_ps(a, b)
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn lt(a: V, b: V) -> V {
-            _mm_cmplt_ps(a, b)
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn gt(a: V, b: V) -> V {
-            _mm_cmpgt_ps(a, b)
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn movemask(a: V) -> u32 {
-            _mm_movemask_ps(a) as u32
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn load(a: &[f32; N]) -> V {
-            // SAFETY: `a` is four readable floats, and SSE2 is enabled here.
-            unsafe { _mm_loadu_ps(a.as_ptr()) }
-        }
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn store(v: V) -> [f32; N] {
-            let mut a = [0f32; N];
-            // SAFETY: `a` is four writable floats, and SSE2 is enabled here.
-            unsafe { _mm_storeu_ps(a.as_mut_ptr(), v) };
-            a
-        }
+        lane_ops!(
+            "sse2",
+            __m128,
+            4,
+            _mm_set1_ps,
+            _mm_setzero_ps,
+            _mm_castsi128_ps,
+            _mm_set1_epi32,
+            _mm_sub_ps,
+            _mm_add_ps,
+            _mm_mul_ps,
+            _mm_or_ps,
+            _mm_and_ps,
+            _mm_andnot_ps,
+            _mm_xor_ps,
+            _mm_cmpeq_ps,
+            _mm_cmplt_ps,
+            _mm_cmpgt_ps,
+            _mm_movemask_ps,
+            _mm_loadu_ps,
+            _mm_storeu_ps
+        );
         /// Row `axis` of vertex `i` of `g`.
         #[target_feature(enable = "sse2")]
         #[inline]
         pub(super) fn vert(g: &Tri4, i: usize, axis: usize) -> V {
             load(&g.v[i][axis])
         }
-        /// A vertex (rows `x`, `y`, `z` along `kx`, `ky`, `kz`) minus the origin `o`, sheared.
-        #[target_feature(enable = "sse2")]
-        #[inline]
-        pub(super) fn rel(x: V, y: V, z: V, o: [V; 3], sx: V, sy: V) -> (V, V, V) {
-            let (x, y, z) = (sub(x, o[0]), sub(y, o[1]), sub(z, o[2]));
-            (sub(x, mul(sx, z)), sub(y, mul(sy, z)), z)
-        }
     }
 
-    /// The eight-lane operations of the watertight kernel, on AVX2: each is compiled for AVX2
-    /// so that it inlines into the AVX2 kernel, which alone calls them.
+    /// The eight-lane operations, on AVX2.
     mod l8 {
         use super::*;
-        pub(super) type V = __m256;
-        pub(super) const N: usize = 8;
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn splat(x: f32) -> V {
-            _mm256_set1_ps(x)
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn zero() -> V {
-            _mm256_setzero_ps()
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn sign() -> V {
-            _mm256_castsi256_ps(_mm256_set1_epi32(i32::MIN))
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn ones() -> V {
-            _mm256_castsi256_ps(_mm256_set1_epi32(-1))
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn sub(a: V, b: V) -> V {
-            _mm256_sub_ps(a, b)
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn add(a: V, b: V) -> V {
-            _mm256_add_ps(a, b)
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn mul(a: V, b: V) -> V {
-            _mm256_mul_ps(a, b)
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn or(a: V, b: V) -> V {
-            _mm256_or_ps(a, b)
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn and(a: V, b: V) -> V {
-            _mm256_and_ps(a, b)
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn andnot(a: V, b: V) -> V {
-            _mm256_andnot_ps(a, b)
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn xor(a: V, b: V) -> V {
-            _mm256_xor_ps(a, b)
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn eq(a: V, b: V) -> V {
-            _mm256_cmp_ps::<_CMP_EQ_OQ>(a, b)
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn lt(a: V, b: V) -> V {
-            _mm256_cmp_ps::<_CMP_LT_OQ>(a, b)
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn gt(a: V, b: V) -> V {
-            _mm256_cmp_ps::<_CMP_GT_OQ>(a, b)
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn movemask(a: V) -> u32 {
-            _mm256_movemask_ps(a) as u32
-        }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn load(a: &[f32; N]) -> V {
-            // SAFETY: `a` is eight readable floats, and AVX is enabled here.
-            unsafe { _mm256_loadu_ps(a.as_ptr()) }
-        }
+        lane_ops!(
+            "avx2",
+            __m256,
+            8,
+            _mm256_set1_ps,
+            _mm256_setzero_ps,
+            _mm256_castsi256_ps,
+            _mm256_set1_epi32,
+            _mm256_sub_ps,
+            _mm256_add_ps,
+            _mm256_mul_ps,
+            _mm256_or_ps,
+            _mm256_and_ps,
+            _mm256_andnot_ps,
+            _mm256_xor_ps,
+            _mm256_cmp_ps::<_CMP_EQ_OQ>,
+            _mm256_cmp_ps::<_CMP_LT_OQ>,
+            _mm256_cmp_ps::<_CMP_GT_OQ>,
+            _mm256_movemask_ps,
+            _mm256_loadu_ps,
+            _mm256_storeu_ps
+        );
         /// Two groups' rows side by side: `lo` in lanes 0–3, `hi` in 4–7.
         #[target_feature(enable = "avx2")]
         #[inline]
         pub(super) fn load2(lo: &[f32; 4], hi: &[f32; 4]) -> V {
             _mm256_set_m128(super::l4::load(hi), super::l4::load(lo))
         }
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn store(v: V) -> [f32; N] {
-            let mut a = [0f32; N];
-            // SAFETY: `a` is eight writable floats, and AVX is enabled here.
-            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), v) };
-            a
-        }
         /// Row `axis` of vertex `i` of `a` and then `b`.
         #[target_feature(enable = "avx2")]
         #[inline]
         pub(super) fn vert(a: &Tri4, b: &Tri4, i: usize, axis: usize) -> V {
             load2(&a.v[i][axis], &b.v[i][axis])
-        }
-        /// A vertex (rows `x`, `y`, `z` along `kx`, `ky`, `kz`) minus the origin `o`, sheared.
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(super) fn rel(x: V, y: V, z: V, o: [V; 3], sx: V, sy: V) -> (V, V, V) {
-            let (x, y, z) = (sub(x, o[0]), sub(y, o[1]), sub(z, o[2]));
-            (sub(x, mul(sx, z)), sub(y, mul(sy, z)), z)
         }
     }
 
