@@ -1,7 +1,7 @@
 //! `--calibration FILE` and `--no-calibration` of the commands that render (`cobalt render`,
 //! `cobalt bench`): which calibration file a run opens ([`raytrace::run::Store`]).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use raytrace::calibration::default_path;
 use raytrace::run::Store;
@@ -41,5 +41,21 @@ impl CalibrationArgs {
             },
         };
         Ok(Some(Store::open(path, named)?))
+    }
+
+    /// The file these flags read and update, if any: an input of the command that none of its
+    /// outputs may replace, and an output that may replace none of its other `inputs`.
+    ///
+    /// # Errors
+    /// [`CliError::Output`] naming both flags when the calibration is one of `inputs`.
+    pub fn check(&self, inputs: &[(&'static str, &Path)]) -> Result<Option<PathBuf>, CliError> {
+        if self.no_calibration {
+            return Ok(None);
+        }
+        let path = self.calibration.clone().or_else(default_path);
+        if let Some(path) = &path {
+            crate::output::not_input("calibration", path, inputs)?;
+        }
+        Ok(path)
     }
 }

@@ -208,15 +208,7 @@ fn check_one(
         Err(e) => return Err(bad(flag, path, format!("cannot inspect: {e}"))),
     };
     if let Some(meta) = &existing {
-        for &(input_flag, input) in inputs {
-            if input == Path::new("-") {
-                continue;
-            }
-            if fs::metadata(input).is_ok_and(|m| same_file(&m, meta)) {
-                let message = format!("is the input of --{input_flag}; choose another output");
-                return Err(bad(flag, path, message));
-            }
-        }
+        not_an_input(flag, path, meta, inputs)?;
     }
     // The only sure test that the directory takes a new file is to make one.
     temporary(&dir, path).map_err(|e| {
@@ -238,6 +230,43 @@ fn check_one(
             permissions: existing.map(|m| m.permissions()),
         }),
     })
+}
+
+/// Refuses `path`, written by `--flag`, where it is (`meta`, links followed) the file an
+/// input names, whatever names it: links are followed, `..` resolved, and hard links compared
+/// by device and inode. An input that is `-` or does not exist cannot be replaced.
+fn not_an_input(
+    flag: &'static str,
+    path: &Path,
+    meta: &Metadata,
+    inputs: &[(&'static str, &Path)],
+) -> Result<(), CliError> {
+    for &(input_flag, input) in inputs {
+        if input == Path::new("-") || input_flag == flag {
+            continue;
+        }
+        if fs::metadata(input).is_ok_and(|m| same_file(&m, meta)) {
+            let message = format!(
+                "is the file --{input_flag} reads ({}); choose another output",
+                input.display()
+            );
+            return Err(bad(flag, path, message));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a file written outside [`Outputs`] (the calibration, which a run reads and then
+/// updates) where it is one of the command's other inputs. A file not there yet is no input.
+pub fn not_input(
+    flag: &'static str,
+    path: &Path,
+    inputs: &[(&'static str, &Path)],
+) -> Result<(), CliError> {
+    match fs::metadata(path) {
+        Ok(meta) => not_an_input(flag, path, &meta, inputs),
+        Err(_) => Ok(()),
+    }
 }
 
 /// Only a regular file may be replaced: a link would be replaced by a file instead of writing

@@ -131,6 +131,67 @@ fn an_input_given_as_an_output_is_refused_and_kept() {
     assert_eq!(names(&dir), ["other.bin", "r.bin", "s.obj"]);
 }
 
+#[test]
+fn no_output_of_any_command_replaces_any_of_its_inputs() {
+    let dir = fresh("every-input");
+    let scene = dir.join("v.obj");
+    std::fs::write(&scene, TRIANGLE).unwrap();
+    let calibration = dir.join("c.json");
+    let empty = "{\"version\": 1, \"entries\": []}\n";
+    std::fs::write(&calibration, empty).unwrap();
+    let (v, c) = (s(&scene), s(&calibration));
+    let bench = ["bench", "--scene", v, "--size", "8x8", "--devices", "cpu:1"];
+    let bench = |extra: &[&str]| cobalt(&[&bench[..], extra, &["--no-trade"]].concat());
+    // The same file under another name: a hard link, a symbolic link, a path through `..`.
+    let hard = dir.join("hard.obj");
+    std::fs::hard_link(&scene, &hard).unwrap();
+    let soft = dir.join("soft.json");
+    std::os::unix::fs::symlink(&calibration, &soft).unwrap();
+    let dotted = format!(
+        "{}/../{}/v.obj",
+        s(&dir),
+        dir.file_name().unwrap().to_str().unwrap()
+    );
+    let cases: Vec<(Output, [&str; 2])> = vec![
+        (bench(&["--json", v]), ["--json", "--scene"]),
+        (bench(&["--json", &dotted]), ["--json", "--scene"]),
+        (
+            bench(&["--calibration", c, "--json", c]),
+            ["--json", "--calibration"],
+        ),
+        (bench(&["--calibration", v]), ["--calibration", "--scene"]),
+        (
+            render(v, &["--calibration", c, "--report", c]),
+            ["--report", "--calibration"],
+        ),
+        (
+            render(v, &["--calibration", s(&soft), "--out", c]),
+            ["--out", "--calibration"],
+        ),
+        (
+            render(v, &["--calibration", s(&hard)]),
+            ["--calibration", "--scene"],
+        ),
+        (render(s(&hard), &["--report", v]), ["--report", "--scene"]),
+    ];
+    // `--plots DIR` writes `cost.png` there: one that is the calibration is refused.
+    std::fs::hard_link(&calibration, dir.join("cost.png")).unwrap();
+    let plots = bench(&["--plots", s(&dir), "--calibration", c]);
+    for (o, flags) in cases
+        .iter()
+        .chain([(plots, ["--plots", "--calibration"])].iter())
+    {
+        refused(o, &flags[..]);
+        assert!(o.stdout.is_empty(), "refused before any work");
+    }
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), TRIANGLE);
+    assert_eq!(std::fs::read_to_string(&calibration).unwrap(), empty);
+    assert_eq!(
+        names(&dir),
+        ["c.json", "cost.png", "hard.obj", "soft.json", "v.obj"]
+    );
+}
+
 #[cfg(unix)]
 #[test]
 fn outputs_that_are_not_regular_files_are_refused() {

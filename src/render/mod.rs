@@ -107,15 +107,20 @@ pub fn run(args: Args) -> Result<(), CliError> {
     rendered.write(&outputs, args.output.json, &summary)
 }
 
-/// Checks every output path before any work: none may be the scene or another output.
+/// Checks every output path before any work: none may be an input (the scene, the
+/// calibration) or another output, and the calibration may not be the scene.
 fn outputs(args: &Args) -> Result<Outputs, CliError> {
+    let scene = ("scene", Path::new(&args.scene.scene));
+    let calibration = args.calibration.check(&[scene])?;
+    let mut inputs = vec![scene];
+    inputs.extend(calibration.as_deref().map(|c| ("calibration", c)));
     Outputs::check(
         &[
             ("out", Some(&args.out)),
             ("cost-image", args.cost_image.as_deref()),
             ("report", args.output.report.as_deref()),
         ],
-        &[("scene", Path::new(&args.scene.scene))],
+        &inputs,
     )
 }
 
