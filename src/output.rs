@@ -209,6 +209,7 @@ fn check_one(
     };
     if let Some(meta) = &existing {
         not_an_input(flag, path, meta, inputs)?;
+        writable(flag, path, meta)?;
     }
     // The only sure test that the directory takes a new file is to make one.
     temporary(&dir, path).map_err(|e| {
@@ -267,6 +268,33 @@ pub fn not_input(
         Ok(meta) => not_an_input(flag, path, &meta, inputs),
         Err(_) => Ok(()),
     }
+}
+
+/// Refuses an existing output its user could not write, as `cp` would, rather than replace
+/// it by a rename (which only needs the directory). The kernel decides for an ordinary user
+/// (`access(2)`, ACLs included); root may write anything, so for root a file without any
+/// write permission bit counts as one the user asked to be kept.
+fn writable(flag: &'static str, path: &Path, meta: &Metadata) -> Result<(), CliError> {
+    let refuse = |why: String| Err(bad(flag, path, why));
+    if meta.permissions().readonly() {
+        return refuse("is read-only; make it writable or choose another output".into());
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        let Ok(c_path) = std::ffi::CString::new(path.as_os_str().as_bytes()) else {
+            return refuse("holds a NUL byte".into());
+        };
+        // SAFETY: `c_path` is a NUL-terminated string that outlives the call; `access` only
+        // reads it.
+        if unsafe { libc::access(c_path.as_ptr(), libc::W_OK) } != 0 {
+            let e = std::io::Error::last_os_error();
+            return refuse(format!(
+                "cannot be written by this user ({e}); choose another output"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Only a regular file may be replaced: a link would be replaced by a file instead of writing

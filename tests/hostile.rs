@@ -194,6 +194,60 @@ fn no_output_of_any_command_replaces_any_of_its_inputs() {
 
 #[cfg(unix)]
 #[test]
+fn a_read_only_output_is_refused_before_the_work_and_kept() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = fresh("read-only");
+    let out = dir.join("ro.png");
+    std::fs::write(&out, "keep").unwrap();
+    std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let report = dir.join("r.json");
+    let o = render(
+        "builtin:cornell",
+        &["--report", s(&report), "--out", s(&out)],
+    );
+    refused(&o, &["--out", "read-only"]);
+    assert!(o.stdout.is_empty(), "refused before any work");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "keep");
+    assert_eq!(names(&dir), ["ro.png"]);
+    let mode = std::fs::metadata(&out).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode, 0o444);
+
+    // A user who may write the directory but not the file (another's 0644 file): as root,
+    // the command runs as `nobody` through `setpriv`, where there is one.
+    let shared = fresh("not-theirs");
+    std::fs::set_permissions(&shared, std::fs::Permissions::from_mode(0o777)).unwrap();
+    let theirs = shared.join("theirs.png");
+    std::fs::write(&theirs, "keep").unwrap();
+    std::fs::set_permissions(&theirs, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| o.stdout == b"0\n");
+    let mut cmd = Command::new("setpriv");
+    cmd.args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+        .arg(env!("CARGO_BIN_EXE_cobalt"))
+        .args([
+            "render",
+            "--scene",
+            "builtin:cornell",
+            "--size",
+            "8x8",
+            "--no-calibration",
+        ])
+        .args(["--devices", "cpu:1", "--out", s(&theirs)]);
+    match cmd.output() {
+        // Where `nobody` cannot run the binary, setpriv says so and there is nothing to check.
+        Ok(o) if root && !String::from_utf8_lossy(&o.stderr).contains("setpriv:") => {
+            refused(&o, &["--out", "cannot be written by this user"]);
+        }
+        _ => eprintln!("not root or no setpriv: the other user's file is not checked"),
+    }
+    assert_eq!(std::fs::read_to_string(&theirs).unwrap(), "keep");
+    assert_eq!(names(&shared), ["theirs.png"]);
+}
+
+#[cfg(unix)]
+#[test]
 fn outputs_that_are_not_regular_files_are_refused() {
     let dir = fresh("special");
     let victim = dir.join("victim.png");
