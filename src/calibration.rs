@@ -36,8 +36,14 @@ impl CalibrationArgs {
         let (path, named) = match &self.calibration {
             Some(path) => (path.clone(), true),
             None => match default_path() {
-                Some(path) => (path, false),
-                None => return Ok(None),
+                Ok(path) => (path, false),
+                Err(why) => {
+                    eprintln!(
+                        "cobalt: no cache directory for the calibration: {why}; this run does \
+                         not learn (--calibration FILE names one)"
+                    );
+                    return Ok(None);
+                }
             },
         };
         Ok(Some(Store::open(path, named)?))
@@ -52,7 +58,7 @@ impl CalibrationArgs {
         if self.no_calibration {
             return Ok(None);
         }
-        let path = self.calibration.clone().or_else(default_path);
+        let path = self.calibration.clone().or_else(|| default_path().ok());
         if let Some(path) = &path {
             crate::output::not_input("calibration", path, inputs)?;
         }

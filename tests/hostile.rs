@@ -770,3 +770,22 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn a_missing_home_is_not_created_and_the_run_says_it_does_not_learn() {
+    let dir = fresh("no-home");
+    let home = dir.join("missing/home");
+    let out = dir.join("o.png");
+    let o = crate::testkit::command()
+        .env_remove("XDG_CACHE_HOME")
+        .env("HOME", &home)
+        .args(["render", "--scene", "builtin:cornell", "--size", "8x8"])
+        .args(["--devices", "cpu:2", "--out", s(&out)])
+        .output()
+        .expect("cobalt runs");
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.matches("does not learn").count(), 1, "{err}");
+    assert!(err.contains(s(&home)), "{err}");
+    assert_eq!(names(&dir), ["o.png"], "HOME was not made");
+}

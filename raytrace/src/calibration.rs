@@ -590,17 +590,34 @@ fn exclusive_temp(dir: &Path, name: &str) -> std::io::Result<(PathBuf, fs::File)
 }
 
 /// Where the calibration is kept by default: `$XDG_CACHE_HOME/cobalt/calibration.json`, else
-/// `$HOME/.cache/cobalt/calibration.json`; `None` when neither is set (to an absolute path,
-/// as the XDG base directory specification asks), and then nothing is kept.
-pub fn default_path() -> Option<PathBuf> {
+/// `$HOME/.cache/cobalt/calibration.json`. `Err` says why there is none: neither is set to an
+/// absolute path (as the XDG base directory specification asks), or `HOME` is not an existing
+/// directory. A run then keeps nothing: it may create the cache directories below `HOME`, never
+/// `HOME` itself.
+pub fn default_path() -> Result<PathBuf, String> {
     default_path_from(std::env::var_os("XDG_CACHE_HOME"), std::env::var_os("HOME"))
 }
 
 /// [`default_path`] from the two variables' values.
-fn default_path_from(xdg_cache_home: Option<OsString>, home: Option<OsString>) -> Option<PathBuf> {
+fn default_path_from(
+    xdg_cache_home: Option<OsString>,
+    home: Option<OsString>,
+) -> Result<PathBuf, String> {
     let absolute = |v: Option<OsString>| v.map(PathBuf::from).filter(|p| p.is_absolute());
-    let cache = absolute(xdg_cache_home).or_else(|| absolute(home).map(|h| h.join(".cache")))?;
-    Some(cache.join("cobalt").join("calibration.json"))
+    let cache = match (absolute(xdg_cache_home), absolute(home)) {
+        (Some(cache), _) => cache,
+        (None, Some(home)) if home.is_dir() => home.join(".cache"),
+        (None, Some(home)) => {
+            return Err(format!(
+                "HOME ({}) is not an existing directory and XDG_CACHE_HOME is not set",
+                home.display()
+            ));
+        }
+        (None, None) => {
+            return Err("neither XDG_CACHE_HOME nor HOME is set to an absolute path".into());
+        }
+    };
+    Ok(cache.join("cobalt").join("calibration.json"))
 }
 
 /// The host's name, for the entries' keys: the kernel's host name, else `/etc/hostname`,
@@ -842,24 +859,24 @@ mod tests {
     #[test]
     fn the_default_path_is_in_the_cache_directory() {
         let p = |x: Option<&str>, h: Option<&str>| {
-            default_path_from(x.map(OsString::from), h.map(OsString::from))
+            default_path_from(x.map(OsString::from), h.map(OsString::from)).ok()
         };
+        let home = std::env::temp_dir();
+        let home = home.to_str().expect("a UTF-8 temp path");
         let expected = |s: &str| Some(PathBuf::from(s));
         assert_eq!(
-            p(Some("/c"), Some("/home/u")),
+            p(Some("/c"), Some(home)),
             expected("/c/cobalt/calibration.json")
         );
-        assert_eq!(
-            p(None, Some("/home/u")),
-            expected("/home/u/.cache/cobalt/calibration.json")
-        );
+        let in_home = format!("{home}/.cache/cobalt/calibration.json");
+        assert_eq!(p(None, Some(home)), expected(&in_home));
         // A relative XDG_CACHE_HOME is ignored, as the specification says.
-        assert_eq!(
-            p(Some("rel"), Some("/home/u")),
-            expected("/home/u/.cache/cobalt/calibration.json")
-        );
+        assert_eq!(p(Some("rel"), Some(home)), expected(&in_home));
         assert_eq!(p(None, None), None);
         assert_eq!(p(Some(""), Some("")), None);
+        // A HOME that is not there is not made.
+        let e = default_path_from(None, Some("/nonexistent/x".into())).unwrap_err();
+        assert!(e.contains("/nonexistent/x"), "{e}");
         assert!(!host_name().is_empty());
     }
 }
