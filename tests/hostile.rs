@@ -525,6 +525,27 @@ fn a_polygon_of_a_thousand_vertices_renders() {
 }
 
 #[test]
+fn a_face_or_line_past_its_limit_is_refused_with_the_file_and_line() {
+    let dir = fresh("huge-face");
+    let scene = dir.join("face.obj");
+    let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nf");
+    obj += &" 1".repeat((1 << 20) + 1);
+    obj += "\n";
+    std::fs::write(&scene, &obj).unwrap();
+    refused(
+        &render(s(&scene), &["--out", s(&dir.join("p.png"))]),
+        &["face.obj:4", "more than 1048576 vertices"],
+    );
+    let line = dir.join("line.obj");
+    std::fs::write(&line, format!("v 0 0 0\n#{}\n", "x".repeat(32 << 20))).unwrap();
+    refused(
+        &render(s(&line), &["--out", s(&dir.join("p.png"))]),
+        &["line.obj:2", "bytes long"],
+    );
+    assert_eq!(names(&dir), ["face.obj", "line.obj"]);
+}
+
+#[test]
 fn overflowing_costs_are_an_error_naming_the_value() {
     let dir = fresh("overflow");
     let costs = dir.join("c.txt");
