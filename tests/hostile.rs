@@ -810,3 +810,33 @@ fn a_missing_home_is_not_created_and_the_run_says_it_does_not_learn() {
     assert!(err.contains(s(&home)), "{err}");
     assert_eq!(names(&dir), ["o.png"], "HOME was not made");
 }
+
+/// Under an address-space cap (`ulimit -v`), sizes past what the process may allocate are
+/// refused by the memory check, naming the flag, instead of panicking or aborting inside an
+/// allocation.
+#[cfg(unix)]
+#[test]
+fn limits_hold_under_a_memory_cap() {
+    let dir = fresh("ulimit");
+    let out = dir.join("x.png");
+    for (extra, flag) in [
+        (&["--scene", "builtin:forest:64"][..], "--scene"),
+        (&["--scene", "builtin:hairball:64"][..], "--scene"),
+        (
+            &["--scene", "builtin:cornell", "--size", "8192x8192"][..],
+            "--size",
+        ),
+    ] {
+        let o = Command::new("sh")
+            .arg("-c")
+            .arg("ulimit -v 4000000 && exec \"$0\" \"$@\"")
+            .arg(env!("CARGO_BIN_EXE_cobalt"))
+            .args(["render", "--devices", "cpu:1", "--no-calibration"])
+            .args(["--out", s(&out)])
+            .args(extra)
+            .output()
+            .expect("sh runs");
+        refused(&o, &[flag, "of memory"]);
+    }
+    assert_eq!(names(&dir), Vec::<String>::new());
+}

@@ -18,7 +18,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use raytrace::bench::{Machines, Record, SceneMatrix, SimRecord, TradePoint, Workload, table};
 use raytrace::cost::SampleRate;
 use raytrace::paths::Mode;
-use raytrace::{BuildPreset, Bvh, Camera, Scene, SceneNeeds, SceneSource};
+use raytrace::{BuildPreset, Bvh, Camera, Scene, SceneNeeds};
 use sched::Policy;
 
 use crate::args::{Devices, MAX_AO_SAMPLES, ShaderKind, Size, sample_rate, task_size};
@@ -182,8 +182,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let loaded = m
         .scenes
         .iter()
-        .map(|s| SceneSource::parse(s).and_then(|src| src.load(m.needs)))
-        .collect::<Result<Vec<_>, _>>()?;
+        .map(|s| Ok(crate::limits::scene(s)?.load(m.needs)?))
+        .collect::<Result<Vec<_>, CliError>>()?;
     let mut measured = Measured::default();
     for (name, scene) in m.scenes.iter().zip(&loaded) {
         measure_scene(&args, &m, (name, scene), store.as_ref(), &mut measured)?;
@@ -413,7 +413,7 @@ fn run_mpi(args: &Args, mut m: Matrix, started: Instant) -> Result<(), CliError>
         .scenes
         .iter()
         .map(|name| {
-            let scene = SceneSource::parse(name)?.load(m.needs)?;
+            let scene = crate::limits::scene(name)?.load(m.needs)?;
             let bvh = Bvh::build(&scene, args.preset)?;
             Ok((scene, bvh))
         })

@@ -20,7 +20,7 @@ use raytrace::paths::{FailAfter, Settings};
 use raytrace::paths::{Frame, build_path_devices};
 use raytrace::run::Run;
 use raytrace::shade::{RenderOptions, Shader};
-use raytrace::{Bvh, Camera, Scene, SceneSource};
+use raytrace::{Bvh, Camera, Scene};
 
 use crate::args::{
     CameraArgs, CameraChoice, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs, Size,
@@ -143,7 +143,7 @@ fn load(
     camera: CameraChoice,
 ) -> Result<(Scene, Bvh, Camera, Header), CliError> {
     let loading = Instant::now();
-    let scene = SceneSource::parse(&args.scene.scene)?.load(shader.needs())?;
+    let scene = crate::limits::scene(&args.scene.scene)?.load(shader.needs())?;
     let load_seconds = loading.elapsed().as_secs_f64();
     let bvh = Bvh::build(&scene, args.scene.preset)?;
     let (view, camera_index) = camera.resolve(&scene);
