@@ -267,7 +267,19 @@ pub fn check_faults(faults: &[FailAfter], devices: usize) -> Result<Vec<FailAfte
                 f.device
             ),
         }),
-        None => Ok(faults.to_vec()),
+        None => {
+            // Two failure points for one device contradict each other: name both.
+            for (i, f) in faults.iter().enumerate() {
+                if let Some(g) = faults[..i].iter().find(|g| g.device == f.device) {
+                    return Err(CliError::Arg {
+                        flag: "fail",
+                        value: format!("{}@{},{}@{}", g.device, g.tasks, f.device, f.tasks),
+                        message: format!("device {} is given two failure points", f.device),
+                    });
+                }
+            }
+            Ok(faults.to_vec())
+        }
     }
 }
 
@@ -478,6 +490,12 @@ mod tests {
 
     #[test]
     fn faults_are_checked_against_the_devices() {
+        let twice = [
+            fail_after("0@0").expect("valid"),
+            fail_after("0@1").expect("valid"),
+        ];
+        let err = check_faults(&twice, 2).expect_err("one device, two failure points");
+        assert!(err.to_string().contains("0@0,0@1"), "{err}");
         let f = [fail_after("1@3").expect("valid")];
         assert!(check_faults(&f, 2).is_ok());
         let err = check_faults(&f, 1).expect_err("no device 1").to_string();

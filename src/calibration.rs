@@ -1,7 +1,7 @@
 //! `--calibration FILE` and `--no-calibration` of the commands that render (`cobalt render`,
 //! `cobalt bench`): which calibration file a run opens ([`raytrace::run::Store`]).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use raytrace::calibration::default_path;
 use raytrace::run::Store;
@@ -36,10 +36,32 @@ impl CalibrationArgs {
         let (path, named) = match &self.calibration {
             Some(path) => (path.clone(), true),
             None => match default_path() {
-                Some(path) => (path, false),
-                None => return Ok(None),
+                Ok(path) => (path, false),
+                Err(why) => {
+                    eprintln!(
+                        "cobalt: no cache directory for the calibration: {why}; this run does \
+                         not learn (--calibration FILE names one)"
+                    );
+                    return Ok(None);
+                }
             },
         };
         Ok(Some(Store::open(path, named)?))
+    }
+
+    /// The file these flags read and update, if any: an input of the command that none of its
+    /// outputs may replace, and an output that may replace none of its other `inputs`.
+    ///
+    /// # Errors
+    /// [`CliError::Output`] naming both flags when the calibration is one of `inputs`.
+    pub fn check(&self, inputs: &[(&'static str, &Path)]) -> Result<Option<PathBuf>, CliError> {
+        if self.no_calibration {
+            return Ok(None);
+        }
+        let path = self.calibration.clone().or_else(|| default_path().ok());
+        if let Some(path) = &path {
+            crate::output::not_input("calibration", path, inputs)?;
+        }
+        Ok(path)
     }
 }

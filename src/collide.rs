@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use collision::{
     BroadPhaseCount, Device, SampleRate, Swarms, World, random_bodies, terrain, unit_cube_mesh,
 };
-use raytrace::{SceneNeeds, SceneSource};
+use raytrace::SceneNeeds;
 use sched::CostEstimator;
 
 use crate::args::{count, sample_rate};
@@ -50,7 +50,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
     let (mesh, source) = match &args.scene {
         Some(path) => {
-            let scene = SceneSource::parse(&path.to_string_lossy())?.load(SceneNeeds::AO)?;
+            let scene = crate::limits::scene(&path.to_string_lossy())?.load(SceneNeeds::AO)?;
             let vertices: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
             let mesh = unit_cube_mesh(&vertices, scene.triangles).map_err(|e| CliError::Arg {
                 flag: "scene",

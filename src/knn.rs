@@ -7,7 +7,7 @@ use knn::{
     Clustered, DensityEstimator, DensityGrid, Device, KnnIndex, KnnQueries, PointCloud, SampleRate,
     SampledQueries,
 };
-use raytrace::{SceneNeeds, SceneSource};
+use raytrace::SceneNeeds;
 use sched::CostEstimator;
 
 use crate::args::{count, sample_rate};
@@ -90,7 +90,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         Some(path) => {
             // Geometry only: the cloud is the scene's vertices, which sample its surfaces
             // densely where the modeller put detail and sparsely elsewhere.
-            let scene = SceneSource::parse(&path.to_string_lossy())?.load(SceneNeeds::AO)?;
+            let scene = crate::limits::scene(&path.to_string_lossy())?.load(SceneNeeds::AO)?;
             let points = scene.positions.iter().map(|p| p.to_array()).collect();
             (PointCloud { points }, path.display().to_string())
         }

@@ -208,15 +208,8 @@ fn check_one(
         Err(e) => return Err(bad(flag, path, format!("cannot inspect: {e}"))),
     };
     if let Some(meta) = &existing {
-        for &(input_flag, input) in inputs {
-            if input == Path::new("-") {
-                continue;
-            }
-            if fs::metadata(input).is_ok_and(|m| same_file(&m, meta)) {
-                let message = format!("is the input of --{input_flag}; choose another output");
-                return Err(bad(flag, path, message));
-            }
-        }
+        not_an_input(flag, path, meta, inputs)?;
+        writable(flag, path, meta)?;
     }
     // The only sure test that the directory takes a new file is to make one.
     temporary(&dir, path).map_err(|e| {
@@ -238,6 +231,70 @@ fn check_one(
             permissions: existing.map(|m| m.permissions()),
         }),
     })
+}
+
+/// Refuses `path`, written by `--flag`, where it is (`meta`, links followed) the file an
+/// input names, whatever names it: links are followed, `..` resolved, and hard links compared
+/// by device and inode. An input that is `-` or does not exist cannot be replaced.
+fn not_an_input(
+    flag: &'static str,
+    path: &Path,
+    meta: &Metadata,
+    inputs: &[(&'static str, &Path)],
+) -> Result<(), CliError> {
+    for &(input_flag, input) in inputs {
+        if input == Path::new("-") || input_flag == flag {
+            continue;
+        }
+        if fs::metadata(input).is_ok_and(|m| same_file(&m, meta)) {
+            let message = format!(
+                "is the file --{input_flag} reads ({}); choose another output",
+                input.display()
+            );
+            return Err(bad(flag, path, message));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a file written outside [`Outputs`] (the calibration, which a run reads and then
+/// updates) where it is one of the command's other inputs. A file not there yet is no input.
+pub fn not_input(
+    flag: &'static str,
+    path: &Path,
+    inputs: &[(&'static str, &Path)],
+) -> Result<(), CliError> {
+    match fs::metadata(path) {
+        Ok(meta) => not_an_input(flag, path, &meta, inputs),
+        Err(_) => Ok(()),
+    }
+}
+
+/// Refuses an existing output its user could not write, as `cp` would, rather than replace
+/// it by a rename (which only needs the directory). The kernel decides for an ordinary user
+/// (`access(2)`, ACLs included); root may write anything, so for root a file without any
+/// write permission bit counts as one the user asked to be kept.
+fn writable(flag: &'static str, path: &Path, meta: &Metadata) -> Result<(), CliError> {
+    let refuse = |why: String| Err(bad(flag, path, why));
+    if meta.permissions().readonly() {
+        return refuse("is read-only; make it writable or choose another output".into());
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        let Ok(c_path) = std::ffi::CString::new(path.as_os_str().as_bytes()) else {
+            return refuse("holds a NUL byte".into());
+        };
+        // SAFETY: `c_path` is a NUL-terminated string that outlives the call; `access` only
+        // reads it.
+        if unsafe { libc::access(c_path.as_ptr(), libc::W_OK) } != 0 {
+            let e = std::io::Error::last_os_error();
+            return refuse(format!(
+                "cannot be written by this user ({e}); choose another output"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Only a regular file may be replaced: a link would be replaced by a file instead of writing

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use raytrace::{Bvh, HitBatch, Layout, RayBatch, SceneNeeds, SceneSource, traverse};
+use raytrace::{Bvh, HitBatch, Layout, RayBatch, SceneNeeds, traverse};
 use serde::Serialize;
 
 use crate::error::CliError;
@@ -95,7 +95,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ],
     )?;
     let loading = Instant::now();
-    let scene = SceneSource::parse(&args.scene.scene)?.load(SceneNeeds::AO)?;
+    let scene = crate::limits::scene(&args.scene.scene)?.load(SceneNeeds::AO)?;
     let load_seconds = loading.elapsed().as_secs_f64();
     let mut rays = read_rays(&args.rays)?;
     scene.rays_to_scene(&mut rays);

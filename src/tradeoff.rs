@@ -10,8 +10,8 @@
 
 use std::path::Path;
 
+use raytrace::BuildPreset;
 use raytrace::tradeoff::{PresetRecord, SampleRecord};
-use raytrace::{BuildPreset, SceneSource};
 use serde::Serialize;
 
 use crate::args::{MAX_AO_SAMPLES, Size, camera_index};
@@ -83,7 +83,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         &[("json", args.json.as_deref())],
         &[("scene", Path::new(&args.scene))],
     )?;
-    let scene = SceneSource::parse(&args.scene)?.load(raytrace::SceneNeeds::AO)?;
+    let scene = crate::limits::scene(&args.scene)?.load(raytrace::SceneNeeds::AO)?;
 
     let size = (width, height);
     let preset_records = raytrace::tradeoff::presets(&scene, size, camera, &presets)?;

@@ -129,3 +129,57 @@ fn a_damaged_calibration_is_named_and_only_the_cache_is_replaced() {
     assert!(!dir.join("refused.png").exists(), "nothing was written");
     assert_eq!(std::fs::read_to_string(&named).expect("kept"), "not json");
 }
+
+/// Eight renders of different workloads (the Cornell box at eight details) started together
+/// on one calibration file: each merges its entries into the file as it is under the file's
+/// lock, so every workload's entries are kept, and no temporary is left.
+#[test]
+fn concurrent_runs_sharing_a_file_keep_every_entry() {
+    let dir = temp_dir("calibration-concurrent");
+    let file = dir.join("shared.json");
+    let _ = std::fs::remove_file(&file);
+    let runs: Vec<_> = (1..=8)
+        .map(|i| {
+            let scene = format!("builtin:cornell:0.{i}");
+            let out = dir.join(format!("c{i}.png"));
+            command()
+                .args(["render", "--scene", &scene, "--size", "16x16"])
+                .args(["--devices", "cpu:2", "--json", "--calibration"])
+                .arg(&file)
+                .arg("--out")
+                .arg(&out)
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .expect("cobalt runs")
+        })
+        .collect();
+    for run in runs {
+        let o = run.wait_with_output().expect("cobalt runs");
+        let r = report(&o);
+        assert!(
+            r["calibration"]["written_entries"].as_u64() > Some(0),
+            "{r}"
+        );
+    }
+    let text = std::fs::read_to_string(&file).expect("the calibration was written");
+    let saved: Value = serde_json::from_str(&text).expect("JSON");
+    let mut workloads: Vec<&str> = saved["entries"]
+        .as_array()
+        .expect("entries")
+        .iter()
+        .filter_map(|e| e["workload"].as_str())
+        .collect();
+    workloads.sort_unstable();
+    workloads.dedup();
+    let expected: Vec<String> = (1..=8)
+        .map(|i| format!("builtin:cornell:0.{i} whitted"))
+        .collect();
+    assert_eq!(workloads, expected);
+    let temporaries: Vec<_> = std::fs::read_dir(&dir)
+        .expect("list")
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(temporaries.is_empty(), "{temporaries:?}");
+}

@@ -131,6 +131,121 @@ fn an_input_given_as_an_output_is_refused_and_kept() {
     assert_eq!(names(&dir), ["other.bin", "r.bin", "s.obj"]);
 }
 
+#[test]
+fn no_output_of_any_command_replaces_any_of_its_inputs() {
+    let dir = fresh("every-input");
+    let scene = dir.join("v.obj");
+    std::fs::write(&scene, TRIANGLE).unwrap();
+    let calibration = dir.join("c.json");
+    let empty = "{\"version\": 1, \"entries\": []}\n";
+    std::fs::write(&calibration, empty).unwrap();
+    let (v, c) = (s(&scene), s(&calibration));
+    let bench = ["bench", "--scene", v, "--size", "8x8", "--devices", "cpu:1"];
+    let bench = |extra: &[&str]| cobalt(&[&bench[..], extra, &["--no-trade"]].concat());
+    // The same file under another name: a hard link, a symbolic link, a path through `..`.
+    let hard = dir.join("hard.obj");
+    std::fs::hard_link(&scene, &hard).unwrap();
+    let soft = dir.join("soft.json");
+    std::os::unix::fs::symlink(&calibration, &soft).unwrap();
+    let dotted = format!(
+        "{}/../{}/v.obj",
+        s(&dir),
+        dir.file_name().unwrap().to_str().unwrap()
+    );
+    let cases: Vec<(Output, [&str; 2])> = vec![
+        (bench(&["--json", v]), ["--json", "--scene"]),
+        (bench(&["--json", &dotted]), ["--json", "--scene"]),
+        (
+            bench(&["--calibration", c, "--json", c]),
+            ["--json", "--calibration"],
+        ),
+        (bench(&["--calibration", v]), ["--calibration", "--scene"]),
+        (
+            render(v, &["--calibration", c, "--report", c]),
+            ["--report", "--calibration"],
+        ),
+        (
+            render(v, &["--calibration", s(&soft), "--out", c]),
+            ["--out", "--calibration"],
+        ),
+        (
+            render(v, &["--calibration", s(&hard)]),
+            ["--calibration", "--scene"],
+        ),
+        (render(s(&hard), &["--report", v]), ["--report", "--scene"]),
+    ];
+    // `--plots DIR` writes `cost.png` there: one that is the calibration is refused.
+    std::fs::hard_link(&calibration, dir.join("cost.png")).unwrap();
+    let plots = bench(&["--plots", s(&dir), "--calibration", c]);
+    for (o, flags) in cases
+        .iter()
+        .chain([(plots, ["--plots", "--calibration"])].iter())
+    {
+        refused(o, &flags[..]);
+        assert!(o.stdout.is_empty(), "refused before any work");
+    }
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), TRIANGLE);
+    assert_eq!(std::fs::read_to_string(&calibration).unwrap(), empty);
+    assert_eq!(
+        names(&dir),
+        ["c.json", "cost.png", "hard.obj", "soft.json", "v.obj"]
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn a_read_only_output_is_refused_before_the_work_and_kept() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = fresh("read-only");
+    let out = dir.join("ro.png");
+    std::fs::write(&out, "keep").unwrap();
+    std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let report = dir.join("r.json");
+    let o = render(
+        "builtin:cornell",
+        &["--report", s(&report), "--out", s(&out)],
+    );
+    refused(&o, &["--out", "read-only"]);
+    assert!(o.stdout.is_empty(), "refused before any work");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "keep");
+    assert_eq!(names(&dir), ["ro.png"]);
+    let mode = std::fs::metadata(&out).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode, 0o444);
+
+    // A user who may write the directory but not the file (another's 0644 file): as root,
+    // the command runs as `nobody` through `setpriv`, where there is one.
+    let shared = fresh("not-theirs");
+    std::fs::set_permissions(&shared, std::fs::Permissions::from_mode(0o777)).unwrap();
+    let theirs = shared.join("theirs.png");
+    std::fs::write(&theirs, "keep").unwrap();
+    std::fs::set_permissions(&theirs, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| o.stdout == b"0\n");
+    let mut cmd = Command::new("setpriv");
+    cmd.args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+        .arg(env!("CARGO_BIN_EXE_cobalt"))
+        .args([
+            "render",
+            "--scene",
+            "builtin:cornell",
+            "--size",
+            "8x8",
+            "--no-calibration",
+        ])
+        .args(["--devices", "cpu:1", "--out", s(&theirs)]);
+    match cmd.output() {
+        // Where `nobody` cannot run the binary, setpriv says so and there is nothing to check.
+        Ok(o) if root && !String::from_utf8_lossy(&o.stderr).contains("setpriv:") => {
+            refused(&o, &["--out", "cannot be written by this user"]);
+        }
+        _ => eprintln!("not root or no setpriv: the other user's file is not checked"),
+    }
+    assert_eq!(std::fs::read_to_string(&theirs).unwrap(), "keep");
+    assert_eq!(names(&shared), ["theirs.png"]);
+}
+
 #[cfg(unix)]
 #[test]
 fn outputs_that_are_not_regular_files_are_refused() {
@@ -410,6 +525,27 @@ fn a_polygon_of_a_thousand_vertices_renders() {
 }
 
 #[test]
+fn a_face_or_line_past_its_limit_is_refused_with_the_file_and_line() {
+    let dir = fresh("huge-face");
+    let scene = dir.join("face.obj");
+    let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nf");
+    obj += &" 1".repeat((1 << 20) + 1);
+    obj += "\n";
+    std::fs::write(&scene, &obj).unwrap();
+    refused(
+        &render(s(&scene), &["--out", s(&dir.join("p.png"))]),
+        &["face.obj:4", "more than 1048576 vertices"],
+    );
+    let line = dir.join("line.obj");
+    std::fs::write(&line, format!("v 0 0 0\n#{}\n", "x".repeat(32 << 20))).unwrap();
+    refused(
+        &render(s(&line), &["--out", s(&dir.join("p.png"))]),
+        &["line.obj:2", "bytes long"],
+    );
+    assert_eq!(names(&dir), ["face.obj", "line.obj"]);
+}
+
+#[test]
 fn overflowing_costs_are_an_error_naming_the_value() {
     let dir = fresh("overflow");
     let costs = dir.join("c.txt");
@@ -654,4 +790,53 @@ proptest! {
             prop_assert!(err.contains("c.txt") || err.contains("--"), "{}", err);
         }
     }
+}
+
+#[test]
+fn a_missing_home_is_not_created_and_the_run_says_it_does_not_learn() {
+    let dir = fresh("no-home");
+    let home = dir.join("missing/home");
+    let out = dir.join("o.png");
+    let o = crate::testkit::command()
+        .env_remove("XDG_CACHE_HOME")
+        .env("HOME", &home)
+        .args(["render", "--scene", "builtin:cornell", "--size", "8x8"])
+        .args(["--devices", "cpu:2", "--out", s(&out)])
+        .output()
+        .expect("cobalt runs");
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.matches("does not learn").count(), 1, "{err}");
+    assert!(err.contains(s(&home)), "{err}");
+    assert_eq!(names(&dir), ["o.png"], "HOME was not made");
+}
+
+/// Under an address-space cap (`ulimit -v`), sizes past what the process may allocate are
+/// refused by the memory check, naming the flag, instead of panicking or aborting inside an
+/// allocation.
+#[cfg(unix)]
+#[test]
+fn limits_hold_under_a_memory_cap() {
+    let dir = fresh("ulimit");
+    let out = dir.join("x.png");
+    for (extra, flag) in [
+        (&["--scene", "builtin:forest:64"][..], "--scene"),
+        (&["--scene", "builtin:hairball:64"][..], "--scene"),
+        (
+            &["--scene", "builtin:cornell", "--size", "8192x8192"][..],
+            "--size",
+        ),
+    ] {
+        let o = Command::new("sh")
+            .arg("-c")
+            .arg("ulimit -v 4000000 && exec \"$0\" \"$@\"")
+            .arg(env!("CARGO_BIN_EXE_cobalt"))
+            .args(["render", "--devices", "cpu:1", "--no-calibration"])
+            .args(["--out", s(&out)])
+            .args(extra)
+            .output()
+            .expect("sh runs");
+        refused(&o, &[flag, "of memory"]);
+    }
+    assert_eq!(names(&dir), Vec::<String>::new());
 }

@@ -21,6 +21,7 @@ use std::ffi::OsString;
 use std::fs;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
@@ -130,6 +131,16 @@ pub enum CalibrationError {
         value: f64,
         /// What it should have been.
         why: &'static str,
+    },
+    /// Another run held the file's lock for longer than [`LOCK_WAIT`].
+    #[error("{path}: another run has held the calibration's lock ({lock}) for {waited} s")]
+    Locked {
+        /// The calibration file.
+        path: PathBuf,
+        /// The lock file beside it.
+        lock: PathBuf,
+        /// Seconds waited.
+        waited: u64,
     },
     /// The file (or its directory, or the temporary beside it) could not be written.
     #[error("{path}: cannot write the calibration file: {source}")]
@@ -405,15 +416,8 @@ impl Calibration {
             path: at.to_owned(),
             source,
         };
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
-            _ => PathBuf::from("."),
-        };
+        let (dir, name) = dir_and_name(path);
         fs::create_dir_all(&dir).map_err(|e| failed(&dir, e))?;
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "calibration".to_owned());
         let (temp, mut file) = exclusive_temp(&dir, &name).map_err(|e| failed(path, e))?;
         let written = file
             .write_all(self.to_json().as_bytes())
@@ -428,6 +432,32 @@ impl Calibration {
             return Err(failed(path, e));
         }
         Ok(())
+    }
+
+    /// Writes to `path` what this calibration changed from `read` (the file as this run read
+    /// it), merged into the file as it is now: other runs may have written theirs since. The
+    /// read, merge and write happen under an advisory lock ([`lock`]), so that runs sharing a
+    /// file keep every one's entries; where a run's entry and another's share a key, the last
+    /// to write wins.
+    ///
+    /// # Errors
+    /// [`CalibrationError::Locked`] when another run holds the lock for longer than
+    /// [`LOCK_WAIT`], and [`Calibration::save`]'s errors; the file is then left as it was. A
+    /// file that can no longer be read is replaced, as a damaged cache is.
+    pub fn update(&self, path: &Path, read: &Calibration) -> Result<(), CalibrationError> {
+        let _lock = lock(path)?;
+        let mut current = Self::load(path).unwrap_or_default();
+        for (key, entry) in &self.entries {
+            if read.entries.get(key) != Some(entry) {
+                current.entries.insert(key.clone(), *entry);
+            }
+        }
+        for (key, choice) in &self.choices {
+            if read.choices.get(key) != Some(choice) {
+                current.choices.insert(key.clone(), choice.clone());
+            }
+        }
+        current.save(path)
     }
 
     /// The entry of `key`, if there is one.
@@ -478,6 +508,62 @@ impl Calibration {
     }
 }
 
+/// How long a run waits for another run's update of the same calibration file before it goes
+/// on without saving: an update takes milliseconds, so a lock held this long is stuck.
+pub const LOCK_WAIT: Duration = Duration::from_secs(5);
+
+/// Takes the advisory lock of the calibration at `path` (creating its directory and the lock
+/// file `.NAME.lock` beside it if needed), waiting up to [`LOCK_WAIT`]. The lock is on a file
+/// of its own, not on the calibration, because each update renames a new file over the
+/// calibration: a lock held on the old file would not exclude a run that opened the new one.
+/// The lock file is left in place, since removing it would race with a run about to lock it.
+/// The lock goes with the returned file, also when the process dies.
+fn lock(path: &Path) -> Result<fs::File, CalibrationError> {
+    let failed = |at: &Path, source| CalibrationError::Write {
+        path: at.to_owned(),
+        source,
+    };
+    let (dir, name) = dir_and_name(path);
+    fs::create_dir_all(&dir).map_err(|e| failed(&dir, e))?;
+    let lock_path = dir.join(format!(".{name}.lock"));
+    let file = fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&lock_path)
+        .map_err(|e| failed(&lock_path, e))?;
+    let start = Instant::now();
+    loop {
+        match file.try_lock() {
+            Ok(()) => return Ok(file),
+            Err(fs::TryLockError::WouldBlock) if start.elapsed() < LOCK_WAIT => {
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            Err(fs::TryLockError::WouldBlock) => {
+                return Err(CalibrationError::Locked {
+                    path: path.to_owned(),
+                    lock: lock_path,
+                    waited: LOCK_WAIT.as_secs(),
+                });
+            }
+            Err(fs::TryLockError::Error(e)) => return Err(failed(&lock_path, e)),
+        }
+    }
+}
+
+/// The directory of the calibration at `path` (`.` for a bare name) and its file name.
+fn dir_and_name(path: &Path) -> (PathBuf, String) {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
+        _ => PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "calibration".to_owned());
+    (dir, name)
+}
+
 /// A new file in `dir` beside `name`, created exclusively (it cannot be a planted link or
 /// another run's temporary).
 fn exclusive_temp(dir: &Path, name: &str) -> std::io::Result<(PathBuf, fs::File)> {
@@ -504,17 +590,34 @@ fn exclusive_temp(dir: &Path, name: &str) -> std::io::Result<(PathBuf, fs::File)
 }
 
 /// Where the calibration is kept by default: `$XDG_CACHE_HOME/cobalt/calibration.json`, else
-/// `$HOME/.cache/cobalt/calibration.json`; `None` when neither is set (to an absolute path,
-/// as the XDG base directory specification asks), and then nothing is kept.
-pub fn default_path() -> Option<PathBuf> {
+/// `$HOME/.cache/cobalt/calibration.json`. `Err` says why there is none: neither is set to an
+/// absolute path (as the XDG base directory specification asks), or `HOME` is not an existing
+/// directory. A run then keeps nothing: it may create the cache directories below `HOME`, never
+/// `HOME` itself.
+pub fn default_path() -> Result<PathBuf, String> {
     default_path_from(std::env::var_os("XDG_CACHE_HOME"), std::env::var_os("HOME"))
 }
 
 /// [`default_path`] from the two variables' values.
-fn default_path_from(xdg_cache_home: Option<OsString>, home: Option<OsString>) -> Option<PathBuf> {
+fn default_path_from(
+    xdg_cache_home: Option<OsString>,
+    home: Option<OsString>,
+) -> Result<PathBuf, String> {
     let absolute = |v: Option<OsString>| v.map(PathBuf::from).filter(|p| p.is_absolute());
-    let cache = absolute(xdg_cache_home).or_else(|| absolute(home).map(|h| h.join(".cache")))?;
-    Some(cache.join("cobalt").join("calibration.json"))
+    let cache = match (absolute(xdg_cache_home), absolute(home)) {
+        (Some(cache), _) => cache,
+        (None, Some(home)) if home.is_dir() => home.join(".cache"),
+        (None, Some(home)) => {
+            return Err(format!(
+                "HOME ({}) is not an existing directory and XDG_CACHE_HOME is not set",
+                home.display()
+            ));
+        }
+        (None, None) => {
+            return Err("neither XDG_CACHE_HOME nor HOME is set to an absolute path".into());
+        }
+    };
+    Ok(cache.join("cobalt").join("calibration.json"))
 }
 
 /// The host's name, for the entries' keys: the kernel's host name, else `/etc/hostname`,
@@ -614,6 +717,33 @@ mod tests {
             .collect();
         assert_eq!(names, ["calibration.json"], "no temporary is left behind");
         fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn an_update_merges_into_the_file_as_it_is_and_waits_for_the_lock() {
+        let dir = scratch("merge");
+        let path = dir.join("c.json");
+        let read = Calibration::new();
+        let mut ours = Calibration::new();
+        let entry = |speed| Entry {
+            speed,
+            paths_per_second: None,
+            model: None,
+            samples: 1,
+            spikes: 0,
+        };
+        ours.insert(Key::new("h", "cpu/1", "a"), entry(1.0));
+        let mut theirs = Calibration::new();
+        theirs.insert(Key::new("h", "cpu/1", "b"), entry(2.0));
+        theirs.save(&path).unwrap();
+        ours.update(&path, &read).unwrap();
+        assert_eq!(Calibration::load(&path).unwrap().len(), 2, "both kept");
+
+        let held = lock(&path).unwrap();
+        let e = ours.update(&path, &read).unwrap_err();
+        assert!(matches!(e, CalibrationError::Locked { .. }), "{e}");
+        drop(held);
+        ours.update(&path, &read).unwrap();
     }
 
     #[test]
@@ -729,24 +859,24 @@ mod tests {
     #[test]
     fn the_default_path_is_in_the_cache_directory() {
         let p = |x: Option<&str>, h: Option<&str>| {
-            default_path_from(x.map(OsString::from), h.map(OsString::from))
+            default_path_from(x.map(OsString::from), h.map(OsString::from)).ok()
         };
+        let home = std::env::temp_dir();
+        let home = home.to_str().expect("a UTF-8 temp path");
         let expected = |s: &str| Some(PathBuf::from(s));
         assert_eq!(
-            p(Some("/c"), Some("/home/u")),
+            p(Some("/c"), Some(home)),
             expected("/c/cobalt/calibration.json")
         );
-        assert_eq!(
-            p(None, Some("/home/u")),
-            expected("/home/u/.cache/cobalt/calibration.json")
-        );
+        let in_home = format!("{home}/.cache/cobalt/calibration.json");
+        assert_eq!(p(None, Some(home)), expected(&in_home));
         // A relative XDG_CACHE_HOME is ignored, as the specification says.
-        assert_eq!(
-            p(Some("rel"), Some("/home/u")),
-            expected("/home/u/.cache/cobalt/calibration.json")
-        );
+        assert_eq!(p(Some("rel"), Some(home)), expected(&in_home));
         assert_eq!(p(None, None), None);
         assert_eq!(p(Some(""), Some("")), None);
+        // A HOME that is not there is not made.
+        let e = default_path_from(None, Some("/nonexistent/x".into())).unwrap_err();
+        assert!(e.contains("/nonexistent/x"), "{e}");
         assert!(!host_name().is_empty());
     }
 }

@@ -147,6 +147,14 @@ pub const MAX_OBJ_BYTES: u64 = 4 << 30;
 /// data, `/dev/zero`).
 const BLOCK: usize = 1 << 16;
 
+/// Longest line read, in bytes: a polygon at [`MAX_FACE_VERTICES`] with full `v/vt/vn`
+/// references fits; anything longer is not geometry a renderer should take in one line.
+pub const MAX_LINE_BYTES: usize = 32 << 20;
+
+/// Most vertices of one face: a polygon is fanned into one triangle per vertex past the
+/// second, and a face this large is damage or an attack rather than a model.
+pub const MAX_FACE_VERTICES: usize = 1 << 20;
+
 /// Reads the file, or standard input for `-`, up to [`MAX_OBJ_BYTES`].
 fn read(path: &Path) -> Result<Vec<u8>> {
     use std::io::Read;
@@ -238,6 +246,16 @@ fn scan(text: &str, path: &Path) -> Result<Scan> {
     let mut triangles = 0usize;
     for (i, line) in text.lines().enumerate() {
         let line_no = i + 1;
+        if line.len() > MAX_LINE_BYTES {
+            return Err(parse_err(
+                &p,
+                line_no,
+                format!(
+                    "the line is {} bytes long, more than the {MAX_LINE_BYTES} a line may be",
+                    line.len()
+                ),
+            ));
+        }
         let mut words = line.split_whitespace();
         match words.next() {
             Some("v") => {
@@ -287,6 +305,13 @@ fn scan(text: &str, path: &Path) -> Result<Scan> {
                 let mut n = 0usize;
                 for word in words {
                     n += 1;
+                    if n > MAX_FACE_VERTICES {
+                        return Err(parse_err(
+                            &p,
+                            line_no,
+                            format!("the face has more than {MAX_FACE_VERTICES} vertices"),
+                        ));
+                    }
                     for (slot, part) in word.split('/').enumerate() {
                         if part.is_empty() {
                             continue;

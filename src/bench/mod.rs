@@ -18,7 +18,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use raytrace::bench::{Machines, Record, SceneMatrix, SimRecord, TradePoint, Workload, table};
 use raytrace::cost::SampleRate;
 use raytrace::paths::Mode;
-use raytrace::{BuildPreset, Bvh, Camera, Scene, SceneNeeds, SceneSource};
+use raytrace::{BuildPreset, Bvh, Camera, Scene, SceneNeeds};
 use sched::Policy;
 
 use crate::args::{Devices, MAX_AO_SAMPLES, ShaderKind, Size, sample_rate, task_size};
@@ -170,9 +170,8 @@ struct Measured {
 /// Runs the benchmark; every argument is checked before anything is measured.
 pub fn run(args: Args) -> Result<(), CliError> {
     let started = Instant::now();
-    // A bad --json path fails now rather than after the whole matrix has run.
-    crate::output::Outputs::check(&[("json", args.json.as_deref())], &[])?;
     let m = Matrix::of(&args);
+    check_outputs(&args, &m)?;
     #[cfg(feature = "mpi")]
     if args.mpi {
         return run_mpi(&args, m, started);
@@ -183,8 +182,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let loaded = m
         .scenes
         .iter()
-        .map(|s| SceneSource::parse(s).and_then(|src| src.load(m.needs)))
-        .collect::<Result<Vec<_>, _>>()?;
+        .map(|s| Ok(crate::limits::scene(s)?.load(m.needs)?))
+        .collect::<Result<Vec<_>, CliError>>()?;
     let mut measured = Measured::default();
     for (name, scene) in m.scenes.iter().zip(&loaded) {
         measure_scene(&args, &m, (name, scene), store.as_ref(), &mut measured)?;
@@ -217,6 +216,29 @@ pub fn run(args: Args) -> Result<(), CliError> {
     );
     crate::print::print_text(&out)?;
     write_json(args.json.as_deref(), &records, &sims, &points)
+}
+
+/// Checks every output (`--json`, the charts of `--plots`, the calibration) now rather than
+/// after the whole matrix has run: none may be an input (a scene, the calibration) or another
+/// output.
+fn check_outputs(args: &Args, m: &Matrix) -> Result<(), CliError> {
+    let scenes: Vec<(&'static str, &std::path::Path)> = m
+        .scenes
+        .iter()
+        .map(|s| ("scene", std::path::Path::new(s)))
+        .collect();
+    let mut inputs = scenes.clone();
+    let calibration = args.calibration.check(&scenes)?;
+    inputs.extend(calibration.as_deref().map(|c| ("calibration", c)));
+    let charts: Vec<PathBuf> = match &args.plots {
+        // A directory not there yet holds no input.
+        Some(dir) if dir.is_dir() => plots::FILES.iter().map(|f| dir.join(f)).collect(),
+        _ => Vec::new(),
+    };
+    let mut outputs = vec![("json", args.json.as_deref())];
+    outputs.extend(charts.iter().map(|c| ("plots", Some(c.as_path()))));
+    crate::output::Outputs::check(&outputs, &inputs)?;
+    Ok(())
 }
 
 /// Writes every record (measured or over the ranks, simulated, then the sampling trade) as one
@@ -391,7 +413,7 @@ fn run_mpi(args: &Args, mut m: Matrix, started: Instant) -> Result<(), CliError>
         .scenes
         .iter()
         .map(|name| {
-            let scene = SceneSource::parse(name)?.load(m.needs)?;
+            let scene = crate::limits::scene(name)?.load(m.needs)?;
             let bvh = Bvh::build(&scene, args.preset)?;
             Ok((scene, bvh))
         })

@@ -305,6 +305,10 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
     save(path, rgb, w, h)
 }
 
+/// The charts `--plots` may write into its directory, in the order [`write_all`] writes them:
+/// MRays/s, balance, the sampling trade, the cost image.
+pub const FILES: [&str; 4] = ["mrays.png", "balance.png", "sampling.png", "cost.png"];
+
 /// Writes every chart into `dir` (created if missing); returns the files written.
 pub fn write_all(
     dir: &Path,
@@ -315,7 +319,7 @@ pub fn write_all(
     font()?;
     std::fs::create_dir_all(dir).map_err(|e| CliError::Write(format!("{}: {e}", dir.display())))?;
     let mut written = Vec::new();
-    let p = dir.join("mrays.png");
+    let p = dir.join(FILES[0]);
     bars(
         &p,
         records,
@@ -324,7 +328,7 @@ pub fn write_all(
         |r| r.mrays_per_s,
     )?;
     written.push(p);
-    let p = dir.join("balance.png");
+    let p = dir.join(FILES[1]);
     bars(
         &p,
         records,
@@ -334,12 +338,12 @@ pub fn write_all(
     )?;
     written.push(p);
     if !points.is_empty() {
-        let p = dir.join("sampling.png");
+        let p = dir.join(FILES[2]);
         trade(&p, points)?;
         written.push(p);
     }
     if let Some(png) = cost_png {
-        let p = dir.join("cost.png");
+        let p = dir.join(FILES[3]);
         crate::output::write_file(&p, &png)?;
         written.push(p);
     }

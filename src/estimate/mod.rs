@@ -16,7 +16,7 @@ mod rays;
 
 use raytrace::cost::SampleRun;
 use raytrace::estimate::{Device, Settings, WalkChoice};
-use raytrace::{Bvh, Camera, SceneSource, Walk};
+use raytrace::{Bvh, Camera, Walk};
 
 use crate::error::CliError;
 use crate::trace::Device as DeviceArg;
@@ -29,7 +29,7 @@ pub use args::Args;
 pub fn run(args: Args) -> Result<(), CliError> {
     let source = RaySource::parse(&args.rays, args.ray_kind);
 
-    let scene = SceneSource::parse(&args.scene.scene)?.load(source.needs())?;
+    let scene = crate::limits::scene(&args.scene.scene)?.load(source.needs())?;
     let bvh = Bvh::build(&scene, args.scene.preset)?;
     let camera = Camera::orbit(&scene.bounds(), args.camera);
     let settings = RaySettings {

@@ -20,7 +20,7 @@ use raytrace::paths::{FailAfter, Settings};
 use raytrace::paths::{Frame, build_path_devices};
 use raytrace::run::Run;
 use raytrace::shade::{RenderOptions, Shader};
-use raytrace::{Bvh, Camera, Scene, SceneSource};
+use raytrace::{Bvh, Camera, Scene};
 
 use crate::args::{
     CameraArgs, CameraChoice, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs, Size,
@@ -107,15 +107,20 @@ pub fn run(args: Args) -> Result<(), CliError> {
     rendered.write(&outputs, args.output.json, &summary)
 }
 
-/// Checks every output path before any work: none may be the scene or another output.
+/// Checks every output path before any work: none may be an input (the scene, the
+/// calibration) or another output, and the calibration may not be the scene.
 fn outputs(args: &Args) -> Result<Outputs, CliError> {
+    let scene = ("scene", Path::new(&args.scene.scene));
+    let calibration = args.calibration.check(&[scene])?;
+    let mut inputs = vec![scene];
+    inputs.extend(calibration.as_deref().map(|c| ("calibration", c)));
     Outputs::check(
         &[
             ("out", Some(&args.out)),
             ("cost-image", args.cost_image.as_deref()),
             ("report", args.output.report.as_deref()),
         ],
-        &[("scene", Path::new(&args.scene.scene))],
+        &inputs,
     )
 }
 
@@ -138,7 +143,7 @@ fn load(
     camera: CameraChoice,
 ) -> Result<(Scene, Bvh, Camera, Header), CliError> {
     let loading = Instant::now();
-    let scene = SceneSource::parse(&args.scene.scene)?.load(shader.needs())?;
+    let scene = crate::limits::scene(&args.scene.scene)?.load(shader.needs())?;
     let load_seconds = loading.elapsed().as_secs_f64();
     let bvh = Bvh::build(&scene, args.scene.preset)?;
     let (view, camera_index) = camera.resolve(&scene);

@@ -29,6 +29,18 @@ impl Builtin {
     /// All of them, for listings and tests.
     pub const ALL: [Self; 3] = [Self::Forest, Self::Hairball, Self::Cornell];
 
+    /// About how many triangles the generator makes at `detail` (measured at detail 1 and
+    /// rounded up; the count grows about linearly with detail), so that what a scene needs
+    /// can be checked before it is generated.
+    pub fn triangles_at(self, detail: f32) -> u64 {
+        let per_detail = match self {
+            Self::Forest => 146_000.0,
+            Self::Hairball => 1_010_000.0,
+            Self::Cornell => 11_000.0,
+        };
+        (per_detail * f64::from(detail)).ceil() as u64
+    }
+
     /// By the name used in `builtin:NAME`.
     pub fn from_name(name: &str) -> Option<Self> {
         match name {

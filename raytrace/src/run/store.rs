@@ -83,13 +83,14 @@ impl Store {
         self.path.display().to_string()
     }
 
-    /// Writes the calibration back if the run learnt anything (a warning on standard error if
-    /// it cannot be written), and says what happened.
+    /// Merges what the run learnt into the file as it is now, under the file's lock, if the run
+    /// learnt anything (a warning on standard error if it cannot be written or locked), and says
+    /// what happened.
     pub fn save(&self) -> CalibrationReport {
         let written = if self.learnt == 0 {
             0
         } else {
-            match self.calibration.save(&self.path) {
+            match self.calibration.update(&self.path, &self.read) {
                 Ok(()) => self.learnt,
                 Err(e) => {
                     eprintln!("cobalt: {e}; the calibration was not saved");
