@@ -409,7 +409,7 @@ fn run_mpi(args: &Args, mut m: Matrix, started: Instant) -> Result<(), CliError>
     m.modes = vec![Mode::Cost];
     m.cameras = 1;
     let cluster = sched::mpi::Cluster::init()?;
-    let loaded: Result<Vec<_>, raytrace::Error> = m
+    let loaded: Result<Vec<_>, CliError> = m
         .scenes
         .iter()
         .map(|name| {
