@@ -49,6 +49,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    quiet_device_select();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Bench(args) => bench::run(args),
@@ -69,5 +70,18 @@ fn main() -> ExitCode {
             let _ = std::io::Write::write_all(&mut std::io::stderr().lock(), line.as_bytes());
             ExitCode::from(e.exit_code())
         }
+    }
+}
+
+/// Turns off Mesa's Vulkan device-select layer unless the user set it: to order the GPUs by
+/// the desktop's, it connects to Wayland and X11 at every instance creation, and without a
+/// desktop it prints `error: XDG_RUNTIME_DIR is invalid or not set in the environment.` on a
+/// run that succeeds. cobalt chooses its adapters itself (`--devices`), so the order is not
+/// needed.
+fn quiet_device_select() {
+    if std::env::var_os("NODEVICE_SELECT").is_none() {
+        // SAFETY: called first in `main`, before any thread is started, so no other thread
+        // can read the environment while it changes.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
     }
 }
