@@ -436,7 +436,7 @@ impl Calibration {
 
     /// Writes to `path` what this calibration changed from `read` (the file as this run read
     /// it), merged into the file as it is now: other runs may have written theirs since. The
-    /// read, merge and write happen under an advisory lock ([`lock`]), so that runs sharing a
+    /// read, merge and write happen under an advisory lock (a `.NAME.lock` file beside it), so that runs sharing a
     /// file keep every one's entries; where a run's entry and another's share a key, the last
     /// to write wins.
     ///
