@@ -144,11 +144,13 @@ proptest! {
 }
 
 /// With estimates off by up to 5× either way, stealing the tail must pay off on average:
-/// Hybrid ends closer to the lower bound than the static LPT plan it starts from.
+/// Hybrid ends closer to the lower bound than the static LPT plan it starts from, both run as
+/// planned. Backup copies pay off for both.
 #[test]
 fn hybrid_absorbs_wrong_estimates() {
     let mut rng = Rng::from_env(7);
-    let (mut lpt_sum, mut hybrid_sum) = (0.0, 0.0);
+    // [policy][backups]
+    let mut sums = [[0.0; 2]; 2];
     for _ in 0..300 {
         let m = 2 + rng.below(7);
         let n = 4 * m + rng.below(36 * m);
@@ -160,23 +162,28 @@ fn hybrid_absorbs_wrong_estimates() {
         let (estimated, actual) = (Costs::new(estimated).unwrap(), Costs::new(actual).unwrap());
         let speeds = Speeds::identical(m).unwrap();
         let lb = lower_bound(&actual, &speeds);
-        let run = |p: Policy| {
-            Simulation::new(p, speeds.clone())
-                .run_actual(&estimated, &actual)
-                .unwrap()
-                .metrics
-                .makespan
-                / lb
-        };
-        lpt_sum += run(Policy::StaticLpt);
-        hybrid_sum += run(Policy::Hybrid);
+        for (p, policy) in [Policy::StaticLpt, Policy::Hybrid].into_iter().enumerate() {
+            for (b, backups) in [false, true].into_iter().enumerate() {
+                sums[p][b] += Simulation::new(policy, speeds.clone())
+                    .backups(backups)
+                    .run_actual(&estimated, &actual)
+                    .unwrap()
+                    .metrics
+                    .makespan
+                    / lb;
+            }
+        }
     }
     eprintln!(
-        "mean makespan / lower bound: static-lpt {:.4}, hybrid {:.4}",
-        lpt_sum / 300.0,
-        hybrid_sum / 300.0
+        "mean makespan / lower bound, without and with backups: static-lpt {:.4} {:.4}, \
+         hybrid {:.4} {:.4}",
+        sums[0][0] / 300.0,
+        sums[0][1] / 300.0,
+        sums[1][0] / 300.0,
+        sums[1][1] / 300.0
     );
-    assert!(hybrid_sum < lpt_sum);
+    assert!(sums[1][0] < sums[0][0]);
+    assert!(sums[0][1] < sums[0][0] && sums[1][1] < sums[1][0]);
 }
 
 /// Behind a network-like launch (200 µs on a run of about 45 ms), Hybrid launches a few times
