@@ -176,12 +176,13 @@ impl<O> Sink<O> {
             .is_none_or(|w| !w.is_done(self.outputs.len()))
     }
 
-    /// True while any task of the batch from the next on is still wanted: false when the rest
-    /// of the launch is of no use.
-    pub fn any_wanted(&self) -> bool {
+    /// True while any of the next `count` tasks of the batch is still wanted: false when
+    /// running them is of no use.
+    pub fn any_wanted(&self, count: usize) -> bool {
+        let next = self.outputs.len();
         self.watch
             .as_ref()
-            .is_none_or(|w| (self.outputs.len()..w.tasks.len()).any(|k| !w.is_done(k)))
+            .is_none_or(|w| (next..(next + count).min(w.tasks.len())).any(|k| !w.is_done(k)))
     }
 
     /// Passes over the next task of the batch, whose output is no longer wanted. Skipping a

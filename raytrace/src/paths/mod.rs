@@ -65,7 +65,7 @@ pub use estimate::{
     SampledTask, estimate_paths, estimate_paths_in, sample_paths, sampled_options, task_work,
     walk_paths,
 };
-pub use fault::{FailAfter, FailingPaths, InjectedFault};
+pub use fault::{FailAfter, FailingPaths, InjectedFault, SlowBy, SlowPaths};
 pub use frame::Frame;
 #[cfg(feature = "gpu")]
 pub use gpu::GpuPaths;
