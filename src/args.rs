@@ -532,7 +532,10 @@ mod tests {
         let slow = [slow_by("2=4").expect("valid")];
         assert!(check_slow(&slow, 3).is_ok());
         let err = check_slow(&slow, 2).expect_err("no device 2").to_string();
-        assert!(err.contains("--slow") && err.contains("no device 2"), "{err}");
+        assert!(
+            err.contains("--slow") && err.contains("no device 2"),
+            "{err}"
+        );
     }
 
     #[test]

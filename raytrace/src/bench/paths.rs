@@ -10,9 +10,7 @@ use super::replay::{Replayed, replay};
 use crate::camera::Camera;
 use crate::cost::SampleRate;
 use crate::paths::Settings;
-use crate::paths::{
-    Frame, FrameStats, PathRenderer, SlowPaths, build_path_devices, walk_paths,
-};
+use crate::paths::{Frame, FrameStats, PathRenderer, SlowPaths, build_path_devices, walk_paths};
 use crate::run::{CalibrationReport, workload};
 use crate::shade::RenderOptions;
 use crate::traffic::Traffic;

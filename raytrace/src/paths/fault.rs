@@ -125,7 +125,10 @@ impl<'a> SlowPaths<'a> {
 
     /// Each device of `devices` named in `slow` made that much slower (the largest factor
     /// where one is named twice). The caller checks the indices.
-    pub fn wrap(devices: Vec<Box<dyn PathDevice + 'a>>, slow: &[SlowBy]) -> Vec<Box<dyn PathDevice + 'a>> {
+    pub fn wrap(
+        devices: Vec<Box<dyn PathDevice + 'a>>,
+        slow: &[SlowBy],
+    ) -> Vec<Box<dyn PathDevice + 'a>> {
         devices
             .into_iter()
             .enumerate()
