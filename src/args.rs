@@ -187,6 +187,16 @@ impl Devices {
         self.specs.iter().any(|s| matches!(s, DeviceSpec::Gpu(_)))
     }
 
+    /// How many devices the list makes, where known before they are opened (`usize::MAX`
+    /// with GPU entries): the bound of a `--fail` or `--slow` device index.
+    pub fn known_count(&self) -> usize {
+        if self.has_gpu() {
+            usize::MAX
+        } else {
+            self.cpu_devices()
+        }
+    }
+
     fn cpu(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
         self.specs.iter().filter_map(|s| match *s {
             DeviceSpec::Cpu { count, threads } => Some((count, threads)),

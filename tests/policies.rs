@@ -235,14 +235,17 @@ impl Mixed {
     /// The simulated makespan: planned on the estimates and declared speeds, timed on the
     /// actual costs and speeds.
     fn makespan(&self, policy: Policy, backups: bool, latency: f64) -> f64 {
-        let estimated = Costs::new(self.estimated.clone()).unwrap();
-        Simulation::new(policy, Speeds::new(self.declared.clone()).unwrap())
-            .backups(backups)
-            .latency(latency)
-            .run_timed(&estimated, &|t, d| self.actual[t] / self.speeds[d])
-            .expect("no faults")
-            .metrics
-            .makespan
+        let estimated = Costs::new(self.estimated.clone()).expect("finite costs");
+        Simulation::new(
+            policy,
+            Speeds::new(self.declared.clone()).expect("positive speeds"),
+        )
+        .backups(backups)
+        .latency(latency)
+        .run_timed(&estimated, &|t, d| self.actual[t] / self.speeds[d])
+        .expect("no faults")
+        .metrics
+        .makespan
     }
 }
 

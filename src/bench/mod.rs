@@ -179,6 +179,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let started = Instant::now();
     // A bad --json path fails now rather than after the whole matrix has run.
     crate::output::Outputs::check(&[("json", args.json.as_deref())], &[])?;
+    crate::args::check_slow(&args.slow, args.devices.known_count())?;
     let m = Matrix::of(&args);
     #[cfg(feature = "mpi")]
     if args.mpi {

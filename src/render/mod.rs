@@ -80,7 +80,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     // The film, the rays of a generation and their hits, per pixel and sample.
     crate::limits::memory("size", &args.size.to_string(), &[(args.size.pixels(), 256)])?;
     let faults = faults(&args)?;
-    let slow = crate::args::check_slow(&args.slow, known_devices(&args))?;
+    let slow = crate::args::check_slow(&args.slow, args.schedule.devices.known_count())?;
     let settings = args.schedule.settings();
     let camera = args.camera.choice()?;
     let shader = args.shader.shader();
@@ -167,18 +167,7 @@ fn load(
 /// `--fail`, each device an index into `--devices`. GPU entries open however many adapters
 /// exist: their indices are checked once the devices are built (naming the fault).
 fn faults(args: &Args) -> Result<Vec<FailAfter>, CliError> {
-    crate::args::check_faults(&args.fail, known_devices(args))
-}
-
-/// How many devices `--devices` makes, where known before they are opened (`usize::MAX`
-/// with GPU entries).
-fn known_devices(args: &Args) -> usize {
-    let devices = &args.schedule.devices;
-    if devices.has_gpu() {
-        usize::MAX
-    } else {
-        devices.cpu_devices()
-    }
+    crate::args::check_faults(&args.fail, args.schedule.devices.known_count())
 }
 
 /// `cobalt render` under `mpirun`: the flags a cluster cannot honour are refused, then every
@@ -200,6 +189,13 @@ fn mpi(
             flag: "cost-image",
             value: path.display().to_string(),
             message: "not available under mpirun; render the cost image in one process".into(),
+        });
+    }
+    if let Some(s) = args.slow.first() {
+        return Err(CliError::Arg {
+            flag: "slow",
+            value: format!("{}={}", s.device, s.factor),
+            message: "not available under mpirun; slow a device in one process".into(),
         });
     }
     let cluster = sched::mpi::Cluster::init()?;
