@@ -116,6 +116,11 @@ impl Runtime {
     /// see `backup.rs`), the first output of each task is kept and the other copy is told it
     /// is no longer wanted ([`Sink::wanted`]). Off, the policy's plan runs as planned, the
     /// thesis's pure static behaviour.
+    ///
+    /// The rule reads a cost over a speed as seconds, as the [`crate::Simulation`] does: with
+    /// costs in another unit it still never delays a run, but copies more than it needs to
+    /// (costs far too large make every held task look late; far too small, every running one
+    /// overrun).
     pub fn backups(self, on: bool) -> Self {
         Runtime {
             backups: on,
@@ -604,6 +609,80 @@ mod tests {
                 .spans
                 .iter()
                 .all(|s| s.device_seconds.is_none())
+        );
+    }
+
+    /// Sleeps `per_task` for each task, in slices, giving up on a task another device has
+    /// delivered.
+    struct Sleeper {
+        per_task: std::time::Duration,
+        speed: f64,
+    }
+
+    impl Executor<Range<usize>> for Sleeper {
+        type Output = usize;
+        fn run(&mut self, task: &Range<usize>) -> Result<usize, DeviceError> {
+            std::thread::sleep(self.per_task);
+            Ok(task.start)
+        }
+        fn run_batch(
+            &mut self,
+            tasks: &[&Range<usize>],
+            sink: &mut Sink<usize>,
+        ) -> Result<(), DeviceError> {
+            for t in tasks {
+                let until = Instant::now() + self.per_task;
+                while sink.wanted() && Instant::now() < until {
+                    std::thread::sleep(std::time::Duration::from_millis(1));
+                }
+                if sink.wanted() {
+                    sink.push(t.start);
+                } else {
+                    sink.skip();
+                }
+            }
+            Ok(())
+        }
+        fn speed(&self) -> f64 {
+            self.speed
+        }
+    }
+
+    #[test]
+    fn an_idle_device_copies_a_slow_ones_tasks_and_the_slow_one_stops() {
+        let tasks = crate::split_ranges(10, 1);
+        let costs = Costs::uniform(tasks.len());
+        let devices = || {
+            [
+                Sleeper {
+                    per_task: std::time::Duration::from_millis(2),
+                    speed: 1.0,
+                },
+                // Declared as fast as the other, 200 times slower.
+                Sleeper {
+                    per_task: std::time::Duration::from_millis(400),
+                    speed: 1.0,
+                },
+            ]
+        };
+        let started = Instant::now();
+        let run = Runtime::new(Policy::StaticEqual)
+            .run(&tasks, &costs, &mut devices())
+            .expect("run");
+        let seconds = started.elapsed().as_secs_f64();
+        assert_eq!(run.outputs, (0..10).collect::<Vec<_>>());
+        assert_eq!(run.timeline.spans.len(), 10);
+        assert!(run.copies >= 5, "{} copies", run.copies);
+        // Without copies the slow device's five tasks take 2 s.
+        assert!(seconds < 1.0, "{seconds} s");
+        let plain = Runtime::new(Policy::StaticEqual)
+            .backups(false)
+            .run(&tasks, &costs, &mut devices())
+            .expect("run");
+        assert_eq!(plain.copies, 0);
+        assert_eq!(
+            plain.timeline.assignment(10),
+            vec![0, 0, 0, 0, 0, 1, 1, 1, 1, 1]
         );
     }
 }

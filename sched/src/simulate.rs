@@ -416,7 +416,8 @@ impl Run<'_> {
             let end = at.plus((self.seconds)(t as usize, d));
             dev.head = Some((t, at, end));
             // A task that would end after the device's fault never ends: the fault cuts it.
-            if end.value() <= self.fault_at[d] {
+            // (A time that overflowed still ends, so that the caller sees it.)
+            if end.value() <= self.fault_at[d] || end.value().is_nan() {
                 self.events
                     .push(Reverse((end, Kind::End, d as u32, dev.generation)));
             }
