@@ -288,33 +288,34 @@ pub fn slow_by(text: &str) -> Result<SlowBy, String> {
 /// The devices of `--slow`, each an index below `devices` (`usize::MAX` where GPU entries
 /// make the count known only once the devices are opened; an index beyond them slows none).
 pub fn check_slow(slow: &[SlowBy], devices: usize) -> Result<Vec<SlowBy>, CliError> {
-    match slow.iter().find(|s| s.device >= devices) {
-        Some(s) => Err(CliError::Arg {
-            flag: "slow",
-            value: format!("{}={}", s.device, s.factor),
-            message: format!(
-                "no device {}: there are {devices} (numbered from 0)",
-                s.device
-            ),
+    check_devices("slow", slow, devices, |s| {
+        (s.device, format!("{}={}", s.device, s.factor))
+    })
+}
+
+/// `items` of `--FLAG`, each naming a device (`index`, with the item as typed) below `devices`.
+fn check_devices<T: Clone>(
+    flag: &'static str,
+    items: &[T],
+    devices: usize,
+    index: impl Fn(&T) -> (usize, String),
+) -> Result<Vec<T>, CliError> {
+    match items.iter().map(&index).find(|(d, _)| *d >= devices) {
+        Some((device, value)) => Err(CliError::Arg {
+            flag,
+            value,
+            message: format!("no device {device}: there are {devices} (numbered from 0)"),
         }),
-        None => Ok(slow.to_vec()),
+        None => Ok(items.to_vec()),
     }
 }
 
 /// The faults of `--fail`, each device an index below `devices` (`usize::MAX` where GPU
 /// entries make the count known only once the devices are opened; they check it then).
 pub fn check_faults(faults: &[FailAfter], devices: usize) -> Result<Vec<FailAfter>, CliError> {
-    match faults.iter().find(|f| f.device >= devices) {
-        Some(f) => Err(CliError::Arg {
-            flag: "fail",
-            value: format!("{}@{}", f.device, f.tasks),
-            message: format!(
-                "no device {}: there are {devices} (numbered from 0)",
-                f.device
-            ),
-        }),
-        None => Ok(faults.to_vec()),
-    }
+    check_devices("fail", faults, devices, |f| {
+        (f.device, format!("{}@{}", f.device, f.tasks))
+    })
 }
 
 /// A count `1..=MAX`: points, queries, bodies, neighbours, threads. The limit keeps a typo

@@ -110,6 +110,12 @@ pub trait PathDevice: Send {
         None
     }
 
+    /// Whether a launch costs next to nothing (a CPU device's pool), so that a launch may be
+    /// rendered in pieces that the other devices see delivered. False by default.
+    fn cheap_launches(&self) -> bool {
+        false
+    }
+
     /// The frame is done: what the device kept for it (a sample's values) is of no further
     /// use, so that no later frame renders faster for this one's work. Nothing by default.
     fn end_frame(&mut self) {}
@@ -145,8 +151,8 @@ impl<'r, 'a> BoundPaths<'r, 'a> {
         }
     }
 
-    /// The same device rendering a launch in pieces where its launches cost nothing known (a
-    /// CPU device; a GPU's cost is measured and it renders a launch whole): each piece's
+    /// The same device rendering a launch in pieces where its launches are cheap
+    /// ([`PathDevice::cheap_launches`]: a CPU device; a GPU renders a launch whole): each piece's
     /// values are delivered as it ends, so that the other devices see how far it has got and
     /// may run backup copies of the rest, and tasks another device delivered first are
     /// skipped. The values do not change.
@@ -194,7 +200,7 @@ impl Executor<Range<usize>> for BoundPaths<'_, '_> {
         tasks: &[&Range<usize>],
         sink: &mut Sink<TaskValues>,
     ) -> Result<(), DeviceError> {
-        let piece = if self.pieces && self.device.launch_overhead().is_none() {
+        let piece = if self.pieces && self.device.cheap_launches() {
             tasks.len().div_ceil(PIECES)
         } else {
             tasks.len()

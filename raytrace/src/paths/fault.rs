@@ -94,6 +94,10 @@ impl PathDevice for FailingPaths<'_> {
         self.inner.launch_overhead()
     }
 
+    fn cheap_launches(&self) -> bool {
+        self.inner.cheap_launches()
+    }
+
     fn end_frame(&mut self) {
         self.inner.end_frame();
     }
@@ -202,6 +206,10 @@ impl PathDevice for SlowPaths<'_> {
 
     fn launch_overhead(&self) -> Option<f64> {
         self.inner.launch_overhead()
+    }
+
+    fn cheap_launches(&self) -> bool {
+        self.inner.cheap_launches()
     }
 
     fn end_frame(&mut self) {
