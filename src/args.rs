@@ -14,7 +14,7 @@ use raytrace::Walk;
 use raytrace::cost::SampleRate;
 use raytrace::devices::DeviceSpec;
 use raytrace::glam::Vec3;
-use raytrace::paths::{FailAfter, Mode, Settings};
+use raytrace::paths::{FailAfter, Mode, Settings, SlowBy};
 use raytrace::{BuildPreset, Camera};
 use sched::{Fault, Policy};
 
@@ -187,6 +187,16 @@ impl Devices {
         self.specs.iter().any(|s| matches!(s, DeviceSpec::Gpu(_)))
     }
 
+    /// How many devices the list makes, where known before they are opened (`usize::MAX`
+    /// with GPU entries): the bound of a `--fail` or `--slow` device index.
+    pub fn known_count(&self) -> usize {
+        if self.has_gpu() {
+            usize::MAX
+        } else {
+            self.cpu_devices()
+        }
+    }
+
     fn cpu(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
         self.specs.iter().filter_map(|s| match *s {
             DeviceSpec::Cpu { count, threads } => Some((count, threads)),
@@ -255,32 +265,68 @@ pub fn fail_after(text: &str) -> Result<FailAfter, String> {
     Ok(FailAfter { device, tasks })
 }
 
+/// One slowed device of `cobalt render` and `cobalt bench --slow DEVICE=K[,…]`: device
+/// DEVICE takes K times as long (K ≥ 1). Whether the device exists depends on `--devices`:
+/// [`check_slow`].
+pub fn slow_by(text: &str) -> Result<SlowBy, String> {
+    let usage = "expected DEVICE=K, e.g. 1=50 (device 1 takes 50 times as long)";
+    let (device, factor) = text.trim().split_once('=').ok_or(usage)?;
+    let device = device
+        .trim()
+        .parse()
+        .map_err(|_| format!("{device:?} is not a device index"))?;
+    let factor: f64 = factor
+        .trim()
+        .parse()
+        .map_err(|_| format!("{factor:?} is not a number"))?;
+    if !(factor.is_finite() && factor >= 1.0) {
+        return Err(format!("the factor {factor} is not finite and at least 1"));
+    }
+    Ok(SlowBy { device, factor })
+}
+
+/// The devices of `--slow`, each an index below `devices` (`usize::MAX` where GPU entries
+/// make the count known only once the devices are opened; an index beyond them slows none).
+pub fn check_slow(slow: &[SlowBy], devices: usize) -> Result<Vec<SlowBy>, CliError> {
+    check_devices("slow", slow, devices, |s| {
+        (s.device, format!("{}={}", s.device, s.factor))
+    })
+}
+
+/// `items` of `--FLAG`, each naming a device (`index`, with the item as typed) below `devices`.
+fn check_devices<T: Clone>(
+    flag: &'static str,
+    items: &[T],
+    devices: usize,
+    index: impl Fn(&T) -> (usize, String),
+) -> Result<Vec<T>, CliError> {
+    match items.iter().map(&index).find(|(d, _)| *d >= devices) {
+        Some((device, value)) => Err(CliError::Arg {
+            flag,
+            value,
+            message: format!("no device {device}: there are {devices} (numbered from 0)"),
+        }),
+        None => Ok(items.to_vec()),
+    }
+}
+
 /// The faults of `--fail`, each device an index below `devices` (`usize::MAX` where GPU
 /// entries make the count known only once the devices are opened; they check it then).
 pub fn check_faults(faults: &[FailAfter], devices: usize) -> Result<Vec<FailAfter>, CliError> {
-    match faults.iter().find(|f| f.device >= devices) {
-        Some(f) => Err(CliError::Arg {
-            flag: "fail",
-            value: format!("{}@{}", f.device, f.tasks),
-            message: format!(
-                "no device {}: there are {devices} (numbered from 0)",
-                f.device
-            ),
-        }),
-        None => {
-            // Two failure points for one device contradict each other: name both.
-            for (i, f) in faults.iter().enumerate() {
-                if let Some(g) = faults[..i].iter().find(|g| g.device == f.device) {
-                    return Err(CliError::Arg {
-                        flag: "fail",
-                        value: format!("{}@{},{}@{}", g.device, g.tasks, f.device, f.tasks),
-                        message: format!("device {} is given two failure points", f.device),
-                    });
-                }
-            }
-            Ok(faults.to_vec())
+    let faults = check_devices("fail", faults, devices, |f| {
+        (f.device, format!("{}@{}", f.device, f.tasks))
+    })?;
+    // Two failure points for one device contradict each other: name both.
+    for (i, f) in faults.iter().enumerate() {
+        if let Some(g) = faults[..i].iter().find(|g| g.device == f.device) {
+            return Err(CliError::Arg {
+                flag: "fail",
+                value: format!("{}@{},{}@{}", g.device, g.tasks, f.device, f.tasks),
+                message: format!("device {} is given two failure points", f.device),
+            });
         }
     }
+    Ok(faults)
 }
 
 /// A count `1..=MAX`: points, queries, bodies, neighbours, threads. The limit keeps a typo
@@ -443,6 +489,10 @@ pub struct ScheduleArgs {
     /// `first-leaf` (up to the first leaf it reaches).
     #[arg(long, default_value = "trace")]
     pub walk: Walk,
+    /// Run the plan as planned: no device left idle runs backup copies of the tasks another
+    /// device holds (the thesis's pure static behaviour).
+    #[arg(long)]
+    pub no_backups: bool,
 }
 
 impl ScheduleArgs {
@@ -454,6 +504,7 @@ impl ScheduleArgs {
             task_size: self.task_size,
             sample_rate: self.sample_rate,
             walk: self.walk,
+            backups: !self.no_backups,
         }
     }
 }
@@ -486,6 +537,27 @@ mod tests {
         for bad in ["0x32", "32", "32xlots", "16385x1"] {
             assert!(bad.parse::<Size>().is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn slowed_devices_are_parsed_and_checked() {
+        assert_eq!(
+            slow_by("1=50"),
+            Ok(SlowBy {
+                device: 1,
+                factor: 50.0
+            })
+        );
+        for bad in ["1", "x=2", "1=0.5", "1=inf", "1@2"] {
+            assert!(slow_by(bad).is_err(), "{bad}");
+        }
+        let slow = [slow_by("2=4").expect("valid")];
+        assert!(check_slow(&slow, 3).is_ok());
+        let err = check_slow(&slow, 2).expect_err("no device 2").to_string();
+        assert!(
+            err.contains("--slow") && err.contains("no device 2"),
+            "{err}"
+        );
     }
 
     #[test]

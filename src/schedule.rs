@@ -29,6 +29,16 @@ pub struct Args {
     /// Actual costs, one per line, if they differ from the estimates in `--costs`.
     #[arg(long)]
     actual: Option<PathBuf>,
+    /// The devices' true speeds, if they differ from the speeds in `--speeds` (which the
+    /// policy plans with): `--speeds 1,1 --actual-speeds 1,0.05` is a device declared as fast
+    /// as the first but 20 times slower.
+    #[arg(long, value_delimiter = ',', value_parser = speed)]
+    actual_speeds: Option<Vec<f64>>,
+    /// Run the plan as planned: no device left idle runs backup copies of the tasks another
+    /// device holds (the thesis's pure static behaviour). Without it, the makespan without
+    /// backups is reported beside.
+    #[arg(long)]
+    no_backups: bool,
     /// Device failures, `DEVICE@TIME`, comma-separated: `1@0.5` stops device 1 at time 0.5.
     #[arg(long, value_delimiter = ',', value_parser = fault_time)]
     fail: Vec<Fault>,
@@ -43,8 +53,20 @@ struct Report {
     tasks: usize,
     devices: usize,
     speeds: Vec<f64>,
+    /// The true speeds (`--actual-speeds`, else `speeds`).
+    actual_speeds: Vec<f64>,
     latency: f64,
+    /// Whether idle devices ran backup copies (false with `--no-backups`).
+    backups: bool,
     makespan: f64,
+    /// The makespan of the same run without backup copies (absent with `--no-backups`).
+    makespan_without_backups: Option<f64>,
+    /// The fastest device alone: every actual cost over its true speed, plus one latency.
+    alone: f64,
+    /// Backup copies launched.
+    copies: u64,
+    /// Time spent on copies whose output was dropped.
+    wasted: f64,
     lower_bound: f64,
     /// makespan / lower_bound (1 when both are 0).
     ratio: f64,
@@ -90,24 +112,59 @@ pub fn run(args: Args) -> Result<(), CliError> {
         value: speeds_typed(),
         message: e.to_string(),
     })?;
+    let true_speeds = match &args.actual_speeds {
+        Some(s) => {
+            let typed: Vec<String> = s.iter().map(f64::to_string).collect();
+            let checked = Speeds::new(s.clone()).map_err(|e| CliError::Arg {
+                flag: "actual-speeds",
+                value: typed.join(","),
+                message: e.to_string(),
+            })?;
+            if checked.len() != speeds.len() {
+                return Err(CliError::Arg {
+                    flag: "actual-speeds",
+                    value: typed.join(","),
+                    message: format!("one speed per device of --speeds ({})", speeds.len()),
+                });
+            }
+            checked
+        }
+        None => speeds.clone(),
+    };
     let faults = &args.fail;
-    // The proven factors hold for exact estimates, no latency and no failures.
-    let ideal = faults.is_empty() && args.latency == 0.0 && estimated == actual;
+    // The proven factors hold for exact estimates and speeds, no latency and no failures.
+    let ideal = faults.is_empty()
+        && args.latency == 0.0
+        && estimated == actual
+        && true_speeds.as_slice() == speeds.as_slice();
     let mut sim = Simulation::new(args.policy, speeds.clone()).latency(args.latency);
     for &fault in faults {
         sim = sim.fault(fault);
     }
+    let seconds = |t: usize, d: usize| actual[t] / true_speeds[d];
 
     let simulating = Instant::now();
-    let result = sim.run_actual(&estimated, &actual)?;
+    let result = sim
+        .clone()
+        .backups(!args.no_backups)
+        .run_timed(&estimated, &seconds)?;
     let simulate_seconds = simulating.elapsed().as_secs_f64();
+    let without = if args.no_backups {
+        None
+    } else {
+        Some(sim.backups(false).run_timed(&estimated, &seconds)?)
+    };
+    let fastest = true_speeds.as_slice().iter().copied().fold(0.0, f64::max);
+    let alone = actual.as_slice().iter().map(|c| c / fastest).sum::<f64>() + args.latency;
 
-    let bound = lower_bound(&actual, &speeds);
+    let bound = lower_bound(&actual, &true_speeds);
     let makespan = result.metrics.makespan;
     // The costs' sum is finite, but divided by slow speeds or plus a latency it may not be.
-    let finite = [makespan, bound, result.metrics.balance_efficiency]
+    let makespan_without_backups = without.map(|w| w.metrics.makespan);
+    let finite = [makespan, bound, alone, result.metrics.balance_efficiency]
         .into_iter()
         .chain(result.metrics.busy.iter().copied())
+        .chain(makespan_without_backups)
         .all(f64::is_finite);
     if !finite {
         return Err(CliError::Arg {
@@ -125,8 +182,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
         tasks: estimated.len(),
         devices: speeds.len(),
         speeds: speeds.as_slice().to_vec(),
+        actual_speeds: true_speeds.as_slice().to_vec(),
         latency: args.latency,
+        backups: !args.no_backups,
         makespan,
+        makespan_without_backups,
+        alone,
+        copies: result.copies,
+        wasted: result.wasted,
         lower_bound: bound,
         ratio: if bound > 0.0 { makespan / bound } else { 1.0 },
         guarantee: guarantee(args.policy, &speeds).filter(|_| ideal),
@@ -156,7 +219,23 @@ fn table(r: &Report) -> String {
     // Writing to a String cannot fail.
     let _ = writeln!(out, "policy        {}", r.policy);
     let _ = writeln!(out, "tasks         {} on {} devices", r.tasks, r.devices);
-    let _ = writeln!(out, "makespan      {}", r.makespan);
+    match r.makespan_without_backups {
+        Some(without) => {
+            let _ = writeln!(
+                out,
+                "makespan      {}  (without backup copies {without}; {} copies, {} wasted)",
+                r.makespan, r.copies, r.wasted
+            );
+        }
+        None => {
+            let _ = writeln!(out, "makespan      {}  (no backup copies)", r.makespan);
+        }
+    }
+    let _ = writeln!(
+        out,
+        "alone         {}  (the fastest device, every task at its true speed)",
+        r.alone
+    );
     let _ = writeln!(
         out,
         "lower bound   {}  (makespan / bound = {:.4}; {guarantee})",

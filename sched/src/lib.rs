@@ -3,6 +3,9 @@
 //! Estimate what each task will cost ([`CostEstimator`]), let a [`Policy`] assign the tasks
 //! to devices of different speeds, and run them on real devices ([`Runtime`], one host thread
 //! per [`Executor`]) or on virtual ones ([`Simulation`], with launch latency and faults).
+//! Either way, a device left with nothing to do may run backup copies of tasks that another
+//! device holds, when the model says the copy would finish sooner; the first output of each
+//! task is kept (`Runtime::backups`, `Simulation::backups`).
 //! The method is the cost-based static balancing of Rincón-Nigro (2012, University of Houston): sort tasks by
 //! decreasing estimated cost and give each to the device that would finish it first (LPT,
 //! within 4/3 of optimal), so a single launch per device balances almost as well as a
@@ -35,7 +38,12 @@
 //! let mut devices = [PrimeCounter { speed: 1.0 }, PrimeCounter { speed: 2.0 }];
 //! let run = Runtime::new(Policy::StaticLpt).run(&tasks, &costs, &mut devices)?;
 //! assert_eq!(run.outputs.iter().sum::<usize>(), 2262);
-//! assert_eq!(run.launches, vec![1, 1]); // a static plan launches once per device
+//! // A static plan launches once per device; a device left idle may launch backup copies
+//! // of tasks the other holds, unless they are turned off.
+//! let run = Runtime::new(Policy::StaticLpt)
+//!     .backups(false)
+//!     .run(&tasks, &costs, &mut devices)?;
+//! assert_eq!(run.launches, vec![1, 1]);
 //! # Ok::<(), sched::SchedError>(())
 //! ```
 //!
@@ -56,6 +64,7 @@
 //! With the `mpi` feature, `mpi` makes the ranks of an MPI job the nodes of one run: a
 //! `RemoteNode` is another rank seen as an [`Executor`] by rank 0's runtime.
 
+mod backup;
 pub mod bounds;
 mod clock;
 mod cost;

@@ -128,7 +128,9 @@ impl MeasuredRun {
                 tasks[t].seconds * rates[own] / rates[d]
             }
         };
+        // The measured plan is replayed: a copy's time on another device was not measured.
         Simulation::new(self.policy, self.speeds.clone())
+            .backups(false)
             .device_latencies(self.launch_delays())
             .planned_overheads(self.overheads.clone())
             .run_timed(&self.planned, &seconds)
@@ -207,6 +209,7 @@ mod tests {
         for policy in Policy::ALL {
             let mut devices = [Spinner { speed: 1.0 }, Spinner { speed: 2.0 }];
             let run = crate::Runtime::new(policy)
+                .backups(false)
                 .run(&tasks, &planned, &mut devices)
                 .expect("run");
             let mut measured = vec![

@@ -1,7 +1,10 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::sync::{Condvar, Mutex, MutexGuard};
-use std::time::Instant;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
 
+use crate::backup::{Backup, Backups, Held};
+use crate::executor::Watch;
 use crate::{
     Costs, DeviceError, DeviceFailure, Dispatch, Executor, Homes, Metrics, Policy, SchedError,
     Sink, Span, Speeds, Task, Timeline,
@@ -31,6 +34,7 @@ use crate::{
 pub struct Runtime {
     policy: Policy,
     homes: Option<Homes>,
+    backups: bool,
 }
 
 /// What a real run produced and how it went.
@@ -52,6 +56,12 @@ pub struct RunReport<O> {
     pub failures: Vec<DeviceFailure>,
     /// Task runs lost to failures and run again.
     pub reruns: u64,
+    /// Backup copies launched: tasks an idle device ran because another device held them
+    /// and the model said the copy would finish sooner (see [`Runtime::backups`]).
+    pub copies: u64,
+    /// Seconds devices spent on task runs whose output was dropped because another copy's
+    /// came first.
+    pub wasted: f64,
 }
 
 struct State<'a, O> {
@@ -61,13 +71,21 @@ struct State<'a, O> {
     spans: Vec<Span>,
     failures: Vec<DeviceFailure>,
     reruns: u64,
+    /// Each device's launch while it runs, and whether it is a launch of copies.
+    held: Vec<Option<(Arc<Watch>, bool)>>,
+    copies: u64,
+    wasted: f64,
 }
 
 struct Shared<'a, O> {
     state: Mutex<State<'a, O>>,
-    // Signalled when a failure releases work or the last output arrives.
+    // Signalled when a failure releases work, a launch starts or ends (with backups), or the
+    // last output arrives.
     changed: Condvar,
     start: Instant,
+    /// Which tasks have an output, set by the sink that delivers it first.
+    done: Arc<[AtomicBool]>,
+    backups: Option<Backups<'a>>,
 }
 
 impl<'a, O> Shared<'a, O> {
@@ -88,6 +106,25 @@ impl Runtime {
         Runtime {
             policy,
             homes: None,
+            backups: true,
+        }
+    }
+
+    /// Whether an idle device may run backup copies of tasks other devices hold (on by
+    /// default): when a device has nothing left, it copies the tasks the model says it would
+    /// finish sooner (estimated cost over speed, and how long a running one has run already;
+    /// see `backup.rs`), the first output of each task is kept and the other copy is told it
+    /// is no longer wanted ([`Sink::wanted`]). Off, the policy's plan runs as planned, the
+    /// thesis's pure static behaviour.
+    ///
+    /// The rule reads a cost over a speed as seconds, as the [`crate::Simulation`] does: with
+    /// costs in another unit it still never delays a run, but copies more than it needs to
+    /// (costs far too large make every held task look late; far too small, every running one
+    /// overrun).
+    pub fn backups(self, on: bool) -> Self {
+        Runtime {
+            backups: on,
+            ..self
         }
     }
 
@@ -146,6 +183,9 @@ impl Runtime {
                 .policy
                 .dispatcher_with_overheads(costs, &speeds, &overheads),
         };
+        let backups = self
+            .backups
+            .then(|| Backups::new(costs, speeds.as_slice(), &overheads, self.homes.as_ref()));
         let plan_seconds = planning.elapsed().as_secs_f64();
 
         let shared = Shared {
@@ -156,9 +196,14 @@ impl Runtime {
                 spans: Vec::with_capacity(tasks.len()),
                 failures: Vec::new(),
                 reruns: 0,
+                held: (0..m).map(|_| None).collect(),
+                copies: 0,
+                wasted: 0.0,
             }),
             changed: Condvar::new(),
             start: Instant::now(),
+            done: (0..tasks.len()).map(|_| AtomicBool::new(false)).collect(),
+            backups,
         };
         let mut per_device = vec![(0.0, 0u64); m];
         let pool = workers::take(m.saturating_sub(1))?;
@@ -212,6 +257,8 @@ impl Runtime {
             launches: per_device.iter().map(|p| p.1).collect(),
             failures: state.failures,
             reruns: state.reruns,
+            copies: state.copies,
+            wasted: state.wasted,
         })
     }
 }
@@ -343,8 +390,9 @@ mod workers {
     }
 }
 
-/// One device's thread. The order it looks for work in is the policy's (see `Dispatch`);
-/// here it only waits when there is none, runs launches unlocked and delivers their outputs.
+/// One device's thread. The order it looks for work in is the policy's (see `Dispatch`),
+/// then, with backups, copies of what others hold (`backup.rs`); here it only waits when
+/// there is neither, runs launches unlocked and delivers their outputs.
 /// Returns its dispatch time and launch count.
 fn device_loop<T: Task, E: Executor<T>>(
     device: usize,
@@ -359,28 +407,77 @@ fn device_loop<T: Task, E: Executor<T>>(
     loop {
         let asked = Instant::now();
         let mut state = shared.lock();
-        loop {
+        let copy = loop {
             if state.delivered == tasks.len() {
                 return (dispatch_seconds + asked.elapsed().as_secs_f64(), launches);
             }
             launch.clear();
-            state
-                .dispatch
-                .next(device, shared.seconds(Instant::now()), &mut launch);
+            let now = shared.seconds(Instant::now());
+            state.dispatch.next(device, now, &mut launch);
             if !launch.is_empty() {
-                break;
+                break false;
             }
-            state = shared
-                .changed
-                .wait(state)
-                .unwrap_or_else(|p| p.into_inner());
+            let Some(backups) = &shared.backups else {
+                state = shared
+                    .changed
+                    .wait(state)
+                    .unwrap_or_else(|p| p.into_inner());
+                continue;
+            };
+            let held: Vec<Held<'_>> = state
+                .held
+                .iter()
+                .enumerate()
+                .filter_map(|(d, h)| h.as_ref().map(|h| (d, &h.0)))
+                .map(|(d, w)| Held {
+                    device: d,
+                    tasks: w.rest(),
+                    head_started: w.head_started(),
+                })
+                .collect();
+            let done = |t: u32| shared.done[t as usize].load(Ordering::Acquire);
+            match backups.choose(device, now, &held, &done) {
+                Backup::Copy(copies) => {
+                    launch.extend(copies);
+                    break true;
+                }
+                Backup::Wait(at) => {
+                    drop(held);
+                    state = match at {
+                        Some(at) => {
+                            let wait = Duration::from_secs_f64((at - now).clamp(0.0, 3600.0));
+                            shared
+                                .changed
+                                .wait_timeout(state, wait)
+                                .map_or_else(|p| p.into_inner().0, |r| r.0)
+                        }
+                        None => shared
+                            .changed
+                            .wait(state)
+                            .unwrap_or_else(|p| p.into_inner()),
+                    };
+                }
+            }
+        };
+        let watch = Arc::new(Watch::new(
+            launch.clone(),
+            Arc::clone(&shared.done),
+            shared.start,
+        ));
+        if shared.backups.is_some() {
+            if copy {
+                state.copies += launch.len() as u64;
+            }
+            state.held[device] = Some((Arc::clone(&watch), copy));
+            // Devices waiting for work weigh copies of what this launch holds.
+            shared.changed.notify_all();
         }
         drop(state);
         dispatch_seconds += asked.elapsed().as_secs_f64();
         launches += 1;
 
         let batch: Vec<&T> = launch.iter().map(|&t| &tasks[t as usize]).collect();
-        let mut sink = Sink::new(batch.len());
+        let mut sink = Sink::watched(watch);
         let started = Instant::now();
         let result = catch_unwind(AssertUnwindSafe(|| exec.run_batch(&batch, &mut sink)));
         let failure = match result {
@@ -398,26 +495,42 @@ fn device_loop<T: Task, E: Executor<T>>(
         };
 
         let mut state = shared.lock();
+        state.held[device] = None;
         let mut from = shared.seconds(started);
-        let outputs = sink.into_outputs();
-        let done = outputs.len();
-        for (&task, (output, at, device_seconds)) in launch.iter().zip(outputs) {
+        for (&task, (output, at, device_seconds)) in launch.iter().zip(sink.into_outputs()) {
             let end = shared.seconds(at);
-            state.spans.push(Span {
-                device: device as u32,
-                task,
-                start: from,
-                end,
-                device_seconds,
-            });
+            match output {
+                Some(output) => {
+                    state.spans.push(Span {
+                        device: device as u32,
+                        task,
+                        start: from,
+                        end,
+                        device_seconds,
+                    });
+                    state.outputs[task as usize] = Some(output);
+                    state.delivered += 1;
+                }
+                None => state.wasted += end - from,
+            }
             from = end;
-            state.outputs[task as usize] = Some(output);
         }
-        state.delivered += done;
+        // A copy's tasks are still held by the devices they were copied from; a device's
+        // own tasks without an output, whether it failed on them or skipped them while they
+        // were still wanted, are handed out again.
+        let undone: Vec<u32> = if copy {
+            Vec::new()
+        } else {
+            let done = |t: u32| shared.done[t as usize].load(Ordering::Acquire);
+            launch.iter().copied().filter(|&t| !done(t)).collect()
+        };
+        let failure = failure.or_else(|| {
+            (!undone.is_empty())
+                .then(|| DeviceError::msg(format!("skipped {} tasks still wanted", undone.len())))
+        });
         if let Some(error) = failure {
-            let undone = &launch[done..];
             state.reruns += undone.len() as u64;
-            state.dispatch.fail(device, undone);
+            state.dispatch.fail(device, &undone);
             state.failures.push(DeviceFailure {
                 device,
                 name: name.to_owned(),
@@ -427,7 +540,7 @@ fn device_loop<T: Task, E: Executor<T>>(
             shared.changed.notify_all();
             return (dispatch_seconds, launches);
         }
-        if state.delivered == tasks.len() {
+        if state.delivered == tasks.len() || shared.backups.is_some() {
             shared.changed.notify_all();
         }
     }
@@ -496,6 +609,80 @@ mod tests {
                 .spans
                 .iter()
                 .all(|s| s.device_seconds.is_none())
+        );
+    }
+
+    /// Sleeps `per_task` for each task, in slices, giving up on a task another device has
+    /// delivered.
+    struct Sleeper {
+        per_task: std::time::Duration,
+        speed: f64,
+    }
+
+    impl Executor<Range<usize>> for Sleeper {
+        type Output = usize;
+        fn run(&mut self, task: &Range<usize>) -> Result<usize, DeviceError> {
+            std::thread::sleep(self.per_task);
+            Ok(task.start)
+        }
+        fn run_batch(
+            &mut self,
+            tasks: &[&Range<usize>],
+            sink: &mut Sink<usize>,
+        ) -> Result<(), DeviceError> {
+            for t in tasks {
+                let until = Instant::now() + self.per_task;
+                while sink.wanted() && Instant::now() < until {
+                    std::thread::sleep(std::time::Duration::from_millis(1));
+                }
+                if sink.wanted() {
+                    sink.push(t.start);
+                } else {
+                    sink.skip();
+                }
+            }
+            Ok(())
+        }
+        fn speed(&self) -> f64 {
+            self.speed
+        }
+    }
+
+    #[test]
+    fn an_idle_device_copies_a_slow_ones_tasks_and_the_slow_one_stops() {
+        let tasks = crate::split_ranges(10, 1);
+        let costs = Costs::uniform(tasks.len());
+        let devices = || {
+            [
+                Sleeper {
+                    per_task: std::time::Duration::from_millis(2),
+                    speed: 1.0,
+                },
+                // Declared as fast as the other, 200 times slower.
+                Sleeper {
+                    per_task: std::time::Duration::from_millis(400),
+                    speed: 1.0,
+                },
+            ]
+        };
+        let started = Instant::now();
+        let run = Runtime::new(Policy::StaticEqual)
+            .run(&tasks, &costs, &mut devices())
+            .expect("run");
+        let seconds = started.elapsed().as_secs_f64();
+        assert_eq!(run.outputs, (0..10).collect::<Vec<_>>());
+        assert_eq!(run.timeline.spans.len(), 10);
+        assert!(run.copies >= 5, "{} copies", run.copies);
+        // Without copies the slow device's five tasks take 2 s.
+        assert!(seconds < 1.0, "{seconds} s");
+        let plain = Runtime::new(Policy::StaticEqual)
+            .backups(false)
+            .run(&tasks, &costs, &mut devices())
+            .expect("run");
+        assert_eq!(plain.copies, 0);
+        assert_eq!(
+            plain.timeline.assignment(10),
+            vec![0, 0, 0, 0, 0, 1, 1, 1, 1, 1]
         );
     }
 }

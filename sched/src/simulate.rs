@@ -1,6 +1,7 @@
 use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, VecDeque};
 
+use crate::backup::{Backup, Backups, Held};
 use crate::{
     Costs, DeviceFailure, Homes, Load, Metrics, Policy, SchedError, Span, Speeds, Timeline,
 };
@@ -40,6 +41,7 @@ pub struct Simulation {
     faults: Vec<Fault>,
     record: bool,
     homes: Option<Homes>,
+    backups: bool,
 }
 
 /// What a simulation found.
@@ -53,6 +55,11 @@ pub struct SimReport {
     pub launches: Vec<u64>,
     /// Task runs lost to faults and run again.
     pub reruns: u64,
+    /// Backup copies launched (see [`Simulation::backups`]).
+    pub copies: u64,
+    /// Time devices spent on copies whose output was dropped because another copy's came
+    /// first: not counted in the busy time.
+    pub wasted: f64,
     /// Wall time the policy took to plan (build its dispatcher), in real seconds.
     pub plan_seconds: f64,
     /// Every delivered task, if recording was asked for.
@@ -61,9 +68,26 @@ pub struct SimReport {
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 enum Kind {
-    // At equal times a fault comes first: a device that fails at t does not start at t.
+    // At equal times a task that ends is delivered first, then a fault: a device that fails
+    // at t delivers what ends at t, and does not start anything at t.
+    End,
     Fault,
     Ready,
+}
+
+/// A simulated device: the launch it runs and the task it runs now.
+#[derive(Debug, Default)]
+struct Device {
+    /// The rest of its launch, after the task it runs now.
+    queue: VecDeque<u32>,
+    /// The task it runs now, with its start and end.
+    head: Option<(u32, Load, Load)>,
+    /// Whether its launch is of backup copies.
+    copy: bool,
+    /// Counts the heads it started, so that the end event of one that was cut is ignored.
+    generation: u64,
+    dead: bool,
+    waiting: bool,
 }
 
 impl Simulation {
@@ -78,7 +102,18 @@ impl Simulation {
             faults: Vec::new(),
             record: false,
             homes: None,
+            backups: true,
         }
+    }
+
+    /// Whether an idle device may run backup copies of tasks other devices hold (on by
+    /// default), as [`crate::Runtime::backups`]: the same rule decides, from the estimated
+    /// costs, the speeds and the latencies the policy is told. A copy's output or the
+    /// original's, whichever ends first, is delivered; the other run stops there.
+    #[must_use]
+    pub fn backups(mut self, on: bool) -> Self {
+        self.backups = on;
+        self
     }
 
     /// Each device's launches wait its own latency (one per device, in order) instead of
@@ -203,90 +238,122 @@ impl Simulation {
                 .policy
                 .dispatcher_with_overheads(estimated, &self.speeds, &told),
         };
+        let backups = self.backups.then(|| {
+            Backups::new(
+                estimated,
+                self.speeds.as_slice(),
+                &told,
+                self.homes.as_ref(),
+            )
+        });
         let plan_seconds = planning.elapsed().as_secs_f64();
-        let mut events: BinaryHeap<Reverse<(Load, Kind, u32)>> = (0..m as u32)
-            .map(|d| Reverse((Load::ZERO, Kind::Ready, d)))
-            .collect();
-        for (d, &at) in fault_at.iter().enumerate() {
+
+        let mut run = Run {
+            events: (0..m as u32)
+                .map(|d| Reverse((Load::ZERO, Kind::Ready, d, 0)))
+                .collect(),
+            devices: (0..m).map(|_| Device::default()).collect(),
+            assignment: vec![u32::MAX; n],
+            delivered: 0,
+            busy: vec![Load::ZERO; m],
+            wasted: Load::ZERO,
+            makespan: Load::ZERO,
+            spans: Vec::new(),
+            record: self.record,
+            fault_at,
+            seconds,
+        };
+        for (d, &at) in run.fault_at.iter().enumerate() {
             if at.is_finite() {
-                events.push(Reverse((Load::new(at), Kind::Fault, d as u32)));
+                run.events
+                    .push(Reverse((Load::new(at), Kind::Fault, d as u32, 0)));
             }
         }
-
-        let mut assignment = vec![u32::MAX; n];
-        let mut delivered = 0usize;
-        let mut busy = vec![Load::ZERO; m];
-        let mut makespan = Load::ZERO;
         let mut launches = vec![0u64; m];
         let mut reruns = 0u64;
-        let mut dead = vec![false; m];
-        let mut undone: Vec<Vec<u32>> = vec![Vec::new(); m];
-        let mut waiting: Vec<u32> = Vec::new();
+        let mut copies = 0u64;
         let mut failures = Vec::new();
-        let mut spans = Vec::new();
         let mut launch = Vec::new();
 
-        while let Some(Reverse((now, kind, d))) = events.pop() {
+        while let Some(Reverse((now, kind, d, generation))) = run.events.pop() {
             let du = d as usize;
-            if dead[du] {
+            if run.devices[du].dead {
                 continue;
             }
-            if kind == Kind::Fault {
-                dead[du] = true;
-                reruns += undone[du].len() as u64;
-                failures.push(DeviceFailure {
-                    device: du,
-                    name: format!("simulated device {du}"),
-                    reason: format!("fault at {}", now.value()),
-                    orphaned: undone[du].len(),
-                });
-                dispatch.fail(du, &undone[du]);
-                for w in waiting.drain(..) {
-                    events.push(Reverse((now, Kind::Ready, w)));
+            match kind {
+                Kind::End => {
+                    if run.devices[du].generation == generation {
+                        run.end_head(du, now);
+                    }
                 }
-                continue;
-            }
-            if delivered == n {
-                continue;
-            }
-            launch.clear();
-            dispatch.next(du, now.value(), &mut launch);
-            if launch.is_empty() {
-                waiting.push(d);
-                continue;
-            }
-            launches[du] += 1;
-            let mut clock = now.plus(latencies[du]);
-            for (k, &t) in launch.iter().enumerate() {
-                let took = seconds(t as usize, du);
-                let end = clock.plus(took);
-                if end.value() > fault_at[du] {
-                    // Cut short: work up to the fault was spent, the rest waits for the fault
-                    // event, which releases it at the right moment.
-                    busy[du] = busy[du].plus((fault_at[du] - clock.value()).max(0.0));
-                    undone[du] = launch[k..].to_vec();
-                    break;
-                }
-                busy[du] = busy[du].plus(took);
-                assignment[t as usize] = d;
-                delivered += 1;
-                if self.record {
-                    spans.push(Span {
-                        device: d,
-                        task: t,
-                        start: clock.value(),
-                        end: end.value(),
-                        device_seconds: None,
+                Kind::Fault => {
+                    let dev = &mut run.devices[du];
+                    dev.dead = true;
+                    let mut undone: Vec<u32> = Vec::new();
+                    if let Some((t, start, _)) = dev.head.take() {
+                        // Work up to the fault was spent.
+                        run.busy[du] = run.busy[du].plus((now.value() - start.value()).max(0.0));
+                        undone.push(t);
+                    }
+                    undone.extend(dev.queue.drain(..));
+                    // A copy's tasks are still held by the devices they were copied from.
+                    if dev.copy {
+                        undone.clear();
+                    }
+                    undone.retain(|&t| run.assignment[t as usize] == u32::MAX);
+                    reruns += undone.len() as u64;
+                    failures.push(DeviceFailure {
+                        device: du,
+                        name: format!("simulated device {du}"),
+                        reason: format!("fault at {}", now.value()),
+                        orphaned: undone.len(),
                     });
+                    dispatch.fail(du, &undone);
+                    run.wake_waiting(now);
                 }
-                clock = end;
-            }
-            makespan = makespan.max(clock);
-            if undone[du].is_empty() {
-                events.push(Reverse((clock, Kind::Ready, d)));
+                Kind::Ready => {
+                    let dev = &mut run.devices[du];
+                    if dev.head.is_some() || run.delivered == n {
+                        continue;
+                    }
+                    dev.waiting = false;
+                    launch.clear();
+                    dispatch.next(du, now.value(), &mut launch);
+                    let mut copy = false;
+                    if launch.is_empty() {
+                        let Some(backups) = &backups else {
+                            run.devices[du].waiting = true;
+                            continue;
+                        };
+                        match run.choose(backups, du, now) {
+                            Backup::Copy(tasks) => {
+                                launch = tasks;
+                                copy = true;
+                                copies += launch.len() as u64;
+                            }
+                            Backup::Wait(at) => {
+                                run.devices[du].waiting = true;
+                                if let Some(at) = at {
+                                    run.events.push(Reverse((Load::new(at), Kind::Ready, d, 0)));
+                                }
+                                continue;
+                            }
+                        }
+                    }
+                    launches[du] += 1;
+                    let dev = &mut run.devices[du];
+                    dev.copy = copy;
+                    dev.queue.extend(launch.iter().copied());
+                    run.start_next(du, now.plus(latencies[du]));
+                    if backups.is_some() {
+                        // Devices waiting for work weigh copies of what this launch holds.
+                        run.wake_waiting(now);
+                    }
+                }
             }
         }
 
+        let delivered = run.delivered;
         if delivered < n {
             return Err(SchedError::AllDevicesFailed {
                 devices: m,
@@ -296,13 +363,133 @@ impl Simulation {
             });
         }
         Ok(SimReport {
-            metrics: Metrics::new(makespan.value(), busy.iter().map(|b| b.value()).collect()),
-            assignment,
+            metrics: Metrics::new(
+                run.makespan.value(),
+                run.busy.iter().map(|b| b.value()).collect(),
+            ),
+            assignment: run.assignment,
             launches,
             reruns,
+            copies,
+            wasted: run.wasted.value(),
             plan_seconds,
-            timeline: self.record.then_some(Timeline { devices: m, spans }),
+            timeline: self.record.then_some(Timeline {
+                devices: m,
+                spans: run.spans,
+            }),
         })
+    }
+}
+
+type Event = Reverse<(Load, Kind, u32, u64)>;
+
+/// The state of one simulated run.
+struct Run<'s> {
+    events: BinaryHeap<Event>,
+    devices: Vec<Device>,
+    assignment: Vec<u32>,
+    delivered: usize,
+    busy: Vec<Load>,
+    wasted: Load,
+    makespan: Load,
+    spans: Vec<Span>,
+    record: bool,
+    fault_at: Vec<f64>,
+    seconds: &'s dyn Fn(usize, usize) -> f64,
+}
+
+impl Run<'_> {
+    fn is_done(&self, t: u32) -> bool {
+        self.assignment[t as usize] != u32::MAX
+    }
+
+    /// Device `d` starts the next task of its launch not yet delivered, at `at`, or, with
+    /// none left, asks for work then.
+    fn start_next(&mut self, d: usize, at: Load) {
+        let dev = &mut self.devices[d];
+        dev.generation += 1;
+        dev.head = None;
+        while let Some(t) = dev.queue.pop_front() {
+            if self.assignment[t as usize] != u32::MAX {
+                continue;
+            }
+            let end = at.plus((self.seconds)(t as usize, d));
+            dev.head = Some((t, at, end));
+            // A task that would end after the device's fault never ends: the fault cuts it.
+            // (A time that overflowed still ends, so that the caller sees it.)
+            if end.value() <= self.fault_at[d] || end.value().is_nan() {
+                self.events
+                    .push(Reverse((end, Kind::End, d as u32, dev.generation)));
+            }
+            return;
+        }
+        self.events.push(Reverse((at, Kind::Ready, d as u32, 0)));
+    }
+
+    /// Device `d`'s running task ends at `now`: delivered, unless another copy was first,
+    /// and every other copy of it stops.
+    fn end_head(&mut self, d: usize, now: Load) {
+        let Some((t, start, end)) = self.devices[d].head else {
+            return;
+        };
+        let took = end.value() - start.value();
+        self.busy[d] = self.busy[d].plus(took);
+        self.assignment[t as usize] = d as u32;
+        self.delivered += 1;
+        self.makespan = self.makespan.max(now);
+        if self.record {
+            self.spans.push(Span {
+                device: d as u32,
+                task: t,
+                start: start.value(),
+                end: end.value(),
+                device_seconds: None,
+            });
+        }
+        self.start_next(d, now);
+        for e in 0..self.devices.len() {
+            if let Some((u, from, _)) = self.devices[e].head
+                && u == t
+                && !self.devices[e].dead
+            {
+                self.wasted = self.wasted.plus((now.value() - from.value()).max(0.0));
+                self.start_next(e, now.max(from));
+            }
+        }
+    }
+
+    /// Devices that found nothing to do ask again now.
+    fn wake_waiting(&mut self, now: Load) {
+        for (d, dev) in self.devices.iter_mut().enumerate() {
+            if dev.waiting && !dev.dead {
+                dev.waiting = false;
+                self.events.push(Reverse((now, Kind::Ready, d as u32, 0)));
+            }
+        }
+    }
+
+    /// What the backup rule says idle device `d` should do at `now`.
+    fn choose(&self, backups: &Backups<'_>, d: usize, now: Load) -> Backup {
+        let rests: Vec<(usize, Vec<u32>, f64)> = self
+            .devices
+            .iter()
+            .enumerate()
+            .filter(|(_, dev)| !dev.dead)
+            .filter_map(|(e, dev)| {
+                let (head, start, _) = dev.head?;
+                let tasks = std::iter::once(head).chain(dev.queue.iter().copied());
+                Some((e, tasks.collect(), start.value()))
+            })
+            .collect();
+        let held: Vec<Held<'_>> = rests
+            .iter()
+            .map(|(e, tasks, start)| Held {
+                device: *e,
+                tasks,
+                head_started: *start,
+            })
+            .collect();
+        backups.choose(d, now.value(), &held, &|t| self.is_done(t))
     }
 }
 

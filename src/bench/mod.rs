@@ -59,6 +59,13 @@ pub struct Args {
     /// `first-leaf`.
     #[arg(long, default_value = "trace")]
     walk: raytrace::Walk,
+    /// Run every plan as planned: no device left idle runs backup copies of the tasks
+    /// another device holds (the thesis's pure static behaviour).
+    #[arg(long)]
+    no_backups: bool,
+    /// Slowed devices, as for `cobalt render`: `DEVICE=K[,…]`.
+    #[arg(long, value_delimiter = ',', value_parser = crate::args::slow_by)]
+    slow: Vec<raytrace::paths::SlowBy>,
     /// AO rays per primary hit, 1..=4096.
     #[arg(long, default_value_t = 32,
           value_parser = clap::value_parser!(u32).range(1..=MAX_AO_SAMPLES as i64))]
@@ -170,6 +177,7 @@ struct Measured {
 /// Runs the benchmark; every argument is checked before anything is measured.
 pub fn run(args: Args) -> Result<(), CliError> {
     let started = Instant::now();
+    crate::args::check_slow(&args.slow, args.devices.known_count())?;
     let m = Matrix::of(&args);
     check_outputs(&args, &m)?;
     #[cfg(feature = "mpi")]
@@ -290,6 +298,8 @@ fn scene_matrix<'a>(
         ao_samples: args.ao_samples,
         sample_rate: args.sample_rate,
         walk: args.walk,
+        backups: !args.no_backups,
+        slow: &args.slow,
         repeats: args.repeats as usize,
         calibration: store,
         path_devices: Default::default(),

@@ -15,7 +15,7 @@ use std::time::Instant;
 
 #[cfg(feature = "mpi")]
 use raytrace::distributed::render_over_ranks;
-use raytrace::paths::{FailAfter, Settings};
+use raytrace::paths::{FailAfter, Settings, SlowBy};
 #[cfg(feature = "mpi")]
 use raytrace::paths::{Frame, build_path_devices};
 use raytrace::run::Run;
@@ -52,6 +52,11 @@ pub struct Args {
     /// elsewhere.
     #[arg(long, value_delimiter = ',', value_parser = crate::args::fail_after)]
     fail: Vec<FailAfter>,
+    /// Slowed devices, `DEVICE=K[,…]`: device DEVICE takes K times as long (it waits K − 1
+    /// times each launch's busy time), to show devices of different speeds on equal cores.
+    /// The image does not change.
+    #[arg(long, value_delimiter = ',', value_parser = crate::args::slow_by)]
+    slow: Vec<SlowBy>,
     /// When every device of `--devices` fails, finish the frame on the host's threads and say
     /// so, instead of exiting with status 3 and writing nothing.
     #[arg(long)]
@@ -75,6 +80,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     // The film, the rays of a generation and their hits, per pixel and sample.
     crate::limits::memory("size", &args.size.to_string(), &[(args.size.pixels(), 256)])?;
     let faults = faults(&args)?;
+    let slow = crate::args::check_slow(&args.slow, args.schedule.devices.known_count())?;
     let settings = args.schedule.settings();
     let camera = args.camera.choice()?;
     let shader = args.shader.shader();
@@ -93,6 +99,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let options = RenderOptions::new(args.size.width, args.size.height, view, shader);
     let run = Run {
         frames: args.repeats,
+        slow: &slow,
         ..one_frame(&args, &faults, settings)
     };
     let rendered = paths::render(
@@ -130,6 +137,7 @@ fn one_frame<'a>(args: &'a Args, faults: &'a [FailAfter], settings: Settings) ->
     Run {
         specs: args.schedule.devices.specs(),
         faults,
+        slow: &[],
         settings,
         frames: 1,
         host_fallback: args.host_fallback,
@@ -164,13 +172,7 @@ fn load(
 /// `--fail`, each device an index into `--devices`. GPU entries open however many adapters
 /// exist: their indices are checked once the devices are built (naming the fault).
 fn faults(args: &Args) -> Result<Vec<FailAfter>, CliError> {
-    let devices = &args.schedule.devices;
-    let known = if devices.has_gpu() {
-        usize::MAX
-    } else {
-        devices.cpu_devices()
-    };
-    crate::args::check_faults(&args.fail, known)
+    crate::args::check_faults(&args.fail, args.schedule.devices.known_count())
 }
 
 /// `cobalt render` under `mpirun`: the flags a cluster cannot honour are refused, then every
@@ -192,6 +194,13 @@ fn mpi(
             flag: "cost-image",
             value: path.display().to_string(),
             message: "not available under mpirun; render the cost image in one process".into(),
+        });
+    }
+    if let Some(s) = args.slow.first() {
+        return Err(CliError::Arg {
+            flag: "slow",
+            value: format!("{}={}", s.device, s.factor),
+            message: "not available under mpirun; slow a device in one process".into(),
         });
     }
     let cluster = sched::mpi::Cluster::init()?;

@@ -66,6 +66,7 @@ impl Record {
             policy: settings.policy.name(),
             mode: settings.mode.name(),
             walk: settings.walk.name(),
+            backups: settings.backups,
             task_size: settings.task_size.get(),
             devices,
             device_list: matrix.device_list.to_string(),
@@ -138,6 +139,10 @@ pub struct SceneMatrix<'a> {
     pub sample_rate: SampleRate,
     /// How cost mode counts a sampled path.
     pub walk: crate::traverse::Walk,
+    /// Whether idle devices run backup copies (`--no-backups` turns them off).
+    pub backups: bool,
+    /// Devices made slower on purpose (`--slow`).
+    pub slow: &'a [crate::paths::SlowBy],
     /// Runs of every cell, in rounds that each run every cell of the matrix once.
     pub repeats: usize,
     /// The calibration that plans each path cell's first frame and keeps what it learnt.
@@ -186,6 +191,7 @@ impl SceneMatrix<'_> {
                             task_size: size,
                             sample_rate: self.sample_rate,
                             walk: self.walk,
+                            backups: self.backups,
                         };
                         cells.push((w, settings));
                     }

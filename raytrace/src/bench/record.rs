@@ -21,6 +21,9 @@ pub struct Record {
     pub mode: &'static str,
     /// How cost mode counted a sampled path (`--walk`): `trace`, `reduced` or `first-leaf`.
     pub walk: &'static str,
+    /// Whether idle devices ran backup copies of the tasks others held (false with
+    /// `--no-backups`).
+    pub backups: bool,
     /// The cell's entry of `--task-sizes`.
     pub task_size: usize,
     /// What a frame of the cell was cut into: its tasks, and the paths of the largest

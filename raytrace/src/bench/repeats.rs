@@ -70,6 +70,7 @@ mod tests {
             policy: "static-lpt",
             mode: "cost",
             walk: "trace",
+            backups: true,
             task_size: 512,
             tasks: 1,
             cut_task_size: 512,

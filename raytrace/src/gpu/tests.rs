@@ -1079,6 +1079,8 @@ fn estimating_gpus_move_at_most_64_bytes_a_task() {
                 policy: sched::Policy::QueueFifo,
                 mode: Mode::Cost,
                 task_size: std::num::NonZeroUsize::new(32).expect("positive"),
+                // Counted per launch of the plan: no backup copies.
+                backups: false,
                 ..Settings::default()
             },
         )
@@ -1281,6 +1283,8 @@ fn the_first_devices_kind_estimates_a_mixed_frame() {
             policy: sched::Policy::StaticLpt,
             mode: Mode::Cost,
             task_size: std::num::NonZeroUsize::new(128).expect("positive"),
+            // Counted per launch of the plan: no backup copies.
+            backups: false,
             ..Settings::default()
         };
         let mut r = PathRenderer::new(devices, settings).expect("renderer");

@@ -244,6 +244,10 @@ impl PathDevice for CpuPaths {
         format!("cpu{}", self.index)
     }
 
+    fn cheap_launches(&self) -> bool {
+        true
+    }
+
     fn class(&self) -> String {
         format!("cpu/{}", self.threads)
     }

@@ -50,6 +50,20 @@ pub trait PathDevice: Send {
     fn render(&mut self, frame: &Frame<'_>, tasks: &[&Range<usize>])
     -> Result<Launch, DeviceError>;
 
+    /// [`PathDevice::render`], for a launch whose values may stop being wanted while it runs
+    /// (`wanted()` turns false: another device delivered them first); a device that waits
+    /// on something may then return sooner, its values still complete. By default renders
+    /// the launch whole.
+    fn render_while(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[&Range<usize>],
+        wanted: &dyn Fn() -> bool,
+    ) -> Result<Launch, DeviceError> {
+        let _ = wanted;
+        self.render(frame, tasks)
+    }
+
     /// A name unique among the devices of a renderer.
     fn name(&self) -> String;
 
@@ -96,6 +110,12 @@ pub trait PathDevice: Send {
         None
     }
 
+    /// Whether a launch costs next to nothing (a CPU device's pool), so that a launch may be
+    /// rendered in pieces that the other devices see delivered. False by default.
+    fn cheap_launches(&self) -> bool {
+        false
+    }
+
     /// The frame is done: what the device kept for it (a sample's values) is of no further
     /// use, so that no later frame renders faster for this one's work. Nothing by default.
     fn end_frame(&mut self) {}
@@ -117,6 +137,7 @@ pub struct BoundPaths<'r, 'a> {
     device: &'r mut (dyn PathDevice + 'a),
     frame: &'r Frame<'r>,
     speed: f64,
+    pieces: bool,
 }
 
 impl<'r, 'a> BoundPaths<'r, 'a> {
@@ -126,14 +147,31 @@ impl<'r, 'a> BoundPaths<'r, 'a> {
             device,
             frame,
             speed,
+            pieces: false,
         }
+    }
+
+    /// The same device rendering a launch in pieces where its launches are cheap
+    /// ([`PathDevice::cheap_launches`]: a CPU device; a GPU renders a launch whole): each piece's
+    /// values are delivered as it ends, so that the other devices see how far it has got and
+    /// may run backup copies of the rest, and tasks another device delivered first are
+    /// skipped. The values do not change.
+    pub fn in_pieces(self, on: bool) -> Self {
+        Self { pieces: on, ..self }
     }
 }
 
+/// A launch is rendered in about this many pieces (see [`BoundPaths::in_pieces`]).
+const PIECES: usize = 8;
+
 impl BoundPaths<'_, '_> {
     /// One launch of the device, checked to give a value for every path.
-    fn launch(&mut self, tasks: &[&Range<usize>]) -> Result<Launch, DeviceError> {
-        let launch = self.device.render(self.frame, tasks)?;
+    fn launch(
+        &mut self,
+        tasks: &[&Range<usize>],
+        wanted: &dyn Fn() -> bool,
+    ) -> Result<Launch, DeviceError> {
+        let launch = self.device.render_while(self.frame, tasks, wanted)?;
         let paths: usize = tasks.iter().map(|t| t.len()).sum();
         if launch.values.len() != paths {
             return Err(DeviceError::msg(format!(
@@ -150,7 +188,7 @@ impl Executor<Range<usize>> for BoundPaths<'_, '_> {
     type Output = TaskValues;
 
     fn run(&mut self, task: &Range<usize>) -> Result<TaskValues, DeviceError> {
-        let mut launch = self.launch(&[task])?;
+        let mut launch = self.launch(&[task], &|| true)?;
         Ok(TaskValues {
             values: std::mem::take(&mut launch.values),
             launch: Some(launch),
@@ -162,14 +200,32 @@ impl Executor<Range<usize>> for BoundPaths<'_, '_> {
         tasks: &[&Range<usize>],
         sink: &mut Sink<TaskValues>,
     ) -> Result<(), DeviceError> {
-        let mut launch = self.launch(tasks)?;
-        let mut values = std::mem::take(&mut launch.values).into_iter();
-        let mut totals = Some(launch);
-        for task in tasks {
-            sink.push(TaskValues {
-                values: values.by_ref().take(task.len()).collect(),
-                launch: totals.take(),
-            });
+        let piece = if self.pieces && self.device.cheap_launches() {
+            tasks.len().div_ceil(PIECES)
+        } else {
+            tasks.len()
+        };
+        let mut rest = tasks;
+        while !rest.is_empty() {
+            if !sink.wanted() {
+                sink.skip();
+                rest = &rest[1..];
+                continue;
+            }
+            let (now, later) = rest.split_at(piece.min(rest.len()));
+            let mut launch = {
+                let sink = &*sink;
+                self.launch(now, &|| sink.any_wanted(now.len()))?
+            };
+            let mut values = std::mem::take(&mut launch.values).into_iter();
+            let mut totals = Some(launch);
+            for task in now {
+                sink.push(TaskValues {
+                    values: values.by_ref().take(task.len()).collect(),
+                    launch: totals.take(),
+                });
+            }
+            rest = later;
         }
         Ok(())
     }

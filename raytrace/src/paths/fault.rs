@@ -5,8 +5,13 @@
 //!
 //! Every device of a `--devices` list takes its faults this way, CPU and GPU alike, so they
 //! fail alike.
+//!
+//! A device can also be made slower (`--slow D=K`, [`SlowPaths`]): it waits `K − 1` times
+//! each launch's busy time after rendering it, so that devices of different speeds can be
+//! shown on a machine of equal cores. Its values are the inner device's: images do not change.
 
 use std::ops::Range;
+use std::time::{Duration, Instant};
 
 use sched::DeviceError;
 
@@ -55,6 +60,15 @@ impl PathDevice for FailingPaths<'_> {
         frame: &Frame<'_>,
         tasks: &[&Range<usize>],
     ) -> Result<Launch, DeviceError> {
+        self.render_while(frame, tasks, &|| true)
+    }
+
+    fn render_while(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[&Range<usize>],
+        wanted: &dyn Fn() -> bool,
+    ) -> Result<Launch, DeviceError> {
         if self.done + tasks.len() as u64 > self.after {
             self.done = self.after;
             return Err(InjectedFault {
@@ -63,7 +77,7 @@ impl PathDevice for FailingPaths<'_> {
             }
             .into());
         }
-        let launch = self.inner.render(frame, tasks)?;
+        let launch = self.inner.render_while(frame, tasks, wanted)?;
         self.done += tasks.len() as u64;
         Ok(launch)
     }
@@ -78,6 +92,124 @@ impl PathDevice for FailingPaths<'_> {
 
     fn launch_overhead(&self) -> Option<f64> {
         self.inner.launch_overhead()
+    }
+
+    fn cheap_launches(&self) -> bool {
+        self.inner.cheap_launches()
+    }
+
+    fn end_frame(&mut self) {
+        self.inner.end_frame();
+    }
+}
+
+/// A device made slower on purpose: device `device` (index in the list) takes `factor` times
+/// as long.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlowBy {
+    /// Index of the device, counting every device of the list in order.
+    pub device: usize,
+    /// How many times as long it takes, at least 1.
+    pub factor: f64,
+}
+
+/// `inner`, `factor` times slower: after each launch it waits `factor − 1` times the launch's
+/// busy time, less if the launch's values stop being wanted meanwhile (another device
+/// delivered them first).
+pub struct SlowPaths<'a> {
+    inner: Box<dyn PathDevice + 'a>,
+    factor: f64,
+}
+
+impl<'a> SlowPaths<'a> {
+    /// `inner`, `factor` times slower.
+    pub fn new(inner: Box<dyn PathDevice + 'a>, factor: f64) -> Self {
+        Self { inner, factor }
+    }
+
+    /// Each device of `devices` named in `slow` made that much slower (the largest factor
+    /// where one is named twice). The caller checks the indices.
+    pub fn wrap(
+        devices: Vec<Box<dyn PathDevice + 'a>>,
+        slow: &[SlowBy],
+    ) -> Vec<Box<dyn PathDevice + 'a>> {
+        devices
+            .into_iter()
+            .enumerate()
+            .map(|(i, d)| {
+                let factor = slow
+                    .iter()
+                    .filter(|s| s.device == i)
+                    .map(|s| s.factor)
+                    .fold(1.0, f64::max);
+                if factor > 1.0 {
+                    Box::new(SlowPaths::new(d, factor)) as Box<dyn PathDevice + 'a>
+                } else {
+                    d
+                }
+            })
+            .collect()
+    }
+}
+
+impl PathDevice for SlowPaths<'_> {
+    fn render(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[&Range<usize>],
+    ) -> Result<Launch, DeviceError> {
+        self.render_while(frame, tasks, &|| true)
+    }
+
+    fn render_while(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[&Range<usize>],
+        wanted: &dyn Fn() -> bool,
+    ) -> Result<Launch, DeviceError> {
+        let started = Instant::now();
+        let launch = self.inner.render_while(frame, tasks, wanted)?;
+        let until = started + started.elapsed().mul_f64(self.factor);
+        // Short sleeps, so that a launch no longer wanted ends soon after.
+        while wanted() {
+            let left = until.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                break;
+            }
+            std::thread::sleep(left.min(Duration::from_micros(500)));
+        }
+        Ok(launch)
+    }
+
+    fn estimate(
+        &mut self,
+        frame: &Frame<'_>,
+        tasks: &[&Range<usize>],
+        rate: sched::SampleRate,
+        walk: crate::traverse::walk::Walk,
+    ) -> Result<super::Estimate, DeviceError> {
+        self.inner.estimate(frame, tasks, rate, walk)
+    }
+
+    fn estimate_kind(&self) -> &'static str {
+        self.inner.estimate_kind()
+    }
+
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+
+    fn class(&self) -> String {
+        // Not measured with the inner device's class: it is slower.
+        format!("{} (slowed)", self.inner.name())
+    }
+
+    fn launch_overhead(&self) -> Option<f64> {
+        self.inner.launch_overhead()
+    }
+
+    fn cheap_launches(&self) -> bool {
+        self.inner.cheap_launches()
     }
 
     fn end_frame(&mut self) {

@@ -344,10 +344,14 @@ impl<'a> PathRenderer<'a> {
             .enumerate()
             .filter(|(d, _)| runs[*d])
             .zip(&speeds)
-            .map(|((_, device), &speed)| BoundPaths::new(device.as_mut(), frame, speed))
+            .map(|((_, device), &speed)| {
+                BoundPaths::new(device.as_mut(), frame, speed).in_pieces(self.settings.backups)
+            })
             .collect();
         let running = Instant::now();
-        let result = Runtime::new(self.settings.policy).run(tasks, &costs, &mut bound);
+        let result = Runtime::new(self.settings.policy)
+            .backups(self.settings.backups)
+            .run(tasks, &costs, &mut bound);
         let run_seconds = running.elapsed().as_secs_f64();
         drop(bound);
         let report = match result {
@@ -442,6 +446,9 @@ impl<'a> PathRenderer<'a> {
             task_stats,
             devices,
             reruns: report.reruns,
+            backups: self.settings.backups,
+            copies: report.copies,
+            wasted_seconds: report.wasted,
             failures: report
                 .failures
                 .into_iter()

@@ -67,6 +67,10 @@ pub struct Settings {
     /// ([`Walk::Trace`], the default), or its camera ray walked by the thesis's reduced
     /// traversal or the first-leaf walk; see [`super::walk_paths`].
     pub walk: Walk,
+    /// Whether a device left idle runs backup copies of what a slower one holds
+    /// ([`sched::Runtime::backups`]); CPU devices then render their launches in pieces
+    /// ([`super::BoundPaths::in_pieces`]). Off, the plan runs as planned.
+    pub backups: bool,
 }
 
 impl Settings {
@@ -106,7 +110,7 @@ impl Settings {
 
 impl Default for Settings {
     /// Cost-based LPT on tasks of 4096 paths sampled at 12.5 %, the sampled paths rendered
-    /// for real.
+    /// for real, with backup copies.
     fn default() -> Self {
         Self {
             policy: Policy::StaticLpt,
@@ -114,6 +118,7 @@ impl Default for Settings {
             task_size: Self::DEFAULT_TASK_SIZE,
             sample_rate: SampleRate::THESIS,
             walk: Walk::Trace { any: false },
+            backups: true,
         }
     }
 }

@@ -93,6 +93,13 @@ pub struct FrameStats {
     pub devices: Vec<PathDeviceStats>,
     /// Task runs lost to failed devices and run again elsewhere.
     pub reruns: u64,
+    /// Whether idle devices could run backup copies ([`super::Settings::backups`]).
+    pub backups: bool,
+    /// Backup copies launched.
+    pub copies: u64,
+    /// Seconds devices spent on task runs whose values were dropped, another copy's having
+    /// come first.
+    pub wasted_seconds: f64,
     /// Devices that failed during the frame.
     pub failures: Vec<DeviceFailure>,
     /// Devices left idle because the fastest class alone rendered frames faster (see

@@ -32,7 +32,9 @@ pub use store::{CalibrationReport, Store, workload};
 use sched::{DeviceFailure, SchedError};
 
 use crate::devices::DeviceSpec;
-use crate::paths::{FailAfter, FrameRendering, PathRenderer, Settings, build_path_devices};
+use crate::paths::{
+    FailAfter, FrameRendering, PathRenderer, Settings, SlowBy, SlowPaths, build_path_devices,
+};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene};
 
@@ -59,6 +61,8 @@ pub struct Run<'a> {
     pub specs: &'a [DeviceSpec],
     /// Injected faults (`--fail`).
     pub faults: &'a [FailAfter],
+    /// Devices made slower on purpose (`--slow`).
+    pub slow: &'a [SlowBy],
     /// How every frame is cut, costed and planned.
     pub settings: Settings,
     /// Frames rendered through one renderer (each plans with the speeds measured on the ones
@@ -75,6 +79,7 @@ impl<'a> Run<'a> {
         Self {
             specs,
             faults: &[],
+            slow: &[],
             settings: Settings::default(),
             frames: 1,
             host_fallback: false,
@@ -97,6 +102,7 @@ impl<'a> Run<'a> {
         calibration: Option<(&mut Store, &str)>,
     ) -> Result<(Film, RunReport), RunError> {
         let devices = build_path_devices(scene, bvh, self.specs, self.faults)?;
+        let devices = SlowPaths::wrap(devices, self.slow);
         let renderer = PathRenderer::new(devices, self.settings)?;
         self.render_on(renderer, scene, bvh, options, calibration)
     }

@@ -38,6 +38,14 @@ pub struct RunReport {
     pub launches: u64,
     /// Task runs lost to failed devices and run again elsewhere.
     pub reruns: u64,
+    /// Whether idle devices could run backup copies of the tasks others held (false with
+    /// `--no-backups`).
+    pub backups: bool,
+    /// Backup copies launched in the reported frame.
+    pub copies: u64,
+    /// Seconds devices spent on task runs whose values were dropped, another copy's having
+    /// come first.
+    pub wasted_seconds: f64,
     /// Launches of the reported frame whose time was far off their planned cost, left out of
     /// the speeds learnt.
     pub spikes: usize,
@@ -84,6 +92,14 @@ impl RunReport {
         for f in &self.failures {
             text += &format!("  failed: {f}\n");
         }
+        if !self.backups {
+            text += "no backup copies (--no-backups)\n";
+        } else if self.copies > 0 {
+            text += &format!(
+                "backup copies: {} tasks, {:.3} s of device time wasted on the slower copies\n",
+                self.copies, self.wasted_seconds
+            );
+        }
         if !self.left_idle.is_empty() {
             text += &format!(
                 "left idle: {} (the fastest devices alone rendered frames faster)\n",
@@ -111,6 +127,9 @@ impl RunReport {
             balance_efficiency: s.balance_efficiency,
             launches: s.launches(),
             reruns: s.reruns,
+            backups: s.backups,
+            copies: s.copies,
+            wasted_seconds: s.wasted_seconds,
             spikes: s.spikes,
             host_fallback: false,
             failures: s.failures.iter().map(ToString::to_string).collect(),

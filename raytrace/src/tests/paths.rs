@@ -135,7 +135,12 @@ fn a_device_that_slows_frames_is_left_idle() {
     let mut devices = cpus(2);
     let lagging = devices.remove(1);
     devices.push(laggard(lagging));
-    let mut r = PathRenderer::new(devices, settings(Policy::Hybrid, Mode::Regular, 64)).unwrap();
+    // As planned: with backups the fastest device would take over the laggard's tasks.
+    let s = Settings {
+        backups: false,
+        ..settings(Policy::Hybrid, Mode::Regular, 64)
+    };
+    let mut r = PathRenderer::new(devices, s).unwrap();
     let idle: Vec<Vec<String>> = (0..4)
         .map(|_| {
             let frame = r.render(&scene, &bvh, &options).expect("frame");
@@ -193,7 +198,12 @@ fn the_idle_devices_take_over_when_the_fastest_fail() {
     // launch 40 ms) and fails during the second, which it renders alone.
     let fast = FailingPaths::new(devices.remove(0), 30);
     let devices: Vec<Box<dyn PathDevice>> = vec![Box::new(fast), laggard(lagging)];
-    let mut r = PathRenderer::new(devices, settings(Policy::Hybrid, Mode::Regular, 64)).unwrap();
+    // As planned: with backups the fastest device would take over the laggard's tasks.
+    let s = Settings {
+        backups: false,
+        ..settings(Policy::Hybrid, Mode::Regular, 64)
+    };
+    let mut r = PathRenderer::new(devices, s).unwrap();
     let first = r.render(&scene, &bvh, &options).expect("first frame");
     assert!(
         first.stats.failures.is_empty(),

@@ -43,9 +43,8 @@ impl<T: Task + Wire + Clone, O: Wire + Send> Executor<T> for RemoteNode<'_, T, O
     fn run(&mut self, task: &T) -> Result<O, DeviceError> {
         let mut sink = Sink::new(1);
         self.run_batch(&[task], &mut sink)?;
-        sink.into_outputs()
+        sink.into_values()
             .pop()
-            .map(|(o, ..)| o)
             .ok_or_else(|| DeviceError::msg(format!("rank {}: no output", self.rank)))
     }
 
