@@ -103,27 +103,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
         Some(path) => Costs::new(read_costs(path)?).map_err(named(path))?,
         None => estimated.clone(),
     };
-    let speeds_typed = || {
-        let text: Vec<String> = args.speeds.iter().map(f64::to_string).collect();
-        text.join(",")
-    };
-    let speeds = Speeds::new(args.speeds.clone()).map_err(|e| CliError::Arg {
-        flag: "speeds",
-        value: speeds_typed(),
-        message: e.to_string(),
-    })?;
+    let speeds = speeds_of("speeds", &args.speeds)?;
     let true_speeds = match &args.actual_speeds {
         Some(s) => {
-            let typed: Vec<String> = s.iter().map(f64::to_string).collect();
-            let checked = Speeds::new(s.clone()).map_err(|e| CliError::Arg {
-                flag: "actual-speeds",
-                value: typed.join(","),
-                message: e.to_string(),
-            })?;
+            let checked = speeds_of("actual-speeds", s)?;
             if checked.len() != speeds.len() {
                 return Err(CliError::Arg {
                     flag: "actual-speeds",
-                    value: typed.join(","),
+                    value: typed(s),
                     message: format!("one speed per device of --speeds ({})", speeds.len()),
                 });
             }
@@ -169,7 +156,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if !finite {
         return Err(CliError::Arg {
             flag: "speeds",
-            value: speeds_typed(),
+            value: typed(&args.speeds),
             message: format!(
                 "the costs divided by these speeds (plus --latency {}) overflow: a makespan \
                  of {makespan:e} cannot be reported; scale the costs down",
@@ -206,6 +193,21 @@ pub fn run(args: Args) -> Result<(), CliError> {
     } else {
         crate::print::print_text(&table(&report))
     }
+}
+
+/// `values` as device speeds; an error names `flag` and the values as typed.
+fn speeds_of(flag: &'static str, values: &[f64]) -> Result<Speeds, CliError> {
+    Speeds::new(values.to_vec()).map_err(|e| CliError::Arg {
+        flag,
+        value: typed(values),
+        message: e.to_string(),
+    })
+}
+
+/// Speeds as they were typed: comma-separated.
+fn typed(values: &[f64]) -> String {
+    let text: Vec<String> = values.iter().map(f64::to_string).collect();
+    text.join(",")
 }
 
 fn table(r: &Report) -> String {
