@@ -37,9 +37,11 @@ impl Rng {
     }
 }
 
-/// A directory of this test process's own, named by `tag`, created if missing.
+/// A directory of this test process's own, named by `tag`, created if missing. It lies under
+/// the build's own temporary folder, so runs leave nothing in the system's `/tmp`.
 pub(crate) fn temp_dir(tag: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("cobalt-{tag}-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("cobalt-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     dir
 }
