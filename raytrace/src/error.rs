@@ -65,6 +65,26 @@ pub enum Error {
         /// Vertices defined before this line.
         count: usize,
     },
+    /// An element of a binary or structured scene file (a PLY record, a glTF buffer, accessor
+    /// or primitive) is wrong, or is missing from a file shorter than its header promises.
+    #[error("{path}: {element}: {what}")]
+    Element {
+        /// The file.
+        path: PathBuf,
+        /// Which element, as the format numbers them (`face 17`, `mesh 0 primitive 1`), with
+        /// its line or byte offset where the format has them.
+        element: String,
+        /// What is wrong with it.
+        what: String,
+    },
+    /// The gltf crate rejected the document (bad JSON, GLB framing or a broken reference).
+    #[error("{path}: not a valid glTF 2.0 document: {source}")]
+    Gltf {
+        /// The file.
+        path: PathBuf,
+        /// The gltf crate's reason.
+        source: ::gltf::Error,
+    },
     /// The scene has no triangle at all (degenerate ones would count).
     #[error("{name}: the scene has no triangles")]
     EmptyScene {

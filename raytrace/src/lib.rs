@@ -40,11 +40,14 @@ pub mod devices;
 pub mod distributed;
 mod error;
 pub mod estimate;
+mod file;
 pub mod film;
+mod gltf;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 mod obj;
 pub mod paths;
+mod ply;
 mod pool;
 mod ray;
 pub mod run;

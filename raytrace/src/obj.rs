@@ -3,11 +3,11 @@
 
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use glam::Vec3;
 
-use crate::scene::{LoadReport, Material, Scene, SceneNeeds};
+use crate::file::MAX_FACE_VERTICES;
+use crate::scene::{FileMesh, LoadReport, Material, SceneNeeds};
 use crate::{Error, Result};
 
 /// What the scan learnt about the file, checked against tobj's result.
@@ -17,12 +17,11 @@ struct Scan {
     triangles: usize,
 }
 
-/// Loads `path` keeping what `needs` asks for. Primitive ids are triangle indices in file order
-/// after fan triangulation (`f a b c d` gives `a b c` then `a c d`).
-pub(crate) fn load(path: &Path, needs: SceneNeeds) -> Result<Scene> {
-    let start = Instant::now();
-    let bytes = read(path)?;
-    let text = decode(&bytes, path)?;
+/// Reads the OBJ text `bytes` of `path` keeping what `needs` asks for. Primitive ids are
+/// triangle indices in file order after fan triangulation (`f a b c d` gives `a b c` then
+/// `a c d`).
+pub(crate) fn parse(bytes: &[u8], path: &Path, needs: SceneNeeds) -> Result<FileMesh> {
+    let text = decode(bytes, path)?;
     let scan = scan(&text, path)?;
 
     let options = tobj::LoadOptions {
@@ -109,88 +108,27 @@ pub(crate) fn load(path: &Path, needs: SceneNeeds) -> Result<Scene> {
         });
     }
 
-    let report = LoadReport {
-        vertices: scan.vertices,
-        faces: scan.faces,
-        triangles: triangles.len(),
-        degenerate: 0,
-        seconds: 0.0,
-        warnings,
-    };
-    let mut scene = Scene::from_parts(path.display().to_string(), positions, triangles, report)?;
-    scene.normalise();
-    if needs.normals {
-        if have_all_normals && normals.len() == scene.positions.len() {
-            scene.normals = Some(normals);
-        } else {
-            scene.compute_vertex_normals();
-        }
-    }
-    if needs.materials {
-        let mut list = vec![Material::default()];
-        list.extend(mtl.iter().map(Material::from_mtl));
-        scene.materials = list;
-        scene.material_ids = material_ids;
-    }
-    if needs.lights {
-        scene.add_default_light();
-    }
-    scene.report.seconds = start.elapsed().as_secs_f64();
-    Ok(scene)
+    Ok(FileMesh {
+        positions,
+        triangles,
+        normals: (have_all_normals && needs.normals).then_some(normals),
+        materials: mtl.iter().map(Material::from_mtl).collect(),
+        material_ids,
+        report: LoadReport {
+            vertices: scan.vertices,
+            faces: scan.faces,
+            warnings,
+            ..LoadReport::default()
+        },
+    })
 }
-
-/// Largest OBJ file read: `/dev/zero` or a wrong path to a huge file ends in an error instead
-/// of filling memory.
-pub const MAX_OBJ_BYTES: u64 = 4 << 30;
-
-/// Bytes read at a time; NUL bytes in the first block end the read at once (UTF-16, binary
-/// data, `/dev/zero`).
-const BLOCK: usize = 1 << 16;
 
 /// Longest line read, in bytes: a polygon at [`MAX_FACE_VERTICES`] with full `v/vt/vn`
 /// references fits; anything longer is not geometry a renderer should take in one line.
 pub const MAX_LINE_BYTES: usize = 32 << 20;
 
-/// Most vertices of one face: a polygon is fanned into one triangle per vertex past the
-/// second, and a face this large is damage or an attack rather than a model.
-pub const MAX_FACE_VERTICES: usize = 1 << 20;
-
-/// Reads the file, or standard input for `-`, up to [`MAX_OBJ_BYTES`].
-fn read(path: &Path) -> Result<Vec<u8>> {
-    use std::io::Read;
-    let io = |source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let mut input: Box<dyn Read> = if path == Path::new("-") {
-        Box::new(std::io::stdin().lock())
-    } else {
-        Box::new(std::fs::File::open(path).map_err(io)?)
-    };
-    let mut bytes = Vec::new();
-    let mut block = vec![0u8; BLOCK];
-    loop {
-        let n = match input.read(&mut block) {
-            Ok(0) => break,
-            Ok(n) => n,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(io(e)),
-        };
-        if bytes.len() < BLOCK && block[..n].contains(&0) {
-            return Err(not_text(path, &block[..n]));
-        }
-        bytes.extend_from_slice(&block[..n]);
-        if bytes.len() as u64 > MAX_OBJ_BYTES {
-            return Err(Error::TooLarge {
-                path: path.to_path_buf(),
-                limit: MAX_OBJ_BYTES,
-            });
-        }
-    }
-    Ok(bytes)
-}
-
-fn not_text(path: &Path, start: &[u8]) -> Error {
+/// Why a file that should be OBJ text is not: binary or UTF-16 data in its first bytes.
+pub(crate) fn not_text(path: &Path, start: &[u8]) -> Error {
     let why = if start.starts_with(&[0xFF, 0xFE]) || start.starts_with(&[0xFE, 0xFF]) {
         "the file is UTF-16 or UTF-32 (it starts with that byte-order mark)"
     } else {

@@ -118,6 +118,25 @@ pub struct LoadReport {
     pub warnings: Vec<String>,
 }
 
+/// A scene file as its format's loader read it, before [`Scene::from_file`] makes it a scene
+/// the same way for every format.
+#[derive(Debug, Default)]
+pub(crate) struct FileMesh {
+    /// Vertex positions, in the file's units.
+    pub positions: Vec<Vec3>,
+    /// Vertex indices of each triangle, in file order.
+    pub triangles: Vec<[u32; 3]>,
+    /// One shading normal per vertex, where the file gives every vertex one.
+    pub normals: Option<Vec<Vec3>>,
+    /// The file's materials; the default material goes before them as material 0.
+    pub materials: Vec<Material>,
+    /// Each triangle's material (0 the default, `k` the file's `k - 1`th); empty where the
+    /// format has no materials.
+    pub material_ids: Vec<u32>,
+    /// What the file held (vertices, faces) and any warnings.
+    pub report: LoadReport,
+}
+
 /// A triangle scene. Primitive id `i` is `triangles[i]`, in file order.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -193,6 +212,34 @@ impl Scene {
             report.vertices = scene.positions.len();
         }
         scene.report = report;
+        Ok(scene)
+    }
+
+    /// The scene of a file, whatever its format: checked as [`Scene::from_parts`], brought into
+    /// range ([`Scene::normalise`]), and given what `needs` asks for: the file's normals where
+    /// every vertex has one (else computed), its materials after the default, the default light.
+    pub(crate) fn from_file(name: String, mesh: FileMesh, needs: SceneNeeds) -> Result<Self> {
+        let mut scene = Self::from_parts(name, mesh.positions, mesh.triangles, mesh.report)?;
+        scene.normalise();
+        if needs.normals {
+            match mesh.normals {
+                Some(n) if n.len() == scene.positions.len() => scene.normals = Some(n),
+                _ => scene.compute_vertex_normals(),
+            }
+        }
+        if needs.materials {
+            scene.materials = std::iter::once(Material::default())
+                .chain(mesh.materials)
+                .collect();
+            scene.material_ids = if mesh.material_ids.len() == scene.triangles.len() {
+                mesh.material_ids
+            } else {
+                vec![0; scene.triangles.len()]
+            };
+        }
+        if needs.lights {
+            scene.add_default_light();
+        }
         Ok(scene)
     }
 
