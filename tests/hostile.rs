@@ -30,7 +30,7 @@ fn names(dir: &Path) -> Vec<String> {
 }
 
 /// Exit status 2, no panic, and a message holding every one of `needles`.
-fn refused(o: &Output, needles: &[&str]) -> String {
+pub(crate) fn refused(o: &Output, needles: &[&str]) -> String {
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(!err.contains("panicked"), "{err}");

@@ -38,6 +38,10 @@ mod bench;
 // `cobalt knn` and `cobalt collide`: the bench record shape, full sampling exact, bad input.
 mod spatial;
 
+// Scene formats: OBJ, PLY, glTF and GLB render the same image from the same triangles; a glTF's
+// node transforms and materials as the baked OBJ's; malformed files of each are refused.
+mod formats;
+
 // Hostile input: special files, links and inputs given as outputs, failures at each step of
 // writing, absurd sizes, odd encodings, degenerate scenes, overflowing costs, bad GPU settings;
 // random and mutated argument lists, ray files and cost files.

@@ -30,6 +30,22 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, needs: SceneNeeds) -> Result<File
         what,
     };
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    if bytes.starts_with(b"glTF") {
+        // The GLB header's length, checked here so that a cut file is named as one.
+        let promised = bytes
+            .get(8..12)
+            .map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]));
+        if promised.is_none_or(|l| l as usize > bytes.len()) {
+            let promised = promised.map_or("a 12-byte header".into(), |l| format!("{l} bytes"));
+            return Err(bad(
+                "the GLB header".into(),
+                format!(
+                    "it promises {promised}, but the file holds {} (truncated file?)",
+                    bytes.len()
+                ),
+            ));
+        }
+    }
     let gltf = Gltf::from_slice(bytes).map_err(|source| Error::Gltf {
         path: path.to_path_buf(),
         source,
