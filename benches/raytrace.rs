@@ -3,7 +3,9 @@
 //! 32-sample AO rays (any-hit, and closest-hit) from one camera's hits. Scenes: `builtin:forest`
 //! and, when present, `../shared/scenes/conference.obj`.
 //!
-//! `load/SCENE` times bringing a scene into range (`Scene::normalise`) beside loading it whole.
+//! `load/SCENE` times bringing a scene into range (`Scene::normalise`) beside loading it whole,
+//! and loading its triangles written as OBJ, PLY (ASCII and binary), glTF and GLB, so the
+//! formats' loading times per triangle are read side by side.
 //!
 //! Run: `cargo bench --bench raytrace` (filter with e.g. `-- conference`); each group prints
 //! both traversals' throughput, so the ratio to obvhs is read from one run.
@@ -11,8 +13,9 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use raytrace::baseline::CwBvhBaseline;
 use raytrace::traverse::{any_hits, closest_hits};
-use raytrace::{BuildPreset, Bvh, SceneNeeds, SceneSource, testkit, workload};
+use raytrace::{BuildPreset, Bvh, Scene, SceneNeeds, SceneSource, testkit, workload};
 use std::hint::black_box;
+use std::path::{Path, PathBuf};
 
 fn scenes() -> Vec<(String, String)> {
     let mut s = vec![("forest".to_string(), "builtin:forest".to_string())];
@@ -73,8 +76,94 @@ fn normalise(c: &mut Criterion) {
         g.bench_function("load", |b| {
             b.iter(|| source.load(black_box(SceneNeeds::AO)))
         });
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bench-formats-{name}"));
+        g.throughput(Throughput::Elements(scene.len() as u64));
+        for (format, path) in write_formats(&scene, &dir) {
+            let file = SceneSource::File(path);
+            g.bench_function(format, |b| b.iter(|| file.load(black_box(SceneNeeds::AO))));
+        }
         g.finish();
     }
+}
+
+/// `scene`'s triangles, in order, as OBJ, PLY (ASCII and binary), glTF (with a buffer file)
+/// and GLB in `dir`.
+fn write_formats(scene: &Scene, dir: &Path) -> Vec<(&'static str, PathBuf)> {
+    std::fs::create_dir_all(dir).expect("bench folder");
+    let (v, t) = (&scene.positions, &scene.triangles);
+    let write = |name: &str, bytes: &[u8]| {
+        std::fs::write(dir.join(name), bytes).expect("bench file");
+        dir.join(name)
+    };
+    let ply = |format: &str| {
+        format!(
+            "ply\nformat {format} 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+             property float z\nelement face {}\nproperty list uchar uint vertex_indices\n\
+             end_header\n",
+            v.len(),
+            t.len()
+        )
+    };
+    let (mut obj, mut ascii, mut binary) = (
+        String::new(),
+        ply("ascii"),
+        ply("binary_little_endian").into_bytes(),
+    );
+    for p in v {
+        obj += &format!("v {} {} {}\n", p.x, p.y, p.z);
+        ascii += &format!("{} {} {}\n", p.x, p.y, p.z);
+        binary.extend(p.to_array().iter().flat_map(|c| c.to_le_bytes()));
+    }
+    let mut bin: Vec<u8> = binary[binary.len() - 12 * v.len()..].to_vec();
+    for [a, b, c] in t {
+        obj += &format!("f {} {} {}\n", a + 1, b + 1, c + 1);
+        ascii += &format!("3 {a} {b} {c}\n");
+        binary.push(3);
+        for k in [a, b, c] {
+            binary.extend(k.to_le_bytes());
+            bin.extend(k.to_le_bytes());
+        }
+    }
+    let bounds = scene.bounds();
+    let gltf = |uri: &str| {
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+            "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+            "buffers":[{{"byteLength":{}{uri}}}],"bufferViews":[{{"buffer":0,"byteLength":{}}},
+            {{"buffer":0,"byteOffset":{},"byteLength":{}}}],"accessors":[{{"bufferView":0,
+            "componentType":5126,"count":{},"type":"VEC3","min":{:?},"max":{:?}}},{{"bufferView":1,
+            "componentType":5125,"count":{},"type":"SCALAR"}}]}}"#,
+            bin.len(),
+            12 * v.len(),
+            12 * v.len(),
+            12 * t.len(),
+            v.len(),
+            bounds.min.to_array(),
+            bounds.max.to_array(),
+            3 * t.len()
+        )
+    };
+    let mut json = gltf("").into_bytes();
+    json.resize(json.len().next_multiple_of(4), b' ');
+    let mut glb = b"glTF\x02\0\0\0".to_vec();
+    glb.extend((28 + json.len() as u32 + bin.len() as u32).to_le_bytes());
+    glb.extend((json.len() as u32).to_le_bytes());
+    glb.extend(b"JSON");
+    glb.extend(&json);
+    glb.extend((bin.len() as u32).to_le_bytes());
+    glb.extend(b"BIN\0");
+    glb.extend(&bin);
+    write("scene.bin", &bin);
+    vec![
+        ("obj", write("scene.obj", obj.as_bytes())),
+        ("ply-ascii", write("ascii.ply", ascii.as_bytes())),
+        ("ply", write("binary.ply", &binary)),
+        (
+            "gltf",
+            write("scene.gltf", gltf(r#","uri":"scene.bin""#).as_bytes()),
+        ),
+        ("glb", write("scene.glb", &glb)),
+    ]
 }
 
 criterion_group!(benches, trace, normalise);
