@@ -616,26 +616,22 @@ fn malformed_gltf_files_are_refused_naming_the_file_and_element() {
         &|d| d["accessors"][0]["count"] = 100_000.into(),
         &[primitive, "POSITION lies beyond"],
     );
-    with(
-        "up.gltf",
-        &|d| d["buffers"][0]["uri"] = "../good.bin".into(),
-        &["buffer 0", "leaves the glTF file's folder"],
-    );
-    with(
-        "root.gltf",
-        &|d| d["buffers"][0]["uri"] = "/etc/hostname".into(),
-        &["buffer 0", "leaves the glTF file's folder"],
-    );
-    with(
-        "escaped.gltf",
-        &|d| d["buffers"][0]["uri"] = "%2E%2E/good.bin".into(),
-        &["buffer 0", "leaves"],
-    );
-    with(
-        "missing.gltf",
-        &|d| d["buffers"][0]["uri"] = "nothing.bin".into(),
-        &["buffer 0", "nothing.bin"],
-    );
+    for (name, uri, needle) in [
+        ("up.gltf", "../good.bin", "leaves the glTF file's folder"),
+        (
+            "root.gltf",
+            "/etc/hostname",
+            "leaves the glTF file's folder",
+        ),
+        ("escaped.gltf", "%2E%2E/good.bin", "leaves"),
+        ("missing.gltf", "nothing.bin", "nothing.bin"),
+    ] {
+        with(
+            name,
+            &|d| d["buffers"][0]["uri"] = uri.into(),
+            &["buffer 0", needle],
+        );
+    }
     with(
         "cycle.gltf",
         &|d| d["nodes"][0]["children"] = serde_json::json!([0]),

@@ -473,22 +473,26 @@ impl<'a> Body<'a> {
         }
     }
 
-    fn coordinate(&mut self, s: Scalar) -> Step<f32> {
+    /// The next value: an ASCII word parsed as `T` (a number as written, not through `f64`),
+    /// or a binary value of type `s` converted by `from`; `what` names `T` in errors.
+    fn number<T: std::str::FromStr>(
+        &mut self,
+        s: Scalar,
+        what: &str,
+        from: fn(f64) -> T,
+    ) -> Step<T> {
         match self.next(s)? {
-            Ok(word) => word
-                .parse()
-                .map_err(|_| format!("`{word}` is not a number")),
-            Err((b, big)) => Ok(s.value(b, big) as f32),
+            Ok(word) => word.parse().map_err(|_| format!("`{word}` is not {what}")),
+            Err((b, big)) => Ok(from(s.value(b, big))),
         }
     }
 
+    fn coordinate(&mut self, s: Scalar) -> Step<f32> {
+        self.number(s, "a number", |v| v as f32)
+    }
+
     fn integer(&mut self, s: Scalar) -> Step<i64> {
-        match self.next(s)? {
-            Ok(word) => word
-                .parse()
-                .map_err(|_| format!("`{word}` is not an integer")),
-            Err((b, big)) => Ok(s.value(b, big) as i64),
-        }
+        self.number(s, "an integer", |v| v as i64)
     }
 
     fn skip(&mut self, s: Scalar) -> Step<()> {
