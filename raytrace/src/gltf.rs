@@ -54,13 +54,21 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, needs: SceneNeeds) -> Result<File
     let instances = instances(&gltf).map_err(|(node, what)| bad(format!("node {node}"), what))?;
 
     // Sizes are checked before anything is allocated: a mesh placed by many nodes is copied
-    // once for each.
+    // once for each, so the sum is checked as well as each accessor.
     let (mut vertices, mut triangles) = (0u64, 0u64);
     for (node, mesh, _) in &instances {
         for p in mesh.primitives() {
             let at = || format!("node {node} mesh {} primitive {}", mesh.index(), p.index());
-            let n = positions(&p).map_err(|what| bad(at(), what))?.count() as u64;
-            let corners = p.indices().map_or(n, |i| i.count() as u64);
+            // Counts are believed only once the buffers are seen to hold them.
+            let counted =
+                |a: Accessor, what| elements(&a, &buffers, what).map(|_| a.count() as u64);
+            let n = positions(&p)
+                .and_then(|a| counted(a, "POSITION"))
+                .map_err(|what| bad(at(), what))?;
+            let corners = match p.indices() {
+                Some(i) => counted(i, "indices").map_err(|what| bad(at(), what))?,
+                None => n,
+            };
             triangles += match p.mode() {
                 Mode::Triangles if corners % 3 == 0 => corners / 3,
                 Mode::Triangles => {

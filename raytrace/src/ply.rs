@@ -179,7 +179,8 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<FileMesh> {
             offset: bytes.len() - body.len(),
         },
     };
-    for e in &elements {
+    // A record without properties takes no bytes: nothing to read, however many.
+    for e in elements.iter().filter(|e| !e.properties.is_empty()) {
         for i in 0..e.count {
             let at = |body: &Body| format!("{} {i} ({})", e.name, body.place());
             let mut record = || -> std::result::Result<(), String> {
