@@ -87,11 +87,14 @@ mod runtime;
 mod sample;
 mod simulate;
 mod speeds;
+pub mod study;
 mod task;
 mod timeline;
 
 pub use clock::Clock;
-pub use cost::{ByItems, CostEstimator, Costs, Estimate, Uniform, prediction_error};
+pub use cost::{
+    ByItems, CostEstimator, Costs, Estimate, Uniform, prediction_error, rank_correlation,
+};
 pub use dispatch::Dispatch;
 pub use error::{DeviceFailure, SchedError};
 pub use executor::{DeviceError, Executor, Sink};
