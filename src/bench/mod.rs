@@ -375,6 +375,7 @@ fn summary(
     out += &table::runs(records);
     out += "\n";
     out += &table::replays(records);
+    out += &table::predictions(records);
     out += "\nTargets on these devices:\n\n";
     out += &table::targets(records);
     if !args.no_trade {
