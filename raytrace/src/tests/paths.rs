@@ -402,7 +402,10 @@ fn frames_are_predicted_once_their_classes_were_measured() {
     assert_eq!(first.predicted_makespan, None);
     let second = r.render(&scene, &bvh, &options).expect("frame").stats;
     let p = second.predicted_makespan.expect("predicted");
-    assert!(p.is_finite() && p > 0.0 && p < 100.0 * second.makespan, "{p}");
+    assert!(
+        p.is_finite() && p > 0.0 && p < 100.0 * second.makespan,
+        "{p}"
+    );
     // The next renderer over the same devices predicts its first frame of the shader, and
     // not a frame of another one.
     let kept = r.into_kept().expect("no device failed");
