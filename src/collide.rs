@@ -8,11 +8,12 @@ use collision::{
 };
 use raytrace::SceneNeeds;
 use sched::CostEstimator;
+use sched::study::Workload;
 
 use crate::args::{count, sample_rate};
 use crate::error::CliError;
 use crate::limits::memory;
-use crate::spatial::{RunArgs, Workload};
+use crate::spatial::RunArgs;
 
 /// Arguments of `cobalt collide`.
 #[derive(Debug, clap::Args)]

@@ -9,11 +9,12 @@ use knn::{
 };
 use raytrace::SceneNeeds;
 use sched::CostEstimator;
+use sched::study::Workload;
 
 use crate::args::{count, sample_rate};
 use crate::error::CliError;
 use crate::limits::memory;
-use crate::spatial::{RunArgs, Workload};
+use crate::spatial::RunArgs;
 
 /// How a task's cost is estimated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -163,6 +163,46 @@ pub fn prediction_error(estimated: &[f64], full: &[f64]) -> Option<f64> {
     })
 }
 
+/// Spearman's rank correlation (Pearson's on the ranks, ties averaged), in `[−1, 1]`: whether
+/// the estimates order the tasks as the measurements do, which is what LPT needs. `None` if
+/// the lengths differ, there are fewer than two tasks, or either series is constant.
+pub fn rank_correlation(a: &[f64], b: &[f64]) -> Option<f64> {
+    if a.len() != b.len() || a.len() < 2 {
+        return None;
+    }
+    let (ra, rb) = (ranks(a), ranks(b));
+    let mean = (a.len() as f64 + 1.0) / 2.0;
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    for (x, y) in ra.iter().zip(&rb) {
+        let (dx, dy) = (x - mean, y - mean);
+        ab += dx * dy;
+        aa += dx * dx;
+        bb += dy * dy;
+    }
+    (aa > 0.0 && bb > 0.0).then(|| (ab / (aa * bb).sqrt()).clamp(-1.0, 1.0))
+}
+
+/// Ranks from 1, tied values sharing the mean of their ranks.
+fn ranks(v: &[f64]) -> Vec<f64> {
+    let mut order: Vec<usize> = (0..v.len()).collect();
+    order.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
+    let mut r = vec![0.0; v.len()];
+    let mut i = 0;
+    while i < order.len() {
+        let mut j = i;
+        while j + 1 < order.len() && v[order[j + 1]] == v[order[i]] {
+            j += 1;
+        }
+        // Positions i..=j (0-based) share ranks i+1..=j+1: their mean is (i + j)/2 + 1.
+        let mean = (i + j) as f64 / 2.0 + 1.0;
+        for &k in &order[i..=j] {
+            r[k] = mean;
+        }
+        i = j + 1;
+    }
+    r
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -192,6 +232,19 @@ mod tests {
         assert_eq!(prediction_error(&[1.0], &[0.0]), None);
         assert_eq!(prediction_error(&[], &[]), None);
         assert_eq!(prediction_error(&[1.0], &[1.0, 1.0]), None);
+    }
+
+    #[test]
+    fn rank_correlation_averages_ties_and_refuses_constants() {
+        assert_eq!(ranks(&[5.0, 5.0, 7.0, 9.0]), vec![1.5, 1.5, 3.0, 4.0]);
+        let tied = rank_correlation(&[5.0, 5.0, 7.0, 9.0], &[1.0, 2.0, 3.0, 4.0]).unwrap();
+        assert!((tied - 0.9486832980505138).abs() < 1e-12, "{tied}");
+        assert_eq!(
+            rank_correlation(&[1.0, 2.0, 3.0], &[3.0, 2.0, 1.0]),
+            Some(-1.0)
+        );
+        assert_eq!(rank_correlation(&[1.0, 1.0], &[1.0, 2.0]), None);
+        assert_eq!(rank_correlation(&[1.0], &[1.0]), None);
     }
 
     #[test]

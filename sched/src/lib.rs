@@ -51,6 +51,10 @@
 //! [`exact`] computes the optimum of small instances, against which the guarantees are
 //! property-tested.
 //!
+//! [`study`] compares the policies on a workload of your own: real runs in regular and cost
+//! mode, their replay on a simulated machine of mixed speeds, and the estimator's error and
+//! overhead against its sampling rate (what `cobalt knn` and `cobalt collide` print).
+//!
 //! Two helpers for building workloads: [`locality`] sorts 3D points along a Z curve, so that
 //! a range of them (a task) is a compact region of space, and [`Rng`] is a small seeded
 //! generator for reproducible workloads and tests.
@@ -87,11 +91,14 @@ mod runtime;
 mod sample;
 mod simulate;
 mod speeds;
+pub mod study;
 mod task;
 mod timeline;
 
 pub use clock::Clock;
-pub use cost::{ByItems, CostEstimator, Costs, Estimate, Uniform, prediction_error};
+pub use cost::{
+    ByItems, CostEstimator, Costs, Estimate, Uniform, prediction_error, rank_correlation,
+};
 pub use dispatch::Dispatch;
 pub use error::{DeviceFailure, SchedError};
 pub use executor::{DeviceError, Executor, Sink};

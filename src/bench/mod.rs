@@ -53,7 +53,7 @@ pub struct Args {
     #[arg(long, value_enum, value_delimiter = ',', default_value = "whitted,ao")]
     shaders: Vec<ShaderKind>,
     /// Share of each task's paths sampled to estimate it (cost mode).
-    #[arg(long, default_value = "0.125", value_parser = sample_rate)]
+    #[arg(long, default_value = "0.03125", value_parser = sample_rate)]
     sample_rate: SampleRate,
     /// How the estimate counts a sampled path, as for `cobalt render`: `trace`, `reduced` or
     /// `first-leaf`.
@@ -375,6 +375,7 @@ fn summary(
     out += &table::runs(records);
     out += "\n";
     out += &table::replays(records);
+    out += &table::predictions(records);
     out += "\nTargets on these devices:\n\n";
     out += &table::targets(records);
     if !args.no_trade {

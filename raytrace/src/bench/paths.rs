@@ -144,6 +144,15 @@ impl SceneMatrix<'_> {
             r.fractional_bound_seconds = Some(p.fractional_bound);
             r.makespan_over_bound = Some(p.makespan / p.lower_bound.max(1e-300));
         }
+        // Only the makespan is predicted; the rest of each frame is taken as measured.
+        let predicted: Option<f64> = frames
+            .iter()
+            .map(|f| f.predicted_makespan.map(|p| f.seconds - f.makespan + p))
+            .sum();
+        r.predicted_seconds = predicted;
+        r.run_predicted_over_measured = predicted
+            .map(|p| vec![p / r.seconds.max(1e-12)])
+            .unwrap_or_default();
         let mut traffic = Traffic::default();
         for f in frames {
             traffic += f.traffic();

@@ -84,6 +84,13 @@ pub struct Record {
     pub simulated_seconds: Option<f64>,
     /// Every run's simulated over measured seconds, in the order they ran.
     pub run_simulated_over_measured: Vec<f64>,
+    /// `seconds` with the run's makespans replaced by the ones predicted before each frame
+    /// ran, from its estimates and each device class's paths per second on earlier frames
+    /// (the median over the runs); `None` where a frame had no prediction (a class not yet
+    /// measured).
+    pub predicted_seconds: Option<f64>,
+    /// Every predicted run's predicted over measured seconds, in the order they ran.
+    pub run_predicted_over_measured: Vec<f64>,
     /// Σ makespans of the measured frames, and of their replays.
     pub makespan_seconds: f64,
     /// Σ of the replays' makespans.

@@ -51,9 +51,16 @@ pub fn combine(runs: &[Record]) -> Option<Record> {
         .iter()
         .flat_map(|r| r.run_simulated_over_measured.iter().copied())
         .collect();
-    // Only when every run was replayed: a median of some runs would not be the cell's.
+    out.run_predicted_over_measured = runs
+        .iter()
+        .flat_map(|r| r.run_predicted_over_measured.iter().copied())
+        .collect();
+    // Only when every run was replayed (predicted): a median of some runs would not be the
+    // cell's.
     let simulated: Option<Vec<f64>> = runs.iter().map(|r| r.simulated_seconds).collect();
     out.simulated_seconds = simulated.and_then(|s| median(&s));
+    let predicted: Option<Vec<f64>> = runs.iter().map(|r| r.predicted_seconds).collect();
+    out.predicted_seconds = predicted.and_then(|s| median(&s));
     Some(out)
 }
 
@@ -97,6 +104,8 @@ mod tests {
             film_bytes: None,
             simulated_seconds: Some(seconds),
             run_simulated_over_measured: vec![1.0],
+            predicted_seconds: None,
+            run_predicted_over_measured: Vec::new(),
             makespan_seconds: seconds,
             simulated_makespan_seconds: Some(seconds),
             lower_bound_seconds: Some(0.5 * seconds),

@@ -231,13 +231,14 @@ pub fn trade(points: &[TradePoint]) -> String {
 /// `|simulated / measured − 1|` over every measured run that was replayed: its median and
 /// largest, and the runs counted. `None` when no run was replayed.
 pub fn replay_error(records: &[Record]) -> Option<(f64, f64, usize)> {
+    ratio_error(records, |r| &r.run_simulated_over_measured)
+}
+
+/// `|x − 1|` over every ratio `ratios` gives of the records: median, largest and count.
+fn ratio_error(records: &[Record], ratios: fn(&Record) -> &[f64]) -> Option<(f64, f64, usize)> {
     let errors: Vec<f64> = records
         .iter()
-        .flat_map(|r| {
-            r.run_simulated_over_measured
-                .iter()
-                .map(|x| (x - 1.0).abs())
-        })
+        .flat_map(|r| ratios(r).iter().map(|x| (x - 1.0).abs()))
         .collect();
     let median = super::repeats::median(&errors)?;
     let largest = errors.iter().copied().fold(0.0, f64::max);
@@ -265,5 +266,20 @@ pub fn replays(records: &[Record]) -> String {
             )
         }
         None => "No measured run could be replayed in the simulator.\n".into(),
+    }
+}
+
+/// How far the predictions made before each run fell from it, in one paragraph.
+pub fn predictions(records: &[Record]) -> String {
+    let runs: usize = records.iter().map(|r| r.repeats.max(1)).sum();
+    match ratio_error(records, |r| &r.run_predicted_over_measured) {
+        Some((median, largest, n)) => format!(
+            "Predictions made before each run (its estimates, each device class's paths per \
+             second on earlier frames, the policy simulated) for {n} of the {runs} runs: \
+             median |predicted / measured − 1| {}, largest {}.\n",
+            pct(median),
+            pct(largest)
+        ),
+        None => "No run was predicted: no device class had been measured before it.\n".into(),
     }
 }

@@ -69,29 +69,9 @@ pub fn error_vs_time(estimated: &[f64], seconds: &[f64]) -> Result<f64, CostErro
     Ok(diff / total)
 }
 
-/// Ranks from 1, tied values sharing the mean of their ranks.
-fn ranks(v: &[f64]) -> Vec<f64> {
-    let mut order: Vec<usize> = (0..v.len()).collect();
-    order.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
-    let mut r = vec![0.0; v.len()];
-    let mut i = 0;
-    while i < order.len() {
-        let mut j = i;
-        while j + 1 < order.len() && v[order[j + 1]] == v[order[i]] {
-            j += 1;
-        }
-        // Positions i..=j (0-based) share ranks i+1..=j+1: their mean is (i + j)/2 + 1.
-        let mean = (i + j) as f64 / 2.0 + 1.0;
-        for &k in &order[i..=j] {
-            r[k] = mean;
-        }
-        i = j + 1;
-    }
-    r
-}
-
 /// Spearman's rank correlation (Pearson's on the ranks, ties averaged), in `[−1, 1]`: whether
-/// the estimates order the tasks as the measurements do, which is what LPT needs.
+/// the estimates order the tasks as the measurements do, which is what LPT needs. The inputs
+/// are checked here, naming what is wrong; the statistic is [`sched::rank_correlation`].
 pub fn spearman(a: &[f64], b: &[f64]) -> Result<f64, CostError> {
     check(
         "rank correlation",
@@ -99,22 +79,10 @@ pub fn spearman(a: &[f64], b: &[f64]) -> Result<f64, CostError> {
         ("second value", b),
         2,
     )?;
-    let (ra, rb) = (ranks(a), ranks(b));
-    let mean = (a.len() as f64 + 1.0) / 2.0;
-    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-    for (x, y) in ra.iter().zip(&rb) {
-        let (dx, dy) = (x - mean, y - mean);
-        ab += dx * dy;
-        aa += dx * dx;
-        bb += dy * dy;
-    }
-    if aa == 0.0 || bb == 0.0 {
-        return Err(CostError::Degenerate {
-            what: "rank correlation",
-            why: "one of the series is constant",
-        });
-    }
-    Ok((ab / (aa * bb).sqrt()).clamp(-1.0, 1.0))
+    sched::rank_correlation(a, b).ok_or(CostError::Degenerate {
+        what: "rank correlation",
+        why: "one of the series is constant",
+    })
 }
 
 #[cfg(test)]
@@ -144,7 +112,6 @@ mod tests {
         let rho = spearman(&[1.0, 2.0, 3.0, 4.0, 5.0], &[2.0, 1.0, 3.0, 2.5, 6.0]).unwrap();
         assert!(close(rho, 0.8), "{rho}");
         // Ties take the mean rank: a ranks (1.5, 1.5, 3, 4).
-        assert_eq!(ranks(&[5.0, 5.0, 7.0, 9.0]), vec![1.5, 1.5, 3.0, 4.0]);
         let tied = spearman(&[5.0, 5.0, 7.0, 9.0], &[1.0, 2.0, 3.0, 4.0]).unwrap();
         assert!(close(tied, 4.5 / (4.5f64 * 5.0).sqrt()), "{tied}");
         assert!(matches!(

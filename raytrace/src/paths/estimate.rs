@@ -23,7 +23,7 @@ use sched::SampleRate;
 
 use super::Frame;
 use crate::cost::Work;
-use crate::shade::{RenderOptions, Shader, Tracer, render_paths};
+use crate::shade::{RenderOptions, Shader, Tracer, render_paths_at};
 use crate::traverse::batch::{hits_counted_in, reduced_counts};
 use crate::traverse::layout::Layout;
 use crate::traverse::walk::Walk;
@@ -154,6 +154,7 @@ where
 {
     let stride = rate.stride();
     let (options, probe_scale) = sampled_options(frame.options, rate);
+    let ao_distance = options.shader.ao_distance(frame.scene);
     tasks
         .par_iter()
         .map(|task| {
@@ -171,7 +172,7 @@ where
                 paths: Work::default(),
                 probes: Work::default(),
             };
-            let rendered = render_paths(frame.scene, &mut tracer, &options, &ranks);
+            let rendered = render_paths_at(frame.scene, &mut tracer, &options, &ranks, ao_distance);
             SampledTask {
                 task: task.clone(),
                 work: task_work(

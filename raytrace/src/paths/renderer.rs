@@ -8,7 +8,7 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use sched::{Costs, Runtime, SchedError, split_ranges};
+use sched::{Costs, Runtime, SchedError, Speeds, split_ranges};
 
 use super::choice::{ChoiceKey, SetTimes, choice_key};
 use super::history::History;
@@ -26,6 +26,7 @@ use crate::{Bvh, Film, Scene, Walk};
 pub struct KeptDevices<'a> {
     devices: Vec<Box<dyn PathDevice + 'a>>,
     choices: HashMap<ChoiceKey, SetTimes>,
+    rates: HashMap<(String, &'static str), f64>,
 }
 
 /// A rendered frame: the image and how it was made.
@@ -52,6 +53,10 @@ pub struct PathRenderer<'a> {
     pub(super) models: HashMap<String, CostModel>,
     /// What the frames taught, per device class, for the next run's calibration.
     pub(super) history: HashMap<String, History>,
+    /// Paths per busy second of each device class and shader, on the latest frame that
+    /// measured them (here or in the renderer the devices were kept from): what the next
+    /// frame's prediction runs the devices at.
+    rates: HashMap<(String, &'static str), f64>,
     pub(super) retired: Vec<bool>,
     /// Devices the frame being rendered leaves idle: the fastest class renders it alone.
     idle: Vec<bool>,
@@ -86,6 +91,7 @@ impl<'a> PathRenderer<'a> {
             speeds: HashMap::new(),
             models: HashMap::new(),
             history: HashMap::new(),
+            rates: HashMap::new(),
             retired: vec![false; m],
             idle: vec![false; m],
             choices: HashMap::new(),
@@ -101,6 +107,7 @@ impl<'a> PathRenderer<'a> {
         (!self.retired.contains(&true)).then_some(KeptDevices {
             devices: self.devices,
             choices: self.choices,
+            rates: self.rates,
         })
     }
 
@@ -112,6 +119,7 @@ impl<'a> PathRenderer<'a> {
     pub fn from_kept(kept: KeptDevices<'a>, settings: Settings) -> Result<Self, SchedError> {
         let mut renderer = Self::new(kept.devices, settings)?;
         renderer.choices = kept.choices;
+        renderer.rates = kept.rates;
         Ok(renderer)
     }
 
@@ -337,6 +345,7 @@ impl<'a> PathRenderer<'a> {
             0.0
         };
 
+        let predicted_makespan = self.predict(frame, &active, tasks, &costs);
         let runs: Vec<bool> = (0..self.devices.len()).map(|d| self.runs(d)).collect();
         let mut bound: Vec<BoundPaths<'_, 'a>> = self
             .devices
@@ -419,6 +428,7 @@ impl<'a> PathRenderer<'a> {
                 }
             }
         }
+        self.measure_rates(frame, &devices, &task_stats, tasks);
         let opens: Vec<bool> = report.outputs.iter().map(|o| o.launch.is_some()).collect();
         let spikes = self.learn(
             &active,
@@ -442,6 +452,7 @@ impl<'a> PathRenderer<'a> {
             run_seconds,
             seconds: start.elapsed().as_secs_f64(),
             makespan: report.metrics.makespan,
+            predicted_makespan,
             balance_efficiency: report.metrics.balance_efficiency,
             task_stats,
             devices,
@@ -547,6 +558,66 @@ impl<'a> PathRenderer<'a> {
 
     /// The model the frames are costed with when device `d` estimates: its class's
     /// recalled one, else the default.
+    /// The makespan the frame's plan should take, known before it runs: the frame's paths
+    /// shared among its tasks by their costs, each device running at its class's paths per
+    /// busy second on an earlier frame of the shader, simulated under the frame's policy with
+    /// the devices' declared launch overheads. `None` while a class has no rate.
+    fn predict(
+        &self,
+        frame: &Frame<'_>,
+        active: &[usize],
+        tasks: &[Range<usize>],
+        costs: &Costs,
+    ) -> Option<f64> {
+        let shader = frame.options.shader.name();
+        let rates: Vec<f64> = active
+            .iter()
+            .map(|&d| self.rates.get(&(self.devices[d].class(), shader)).copied())
+            .collect::<Option<_>>()?;
+        let paths: Vec<f64> = tasks.iter().map(|t| t.len() as f64).collect();
+        let (cost, all): (f64, f64) = (costs.as_slice().iter().sum(), paths.iter().sum());
+        // Equal costs say only how many paths a task holds; estimates, how its work compares.
+        let work: Vec<f64> = if self.settings.mode == Mode::Cost && cost > 0.0 {
+            costs.as_slice().iter().map(|c| c / cost * all).collect()
+        } else {
+            paths
+        };
+        let overheads = active
+            .iter()
+            .map(|&d| self.devices[d].launch_overhead().unwrap_or(0.0))
+            .collect();
+        let simulation = sched::Simulation::new(self.settings.policy, Speeds::new(rates).ok()?)
+            .backups(self.settings.backups)
+            .device_latencies(overheads);
+        let report = simulation.run(&Costs::new(work).ok()?).ok()?;
+        Some(report.metrics.makespan)
+    }
+
+    /// Keeps each device class's paths per busy second on this frame, for predictions.
+    fn measure_rates(
+        &mut self,
+        frame: &Frame<'_>,
+        devices: &[PathDeviceStats],
+        task_stats: &[TaskStats],
+        tasks: &[Range<usize>],
+    ) {
+        let mut by_class: HashMap<String, (f64, f64)> = HashMap::new();
+        for d in devices.iter().filter(|d| !self.retired[d.index]) {
+            let paths: usize = (task_stats.iter().zip(tasks))
+                .filter(|(t, _)| t.device == d.index)
+                .map(|(_, task)| task.len())
+                .sum();
+            let entry = by_class.entry(self.devices[d.index].class()).or_default();
+            *entry = (entry.0 + paths as f64, entry.1 + d.busy);
+        }
+        let shader = frame.options.shader.name();
+        for (class, (paths, busy)) in by_class {
+            if paths > 0.0 && busy > 0.0 {
+                self.rates.insert((class, shader), paths / busy);
+            }
+        }
+    }
+
     fn cost_model(&self, d: usize) -> CostModel {
         self.devices
             .get(d)

@@ -61,7 +61,9 @@ pub struct Settings {
     /// Paths per task (the thesis uses 16384, 4096 and 512 rays); smaller frames are cut
     /// finer ([`Self::task_size_for`]).
     pub task_size: NonZeroUsize,
-    /// Fraction of each task's paths the estimate samples (cost mode).
+    /// Fraction of each task's paths the estimate samples (cost mode). The default, one in
+    /// 32 ([`SampleRate::ONE_IN_32`]), orders tasks by their measured times as well as the
+    /// thesis's 12.5 % at a quarter of its cost (`docs/results.md`, "What an estimate costs").
     pub sample_rate: SampleRate,
     /// How the estimate counts a sampled path (cost mode), on the devices: rendered for real
     /// ([`Walk::Trace`], the default), or its camera ray walked by the thesis's reduced
@@ -109,14 +111,14 @@ impl Settings {
 }
 
 impl Default for Settings {
-    /// Cost-based LPT on tasks of 4096 paths sampled at 12.5 %, the sampled paths rendered
-    /// for real, with backup copies.
+    /// Cost-based LPT on tasks of 4096 paths, one path in 32 sampled and rendered for real,
+    /// with backup copies.
     fn default() -> Self {
         Self {
             policy: Policy::StaticLpt,
             mode: Mode::Cost,
             task_size: Self::DEFAULT_TASK_SIZE,
-            sample_rate: SampleRate::THESIS,
+            sample_rate: SampleRate::ONE_IN_32,
             walk: Walk::Trace { any: false },
             backups: true,
         }

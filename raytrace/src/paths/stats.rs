@@ -84,6 +84,9 @@ pub struct FrameStats {
     pub seconds: f64,
     /// Wall seconds from the run's start to the last task's delivery.
     pub makespan: f64,
+    /// The makespan predicted before the run, from the estimates and each device class's
+    /// paths per second measured on earlier frames or recalled; `None` while a class has none.
+    pub predicted_makespan: Option<f64>,
     /// Busy time summed over devices / (makespan × devices).
     pub balance_efficiency: f64,
     /// Each task's planned cost, measured time and device (an index among the renderer's

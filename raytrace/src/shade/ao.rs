@@ -50,13 +50,14 @@ impl AoSettings {
 }
 
 /// Shades `primary` into `film`: grey `1` is unoccluded (and the sky, where primaries miss).
+/// `settings` come with their probe length in the scene's units ([`AoSettings::distance`]).
 /// `ranks` are the primary rays' paths, which seed their probes (`None`: ray `i` is path `i`).
 pub(crate) fn render<T: Tracer + ?Sized>(
     scene: &Scene,
     gens: &mut Generations<'_, T>,
     primary: PrimaryRays,
     film: &mut Film,
-    settings: AoSettings,
+    (settings, distance): (AoSettings, f32),
     ranks: Option<&[u32]>,
 ) {
     let hits = gens.trace(RayKind::Primary, 0, &primary.rays);
@@ -65,7 +66,7 @@ pub(crate) fn render<T: Tracer + ?Sized>(
         &primary.rays,
         &hits,
         settings.samples,
-        settings.distance(scene),
+        distance,
         settings.seed,
         ranks,
     );

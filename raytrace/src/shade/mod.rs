@@ -50,6 +50,14 @@ impl Shader {
         }
     }
 
+    /// The AO probe length in `scene`'s units ([`AoSettings::distance`]); 0 for Whitted.
+    pub fn ao_distance(&self, scene: &Scene) -> f32 {
+        match self {
+            Self::Ao(s) => s.distance(scene),
+            Self::Whitted(_) => 0.0,
+        }
+    }
+
     /// `ao` or `whitted`.
     pub fn name(&self) -> &'static str {
         match self {
@@ -131,7 +139,10 @@ pub fn render<T: Tracer + ?Sized>(
     let mut film = Film::new(w, h);
     let mut gens = Generations::new(tracer);
     match options.shader {
-        Shader::Ao(s) => ao::render(scene, &mut gens, primary, &mut film, s, None),
+        Shader::Ao(s) => {
+            let distance = s.distance(scene);
+            ao::render(scene, &mut gens, primary, &mut film, (s, distance), None);
+        }
         Shader::Whitted(s) => whitted::render(scene, &mut gens, primary, &mut film, s),
     }
     Rendering {
@@ -162,6 +173,24 @@ pub fn render_paths<T: Tracer + ?Sized>(
     options: &RenderOptions,
     ranks: &[u32],
 ) -> PathRendering {
+    render_paths_at(
+        scene,
+        tracer,
+        options,
+        ranks,
+        options.shader.ao_distance(scene),
+    )
+}
+
+/// [`render_paths`] with the AO probe length already resolved ([`Shader::ao_distance`]):
+/// finding it reads every vertex, which costs more than the few paths of a task's sample.
+pub(crate) fn render_paths_at<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &mut T,
+    options: &RenderOptions,
+    ranks: &[u32],
+    ao_distance: f32,
+) -> PathRendering {
     let (w, h) = (options.width, options.height);
     let mut primary = options
         .camera
@@ -171,7 +200,10 @@ pub fn render_paths<T: Tracer + ?Sized>(
     let mut film = Film::new(ranks.len().max(1) as u32, 1);
     let mut gens = Generations::new(tracer);
     match options.shader {
-        Shader::Ao(s) => ao::render(scene, &mut gens, primary, &mut film, s, Some(ranks)),
+        Shader::Ao(s) => {
+            let settings = (s, ao_distance);
+            ao::render(scene, &mut gens, primary, &mut film, settings, Some(ranks));
+        }
         Shader::Whitted(s) => whitted::render(scene, &mut gens, primary, &mut film, s),
     }
     let mut values = film.pixels().to_vec();

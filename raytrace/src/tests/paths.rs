@@ -388,3 +388,32 @@ fn the_thesis_walks_estimate_camera_rays_and_leave_the_image_alone() {
         assert_eq!(bits(&frame.film), reference, "{walk:?}");
     }
 }
+
+/// A frame is predicted once an earlier frame of its shader measured every device class, in
+/// this renderer or the one its devices were kept from; the prediction is a makespan a
+/// frame could take (positive, finite, within a wide factor of the measured one: timings on a
+/// shared machine move).
+#[test]
+fn frames_are_predicted_once_their_classes_were_measured() {
+    let shader = SHADERS[0];
+    let (scene, bvh, options, _) = small_forest(shader);
+    let mut r = PathRenderer::new(cpus(2), settings(Policy::StaticLpt, Mode::Cost, 64)).unwrap();
+    let first = r.render(&scene, &bvh, &options).expect("frame").stats;
+    assert_eq!(first.predicted_makespan, None);
+    let second = r.render(&scene, &bvh, &options).expect("frame").stats;
+    let p = second.predicted_makespan.expect("predicted");
+    assert!(
+        p.is_finite() && p > 0.0 && p < 100.0 * second.makespan,
+        "{p}"
+    );
+    // The next renderer over the same devices predicts its first frame of the shader, and
+    // not a frame of another one.
+    let kept = r.into_kept().expect("no device failed");
+    let mut next = PathRenderer::from_kept(kept, settings(Policy::QueueFifo, Mode::Regular, 64));
+    let next = next.as_mut().expect("renderer");
+    let frame = next.render(&scene, &bvh, &options).expect("frame").stats;
+    assert!(frame.predicted_makespan.is_some());
+    let whitted = RenderOptions::new(48, 40, options.camera, SHADERS[1]);
+    let other = next.render(&scene, &bvh, &whitted).expect("frame").stats;
+    assert_eq!(other.predicted_makespan, None);
+}
