@@ -79,6 +79,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         .clone()
         .unwrap_or_else(|| BuildPreset::ALL.to_vec());
     let counts = &args.ao_samples;
+    let name = |p: &BuildPreset| p.name().to_string();
+    crate::args::distinct("presets", &presets, name, name)?;
+    crate::args::distinct("ao-samples", counts, u32::to_string, u32::to_string)?;
     let outputs = crate::output::Outputs::check(
         &[("json", args.json.as_deref())],
         &[("scene", Path::new(&args.scene))],

@@ -880,3 +880,57 @@ fn a_successful_gpu_run_prints_no_error_line() {
     }
     assert!(!err.contains("error"), "{err}");
 }
+
+/// An entry listed twice in a list flag is refused with both entries, before anything runs:
+/// a second policy or task size would repeat a run, two slowdowns or failure points of one
+/// device contradict each other, and an adapter listed twice would be opened twice. Two CPU
+/// entries are two groups of devices, and stay allowed.
+#[test]
+fn list_flags_refuse_an_entry_given_twice() {
+    let dir = fresh("twice");
+    let costs = dir.join("c.txt");
+    std::fs::write(&costs, "1\n2\n").unwrap();
+    let (png, cornell) = (dir.join("x.png"), ["--scene", "builtin:cornell"]);
+    let render = |flag, list| vec!["render", "--size", "8x8", "--out", s(&png), flag, list];
+    let cases: [(Vec<&str>, &[&str]); 9] = [
+        (
+            render("--devices", "gpu:0,gpu:0"),
+            &["gpu:0 and gpu:0", "same adapter"],
+        ),
+        (render("--devices", "gpu:all,gpu:1"), &["gpu:all and gpu:1"]),
+        (
+            render("--slow", "0=2,0=3"),
+            &["--slow", "0=2,0=3", "device 0 is listed twice"],
+        ),
+        (
+            vec!["bench", "--policies", "lpt,static-lpt"],
+            &["static-lpt is listed twice"],
+        ),
+        (vec!["bench", "--shaders", "ao,ao"], &["--shaders", "ao,ao"]),
+        (
+            vec!["bench", "--task-sizes", "512,64,512"],
+            &["--task-sizes", "512,512"],
+        ),
+        (
+            vec!["tradeoff", "--presets", "fast,medium,fast"],
+            &["--presets", "fast,fast"],
+        ),
+        (
+            vec!["tradeoff", "--ao-samples", "4,4"],
+            &["--ao-samples", "4,4"],
+        ),
+        (
+            vec!["schedule", "--costs", s(&costs), "--fail", "0@1,0@2"],
+            &["--fail", "0@1,0@2", "device 0 is listed twice"],
+        ),
+    ];
+    for (mut args, needles) in cases {
+        if args[0] != "schedule" {
+            args.extend(cornell);
+        }
+        refused(&cobalt(&args), needles);
+    }
+    assert_eq!(names(&dir), ["c.txt"]);
+    let two = render("--devices", "cpu:1,cpu:1");
+    ok(&cobalt(&[&two[..], &cornell].concat()));
+}
