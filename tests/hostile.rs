@@ -820,27 +820,72 @@ fn a_missing_home_is_not_created_and_the_run_says_it_does_not_learn() {
 
 /// Under an address-space cap (`ulimit -v`), sizes past what the process may allocate are
 /// refused by the memory check, naming the flag, instead of panicking or aborting inside an
-/// allocation.
+/// allocation: scenes, images, AO's probes, kNN's points and queries, collision bodies.
 #[cfg(unix)]
 #[test]
 fn limits_hold_under_a_memory_cap() {
     let dir = fresh("ulimit");
     let out = dir.join("x.png");
-    for (extra, flag) in [
-        (&["--scene", "builtin:forest:64"][..], "--scene"),
-        (&["--scene", "builtin:hairball:64"][..], "--scene"),
+    let render = [
+        "render",
+        "--devices",
+        "cpu:1",
+        "--no-calibration",
+        "--out",
+        s(&out),
+    ];
+    let cornell = [&render[..], &["--scene", "builtin:cornell"]].concat();
+    let ao = [&cornell[..], &["--shader", "ao", "--size", "2048x2048"]].concat();
+    let bench = [
+        "bench",
+        "--scene",
+        "builtin:cornell",
+        "--shaders",
+        "ao",
+        "--policies",
+        "lpt",
+    ];
+    for (args, flag) in [
         (
-            &["--scene", "builtin:cornell", "--size", "8192x8192"][..],
-            "--size",
+            [&render[..], &["--scene", "builtin:forest:64"]].concat(),
+            "--scene",
         ),
+        (
+            [&render[..], &["--scene", "builtin:hairball:64"]].concat(),
+            "--scene",
+        ),
+        ([&cornell[..], &["--size", "8192x8192"]].concat(), "--size"),
+        (
+            [&ao[..], &["--ao-samples", "4096"]].concat(),
+            "--ao-samples",
+        ),
+        (
+            [&bench[..], &["--ao-samples", "4096", "--size", "2048x2048"]].concat(),
+            "--ao-samples",
+        ),
+        (
+            [
+                "tradeoff",
+                "--scene",
+                "builtin:cornell",
+                "--size",
+                "2048x2048",
+            ]
+            .to_vec(),
+            "--reference",
+        ),
+        (["knn", "--points", "100000000"].to_vec(), "--points"),
+        (
+            ["knn", "--queries", "30000000", "--k", "64"].to_vec(),
+            "--queries",
+        ),
+        (["collide", "--bodies", "10000000"].to_vec(), "--bodies"),
     ] {
         let o = Command::new("sh")
             .arg("-c")
             .arg("ulimit -v 4000000 && exec \"$0\" \"$@\"")
             .arg(env!("CARGO_BIN_EXE_cobalt"))
-            .args(["render", "--devices", "cpu:1", "--no-calibration"])
-            .args(["--out", s(&out)])
-            .args(extra)
+            .args(&args)
             .output()
             .expect("sh runs");
         refused(&o, &[flag, "of memory"]);

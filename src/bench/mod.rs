@@ -187,6 +187,15 @@ pub fn run(args: Args) -> Result<(), CliError> {
     distinct("task-sizes", &args.task_sizes, size, size)?;
     distinct("simulate", &args.simulate, u32::to_string, u32::to_string)?;
     let m = Matrix::of(&args);
+    let ao = args
+        .shaders
+        .contains(&ShaderKind::Ao)
+        .then_some(("ao-samples", args.ao_samples));
+    let size = Size {
+        width: m.width,
+        height: m.height,
+    };
+    crate::limits::frame(size, size.pixels(), ao)?;
     check_outputs(&args, &m)?;
     #[cfg(feature = "mpi")]
     if args.mpi {
