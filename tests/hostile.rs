@@ -979,3 +979,66 @@ fn list_flags_refuse_an_entry_given_twice() {
     let two = render("--devices", "cpu:1,cpu:1");
     ok(&cobalt(&[&two[..], &cornell].concat()));
 }
+
+/// Costs at the ends of `f64`: a makespan near `f64::MAX` keeps an honest balance (half, for
+/// one busy device of two) rather than one that overflowed to 0, and subnormal costs plan.
+#[test]
+fn costs_at_the_ends_of_f64_give_honest_figures() {
+    for (costs, balance) in [("1e308\n0\n", 0.5), ("1e-320\n1e-320\n", 1.0)] {
+        let o = run_with_stdin(
+            &["schedule", "--costs", "-", "--speeds", "1,1", "--json"],
+            costs.as_bytes(),
+            &[],
+        );
+        ok(&o);
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+        assert_eq!(report["balance_efficiency"], balance, "{costs:?}: {report}");
+    }
+}
+
+/// A ray whose direction is too short for its reciprocal (1e-45) would report a hit at a NaN
+/// distance: it is refused, naming the ray.
+#[test]
+fn a_ray_too_short_to_divide_by_is_refused() {
+    let dir = fresh("short-ray");
+    let mut ray = [0f32, 0.0, -5.0, 0.0, 0.0, 1e-45, 0.0, f32::INFINITY]
+        .map(f32::to_le_bytes)
+        .concat();
+    let (rays, hits) = (dir.join("r.bin"), dir.join("h.bin"));
+    let trace = |ray: &[u8]| {
+        std::fs::write(&rays, ray).unwrap();
+        let io = ["--rays", s(&rays), "--out", s(&hits)];
+        cobalt(&[&["trace", "--scene", "builtin:cornell"][..], &io].concat())
+    };
+    refused(&trace(&ray), &["r.bin", "ray 0", "too small"]);
+    ray[20..24].copy_from_slice(&1f32.to_le_bytes());
+    ok(&trace(&ray));
+}
+
+/// The default camera of a flat scene (one triangle in `z = 0`, a floor in `y = 0`) stands
+/// off its plane: it sees the scene, not its edge.
+#[test]
+fn the_default_camera_sees_a_flat_scene_from_off_its_plane() {
+    let dir = fresh("flat");
+    let png = dir.join("f.png");
+    let floor = "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3 4\n";
+    for (name, obj) in [("one.obj", TRIANGLE), ("floor.obj", floor)] {
+        let scene = dir.join(name);
+        std::fs::write(&scene, obj).unwrap();
+        let args = [
+            "--shader",
+            "ao",
+            "--ao-samples",
+            "1",
+            "--json",
+            "--out",
+            s(&png),
+        ];
+        let o = render(s(&scene), &args);
+        ok(&o);
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+        // Every primary ray that hits casts one probe: a scene seen edge-on casts none.
+        let probes = report["total_rays"].as_u64().unwrap() - 64;
+        assert!(probes > 16, "{name}: {report}");
+    }
+}
