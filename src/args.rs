@@ -12,7 +12,7 @@ use std::str::FromStr;
 
 use raytrace::Walk;
 use raytrace::cost::SampleRate;
-use raytrace::devices::DeviceSpec;
+use raytrace::devices::{DeviceSpec, GpuSelect};
 use raytrace::glam::Vec3;
 use raytrace::paths::{FailAfter, Mode, Settings, SlowBy};
 use raytrace::{BuildPreset, Camera};
@@ -217,6 +217,15 @@ impl FromStr for Devices {
         } else {
             raytrace::devices::parse_devices(text).map_err(|e| e.to_string())?
         };
+        // Two CPU entries make more devices, but an adapter listed twice (or with `gpu:all`)
+        // would be opened as two devices racing on one GPU.
+        let same_adapter = |a: &DeviceSpec, b: &DeviceSpec| match (a, b) {
+            (DeviceSpec::Gpu(x), DeviceSpec::Gpu(y)) => x == y || [x, y].contains(&&GpuSelect::All),
+            _ => false,
+        };
+        if let Some((a, b)) = repeated(&specs, same_adapter) {
+            return Err(format!("{a} and {b} name the same adapter twice"));
+        }
         let (mut devices, mut threads) = (0usize, 0usize);
         for spec in &specs {
             if let DeviceSpec::Cpu { count, threads: t } = *spec {
@@ -288,9 +297,9 @@ pub fn slow_by(text: &str) -> Result<SlowBy, String> {
 /// The devices of `--slow`, each an index below `devices` (`usize::MAX` where GPU entries
 /// make the count known only once the devices are opened; an index beyond them slows none).
 pub fn check_slow(slow: &[SlowBy], devices: usize) -> Result<Vec<SlowBy>, CliError> {
-    check_devices("slow", slow, devices, |s| {
-        (s.device, format!("{}={}", s.device, s.factor))
-    })
+    let show = |s: &SlowBy| format!("{}={}", s.device, s.factor);
+    distinct("slow", slow, |s| format!("device {}", s.device), show)?;
+    check_devices("slow", slow, devices, |s| (s.device, show(s)))
 }
 
 /// `items` of `--FLAG`, each naming a device (`index`, with the item as typed) below `devices`.
@@ -317,16 +326,36 @@ pub fn check_faults(faults: &[FailAfter], devices: usize) -> Result<Vec<FailAfte
         (f.device, format!("{}@{}", f.device, f.tasks))
     })?;
     // Two failure points for one device contradict each other: name both.
-    for (i, f) in faults.iter().enumerate() {
-        if let Some(g) = faults[..i].iter().find(|g| g.device == f.device) {
-            return Err(CliError::Arg {
-                flag: "fail",
-                value: format!("{}@{},{}@{}", g.device, g.tasks, f.device, f.tasks),
-                message: format!("device {} is given two failure points", f.device),
-            });
-        }
-    }
+    let device = |f: &FailAfter| format!("device {}", f.device);
+    distinct("fail", &faults, device, |f| {
+        format!("{}@{}", f.device, f.tasks)
+    })?;
     Ok(faults)
+}
+
+/// The first entry of `items` that `same` pairs with an earlier one, and that earlier one.
+fn repeated<T>(items: &[T], same: impl Fn(&T, &T) -> bool) -> Option<(&T, &T)> {
+    let mut pairs = items.iter().enumerate();
+    pairs.find_map(|(i, f)| items[..i].iter().find(|g| same(g, f)).map(|g| (g, f)))
+}
+
+/// Refuses two entries of `--FLAG` with the same `key` (a policy, a task size, a device's
+/// slowdown), naming both as `show` writes them: the second would silently repeat the first,
+/// or contradict it.
+pub fn distinct<T>(
+    flag: &'static str,
+    items: &[T],
+    key: impl Fn(&T) -> String,
+    show: impl Fn(&T) -> String,
+) -> Result<(), CliError> {
+    match repeated(items, |a, b| key(a) == key(b)) {
+        Some((g, f)) => Err(CliError::Arg {
+            flag,
+            value: format!("{},{}", show(g), show(f)),
+            message: format!("{} is listed twice", key(f)),
+        }),
+        None => Ok(()),
+    }
 }
 
 /// A count `1..=MAX`: points, queries, bodies, neighbours, threads. The limit keeps a typo

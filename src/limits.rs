@@ -39,6 +39,22 @@ pub fn memory(flag: &'static str, value: &str, parts: &[(usize, u64)]) -> Result
     })
 }
 
+/// A frame of `size` (`pixels` in all), with `ao` (the flag and its count) probes a pixel where AO
+/// renders it: the film, the rays of a generation and their hits (256 B a pixel), and AO's
+/// probes, which a frame holds all at once (about 10 B each at the peak, measured).
+pub fn frame(
+    size: impl std::fmt::Display,
+    pixels: usize,
+    ao: Option<(&'static str, u32)>,
+) -> Result<(), CliError> {
+    memory("size", &size.to_string(), &[(pixels, 256)])?;
+    let Some((flag, samples)) = ao else {
+        return Ok(());
+    };
+    let probes = pixels.saturating_mul(samples as usize);
+    memory(flag, &samples.to_string(), &[(pixels, 256), (probes, 16)])
+}
+
 /// Memory a scene takes per triangle, loaded with its BVH built (positions, indices, normals,
 /// obvhs's boxes and build nodes, the flattened and the 8-wide trees): about 400 B measured
 /// at its peak on the built-in scenes, with a margin.

@@ -119,6 +119,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
         None => speeds.clone(),
     };
     let faults = &args.fail;
+    let device = |f: &Fault| format!("device {}", f.device);
+    crate::args::distinct("fail", faults, device, |f| format!("{}@{}", f.device, f.at))?;
     // The proven factors hold for exact estimates and speeds, no latency and no failures.
     let ideal = faults.is_empty()
         && args.latency == 0.0

@@ -241,8 +241,16 @@ pub(crate) fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
         if let Some(k) = (0..8).find(|&k| v[k].is_nan() || (k < 7 && v[k].is_infinite())) {
             return Err(bad(i, format!("{} is {}", FIELDS[k], v[k])));
         }
-        if v[3] == 0.0 && v[4] == 0.0 && v[5] == 0.0 {
+        // The walks divide by the direction: where its largest component's reciprocal
+        // overflows, a hit's distance would come out infinite or NaN.
+        let longest = v[3].abs().max(v[4].abs()).max(v[5].abs());
+        if longest == 0.0 {
             return Err(bad(i, "direction is zero".into()));
+        }
+        if !(1.0 / longest).is_finite() {
+            let why =
+                format!("direction's largest component {longest:e} is too small (below 2^-128)");
+            return Err(bad(i, why));
         }
         if !(v[6] >= 0.0 && v[6] <= v[7]) {
             return Err(bad(

@@ -79,6 +79,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
         .clone()
         .unwrap_or_else(|| BuildPreset::ALL.to_vec());
     let counts = &args.ao_samples;
+    let most = counts.iter().map(|&n| ("ao-samples", n));
+    let most = most
+        .chain([("reference", args.reference)])
+        .max_by_key(|&(_, n)| n);
+    crate::limits::frame(args.size, args.size.pixels(), most)?;
+    let name = |p: &BuildPreset| p.name().to_string();
+    crate::args::distinct("presets", &presets, name, name)?;
+    crate::args::distinct("ao-samples", counts, u32::to_string, u32::to_string)?;
     let outputs = crate::output::Outputs::check(
         &[("json", args.json.as_deref())],
         &[("scene", Path::new(&args.scene))],

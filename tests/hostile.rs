@@ -506,22 +506,29 @@ fn a_byte_order_mark_is_read_and_utf16_is_named() {
     assert!(!dir.join("x.png").exists());
 }
 
+/// A polygon of 10⁵ vertices fans into as many overlapping slivers, on which PLOC's wider
+/// searches take time growing with n²; the builder searches only nearest neighbours there
+/// (about 3 s on the two-core VM), and the bound leaves room for a loaded machine.
 #[test]
-fn a_polygon_of_a_thousand_vertices_renders() {
+fn a_polygon_of_a_hundred_thousand_vertices_renders_in_seconds() {
     let dir = fresh("polygon");
+    let n = 100_000;
     let mut obj = String::new();
-    for k in 0..1000 {
-        let a = k as f64 / 1000.0 * std::f64::consts::TAU;
+    for k in 0..n {
+        let a = k as f64 / n as f64 * std::f64::consts::TAU;
         obj += &format!("v {} {} 0\n", a.cos(), a.sin());
     }
     obj += "f";
-    for k in 1..=1000 {
+    for k in 1..=n {
         obj += &format!(" {k}");
     }
     obj += "\n";
     let scene = dir.join("poly.obj");
     std::fs::write(&scene, obj).unwrap();
+    let start = std::time::Instant::now();
     ok(&render(s(&scene), &["--out", s(&dir.join("p.png"))]));
+    let took = start.elapsed();
+    assert!(took.as_secs() < 20, "{took:?}");
 }
 
 #[test]
@@ -813,27 +820,72 @@ fn a_missing_home_is_not_created_and_the_run_says_it_does_not_learn() {
 
 /// Under an address-space cap (`ulimit -v`), sizes past what the process may allocate are
 /// refused by the memory check, naming the flag, instead of panicking or aborting inside an
-/// allocation.
+/// allocation: scenes, images, AO's probes, kNN's points and queries, collision bodies.
 #[cfg(unix)]
 #[test]
 fn limits_hold_under_a_memory_cap() {
     let dir = fresh("ulimit");
     let out = dir.join("x.png");
-    for (extra, flag) in [
-        (&["--scene", "builtin:forest:64"][..], "--scene"),
-        (&["--scene", "builtin:hairball:64"][..], "--scene"),
+    let render = [
+        "render",
+        "--devices",
+        "cpu:1",
+        "--no-calibration",
+        "--out",
+        s(&out),
+    ];
+    let cornell = [&render[..], &["--scene", "builtin:cornell"]].concat();
+    let ao = [&cornell[..], &["--shader", "ao", "--size", "2048x2048"]].concat();
+    let bench = [
+        "bench",
+        "--scene",
+        "builtin:cornell",
+        "--shaders",
+        "ao",
+        "--policies",
+        "lpt",
+    ];
+    for (args, flag) in [
         (
-            &["--scene", "builtin:cornell", "--size", "8192x8192"][..],
-            "--size",
+            [&render[..], &["--scene", "builtin:forest:64"]].concat(),
+            "--scene",
         ),
+        (
+            [&render[..], &["--scene", "builtin:hairball:64"]].concat(),
+            "--scene",
+        ),
+        ([&cornell[..], &["--size", "8192x8192"]].concat(), "--size"),
+        (
+            [&ao[..], &["--ao-samples", "4096"]].concat(),
+            "--ao-samples",
+        ),
+        (
+            [&bench[..], &["--ao-samples", "4096", "--size", "2048x2048"]].concat(),
+            "--ao-samples",
+        ),
+        (
+            [
+                "tradeoff",
+                "--scene",
+                "builtin:cornell",
+                "--size",
+                "2048x2048",
+            ]
+            .to_vec(),
+            "--reference",
+        ),
+        (["knn", "--points", "100000000"].to_vec(), "--points"),
+        (
+            ["knn", "--queries", "30000000", "--k", "64"].to_vec(),
+            "--queries",
+        ),
+        (["collide", "--bodies", "10000000"].to_vec(), "--bodies"),
     ] {
         let o = Command::new("sh")
             .arg("-c")
             .arg("ulimit -v 4000000 && exec \"$0\" \"$@\"")
             .arg(env!("CARGO_BIN_EXE_cobalt"))
-            .args(["render", "--devices", "cpu:1", "--no-calibration"])
-            .args(["--out", s(&out)])
-            .args(extra)
+            .args(&args)
             .output()
             .expect("sh runs");
         refused(&o, &[flag, "of memory"]);
@@ -872,4 +924,121 @@ fn a_successful_gpu_run_prints_no_error_line() {
         return;
     }
     assert!(!err.contains("error"), "{err}");
+}
+
+/// An entry listed twice in a list flag is refused with both entries, before anything runs:
+/// a second policy or task size would repeat a run, two slowdowns or failure points of one
+/// device contradict each other, and an adapter listed twice would be opened twice. Two CPU
+/// entries are two groups of devices, and stay allowed.
+#[test]
+fn list_flags_refuse_an_entry_given_twice() {
+    let dir = fresh("twice");
+    let costs = dir.join("c.txt");
+    std::fs::write(&costs, "1\n2\n").unwrap();
+    let (png, cornell) = (dir.join("x.png"), ["--scene", "builtin:cornell"]);
+    let render = |flag, list| vec!["render", "--size", "8x8", "--out", s(&png), flag, list];
+    let cases: [(Vec<&str>, &[&str]); 9] = [
+        (
+            render("--devices", "gpu:0,gpu:0"),
+            &["gpu:0 and gpu:0", "same adapter"],
+        ),
+        (render("--devices", "gpu:all,gpu:1"), &["gpu:all and gpu:1"]),
+        (
+            render("--slow", "0=2,0=3"),
+            &["--slow", "0=2,0=3", "device 0 is listed twice"],
+        ),
+        (
+            vec!["bench", "--policies", "lpt,static-lpt"],
+            &["static-lpt is listed twice"],
+        ),
+        (vec!["bench", "--shaders", "ao,ao"], &["--shaders", "ao,ao"]),
+        (
+            vec!["bench", "--task-sizes", "512,64,512"],
+            &["--task-sizes", "512,512"],
+        ),
+        (
+            vec!["tradeoff", "--presets", "fast,medium,fast"],
+            &["--presets", "fast,fast"],
+        ),
+        (
+            vec!["tradeoff", "--ao-samples", "4,4"],
+            &["--ao-samples", "4,4"],
+        ),
+        (
+            vec!["schedule", "--costs", s(&costs), "--fail", "0@1,0@2"],
+            &["--fail", "0@1,0@2", "device 0 is listed twice"],
+        ),
+    ];
+    for (mut args, needles) in cases {
+        if args[0] != "schedule" {
+            args.extend(cornell);
+        }
+        refused(&cobalt(&args), needles);
+    }
+    assert_eq!(names(&dir), ["c.txt"]);
+    let two = render("--devices", "cpu:1,cpu:1");
+    ok(&cobalt(&[&two[..], &cornell].concat()));
+}
+
+/// Costs at the ends of `f64`: a makespan near `f64::MAX` keeps an honest balance (half, for
+/// one busy device of two) rather than one that overflowed to 0, and subnormal costs plan.
+#[test]
+fn costs_at_the_ends_of_f64_give_honest_figures() {
+    for (costs, balance) in [("1e308\n0\n", 0.5), ("1e-320\n1e-320\n", 1.0)] {
+        let o = run_with_stdin(
+            &["schedule", "--costs", "-", "--speeds", "1,1", "--json"],
+            costs.as_bytes(),
+            &[],
+        );
+        ok(&o);
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+        assert_eq!(report["balance_efficiency"], balance, "{costs:?}: {report}");
+    }
+}
+
+/// A ray whose direction is too short for its reciprocal (1e-45) would report a hit at a NaN
+/// distance: it is refused, naming the ray.
+#[test]
+fn a_ray_too_short_to_divide_by_is_refused() {
+    let dir = fresh("short-ray");
+    let mut ray = [0f32, 0.0, -5.0, 0.0, 0.0, 1e-45, 0.0, f32::INFINITY]
+        .map(f32::to_le_bytes)
+        .concat();
+    let (rays, hits) = (dir.join("r.bin"), dir.join("h.bin"));
+    let trace = |ray: &[u8]| {
+        std::fs::write(&rays, ray).unwrap();
+        let io = ["--rays", s(&rays), "--out", s(&hits)];
+        cobalt(&[&["trace", "--scene", "builtin:cornell"][..], &io].concat())
+    };
+    refused(&trace(&ray), &["r.bin", "ray 0", "too small"]);
+    ray[20..24].copy_from_slice(&1f32.to_le_bytes());
+    ok(&trace(&ray));
+}
+
+/// The default camera of a flat scene (one triangle in `z = 0`, a floor in `y = 0`) stands
+/// off its plane: it sees the scene, not its edge.
+#[test]
+fn the_default_camera_sees_a_flat_scene_from_off_its_plane() {
+    let dir = fresh("flat");
+    let png = dir.join("f.png");
+    let floor = "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3 4\n";
+    for (name, obj) in [("one.obj", TRIANGLE), ("floor.obj", floor)] {
+        let scene = dir.join(name);
+        std::fs::write(&scene, obj).unwrap();
+        let args = [
+            "--shader",
+            "ao",
+            "--ao-samples",
+            "1",
+            "--json",
+            "--out",
+            s(&png),
+        ];
+        let o = render(s(&scene), &args);
+        ok(&o);
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+        // Every primary ray that hits casts one probe: a scene seen edge-on casts none.
+        let probes = report["total_rays"].as_u64().unwrap() - 64;
+        assert!(probes > 16, "{name}: {report}");
+    }
 }

@@ -36,16 +36,26 @@ impl Camera {
     /// Our choice of the four: above the four quadrants, `x = c.x ± 0.45 ext.x`,
     /// `z = c.z ± 0.45 ext.z` (90 % of the way from the centre towards each top corner, in the
     /// order `(-,-), (+,-), (+,+), (-,+)`), at `y = max.y - 0.001 ext.y`, just under the top so
-    /// a camera in a closed room (Conference, Sibenik) is inside the ceiling, not on it.
+    /// a camera in a closed room (Conference, Sibenik) is inside the ceiling, not on it. A
+    /// scene flat along an axis is seen from 0.45 of its widest extent off its plane.
     /// `index` is taken modulo 4.
     pub fn orbit(bounds: &Aabb, index: usize) -> Self {
         let c = bounds.center();
         let e = bounds.extent();
         let (sx, sz) = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)][index % 4];
+        // A flat scene's own plane would hold the eye, and show the scene exactly edge-on, as
+        // nothing: along an axis where it has no extent, the eye steps out of the plane.
+        let off = |ext: f32| {
+            if ext == 0.0 {
+                0.45 * e.max_element()
+            } else {
+                0.0
+            }
+        };
         let eye = Vec3::new(
-            c.x + sx * 0.45 * e.x,
-            bounds.max.y - 0.001 * e.y,
-            c.z + sz * 0.45 * e.z,
+            c.x + sx * 0.45 * e.x + off(e.x),
+            bounds.max.y - 0.001 * e.y + off(e.y),
+            c.z + sz * 0.45 * e.z + off(e.z),
         );
         let mut cam = Self::look_at(eye, c);
         if (c - eye)

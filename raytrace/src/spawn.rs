@@ -49,6 +49,10 @@ pub struct SurfacePoint {
     pub error: Vec3,
     /// Unit geometric normal (of the triangle's winding).
     pub normal: Vec3,
+    /// How far from the triangle's plane a ray leaving the point must start so that the
+    /// watertight test cannot find the triangle in front of it: a bound on that test's error
+    /// in `t`, which for a sliver far exceeds `error` (see [`Scene::surface_point`]).
+    pub reach: f32,
 }
 
 impl SurfacePoint {
@@ -71,14 +75,16 @@ impl SurfacePoint {
 ///
 /// The offset is at least `gamma(8) * max |p_k|` (and a normal float): on a plane through 0
 /// along an axis (the ground `y = 0`), `p` is exact on that axis, the error bound is 0 and the
-/// point would stay *on* the plane, where our triangle test accepts `t = 0` (pbrt's rejects it
-/// with a bound on `t`'s own error, which our watertight test does not carry).
+/// point would stay *on* the plane, where our triangle test accepts `t = 0`. It is also at
+/// least [`SurfacePoint::reach`], which keeps the triangle test's own error in `t` from bringing
+/// the ray back to its triangle.
 pub fn offset_ray_origin(sp: &SurfacePoint, w: Vec3) -> Vec3 {
     let n = sp.normal;
     let d = n
         .abs()
         .dot(sp.error)
         .max(gamma(8) * sp.p.abs().max_element())
+        .max(sp.reach)
         .max(f32::MIN_POSITIVE);
     let mut offset = d * n;
     if w.dot(n) < 0.0 {
@@ -98,8 +104,19 @@ pub fn offset_ray_origin(sp: &SurfacePoint, w: Vec3) -> Vec3 {
 
 impl Scene {
     /// The hit point of `hit` from its barycentrics, with pbrt's error bound
-    /// (`gamma(7) * sum |b_i p_i|`, one more `gamma` for `b0 = 1 - u - v`) and the unit
-    /// geometric normal.
+    /// (`gamma(7) * sum |b_i p_i|`, one more `gamma` for `b0 = 1 - u - v`), the unit geometric
+    /// normal and the reach.
+    ///
+    /// The reach follows pbrt's bound on the test's error in `t` (its `deltaT`) for a ray from
+    /// the point in any direction `d`, with `r` the largest coordinate of a vertex relative to
+    /// the point: the sheared coordinates are off by up to `3 gamma(5) r`, so the three edge
+    /// functions by up to `96 gamma(5) r^2` together; the hit's barycentrics (edge functions
+    /// over the determinant, `|cross . d|` over the shear's scale) move by twice that over the
+    /// determinant, and `t` by that times the vertices' largest `|z|` (`r` over the shear's
+    /// scale): `192 gamma(5) r^3 / |cross . d|`, doubled for the determinant's own error. The
+    /// plane lies `reach |cross| / |cross . d|` behind the origin, so `384 gamma(5) r^3 /
+    /// |cross|` covers every `d`; `256 gamma(8)` is a little larger and as cheap in WGSL. It
+    /// grows as a sliver thins.
     pub fn surface_point(&self, hit: &Hit) -> SurfacePoint {
         let [p0, p1, p2] = self.vertices(hit.prim as usize);
         let b0 = (1.0 - hit.u - hit.v).max(0.0);
@@ -107,8 +124,20 @@ impl Scene {
         let p = b0 * p0 + b1 * p1 + b2 * p2;
         let abs_sum = (b0 * p0).abs() + (b1 * p1).abs() + (b2 * p2).abs();
         let error = gamma(8) * abs_sum;
-        let normal = (p1 - p0).cross(p2 - p0).normalize_or_zero();
-        SurfacePoint { p, error, normal }
+        let cross = (p1 - p0).cross(p2 - p0);
+        let r = ((p0 - p).abs().max((p1 - p).abs()))
+            .max((p2 - p).abs())
+            .max_element();
+        // `r / |cross| * r` first, so that neither `r^3` nor `r^2` leaves the range of `f32`;
+        // a degenerate triangle (never hit) would give infinity times its zero normal.
+        let reach = (256.0 * gamma(8) * (r / cross.length() * r) * r).min(f32::MAX);
+        let normal = cross.normalize_or_zero();
+        SurfacePoint {
+            p,
+            error,
+            normal,
+            reach,
+        }
     }
 }
 

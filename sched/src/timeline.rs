@@ -44,9 +44,10 @@ impl Metrics {
     /// Metrics from per-device busy times and the makespan.
     pub fn new(makespan: f64, busy: Vec<f64>) -> Self {
         let idle = busy.iter().map(|b| (makespan - b).max(0.0)).collect();
-        let total: f64 = busy.iter().sum();
+        // Each share of the makespan first: their sum, or the makespan times the device count,
+        // overflows for costs near `f64::MAX`.
         let balance_efficiency = if makespan > 0.0 {
-            total / (makespan * busy.len() as f64)
+            busy.iter().map(|b| b / makespan).sum::<f64>() / busy.len() as f64
         } else {
             1.0
         };

@@ -21,7 +21,7 @@ use raytrace::paths::Mode;
 use raytrace::{BuildPreset, Bvh, Camera, Scene, SceneNeeds};
 use sched::Policy;
 
-use crate::args::{Devices, MAX_AO_SAMPLES, ShaderKind, Size, sample_rate, task_size};
+use crate::args::{Devices, MAX_AO_SAMPLES, ShaderKind, Size, distinct, sample_rate, task_size};
 use crate::error::CliError;
 
 /// Arguments of `cobalt bench`.
@@ -178,7 +178,24 @@ struct Measured {
 pub fn run(args: Args) -> Result<(), CliError> {
     let started = Instant::now();
     crate::args::check_slow(&args.slow, args.devices.known_count())?;
+    let policies = args.policies.as_deref().unwrap_or_default();
+    let name = ToString::to_string;
+    distinct("policies", policies, name, name)?;
+    let shader = |s: &ShaderKind| format!("{s:?}").to_lowercase();
+    distinct("shaders", &args.shaders, shader, shader)?;
+    let size = ToString::to_string;
+    distinct("task-sizes", &args.task_sizes, size, size)?;
+    distinct("simulate", &args.simulate, u32::to_string, u32::to_string)?;
     let m = Matrix::of(&args);
+    let ao = args
+        .shaders
+        .contains(&ShaderKind::Ao)
+        .then_some(("ao-samples", args.ao_samples));
+    let size = Size {
+        width: m.width,
+        height: m.height,
+    };
+    crate::limits::frame(size, size.pixels(), ao)?;
     check_outputs(&args, &m)?;
     #[cfg(feature = "mpi")]
     if args.mpi {

@@ -23,7 +23,7 @@ use raytrace::shade::{RenderOptions, Shader};
 use raytrace::{Bvh, Camera, Scene};
 
 use crate::args::{
-    CameraArgs, CameraChoice, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs, Size,
+    CameraArgs, CameraChoice, ReportArgs, SceneArgs, ScheduleArgs, ShaderArgs, ShaderKind, Size,
 };
 use crate::error::CliError;
 use crate::output::Outputs;
@@ -77,8 +77,9 @@ pub struct Args {
 /// Runs the command: every argument is checked before the scene is loaded, and nothing is
 /// written until the render is done.
 pub fn run(args: Args) -> Result<(), CliError> {
-    // The film, the rays of a generation and their hits, per pixel and sample.
-    crate::limits::memory("size", &args.size.to_string(), &[(args.size.pixels(), 256)])?;
+    let ao =
+        (args.shader.shader == ShaderKind::Ao).then_some(("ao-samples", args.shader.ao_samples));
+    crate::limits::frame(args.size, args.size.pixels(), ao)?;
     let faults = faults(&args)?;
     let slow = crate::args::check_slow(&args.slow, args.schedule.devices.known_count())?;
     let settings = args.schedule.settings();

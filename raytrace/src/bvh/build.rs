@@ -5,8 +5,12 @@ use std::time::Instant;
 
 use glam::Vec3A;
 use obvhs::{
-    aabb::Aabb as OAabb, bvh2::leaf_collapser::collapse, bvh2::reinsertion::ReinsertionOptimizer,
-    ploc::PlocBuilder, splits::split_aabbs_preset, triangle::Triangle,
+    aabb::Aabb as OAabb,
+    bvh2::leaf_collapser::collapse,
+    bvh2::reinsertion::ReinsertionOptimizer,
+    ploc::{PlocBuilder, PlocSearchDistance},
+    splits::split_aabbs_preset,
+    triangle::Triangle,
 };
 
 use super::node::{BvhTriangle, Node, leaf_triangle};
@@ -15,6 +19,11 @@ use super::report::BuildReport;
 use super::wide::WideBvh;
 use super::{Bvh, MAX_DEPTH, bound};
 use crate::{Error, Result, Scene};
+
+/// How many times over the triangles' boxes may cover the scene's box (their summed areas
+/// over its area) before PLOC searches only its nearest neighbours: the shared scenes stay
+/// below 10, a fanned polygon of n vertices reaches about n / 6.
+const MAX_OVERLAP: f32 = 64.0;
 
 fn v3a(p: glam::Vec3) -> Vec3A {
     Vec3A::new(p.x, p.y, p.z)
@@ -51,7 +60,7 @@ impl Bvh {
         max_depth: usize,
         start: Instant,
     ) -> Result<Self> {
-        let params = preset.params();
+        let mut params = preset.params();
         // obvhs wants dense indices 0..n into the primitives it is given, so it gets only the
         // non-degenerate triangles and `ids` maps its indices back to primitive ids.
         let ids: Vec<u32> = (0..scene.len() as u32)
@@ -125,12 +134,21 @@ impl Bvh {
                 wide: Default::default(),
             });
         }
+        let (mut largest, mut sum, mut scene_box) = (0f32, 0f32, OAabb::empty());
+        for b in &aabbs {
+            largest = largest.max(b.half_area());
+            sum += b.half_area();
+            scene_box = scene_box.union(b);
+        }
+        // PLOC merges only the nodes that pick each other. Where the boxes overlap many times
+        // over (the slivers of a fanned polygon, stacked copies), few do in each pass, and a
+        // search past the nearest neighbours takes time growing with n² (39 s for a polygon of
+        // 10⁵ vertices) for a tree no better; reinsertion finds little to gain in it either.
+        if sum > MAX_OVERLAP * scene_box.half_area() {
+            params.ploc_search_distance = PlocSearchDistance::Minimum;
+            params.reinsertion_batch_ratio = 0.0;
+        }
         if params.pre_split {
-            let (mut largest, mut sum) = (0f32, 0f32);
-            for b in &aabbs {
-                largest = largest.max(b.half_area());
-                sum += b.half_area();
-            }
             let avg = sum / aabbs.len() as f32;
             split_aabbs_preset(&mut aabbs, &mut indices, &tris, avg, largest);
         }

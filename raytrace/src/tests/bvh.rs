@@ -142,7 +142,7 @@ fn fan(n: usize) -> crate::Scene {
 
 #[test]
 fn a_polygon_of_many_vertices_builds_within_the_stack_with_every_preset() {
-    let scene = fan(1000);
+    let scene = fan(2000);
     let unbounded =
         BuildPreset::ALL.map(|p| Bvh::build_within(&scene, p, usize::MAX).unwrap().depth());
     assert!(

@@ -525,17 +525,11 @@ proptest::proptest! {
     }
 
     /// A ray spawned from any point of a triangle, in any direction off its plane, never hits
-    /// that triangle again, at every scale from 2⁻⁶⁰ to 2⁶⁰ (the offset is relative to the
-    /// point's own rounding error, never absolute).
-    ///
-    /// Known to fail for long slivers (`proptest-regressions/tests/robustness.txt` keeps a
-    /// case: a triangle 6.5 units long, a ray leaving at 38° re-hits it at `t` = 6.6e-7): the
-    /// offset covers the hit point's rounding error, but not the triangle test's own error in
-    /// `t`, which grows with the triangle's extent from the ray's origin. Run it with
-    /// `--ignored` once the offset (or the test's lower bound on `t`) covers that error, on
-    /// the CPU and in WGSL alike.
+    /// that triangle again, at every scale from 2⁻⁶⁰ to 2⁶⁰: the offset covers the point's own
+    /// rounding error and the triangle test's error in `t`, which grows as a sliver thins
+    /// (`proptest-regressions/tests/robustness.txt` keeps such a case: a triangle 6.5 units
+    /// long, re-hit at `t` = 6.6e-7 when the offset covered the point's error alone).
     #[test]
-    #[ignore = "fails for long slivers: the spawn offset does not cover the triangle test's error in t"]
     fn a_spawned_ray_never_hits_its_own_triangle(
         c in proptest::array::uniform12(-4.0f32..4.0),
         u in 0.0f32..1.0,

@@ -18,6 +18,7 @@ struct SceneTri {
 
 // A hit buffer's primitive for a miss.
 const MISS: u32 = 0xffffffffu;
+const F32_MAX: f32 = 3.40282347e38;
 
 // What a kernel's invocation knows of where it stands: every kernel takes one item.
 struct Invocation {
@@ -136,12 +137,13 @@ fn intersect(o: vec3<f32>, d: vec3<f32>, tri: SceneTri, tmin: f32, tmax: f32) ->
     return vec4<f32>(t_scaled / det_abs + 0.0, v * rcp, w * rcp, 1.0);
 }
 
-// `Scene::surface_point` of barycentrics `(u, v)` on `tri`: the point, its error bound and the
-// unit normal of the winding.
+// `Scene::surface_point` of barycentrics `(u, v)` on `tri`: the point, its error bound, the
+// unit normal of the winding and the reach.
 struct SurfacePoint {
     p: vec3<f32>,
     err: vec3<f32>,
     n: vec3<f32>,
+    reach: f32,
 }
 
 fn surface_point(tri: SceneTri, u: f32, v: f32, gamma8: f32) -> SurfacePoint {
@@ -151,7 +153,11 @@ fn surface_point(tri: SceneTri, u: f32, v: f32, gamma8: f32) -> SurfacePoint {
     let b0 = max((1.0 - u) - v, 0.0);
     let p = ((b0 * p0) + (u * p1)) + (v * p2);
     let err = gamma8 * ((abs(b0 * p0) + abs(u * p1)) + abs(v * p2));
-    return SurfacePoint(p, err, normalize_or(cross3(p1 - p0, p2 - p0), vec3<f32>(0.0)));
+    let cross = cross3(p1 - p0, p2 - p0);
+    let d = max(max(abs(p0 - p), abs(p1 - p)), abs(p2 - p));
+    let r = max(d.x, max(d.y, d.z));
+    let reach = min(256.0 * gamma8 * (r / sqrt(dot3(cross, cross)) * r) * r, F32_MAX);
+    return SurfacePoint(p, err, normalize_or(cross, vec3<f32>(0.0)), reach);
 }
 
 // `offset_ray_origin`: `sp.p` pushed off the surface along the normal, to the side of `w`, by
@@ -159,7 +165,7 @@ fn surface_point(tri: SceneTri, u: f32, v: f32, gamma8: f32) -> SurfacePoint {
 fn offset_origin(sp: SurfacePoint, w: vec3<f32>, gamma8: f32) -> vec3<f32> {
     let ap = abs(sp.p);
     let d = max(
-        max(dot3(abs(sp.n), sp.err), gamma8 * max(ap.x, max(ap.y, ap.z))),
+        max(max(dot3(abs(sp.n), sp.err), gamma8 * max(ap.x, max(ap.y, ap.z))), sp.reach),
         bitcast<f32>(0x00800000u),
     );
     var offset = d * sp.n;
