@@ -10,7 +10,7 @@ use serde::Serialize;
 use crate::error::CliError;
 
 /// Bytes per ray in a ray file: `f32 × 8`, `ox oy oz dx dy dz tmin tmax`, little-endian.
-const RAY_BYTES: usize = 32;
+const RAY_BYTES: usize = raytrace::RAY_RECORD_BYTES;
 
 /// Which device traces.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -114,7 +114,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
         Device::Gpu => gpu_trace(&bvh, &rays, args.any_hit)?,
     };
-    outputs.commit(&[("out", &encode_hits(&hits))])?;
+    outputs.commit(&[("out", &hits.to_records())])?;
 
     let report = Report {
         scene: args.scene.scene.clone(),
@@ -216,7 +216,6 @@ pub(crate) fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
         });
     let mut input = crate::input::open(path)?;
     let mut rays = RayBatch::with_capacity(expected);
-    const FIELDS: [&str; 8] = ["ox", "oy", "oz", "dx", "dy", "dz", "tmin", "tmax"];
     let mut record = [0u8; RAY_BYTES];
     for i in 0.. {
         let got = fill(&mut input, &mut record).map_err(read_err)?;
@@ -233,39 +232,8 @@ pub(crate) fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
         if i == max_rays {
             return Err(crate::input::too_large(path));
         }
-        let mut v = [0f32; 8];
-        for (k, word) in record.chunks_exact(4).enumerate() {
-            v[k] = f32::from_le_bytes([word[0], word[1], word[2], word[3]]);
-        }
-        // Origins and directions must be finite; tmax may be +inf (an unbounded ray).
-        if let Some(k) = (0..8).find(|&k| v[k].is_nan() || (k < 7 && v[k].is_infinite())) {
-            return Err(bad(i, format!("{} is {}", FIELDS[k], v[k])));
-        }
-        // The walks divide by the direction: where its largest component's reciprocal
-        // overflows, a hit's distance would come out infinite or NaN.
-        let longest = v[3].abs().max(v[4].abs()).max(v[5].abs());
-        if longest == 0.0 {
-            return Err(bad(i, "direction is zero".into()));
-        }
-        if !(1.0 / longest).is_finite() {
-            let why =
-                format!("direction's largest component {longest:e} is too small (below 2^-128)");
-            return Err(bad(i, why));
-        }
-        if !(v[6] >= 0.0 && v[6] <= v[7]) {
-            return Err(bad(
-                i,
-                format!("tmin {} must be in [0, tmax = {}]", v[6], v[7]),
-            ));
-        }
-        rays.ox.push(v[0]);
-        rays.oy.push(v[1]);
-        rays.oz.push(v[2]);
-        rays.dx.push(v[3]);
-        rays.dy.push(v[4]);
-        rays.dz.push(v[5]);
-        rays.tmin.push(v[6]);
-        rays.tmax.push(v[7]);
+        rays.push_record(&record)
+            .map_err(|message| bad(i, message))?;
     }
     Ok(rays)
 }
@@ -282,16 +250,6 @@ fn fill(input: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<usize
         }
     }
     Ok(got)
-}
-
-fn encode_hits(hits: &HitBatch) -> Vec<u8> {
-    let mut out = Vec::with_capacity(hits.len() * 8);
-    for (t, prim) in hits.t.iter().zip(&hits.prim) {
-        let t = if *prim == u32::MAX { f32::INFINITY } else { *t };
-        out.extend_from_slice(&t.to_le_bytes());
-        out.extend_from_slice(&prim.to_le_bytes());
-    }
-    out
 }
 
 #[cfg(test)]

@@ -72,7 +72,7 @@ pub use error::Error;
 pub use film::Film;
 /// The math crate of the public API (points, directions, colours), so callers need not pin it.
 pub use glam;
-pub use ray::{Hit, HitBatch, Ray, RayBatch, RayKind};
+pub use ray::{Hit, HitBatch, RAY_RECORD_BYTES, Ray, RayBatch, RayKind};
 pub use scene::{DEFAULT_REFLECTANCE, Light, LoadReport, Material, Scene, SceneNeeds};
 pub use scene_source::SceneSource;
 /// The seeded generator of the built-in scenes and the seeded tests.

@@ -79,7 +79,45 @@ pub struct RayBatch {
     pub tmax: Vec<f32>,
 }
 
+/// Bytes of one ray in a ray file: eight little-endian `f32`s, `ox oy oz dx dy dz tmin tmax`.
+pub const RAY_RECORD_BYTES: usize = 32;
+
 impl RayBatch {
+    /// Appends the ray of one ray-file record, checked as every walk needs it: a finite origin
+    /// and direction, a direction whose largest component has a finite reciprocal, and
+    /// `0 <= tmin <= tmax` (`tmax` may be infinite). The error names the field and its value.
+    pub fn push_record(&mut self, record: &[u8; RAY_RECORD_BYTES]) -> Result<(), String> {
+        const FIELDS: [&str; 8] = ["ox", "oy", "oz", "dx", "dy", "dz", "tmin", "tmax"];
+        let mut v = [0f32; 8];
+        for (k, word) in record.chunks_exact(4).enumerate() {
+            v[k] = f32::from_le_bytes([word[0], word[1], word[2], word[3]]);
+        }
+        if let Some(k) = (0..8).find(|&k| v[k].is_nan() || (k < 7 && v[k].is_infinite())) {
+            return Err(format!("{} is {}", FIELDS[k], v[k]));
+        }
+        // The walks divide by the direction: where its largest component's reciprocal
+        // overflows, a hit's distance would come out infinite or NaN.
+        let longest = v[3].abs().max(v[4].abs()).max(v[5].abs());
+        if longest == 0.0 {
+            return Err("direction is zero".into());
+        }
+        if !(1.0 / longest).is_finite() {
+            return Err(format!(
+                "direction's largest component {longest:e} is too small (below 2^-128)"
+            ));
+        }
+        if !(v[6] >= 0.0 && v[6] <= v[7]) {
+            return Err(format!("tmin {} must be in [0, tmax = {}]", v[6], v[7]));
+        }
+        self.push(&Ray {
+            origin: Vec3::new(v[0], v[1], v[2]),
+            dir: Vec3::new(v[3], v[4], v[5]),
+            tmin: v[6],
+            tmax: v[7],
+        });
+        Ok(())
+    }
+
     /// An empty batch with room for `n` rays.
     pub fn with_capacity(n: usize) -> Self {
         let v = || Vec::with_capacity(n);
@@ -189,6 +227,18 @@ pub struct HitBatch {
 }
 
 impl HitBatch {
+    /// The hits as a hit file: per ray, `t` (`f32`, +inf for a miss) and the triangle (`u32`,
+    /// `u32::MAX` for a miss), little-endian.
+    pub fn to_records(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.len() * 8);
+        for (t, prim) in self.t.iter().zip(&self.prim) {
+            let t = if *prim == u32::MAX { f32::INFINITY } else { *t };
+            out.extend_from_slice(&t.to_le_bytes());
+            out.extend_from_slice(&prim.to_le_bytes());
+        }
+        out
+    }
+
     /// The primitive id written for a miss.
     pub const MISS: u32 = u32::MAX;
 
