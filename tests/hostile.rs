@@ -1042,3 +1042,31 @@ fn the_default_camera_sees_a_flat_scene_from_off_its_plane() {
         assert!(probes > 16, "{name}: {report}");
     }
 }
+
+/// A scene whose every triangle has zero area (collinear corners, a point) has nothing to
+/// trace: rendering, tracing or estimating it is refused naming the file, not a background
+/// image with exit 0.
+#[test]
+fn a_scene_of_degenerate_triangles_only_is_refused() {
+    let dir = fresh("degenerate");
+    let scene = dir.join("line.obj");
+    std::fs::write(&scene, "v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\nf 1 1 1\n").expect("scene");
+    let out = dir.join("line.png");
+    let o = render(s(&scene), &["--out", s(&out)]);
+    refused(&o, &["line.obj", "zero area"]);
+    assert!(!out.exists());
+    let ray_file = dir.join("rays.bin");
+    std::fs::write(&ray_file, rays(1)).expect("rays");
+    let hits = dir.join("hits.bin");
+    let o = cobalt(&[
+        "trace",
+        "--scene",
+        s(&scene),
+        "--rays",
+        s(&ray_file),
+        "--out",
+        s(&hits),
+    ]);
+    refused(&o, &["line.obj", "zero area"]);
+    assert!(!hits.exists());
+}

@@ -91,6 +91,15 @@ pub enum Error {
         /// File path or built-in name.
         name: String,
     },
+    /// Every triangle of the scene has zero area, so no ray can hit anything: its image would
+    /// be the background alone.
+    #[error("{name}: every one of its {triangles} triangles has zero area: no ray can hit it")]
+    NothingToTrace {
+        /// File path or built-in name.
+        name: String,
+        /// Its triangles, all degenerate.
+        triangles: usize,
+    },
     /// tobj rejected the file in a way our line scan did not foresee.
     #[error("{path}: OBJ error: {source}")]
     Obj {

@@ -67,6 +67,12 @@ impl Bvh {
             .filter(|&i| !scene.is_degenerate(i as usize))
             .collect();
         let degenerate_skipped = scene.len() - ids.len();
+        if ids.is_empty() {
+            return Err(crate::Error::NothingToTrace {
+                name: scene.name.clone(),
+                triangles: scene.len(),
+            });
+        }
         let tris: Vec<Triangle> = ids
             .iter()
             .map(|&i| {
