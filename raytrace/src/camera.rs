@@ -209,9 +209,11 @@ fn compact(k: u32) -> u32 {
 }
 
 /// The pixel at `rank` in [`morton_order`]`(width, height)`, found without sorting: from the
-/// top bit down, the aligned block of the Z-curve with that bit clear holds a rectangle of
-/// the image's pixels; a rank past them lies in the block with the bit set. The render
-/// kernels' `morton_pixel` is the same walk.
+/// smallest aligned block of the Z-curve that holds the image down, the half of a block with
+/// its top free bit clear holds a rectangle of the image's pixels, and a rank past them lies
+/// in the other half. Once a block lies inside the image, the rank's own bits are the rest
+/// of the key, so most pixels of an image take a few steps (a power-of-two square, none).
+/// The render kernels' `morton_pixel` walks the same blocks.
 ///
 /// # Panics
 /// Panics if a side exceeds 65536 pixels or `rank` is not below `width · height`.
@@ -221,26 +223,35 @@ pub fn morton_pixel(width: u32, height: u32, rank: usize) -> u32 {
         rank < width as usize * height as usize,
         "rank {rank} outside a {width}x{height} image"
     );
-    let mut rank = rank as u64;
-    let mut key = 0u32;
-    for b in (0..32u32).rev() {
-        // The block of keys that share `key`'s bits above `b` and have bit `b` clear.
-        let (fx, fy) = (b.div_ceil(2), b / 2);
-        let (x0, y0) = (compact(key), compact(key >> 1));
+    // Pixels of the block at (`x0`, `y0`) spanning 2^fx by 2^fy that lie in the image.
+    let inside = |x0: u32, y0: u32, fx: u32, fy: u32| {
         let side = |origin: u32, free: u32, size: u32| {
-            if origin < size {
-                u64::from((size - origin).min(1 << free))
-            } else {
-                0
-            }
+            u64::from(size.saturating_sub(origin).min(1 << free))
         };
-        let inside = side(x0, fx, width) * side(y0, fy, height);
-        if rank >= inside {
-            rank -= inside;
-            key |= 1 << b;
+        side(x0, fx, width) * side(y0, fy, height)
+    };
+    let mut rank = rank as u64;
+    let (mut x0, mut y0) = (0u32, 0u32);
+    // Free key bits below the current block: x takes the even ones, y the odd ones.
+    let mut free = 2 * width.max(height).next_power_of_two().trailing_zeros();
+    loop {
+        let (fx, fy) = (free.div_ceil(2), free / 2);
+        if x0 + (1 << fx) <= width && y0 + (1 << fy) <= height {
+            // `rank` < 2^free here: the block is whole, and its Z order is the rank's bits.
+            let low = rank as u32;
+            return (y0 + compact(low >> 1)) * width + x0 + compact(low);
+        }
+        free -= 1;
+        let lower = inside(x0, y0, free.div_ceil(2), free / 2);
+        if rank >= lower {
+            rank -= lower;
+            if free % 2 == 0 {
+                x0 |= 1 << (free / 2);
+            } else {
+                y0 |= 1 << (free / 2);
+            }
         }
     }
-    compact(key >> 1) * width + compact(key)
 }
 
 #[cfg(test)]
@@ -291,6 +302,9 @@ mod tests {
             (64, 1),
             (1, 33),
             (100, 37),
+            (64, 64),
+            (320, 200),
+            (257, 3),
         ] {
             let order = morton_order(w, h);
             for (rank, &p) in order.iter().enumerate() {

@@ -71,8 +71,16 @@ fn tiny_and_empty_trees() {
     m.tri_points(Vec3::Y, Vec3::Y, Vec3::Y, 0);
     let flat = testkit::scene_of("flat", m.clone()).unwrap();
     let e = Bvh::build(&flat, BuildPreset::Medium).unwrap_err();
-    assert!(matches!(e, crate::Error::NothingToTrace { triangles: 2, .. }), "{e}");
-    m.tri_points(Vec3::Z * 5.0, Vec3::Z * 5.0 + Vec3::X, Vec3::Z * 5.0 + Vec3::Y, 0);
+    assert!(
+        matches!(e, crate::Error::NothingToTrace { triangles: 2, .. }),
+        "{e}"
+    );
+    m.tri_points(
+        Vec3::Z * 5.0,
+        Vec3::Z * 5.0 + Vec3::X,
+        Vec3::Z * 5.0 + Vec3::Y,
+        0,
+    );
     let mixed = testkit::scene_of("mixed", m).unwrap();
     let bvh = Bvh::build(&mixed, BuildPreset::Medium).unwrap();
     validate(&bvh, &mixed).unwrap();
