@@ -72,28 +72,38 @@ fn compact(k: u32) -> u32 {
     return (x | (x >> 8u)) & 0x0000ffffu;
 }
 
-// The pixel at Morton rank `rank` (`camera.rs`'s `morton_pixel`): from the top bit down, the
-// aligned block of the Z-curve with that bit clear holds a rectangle of the image's pixels;
-// a rank past them lies in the block with the bit set.
+// The pixel at Morton rank `rank` (`camera.rs`'s `morton_pixel`): from the smallest aligned
+// block of the Z-curve holding the image down, the half of a block with its top free bit
+// clear holds a rectangle of the image's pixels, and a rank past them lies in the other half;
+// a block inside the image ends the walk.
 fn morton_pixel(rank_in: u32) -> u32 {
     var rank = rank_in;
-    var key = 0u;
-    for (var i = 0u; i < 32u; i++) {
-        let b = 31u - i;
-        let fx = (b + 1u) / 2u;
-        let fy = b / 2u;
-        let x0 = compact(key);
-        let y0 = compact(key >> 1u);
-        let cx = select(0u, min(params.width - x0, 1u << fx), x0 < params.width);
-        let cy = select(0u, min(params.height - y0, 1u << fy), y0 < params.height);
+    var x0 = 0u;
+    var y0 = 0u;
+    // Free key bits below the block: those of the smallest power-of-two square holding the
+    // image, then one fewer at each step.
+    let m = max(params.width, params.height);
+    var free = select(2u * (32u - countLeadingZeros(m - 1u)), 0u, m <= 1u);
+    for (var i = 0u; i <= 32u; i++) {
+        if x0 + (1u << ((free + 1u) / 2u)) <= params.width && y0 + (1u << (free / 2u)) <= params.height {
+            // A block inside the image: its Z order is the rank's own bits.
+            return (y0 + compact(rank >> 1u)) * params.width + x0 + compact(rank);
+        }
+        free -= 1u;
+        let cx = select(0u, min(params.width - x0, 1u << ((free + 1u) / 2u)), x0 < params.width);
+        let cy = select(0u, min(params.height - y0, 1u << (free / 2u)), y0 < params.height);
         // At most 2^32 - 1 pixels are inside: the image is checked on the host.
         let inside = cx * cy;
         if rank >= inside {
             rank -= inside;
-            key |= 1u << b;
+            if free % 2u == 0u {
+                x0 |= 1u << (free / 2u);
+            } else {
+                y0 |= 1u << (free / 2u);
+            }
         }
     }
-    return compact(key >> 1u) * params.width + compact(key);
+    return y0 * params.width + x0;
 }
 
 // The launch's slot `s` belongs to the last task whose first slot is at most `s`.
