@@ -245,7 +245,7 @@ pub fn morton_pixel(width: u32, height: u32, rank: usize) -> u32 {
         let lower = inside(x0, y0, free.div_ceil(2), free / 2);
         if rank >= lower {
             rank -= lower;
-            if free % 2 == 0 {
+            if free.is_multiple_of(2) {
                 x0 |= 1 << (free / 2);
             } else {
                 y0 |= 1 << (free / 2);
