@@ -556,8 +556,6 @@ impl<'a> PathRenderer<'a> {
         (work, traffic)
     }
 
-    /// The model the frames are costed with when device `d` estimates: its class's
-    /// recalled one, else the default.
     /// The makespan the frame's plan should take, known before it runs: the frame's paths
     /// shared among its tasks by their costs, each device running at its class's paths per
     /// busy second on an earlier frame of the shader, simulated under the frame's policy with
@@ -618,6 +616,8 @@ impl<'a> PathRenderer<'a> {
         }
     }
 
+    /// The model the frames are costed with when device `d` estimates: its class's
+    /// recalled one, else the default.
     fn cost_model(&self, d: usize) -> CostModel {
         self.devices
             .get(d)
