@@ -19,8 +19,8 @@ impl SampleRate {
     /// 12.5 %, the thesis's chosen trade-off between overhead and accuracy (Table 4.1).
     pub const THESIS: Self = Self(0.125);
     /// 1/32: where a sampled item costs as much as a traced one (a CPU renders each sampled
-    /// path for real), this keeps the estimate a few percent of the work, and the estimates
-    /// order tasks by their measured times as well as at the thesis's rate.
+    /// path for real), this keeps the estimate a few percent of the work; tasks of a few
+    /// hundred items then get only a few samples each.
     pub const ONE_IN_32: Self = Self(0.03125);
 
     /// Checks the rate: finite and in `(0, 1]`.

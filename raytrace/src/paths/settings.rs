@@ -62,8 +62,9 @@ pub struct Settings {
     /// finer ([`Self::task_size_for`]).
     pub task_size: NonZeroUsize,
     /// Fraction of each task's paths the estimate samples (cost mode). The default, one in
-    /// 32 ([`SampleRate::ONE_IN_32`]), orders tasks by their measured times as well as the
-    /// thesis's 12.5 % at a quarter of its cost (`docs/results.md`, "What an estimate costs").
+    /// 32 ([`SampleRate::ONE_IN_32`]), orders tasks by their measured times about as well as
+    /// the thesis's 12.5 % at a quarter of its cost, except small AO tasks, which a higher
+    /// rate orders better (`docs/results.md`, "What an estimate costs").
     pub sample_rate: SampleRate,
     /// How the estimate counts a sampled path (cost mode), on the devices: rendered for real
     /// ([`Walk::Trace`], the default), or its camera ray walked by the thesis's reduced
