@@ -4,13 +4,10 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use raytrace::{Bvh, HitBatch, Layout, RayBatch, SceneNeeds, traverse};
+use raytrace::{Bvh, HitBatch, Layout, RAY_RECORD_BYTES, RayBatch, SceneNeeds, traverse};
 use serde::Serialize;
 
 use crate::error::CliError;
-
-/// Bytes per ray in a ray file: `f32 × 8`, `ox oy oz dx dy dz tmin tmax`, little-endian.
-const RAY_BYTES: usize = raytrace::RAY_RECORD_BYTES;
 
 /// Which device traces.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -206,27 +203,29 @@ pub(crate) fn read_rays(path: &Path) -> Result<RayBatch, CliError> {
         index: ray,
         message,
     };
-    let max_rays = (crate::input::MAX_INPUT_BYTES / RAY_BYTES as u64) as usize;
+    let max_rays = (crate::input::MAX_INPUT_BYTES / RAY_RECORD_BYTES as u64) as usize;
     // A regular file says how many rays to expect; anything else grows as it is read.
     let expected = std::fs::metadata(path)
         .ok()
         .filter(|m| m.is_file() && path != Path::new("-"))
         .map_or(0, |m| {
-            (m.len() / RAY_BYTES as u64).min(max_rays as u64) as usize
+            (m.len() / RAY_RECORD_BYTES as u64).min(max_rays as u64) as usize
         });
     let mut input = crate::input::open(path)?;
     let mut rays = RayBatch::with_capacity(expected);
-    let mut record = [0u8; RAY_BYTES];
+    let mut record = [0u8; RAY_RECORD_BYTES];
     for i in 0.. {
         let got = fill(&mut input, &mut record).map_err(read_err)?;
         if got == 0 {
             break;
         }
-        if got < RAY_BYTES {
-            let len = i * RAY_BYTES + got;
+        if got < RAY_RECORD_BYTES {
+            let len = i * RAY_RECORD_BYTES + got;
             return Err(bad(
                 i,
-                format!("truncated: the file has {len} bytes, not a multiple of {RAY_BYTES}"),
+                format!(
+                    "truncated: the file has {len} bytes, not a multiple of {RAY_RECORD_BYTES}"
+                ),
             ));
         }
         if i == max_rays {
@@ -267,7 +266,7 @@ mod tests {
             std::fs::write(&p, &body).expect("temp file");
             match read_rays(&p) {
                 Ok(rays) => {
-                    prop_assert_eq!(rays.len(), body.len() / RAY_BYTES);
+                    prop_assert_eq!(rays.len(), body.len() / RAY_RECORD_BYTES);
                     for i in 0..rays.len() {
                         prop_assert!(rays.tmin[i] >= 0.0 && rays.tmin[i] <= rays.tmax[i]);
                     }
