@@ -10,7 +10,9 @@ use super::replay::{Replayed, replay};
 use crate::camera::Camera;
 use crate::cost::SampleRate;
 use crate::paths::Settings;
-use crate::paths::{Frame, FrameStats, PathRenderer, SlowPaths, build_path_devices, walk_paths};
+use crate::paths::{
+    Frame, FrameStats, InjectedPaths, PathRenderer, build_path_devices, walk_paths,
+};
 use crate::run::{CalibrationReport, workload};
 use crate::shade::RenderOptions;
 use crate::traffic::Traffic;
@@ -35,7 +37,7 @@ impl SceneMatrix<'_> {
             Some(kept) => PathRenderer::from_kept(kept, settings)?,
             None => {
                 let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
-                PathRenderer::new(SlowPaths::wrap(devices, self.slow), settings)?
+                PathRenderer::new(InjectedPaths::wrap(devices, &[], self.slow), settings)?
             }
         };
         let workload = workload(self.scene_name, &w.shader(self.ao_samples));

@@ -62,7 +62,7 @@ pub use build::build_path_devices;
 pub use cpu::CpuPaths;
 pub use device::{BoundPaths, Estimate, Launch, PathDevice, TaskValues};
 pub use estimate::{SampledTask, sample_paths, sampled_options, task_work, walk_paths};
-pub use fault::{FailAfter, FailingPaths, InjectedFault, SlowBy, SlowPaths};
+pub use fault::{FailAfter, InjectedFault, InjectedPaths, SlowBy};
 pub use frame::Frame;
 #[cfg(feature = "gpu")]
 pub use gpu::GpuPaths;

@@ -33,7 +33,7 @@ use sched::{DeviceFailure, SchedError};
 
 use crate::devices::DeviceSpec;
 use crate::paths::{
-    FailAfter, FrameRendering, PathRenderer, Settings, SlowBy, SlowPaths, build_path_devices,
+    FailAfter, FrameRendering, InjectedPaths, PathRenderer, Settings, SlowBy, build_path_devices,
 };
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene};
@@ -102,7 +102,7 @@ impl<'a> Run<'a> {
         calibration: Option<(&mut Store, &str)>,
     ) -> Result<(Film, RunReport), RunError> {
         let devices = build_path_devices(scene, bvh, self.specs, self.faults)?;
-        let devices = SlowPaths::wrap(devices, self.slow);
+        let devices = InjectedPaths::wrap(devices, &[], self.slow);
         let renderer = PathRenderer::new(devices, self.settings)?;
         self.render_on(renderer, scene, bvh, options, calibration)
     }

@@ -4,7 +4,7 @@
 
 use sched::Policy;
 
-use crate::paths::{CpuPaths, FailingPaths, PathDevice, PathRenderer};
+use crate::paths::{CpuPaths, InjectedPaths, PathDevice, PathRenderer};
 use crate::paths::{Mode, Settings};
 use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, WhittedSettings, render};
 use crate::{Bvh, Camera, Film, Scene};
@@ -196,7 +196,7 @@ fn the_idle_devices_take_over_when_the_fastest_fail() {
     let lagging = devices.remove(1);
     // 30 tasks a frame: the fast device renders most of the first (the laggard holds its
     // launch 40 ms) and fails during the second, which it renders alone.
-    let fast = FailingPaths::new(devices.remove(0), 30);
+    let fast = InjectedPaths::failing(devices.remove(0), 30);
     let devices: Vec<Box<dyn PathDevice>> = vec![Box::new(fast), laggard(lagging)];
     // As planned: with backups the fastest device would take over the laggard's tasks.
     let s = Settings {
@@ -242,7 +242,7 @@ fn a_device_lost_mid_frame_changes_nothing() {
                 millis: 1,
                 class: None,
             }));
-            devices.push(Box::new(FailingPaths::new(failing, 2)));
+            devices.push(Box::new(InjectedPaths::failing(failing, 2)));
             let mut r = PathRenderer::new(devices, settings(policy, Mode::Cost, 64)).expect("r");
             let out = r.render(&scene, &bvh, &options).expect("frame");
             assert_eq!(bits(&out.film), reference, "{policy:?}");
@@ -263,7 +263,7 @@ fn a_frame_without_devices_left_is_an_error() {
     let options = RenderOptions::new(16, 16, Camera::orbit(&scene.bounds(), 0), shader);
     let devices: Vec<Box<dyn PathDevice>> = cpus(2)
         .into_iter()
-        .map(|d| Box::new(FailingPaths::new(d, 0)) as Box<dyn PathDevice>)
+        .map(|d| Box::new(InjectedPaths::failing(d, 0)) as Box<dyn PathDevice>)
         .collect();
     let mut r = PathRenderer::new(devices, Settings::default()).expect("r");
     let e = r
