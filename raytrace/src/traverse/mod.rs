@@ -14,8 +14,7 @@
 //! - `binary.rs`: the binary tree, one loop for every query;
 //! - `wide.rs`: the 8-wide tree, eight boxes and four triangles a step (`simd.rs` holds the
 //!   lane kernels), and runs of rays sharing an origin handed to
-//! - `shared_any.rs` and `shared_closest.rs`: any-hit and closest-hit rays sharing an origin
-//!   walked together (AVX2), with what both share in `shared.rs`;
+//! - `shared.rs`: any-hit and closest-hit rays sharing an origin walked together (AVX2);
 //! - `packet.rs`: reduced and first-leaf walks of four or eight rays at once (SSE, AVX2);
 //! - `batch.rs`: the batch queries over a [`crate::RayBatch`], in parallel.
 
@@ -28,10 +27,6 @@ mod mode;
 mod packet;
 #[cfg(target_arch = "x86_64")]
 mod shared;
-#[cfg(target_arch = "x86_64")]
-mod shared_any;
-#[cfg(target_arch = "x86_64")]
-mod shared_closest;
 mod simd;
 mod single;
 pub(crate) mod walk;

@@ -1,9 +1,363 @@
-//! What the walks of rays sharing an origin (`shared_any.rs`, `shared_closest.rs`) have in
-//! common: how many rays walk together, and the bit tricks over their per-ray masks (a byte
-//! of bits per node, one per ray).
+//! Rays that share an origin, walked through the wide tree together ([`Bvh::walk_shared`]): any
+//! hits, such as the AO rays of one hit point or any run of occlusion rays from one place, and
+//! closest hits, such as a pinhole camera's primary rays taken a few neighbours (in Morton
+//! order) at a time.
+//!
+//! Rays of one origin wait on the same nodes near it: short AO rays that mostly miss spend
+//! their time proving that nothing is there, one node after another, and a primary ray finds
+//! its nodes in the cache (its neighbour just walked them), so it waits less on memory than on
+//! its own chain of box test, choice of child and stack. Walked together, a node is fetched
+//! once for all of them and their box tests, which do not depend on each other, overlap.
+//!
+//! Each ray still makes exactly the box tests it makes alone: a node is entered with the set
+//! of rays that hit its box in its parent's test (a byte of bits, one per ray), and each of
+//! those tests the node's eight children with its own range and culling bound.
+//! - Any hit: a ray leaves every set once it has found a hit. So the packet's answer for each
+//!   ray, hit or miss, is the single walk's; which triangle an occluded ray reports may
+//!   differ, since the order differs, as any-hit queries allow.
+//! - Closest hit: a leaf is tested by each ray that entered it, every triangle of it. The
+//!   answer does not depend on the order: the closest hit is the smallest `(t, primitive id)`
+//!   among the triangles the watertight test accepts in the ray's `[tmin, tmax]` (see
+//!   [`crate::traverse::wide`]), every box on the path to that triangle passes the test with
+//!   any bound at or beyond its distance, and the packet drops a ray from a node only where
+//!   the ray's own bound is nearer than the node's entry. So each ray's hit is its single
+//!   walk's, bit for bit, ties included.
+
+use std::mem::MaybeUninit;
+
+use crate::bvh::Bvh;
+use crate::bvh::wide::{Tri4, WIDTH};
+use crate::ray::{Hit, Ray};
+use crate::traverse::closest::{better, cull_bound};
+use crate::traverse::counts::Counts;
+use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
+use crate::traverse::simd::{self, Box8Ray, Shear4};
+use crate::triangle::RayShear;
 
 /// Rays walked together at most: one bit each in a byte of a node's masks.
 pub(super) const PACKET: usize = 8;
+
+impl Bvh {
+    /// The hits `MODE` asks for (closest or any, counted or not) of `rays` (one to [`PACKET`]
+    /// of them, which should share an origin for the walk to pay) into `out[..rays.len()]`,
+    /// each `None` on a miss, and, where `MODE` counts, each ray's counts added to `counts`
+    /// as the single walk keeps them: every node a ray enters, the root only if one of its
+    /// children's boxes is hit, and the triangles it tests (for any hit, until its hit).
+    ///
+    /// # Safety
+    /// The CPU must have AVX2, the stack hold `STACK` entries for this tree (as
+    /// [`Bvh::wide_each`] sizes it), and, for closest hits, every ray's `tmin` have its sign
+    /// bit clear where its range is not empty (entry distances are then ordered by their
+    /// bits, which the culling of a waiting node relies on).
+    #[inline(always)]
+    pub(crate) unsafe fn walk_shared<const MODE: u8, const STACK: usize>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<Hit>; PACKET],
+        counts: &mut [Counts; PACKET],
+    ) {
+        let any = MODE == ANY || MODE == ANY_COUNTED;
+        let counting = MODE == COUNTED || MODE == ANY_COUNTED;
+        let n = rays.len().min(PACKET);
+        let wide = &self.wide;
+        if wide.nodes.is_empty() || n == 0 {
+            return;
+        }
+        // Rays past `n` repeat the first one and are never live. Loops, not `array::from_fn`:
+        // its closures are not compiled for AVX2, and were called once per ray.
+        let first = &rays[0];
+        let mut boxes = [Box8Ray::new(first); PACKET];
+        let mut shears: [Option<Shear4>; PACKET] = [None; PACKET];
+        let mut tmin = [first.tmin; PACKET];
+        let mut tmax = [first.tmax; PACKET];
+        let mut live = 0u32;
+        for (r, q) in rays.iter().enumerate().take(n) {
+            boxes[r] = Box8Ray::new(q);
+            (tmin[r], tmax[r]) = (q.tmin, q.tmax);
+            // NaN-safe: a NaN or empty range traces nothing, as in the single walk.
+            if q.tmin.partial_cmp(&q.tmax).is_some_and(|o| o.is_le()) {
+                shears[r] = RayShear::new(q.origin, q.dir).map(Shear4::new);
+            }
+            live |= u32::from(shears[r].is_some()) << r;
+        }
+        let mut best: [Option<Hit>; PACKET] = [None; PACKET];
+        let mut cull = tmax.map(cull_bound);
+        let nodes = &wide.nodes[..];
+        let groups = &wide.groups[..];
+        // (inner node or first group, triangle count (0: inner), rays that entered it, their
+        // nearest entry). Uninitialised as in the single walk; only entries below `sp` are
+        // read.
+        let mut stack = [const { MaybeUninit::<(u32, u32, u32, f32)>::uninit() }; STACK];
+        let mut sp = 0usize;
+        let (mut child, mut count, mut m) = (0u32, 0u32, live);
+        while m != 0 {
+            if m & (m - 1) == 0 {
+                // One ray left in this subtree: its own walk (from its nearest hit so far, for
+                // a closest hit) is cheaper than the packet's bookkeeping for one.
+                let r = m.trailing_zeros() as usize;
+                if let Some(s) = &shears[r] {
+                    let seed = if any { None } else { best[r] };
+                    // SAFETY: the CPU has AVX2 (see `# Safety`), and `(child, count)` is the
+                    // root or a child reference read from the tree.
+                    let (hit, c) = unsafe {
+                        self.walk_from::<MODE, true, STACK>(
+                            &boxes[r],
+                            s,
+                            tmin[r],
+                            tmax[r],
+                            seed,
+                            (child, count),
+                        )
+                    };
+                    if counting {
+                        counts[r].nodes += c.nodes;
+                        counts[r].tris += c.tris;
+                    }
+                    if let Some(h) = hit {
+                        best[r] = Some(h);
+                        cull[r] = cull_bound(h.t);
+                        if any {
+                            live &= !(1 << r);
+                        }
+                    }
+                }
+            } else if count == 0 {
+                // SAFETY: `child` is 0 or an inner child index written by `WideBvh::collapse`.
+                let node = unsafe { nodes.get_unchecked(child as usize) };
+                let mut rows = 0u64;
+                // Each child's nearest entry over the rays that hit it: the order key, and
+                // the bound a waiting child is culled by.
+                let mut near = [f32::from_bits(u32::MAX); WIDTH];
+                let mut each = m;
+                while each != 0 {
+                    let r = each.trailing_zeros() as usize;
+                    each &= each - 1;
+                    // SAFETY: the CPU has AVX2 (see `# Safety`).
+                    let (hit, t) = unsafe { boxes[r].hit8::<true>(node, tmin[r], cull[r]) };
+                    rows |= u64::from(hit) << (8 * r);
+                    if counting && (child != 0 || hit != 0) {
+                        counts[r].nodes += 1;
+                    }
+                    // SAFETY: the CPU has AVX2 (see `# Safety`).
+                    unsafe { simd::min_entry(&mut near, hit, &t) };
+                }
+                let cols = transpose8(rows);
+                let mut kids = nonzero_bytes(cols);
+                if kids != 0 {
+                    if counting {
+                        // A counted packet is an estimate's sample: its children are cold.
+                        wide.prefetch_children(node, kids);
+                    }
+                    // A macro, not a closure: a closure is not compiled for AVX2.
+                    macro_rules! push {
+                        ($k:expr) => {{
+                            let k: usize = $k;
+                            let rays = (cols >> (8 * k)) as u32 & 0xFF;
+                            // The stack holds at most `WIDTH - 1` entries per wide level.
+                            stack[sp].write((node.child[k], node.count[k], rays, near[k]));
+                            sp += 1;
+                        }};
+                    }
+                    // Nearest first, as in the single walk. Any-hit rays push the others
+                    // unsorted; closest-hit rays farthest first, keys compared as bits, as
+                    // `min_entry` made them.
+                    let first = if any {
+                        // SAFETY: the CPU has AVX2 (see `# Safety`).
+                        let first = unsafe { simd::nearest::<true>(kids, &near) };
+                        let mut rest = kids & !(1 << first);
+                        while rest != 0 {
+                            push!(rest.trailing_zeros() as usize);
+                            rest &= rest - 1;
+                        }
+                        first
+                    } else {
+                        let key = near.map(f32::to_bits);
+                        let mut order = [0usize; WIDTH];
+                        let mut len = 0;
+                        while kids != 0 {
+                            let k = kids.trailing_zeros() as usize;
+                            kids &= kids - 1;
+                            let mut j = len;
+                            while j > 0 && key[order[j - 1]] > key[k] {
+                                order[j] = order[j - 1];
+                                j -= 1;
+                            }
+                            order[j] = k;
+                            len += 1;
+                        }
+                        for &k in order[1..len].iter().rev() {
+                            push!(k);
+                        }
+                        order[0]
+                    };
+                    child = node.child[first];
+                    count = node.count[first];
+                    m = (cols >> (8 * first)) as u32 & 0xFF;
+                    continue;
+                }
+            } else {
+                let first = child as usize;
+                let g = count.div_ceil(4) as usize;
+                // SAFETY: a leaf's `ceil(count / 4)` groups from `child` were pushed by
+                // `WideBvh::collapse` when it wrote the leaf.
+                let leaf = unsafe { groups.get_unchecked(first..first + g) };
+                let mut each = m;
+                while each != 0 {
+                    let r = each.trailing_zeros() as usize;
+                    each &= each - 1;
+                    let Some(s) = &shears[r] else { continue };
+                    if any {
+                        // SAFETY: the CPU has AVX2 (see `# Safety`).
+                        let (found, tested) = unsafe { leaf_any(s, leaf, tmin[r], tmax[r], count) };
+                        if counting {
+                            counts[r].nodes += 1;
+                            counts[r].tris += tested;
+                        }
+                        if found.is_some() {
+                            best[r] = found;
+                            live &= !(1 << r);
+                        }
+                    } else {
+                        if counting {
+                            counts[r].nodes += 1;
+                            counts[r].tris += count;
+                        }
+                        // SAFETY: the CPU has AVX2 (see `# Safety`).
+                        if unsafe { leaf_closest(s, leaf, tmin[r], tmax[r], &mut best[r]) } {
+                            cull[r] = cull_bound(best[r].map_or(tmax[r], |h| h.t));
+                        }
+                    }
+                }
+            }
+            if live == 0 {
+                // Every any-hit ray has found its hit.
+                break;
+            }
+            // Pop the next node that a live ray entered (closest hits: a ray whose nearest hit
+            // is not closer than the node).
+            m = 0;
+            while sp > 0 {
+                sp -= 1;
+                // SAFETY: entries below the old `sp` were written by a push.
+                let (c, k, rays, t_near) = unsafe { stack[sp].assume_init() };
+                let keep = if any {
+                    rays & live
+                } else {
+                    // `t_near` is at most each of these rays' own entry (the ordering of bits
+                    // is that of the floats here, see `# Safety`).
+                    // SAFETY: the CPU has AVX2 (see `# Safety`).
+                    rays & unsafe { simd::within(t_near, &cull) }
+                };
+                if keep != 0 {
+                    (child, count, m) = (c, k, keep);
+                    break;
+                }
+            }
+        }
+        out[..n].copy_from_slice(&best[..n]);
+    }
+}
+
+/// The first hit among a leaf's `count` triangles (lowest group, then lowest lane), as the
+/// single any-hit walk takes it, and how many triangles were tested to find it (the single
+/// walk's `T`: the groups tested, not the repeats that fill the last one).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[inline(always)]
+unsafe fn leaf_any(
+    s: &Shear4,
+    leaf: &[Tri4],
+    tmin: f32,
+    tmax: f32,
+    count: u32,
+) -> (Option<Hit>, u32) {
+    let mut tested = 0;
+    let mut j = 0;
+    while j < leaf.len() {
+        if j + 1 < leaf.len() {
+            let (a, b) = (&leaf[j], &leaf[j + 1]);
+            tested += (count - 4 * j as u32).min(8);
+            // SAFETY: the CPU has AVX2 (see `# Safety`).
+            let h = unsafe { s.intersect8(a, b, tmin, tmax) };
+            if h.mask != 0 {
+                let k = h.mask.trailing_zeros() as usize;
+                let prim = if k < 4 { a.prim[k] } else { b.prim[k - 4] };
+                let (t, u, v) = h.hit(k);
+                return (Some(Hit { t, prim, u, v }), tested);
+            }
+            j += 2;
+            continue;
+        }
+        let g = &leaf[j];
+        tested += (count - 4 * j as u32).min(4);
+        let h = s.intersect4(g, tmin, tmax);
+        if h.mask != 0 {
+            let k = h.mask.trailing_zeros() as usize;
+            let (t, u, v) = h.hit(k);
+            let hit = Hit {
+                t,
+                prim: g.prim[k],
+                u,
+                v,
+            };
+            return (Some(hit), tested);
+        }
+        j += 1;
+    }
+    (None, tested)
+}
+
+/// Folds the hits of a leaf's triangles into `best` as the single walk does (the smallest
+/// `(t, primitive id)`); whether `best` changed.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[inline(always)]
+unsafe fn leaf_closest(
+    s: &Shear4,
+    leaf: &[Tri4],
+    tmin: f32,
+    tmax: f32,
+    best: &mut Option<Hit>,
+) -> bool {
+    let mut changed = false;
+    let mut take = |t: f32, prim: u32, u: f32, v: f32| {
+        if better(t, prim, *best) {
+            *best = Some(Hit { t, prim, u, v });
+            changed = true;
+        }
+    };
+    let mut j = 0;
+    while j < leaf.len() {
+        if j + 1 < leaf.len() {
+            let (a, b) = (&leaf[j], &leaf[j + 1]);
+            // SAFETY: the CPU has AVX2 (see `# Safety`).
+            let h = unsafe { s.intersect8(a, b, tmin, tmax) };
+            let mut m = h.mask;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let prim = if k < 4 { a.prim[k] } else { b.prim[k - 4] };
+                let (t, u, v) = h.hit(k);
+                take(t, prim, u, v);
+            }
+            j += 2;
+            continue;
+        }
+        let g = &leaf[j];
+        let h = s.intersect4(g, tmin, tmax);
+        let mut m = h.mask;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let (t, u, v) = h.hit(k);
+            take(t, g.prim[k], u, v);
+        }
+        j += 1;
+    }
+    changed
+}
 
 /// `rows` with byte `r` bit `k` moved to byte `k` bit `r`: the rays that hit child `k`, from
 /// the children each ray hits (three delta swaps, Hacker's Delight 7-3).
@@ -24,4 +378,154 @@ pub(super) fn nonzero_bytes(x: u64) -> u32 {
     t |= t >> 2;
     t |= t >> 1;
     ((t & 0x0101_0101_0101_0101).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::traverse::{Layout, any_hits, closest_hits};
+    use crate::{RayBatch, intersect_watertight, testkit, workload};
+
+    /// AO rays (eight from each hit point, so runs that share an origin) and runs with one
+    /// origin mixing ranges, a zero direction and an empty range: the packets give each ray
+    /// the single walk's answer, hit or miss, and every hit they report is a real one.
+    #[test]
+    fn rays_walked_together_answer_as_each_alone() {
+        let (scene, bvh) = testkit::builtin_with_bvh("builtin:forest:0.05").unwrap();
+        let mut rays = workload::orbit_ao(&scene, &bvh, 48, 48, 0, 8).rays;
+        let mut rng = crate::Rng::new(testkit::seed(29));
+        let b = scene.bounds();
+        let ext = (b.max - b.min).max_element();
+        for _ in 0..300 {
+            let o = b.min + (b.max - b.min) * Vec3::new(rng.f32(), rng.f32(), rng.f32());
+            for k in 0..1 + rng.below(12) {
+                let d = Vec3::from(rng.unit_vector());
+                let r = match k % 5 {
+                    0 => Ray::new(o, d),
+                    1 => Ray::with_range(o, d, 0.0, rng.range(0.0, 0.2) * ext),
+                    2 => Ray::new(o, Vec3::ZERO),
+                    3 => Ray::with_range(o, d, 0.5 * ext, 0.1 * ext),
+                    _ => Ray::with_range(o, d, rng.range(0.0, 0.05) * ext, 0.3 * ext),
+                };
+                rays.push(&r);
+            }
+        }
+        let any = any_hits(&bvh, &rays);
+        let mut hits = 0;
+        for i in 0..rays.len() {
+            let r = rays.get(i);
+            let alone = bvh.any_hit_in(&r, Layout::Wide);
+            assert_eq!(any.get(i).is_some(), alone.is_some(), "ray {i} {r:?}");
+            if let Some((t, prim)) = any.get(i) {
+                hits += 1;
+                let [a, b, c] = scene.vertices(prim as usize);
+                let shear = RayShear::new(r.origin, r.dir).unwrap();
+                let again = intersect_watertight(
+                    &shear,
+                    &a.to_array(),
+                    &b.to_array(),
+                    &c.to_array(),
+                    r.tmin,
+                    r.tmax,
+                );
+                assert_eq!(again.map(|h| h.0.to_bits()), Some(t.to_bits()), "ray {i}");
+            }
+        }
+        assert!(
+            hits > 200 && hits < rays.len() - 200,
+            "{hits} of {}",
+            rays.len()
+        );
+    }
+
+    #[test]
+    fn the_transpose_moves_every_bit_and_the_byte_flags_match() {
+        let mut rng = crate::Rng::new(crate::testkit::seed(23));
+        for _ in 0..2_000 {
+            let x = rng.next_u64();
+            let y = transpose8(x);
+            for r in 0..8 {
+                for k in 0..8 {
+                    assert_eq!((x >> (8 * r + k)) & 1, (y >> (8 * k + r)) & 1, "{x:#x}");
+                }
+                assert_eq!(nonzero_bytes(x) >> r & 1 != 0, (x >> (8 * r)) & 0xFF != 0);
+            }
+        }
+    }
+
+    /// Primary rays (one origin, Morton order) with runs of other rays mixed in: other
+    /// origins, a zero direction, empty and NaN ranges, short ranges, a range that starts
+    /// away from the origin or behind it, and rays aimed at a vertex (ties between
+    /// triangles). The batch answer of each ray equals its single walk, bit for bit.
+    #[test]
+    fn rays_walked_together_hit_as_each_alone() {
+        for scene in ["builtin:forest:0.05", "builtin:hairball:0.05"] {
+            let (scene, bvh) = testkit::builtin_with_bvh(scene).unwrap();
+            let primary = workload::orbit_primary(&scene, 40, 40, 0..2);
+            let mut rng = crate::Rng::new(testkit::seed(31));
+            let b = scene.bounds();
+            let ext = (b.max - b.min).max_element();
+            let mut rays = RayBatch::default();
+            let mut next = 0;
+            while next < primary.len() {
+                // A run of primary rays, some shortened or emptied, then some other rays.
+                for _ in 0..rng.below(40) {
+                    if next == primary.len() {
+                        break;
+                    }
+                    let mut r = primary.get(next);
+                    next += 1;
+                    match rng.below(16) {
+                        0 => r.tmax = rng.range(0.0, 1.0) * ext,
+                        1 => r.tmax = -1.0,
+                        2 => r.tmax = f32::NAN,
+                        3 => r.dir = Vec3::ZERO,
+                        4 => r.tmin = rng.range(0.0, 1.0) * ext,
+                        // Behind the origin: such rays walk alone.
+                        5 => r.tmin = -0.0,
+                        6 => r.tmin = -rng.range(0.0, 1.0) * ext,
+                        _ => {}
+                    }
+                    rays.push(&r);
+                }
+                let o = b.min + (b.max - b.min) * Vec3::new(rng.f32(), rng.f32(), rng.f32());
+                for k in 0..rng.below(12) {
+                    let r = if k % 3 == 2 {
+                        // Aimed at a vertex: its triangles tie.
+                        let v = scene.vertices(rng.below(scene.len() as u32) as usize)[0];
+                        Ray::new(o, v - o)
+                    } else {
+                        Ray::new(o, Vec3::from(rng.unit_vector()))
+                    };
+                    rays.push(&r);
+                }
+            }
+            // Empty and one-ray batches too.
+            for len in [0, 1, rays.len()] {
+                let mut part = RayBatch::default();
+                for i in 0..len {
+                    part.push(&rays.get(i));
+                }
+                let hits = closest_hits(&bvh, &part);
+                let mut found = 0;
+                for i in 0..len {
+                    let r = part.get(i);
+                    let alone = bvh.closest_hit_in(&r, Layout::Wide);
+                    let got = hits.get(i);
+                    assert_eq!(
+                        got.map(|(t, p)| (t.to_bits(), p)),
+                        alone.map(|h| (h.t.to_bits(), h.prim)),
+                        "ray {i} {r:?}"
+                    );
+                    found += usize::from(got.is_some());
+                }
+                assert!(
+                    len < 100 || (found > 100 && found < len - 100),
+                    "{found} of {len}"
+                );
+            }
+        }
+    }
 }

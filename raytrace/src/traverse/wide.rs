@@ -18,9 +18,9 @@
 //! compares mispredict.
 //!
 //! A batch of any-hit queries walks each run of up to eight consecutive rays that share an
-//! origin together where AVX2 runs ([`crate::traverse::shared_any`]): the AO rays of one hit point
-//! wait on the same nodes, which the packet fetches once. Closest-hit batches do the same
-//! ([`crate::traverse::shared_closest`]): a pinhole camera's neighbouring rays enter mostly the same
+//! origin together where AVX2 runs ([`crate::traverse::shared`]): the AO rays of one hit point
+//! wait on the same nodes, which the packet fetches once. Closest-hit batches do the same: a
+//! pinhole camera's neighbouring rays enter mostly the same
 //! nodes, and their box tests overlap instead of each waiting on its own (single-thread CPU
 //! time, primary rays: 5–22 % less on every scene measured).
 //!
@@ -125,8 +125,8 @@ impl Bvh {
     }
 
     /// Any or closest hits (`MODE`) of rays `at(0), …, at(n - 1)`, each run of up to
-    /// [`PACKET`] consecutive rays with one origin walked together ([`Bvh::any_shared`],
-    /// [`Bvh::closest_shared`]), a ray alone the single walk.
+    /// [`PACKET`] consecutive rays with one origin walked together ([`Bvh::walk_shared`]), a
+    /// ray alone the single walk.
     ///
     /// # Safety
     /// The CPU must have AVX2, and the tree be no deeper than [`SHALLOW`].
@@ -140,7 +140,6 @@ impl Bvh {
         mut put: impl FnMut(usize, Option<Hit>, Counts),
     ) {
         let any = MODE == ANY || MODE == ANY_COUNTED;
-        let counting = MODE == COUNTED || MODE == ANY_COUNTED;
         // The run so far: its rays and the queries they answer.
         let mut run = [Ray::new(glam::Vec3::ZERO, glam::Vec3::ZERO); PACKET];
         let mut slot = [0usize; PACKET];
@@ -158,23 +157,14 @@ impl Bvh {
                 } else {
                     let mut out = [None; PACKET];
                     let mut counts = [Counts::default(); PACKET];
-                    let counted = counting.then_some(&mut counts);
                     // SAFETY: as the caller states; the stack is sized as the single walk's,
                     // and a closest-hit run's rays have `tmin`s with the sign bit clear.
                     unsafe {
-                        if any {
-                            self.any_shared::<{ stack_for(SHALLOW) }>(
-                                &run[..len],
-                                &mut out,
-                                counted,
-                            )
-                        } else {
-                            self.closest_shared::<{ stack_for(SHALLOW) }>(
-                                &run[..len],
-                                &mut out,
-                                counted,
-                            )
-                        }
+                        self.walk_shared::<MODE, { stack_for(SHALLOW) }>(
+                            &run[..len],
+                            &mut out,
+                            &mut counts,
+                        )
                     };
                     for r in 0..len {
                         put(slot[r], out[r], counts[r]);
