@@ -1,49 +1,33 @@
-//! The reduced traversal of four rays at once, one ray per SSE lane.
+//! The reduced traversal of eight rays at once, one ray per AVX2 lane.
 //!
 //! The reduced traversal never shortens a ray (it fetches no triangle), so the nodes a ray
 //! enters depend on that ray alone: it enters the root if it hits the root's box, and a child
-//! if it entered the parent and hits the child's box. Four rays can therefore walk the tree
+//! if it entered the parent and hits the child's box. Eight rays can therefore walk the tree
 //! together, each node carrying the mask of the lanes that entered it, and every lane's counts
 //! are exactly those of [`Bvh::reduced_traversal`] of that ray alone: the per-lane arithmetic
 //! is the scalar slab test's, operation for operation. Coherent rays (Morton-ordered primary
 //! rays, the Halton probes of one pixel) share most of their nodes, so one box test serves up
-//! to four rays. This is what makes estimation cheap on a CPU, where, unlike the thesis's GPU,
-//! fetching triangles is not what dominates a trace.
+//! to eight rays. This is what makes estimation cheap on a CPU, where, unlike the thesis's
+//! GPU, fetching triangles is not what dominates a trace. Without AVX2, rays walk one by one.
 //!
 //! The first-leaf walk ([`Walk::FirstLeaf`]) does shorten rays, so there the order of the
 //! walk matters. It takes children in an order set by the direction's signs
 //! ([`crate::traverse::walk::near_child_first`]), the same for every lane of a packet whose lanes
 //! share their signs; each lane keeps its own `tmax`, and a popped node keeps only the lanes
 //! whose entry distance is still within it, which is the scalar walk's pop rule.
-//!
-//! Measured and dropped (forest and Conference, 12.5 % samples of 4096-ray tasks): a
-//! branch-free walk that counts children as they are tested and pushes only inner ones
-//! (slower: without speculation each step waits on the last), a software prefetch of the
-//! pushed children's pair (no gain), and two packets walked in one loop to overlap their
-//! latencies (5–14 % slower). An AO packet's lanes share a node 3.1–3.8 times on average, a
-//! coherent packet's 5–7 times.
 
 use crate::bvh::Bvh;
 use crate::ray::RayBatch;
 use crate::traverse::counts::Counts;
 use crate::traverse::walk::Walk;
 
-/// True when the traversal traces ray `i` at all: exactly when [`crate::RayShear::new`] accepts
-/// it (finite origin and direction, direction not zero) and its range is not empty or NaN;
-/// without `RayShear`'s three divisions.
-#[inline(always)]
-fn traceable(rays: &RayBatch, i: usize) -> bool {
-    let r = rays.get(i);
-    r.origin.is_finite() && r.dir.is_finite() && r.dir != glam::Vec3::ZERO && r.tmin <= r.tmax
-}
-
 /// Counts of the rays `lane_of(0), lane_of(1), …` of `rays` into `out`, one per entry, with
-/// the widest packets this CPU runs: 8 rays with AVX2, else 4 with SSE2 (the x86_64 baseline).
+/// packets of 8 rays where AVX2 runs, else ray by ray.
 /// `lane_of` maps an entry of `out` to a ray of `rays`: a range, or a compacted sample's ray
 /// indices, read in place without copying the sample out.
 ///
-/// [`Walk::FirstLeaf`] walks in packets only where AVX2 runs and the packet's directions
-/// share their signs (its child order follows them); other packets run ray by ray.
+/// [`Walk::FirstLeaf`] walks in packets only where the packet's directions share their signs
+/// (its child order follows them); other packets run ray by ray.
 #[inline]
 pub(crate) fn reduced_lanes(
     bvh: &Bvh,
@@ -69,200 +53,8 @@ pub(crate) fn reduced_lanes(
         }
         return;
     }
-    if walk != Walk::Reduced {
-        for (j, c) in out.iter_mut().enumerate() {
-            *c = bvh.walk(&rays.get(lane_of(j)), walk);
-        }
-        return;
-    }
-    for (k, part) in out.chunks_mut(4).enumerate() {
-        let idx: [usize; 4] = std::array::from_fn(|j| lane_of(4 * k + j.min(part.len() - 1)));
-        let got = reduced4(bvh, rays, &idx, part.len());
-        part.copy_from_slice(&got[..part.len()]);
-    }
-}
-
-/// Counts of rays `idx[..n]` of `rays` (`idx[n..]` repeat a valid index and count nothing).
-#[inline]
-fn reduced4(bvh: &Bvh, rays: &RayBatch, idx: &[usize; 4], n: usize) -> [Counts; 4] {
-    #[cfg(target_arch = "x86_64")]
-    {
-        sse::reduced4(bvh, rays, idx, n)
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        std::array::from_fn(|k| {
-            if k < n {
-                bvh.reduced_traversal(&rays.get(idx[k]))
-            } else {
-                Counts::default()
-            }
-        })
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-mod sse {
-    use std::arch::x86_64::{
-        __m128, __m128i, _mm_add_epi32, _mm_and_ps, _mm_and_si128, _mm_castps_si128,
-        _mm_castsi128_ps, _mm_cmple_ps, _mm_div_ps, _mm_loadu_ps, _mm_max_ps, _mm_min_ps,
-        _mm_movemask_ps, _mm_mul_ps, _mm_set1_epi32, _mm_set1_ps, _mm_setzero_si128,
-        _mm_srai_epi32, _mm_storeu_si128, _mm_sub_epi32, _mm_sub_ps, _mm_xor_ps,
-    };
-
-    use crate::bvh::node::Node;
-    use crate::bvh::{Bvh, MAX_DEPTH};
-    use crate::ray::RayBatch;
-    use crate::slab::far_scale;
-    use crate::traverse::counts::Counts;
-
-    /// Four rays in lanes.
-    struct Rays4 {
-        org: [__m128; 3],
-        inv: [__m128; 3],
-        /// All ones where the direction's sign bit is set: the near plane is the max.
-        swap: [__m128; 3],
-        tmin: __m128,
-        tmax: __m128,
-        scale: __m128,
-    }
-
-    impl Rays4 {
-        /// Lanes of the four rays' box test against `node`, as all-ones / all-zeros lanes.
-        #[inline(always)]
-        fn hit(&self, node: &Node) -> __m128 {
-            // SAFETY: SSE2 is part of the x86_64 baseline; register operations only.
-            unsafe {
-                let mut near = self.tmin;
-                let mut far = _mm_set1_ps(f32::INFINITY);
-                for a in 0..3 {
-                    let lo = _mm_mul_ps(
-                        _mm_sub_ps(_mm_set1_ps(node.min[a]), self.org[a]),
-                        self.inv[a],
-                    );
-                    let hi = _mm_mul_ps(
-                        _mm_sub_ps(_mm_set1_ps(node.max[a]), self.org[a]),
-                        self.inv[a],
-                    );
-                    // Swap min and max planes where the direction is negative, bit for bit.
-                    let x = _mm_and_ps(_mm_xor_ps(lo, hi), self.swap[a]);
-                    // `max_ps(t, acc)` keeps `acc` where `t` is NaN, like the scalar
-                    // `max_keep(acc, t)`, and in the same order (x, then y, then z).
-                    near = _mm_max_ps(_mm_xor_ps(lo, x), near);
-                    far = _mm_min_ps(_mm_xor_ps(hi, x), far);
-                }
-                let far = _mm_min_ps(_mm_mul_ps(far, self.scale), self.tmax);
-                _mm_cmple_ps(near, far)
-            }
-        }
-    }
-
-    pub(super) fn reduced4(bvh: &Bvh, rays: &RayBatch, idx: &[usize; 4], n: usize) -> [Counts; 4] {
-        // A small stack for the usual trees: it is initialised for every packet.
-        if bvh.depth() <= 64 {
-            walk_packet::<64>(bvh, rays, idx, n)
-        } else {
-            walk_packet::<{ MAX_DEPTH }>(bvh, rays, idx, n)
-        }
-    }
-
-    #[inline(always)]
-    fn walk_packet<const STACK: usize>(
-        bvh: &Bvh,
-        rays: &RayBatch,
-        idx: &[usize; 4],
-        n: usize,
-    ) -> [Counts; 4] {
-        let mut out = [Counts::default(); 4];
-        let nodes = bvh.nodes();
-        if n == 0 || bvh.triangles().is_empty() {
-            return out;
-        }
-        let lane = |k: usize| idx[k];
-        let col = |c: &[f32]| [c[lane(0)], c[lane(1)], c[lane(2)], c[lane(3)]];
-        let (dx, dy, dz) = (col(&rays.dx), col(&rays.dy), col(&rays.dz));
-        // The scalar traversal traces nothing for rays it cannot trace (zero or non-finite
-        // direction, non-finite origin, NaN or empty range); neither do these lanes.
-        let valid: [bool; 4] = std::array::from_fn(|k| k < n && super::traceable(rays, lane(k)));
-        // SAFETY: SSE2 is part of the x86_64 baseline. Every load reads four `f32`s from a
-        // local array of four.
-        let (lanes, root_mask, zero_mask) = unsafe {
-            let load = |a: &[f32; 4]| _mm_loadu_ps(a.as_ptr());
-            let d = [load(&dx), load(&dy), load(&dz)];
-            let one = _mm_set1_ps(1.0);
-            let sign = |v: __m128| _mm_castsi128_ps(_mm_srai_epi32(_mm_castps_si128(v), 31));
-            let lanes = Rays4 {
-                org: [
-                    load(&col(&rays.ox)),
-                    load(&col(&rays.oy)),
-                    load(&col(&rays.oz)),
-                ],
-                inv: [
-                    _mm_div_ps(one, d[0]),
-                    _mm_div_ps(one, d[1]),
-                    _mm_div_ps(one, d[2]),
-                ],
-                swap: [sign(d[0]), sign(d[1]), sign(d[2])],
-                tmin: load(&col(&rays.tmin)),
-                tmax: load(&col(&rays.tmax)),
-                scale: _mm_set1_ps(far_scale()),
-            };
-            let m = |b: bool| if b { f32::from_bits(u32::MAX) } else { 0.0 };
-            let valid = load(&valid.map(m));
-            let root = _mm_and_ps(lanes.hit(&nodes[0]), valid);
-            (lanes, root, _mm_castsi128_ps(_mm_setzero_si128()))
-        };
-        // SAFETY: as above; register operations only.
-        if unsafe { _mm_movemask_ps(root_mask) } == 0 {
-            return out;
-        }
-        let mut stack = [(0u32, zero_mask); STACK];
-        stack[0] = (0, root_mask);
-        let mut sp = 1usize;
-        // SAFETY: SSE2 is part of the x86_64 baseline; register operations only.
-        let (mut b, mut t): (__m128i, __m128i) =
-            unsafe { (_mm_setzero_si128(), _mm_setzero_si128()) };
-        while sp > 0 {
-            sp -= 1;
-            let (i, mask) = stack[sp];
-            let node = &nodes[i as usize];
-            // SAFETY: SSE2 is part of the x86_64 baseline; register operations only. A set
-            // lane is all ones, i.e. -1 as an integer, so subtracting counts one.
-            unsafe {
-                let m = _mm_castps_si128(mask);
-                b = _mm_sub_epi32(b, m);
-                if node.is_leaf() {
-                    t = _mm_add_epi32(t, _mm_and_si128(m, _mm_set1_epi32(node.count as i32)));
-                    continue;
-                }
-            }
-            let l = node.index as usize;
-            for child in [l + 1, l] {
-                // SAFETY: as above.
-                let m = unsafe { _mm_and_ps(lanes.hit(&nodes[child]), mask) };
-                // SAFETY: as above.
-                if unsafe { _mm_movemask_ps(m) } != 0 {
-                    // Depth-first, both children pushed: at most `depth` entries (<= STACK by
-                    // the choice above); indexing checks it anyway.
-                    stack[sp] = (child as u32, m);
-                    sp += 1;
-                }
-            }
-        }
-        let (mut bs, mut ts) = ([0u32; 4], [0u32; 4]);
-        // SAFETY: SSE2 is part of the x86_64 baseline; each store writes 16 bytes into a
-        // local `[u32; 4]`.
-        unsafe {
-            _mm_storeu_si128(bs.as_mut_ptr().cast(), b);
-            _mm_storeu_si128(ts.as_mut_ptr().cast(), t);
-        }
-        for k in 0..n {
-            out[k] = Counts {
-                nodes: bs[k],
-                tris: ts[k],
-            };
-        }
-        out
+    for (j, c) in out.iter_mut().enumerate() {
+        *c = bvh.walk(&rays.get(lane_of(j)), walk);
     }
 }
 
@@ -286,11 +78,12 @@ mod avx2 {
     use crate::traverse::counts::Counts;
     use crate::traverse::walk::{Walk, near_child_first};
 
-    /// Eight rays in lanes; see the SSE version for the per-lane arithmetic.
+    /// Eight rays in lanes.
     #[derive(Clone, Copy)]
     struct Rays8 {
         org: [__m256; 3],
         inv: [__m256; 3],
+        /// All ones where the direction's sign bit is set: the near plane is the max.
         swap: [__m256; 3],
         /// When every traced lane's direction has the same sign on each axis (the usual case
         /// for neighbouring camera rays): the index of each axis's near plane in a node seen
@@ -343,9 +136,12 @@ mod avx2 {
                     (t(b[n & 7]), t(b[(n ^ 4) & 7]))
                 } else {
                     let (lo, hi) = (t(node.min[a]), t(node.max[a]));
+                    // Swap min and max planes where the direction is negative, bit for bit.
                     let x = _mm256_and_ps(_mm256_xor_ps(lo, hi), self.swap[a]);
                     (_mm256_xor_ps(lo, x), _mm256_xor_ps(hi, x))
                 };
+                // `max_ps(t, acc)` keeps `acc` where `t` is NaN, like the scalar
+                // `max_keep(acc, t)`, and in the same order (x, then y, then z).
                 near = _mm256_max_ps(tn, near);
                 far = _mm256_min_ps(tf, far);
             }
@@ -425,8 +221,10 @@ mod avx2 {
             tmax: load(&col(&rays.tmax)),
             scale: _mm256_set1_ps(far_scale()),
         };
-        // `traceable`, lane-wise: finite origin and direction (`x - x == 0` is false for NaN
-        // and infinities), a direction that is not zero, and `tmin <= tmax` (false on NaN).
+        // The rays the scalar walk traces at all (those `RayShear::new` accepts, with a
+        // range that is not empty or NaN), lane-wise: finite origin and direction (`x - x ==
+        // 0` is false for NaN and infinities), a direction that is not zero, and `tmin <=
+        // tmax` (false on NaN).
         let finite =
             |v: __m256| _mm256_cmp_ps::<_CMP_EQ_OQ>(_mm256_sub_ps(v, v), _mm256_setzero_ps());
         let nonzero = |v: __m256| _mm256_cmp_ps::<_CMP_NEQ_OQ>(v, _mm256_setzero_ps());
@@ -609,7 +407,7 @@ mod tests {
 
     /// Every lane's counts equal the scalar reduced traversal of its ray, for coherent camera
     /// rays, random rays (some with zero, negative-zero and NaN components, empty ranges), and
-    /// batch lengths that are not a multiple of four.
+    /// batch lengths that are not a multiple of eight.
     #[test]
     fn packets_count_exactly_like_single_rays() {
         let scene = SceneSource::parse("builtin:forest:0.05")
@@ -639,23 +437,15 @@ mod tests {
             rays.push(&Ray::with_range(o, d, tmin, tmax));
         }
         let mut nonzero = 0;
-        for first in (0..rays.len()).step_by(4) {
-            let n = (rays.len() - first).min(4);
-            let idx = std::array::from_fn(|k| first + k.min(n - 1));
-            let got = reduced4(&bvh, &rays, &idx, n);
-            for (k, g) in got.iter().enumerate() {
-                let want = if first + k < rays.len() {
-                    bvh.reduced_traversal(&rays.get(first + k))
-                } else {
-                    Counts::default()
-                };
-                assert_eq!(*g, want, "ray {}", first + k);
-                nonzero += usize::from(g.nodes > 1);
-            }
+        let mut all = vec![Counts::default(); rays.len()];
+        reduced_lanes(&bvh, &rays, Walk::Reduced, |j| j, &mut all);
+        for (i, g) in all.iter().enumerate() {
+            assert_eq!(*g, bvh.reduced_traversal(&rays.get(i)), "ray {i}");
+            nonzero += usize::from(g.nodes > 1);
         }
         // Many rays go deeper than the root (the rest miss or are rejected, as they should).
         assert!(nonzero > rays.len() / 5, "{nonzero} of {}", rays.len());
-        // The widest packets this CPU runs (8 lanes with AVX2) agree too, from any offset.
+        // From any offset too.
         for first in [0, 3] {
             let mut wide = vec![Counts::default(); rays.len() - first];
             reduced_lanes(&bvh, &rays, Walk::Reduced, |j| first + j, &mut wide);
