@@ -27,7 +27,6 @@
 
 mod aabb;
 pub mod ao;
-pub mod baseline;
 pub mod bench;
 pub mod builtin;
 pub mod bvh;
