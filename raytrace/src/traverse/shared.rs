@@ -26,12 +26,12 @@
 use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
-use crate::bvh::wide::{Tri4, WIDTH};
+use crate::bvh::wide::WIDTH;
 use crate::ray::{Hit, Ray};
-use crate::traverse::closest::{better, cull_bound};
+use crate::traverse::closest::cull_bound;
 use crate::traverse::counts::Counts;
 use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
-use crate::traverse::simd::{self, Box8Ray, Shear4};
+use crate::traverse::simd::{self, Box8Ray, Shear4, leaf_hits};
 use crate::triangle::RayShear;
 
 /// Rays walked together at most: one bit each in a byte of a node's masks.
@@ -206,25 +206,18 @@ impl Bvh {
                     let r = each.trailing_zeros() as usize;
                     each &= each - 1;
                     let Some(s) = &shears[r] else { continue };
-                    if any {
-                        // SAFETY: the CPU has AVX2 (see `# Safety`).
-                        let (found, tested) = unsafe { leaf_any(s, leaf, tmin[r], tmax[r], count) };
-                        if counting {
-                            counts[r].nodes += 1;
-                            counts[r].tris += tested;
-                        }
-                        if found.is_some() {
-                            best[r] = found;
+                    // SAFETY: the CPU has AVX2 (see `# Safety`).
+                    let (changed, tested) = unsafe {
+                        leaf_hits::<true>(any, s, leaf, tmin[r], tmax[r], count, &mut best[r])
+                    };
+                    if counting {
+                        counts[r].nodes += 1;
+                        counts[r].tris += tested;
+                    }
+                    if let (true, Some(hit)) = (changed, best[r]) {
+                        cull[r] = cull_bound(hit.t);
+                        if any {
                             live &= !(1 << r);
-                        }
-                    } else {
-                        if counting {
-                            counts[r].nodes += 1;
-                            counts[r].tris += count;
-                        }
-                        // SAFETY: the CPU has AVX2 (see `# Safety`).
-                        if unsafe { leaf_closest(s, leaf, tmin[r], tmax[r], &mut best[r]) } {
-                            cull[r] = cull_bound(best[r].map_or(tmax[r], |h| h.t));
                         }
                     }
                 }
@@ -256,107 +249,6 @@ impl Bvh {
         }
         out[..n].copy_from_slice(&best[..n]);
     }
-}
-
-/// The first hit among a leaf's `count` triangles (lowest group, then lowest lane), as the
-/// single any-hit walk takes it, and how many triangles were tested to find it (the single
-/// walk's `T`: the groups tested, not the repeats that fill the last one).
-///
-/// # Safety
-/// The CPU must have AVX2.
-#[inline(always)]
-unsafe fn leaf_any(
-    s: &Shear4,
-    leaf: &[Tri4],
-    tmin: f32,
-    tmax: f32,
-    count: u32,
-) -> (Option<Hit>, u32) {
-    let mut tested = 0;
-    let mut j = 0;
-    while j < leaf.len() {
-        if j + 1 < leaf.len() {
-            let (a, b) = (&leaf[j], &leaf[j + 1]);
-            tested += (count - 4 * j as u32).min(8);
-            // SAFETY: the CPU has AVX2 (see `# Safety`).
-            let h = unsafe { s.intersect8(a, b, tmin, tmax) };
-            if h.mask != 0 {
-                let k = h.mask.trailing_zeros() as usize;
-                let prim = if k < 4 { a.prim[k] } else { b.prim[k - 4] };
-                let (t, u, v) = h.hit(k);
-                return (Some(Hit { t, prim, u, v }), tested);
-            }
-            j += 2;
-            continue;
-        }
-        let g = &leaf[j];
-        tested += (count - 4 * j as u32).min(4);
-        let h = s.intersect4(g, tmin, tmax);
-        if h.mask != 0 {
-            let k = h.mask.trailing_zeros() as usize;
-            let (t, u, v) = h.hit(k);
-            let hit = Hit {
-                t,
-                prim: g.prim[k],
-                u,
-                v,
-            };
-            return (Some(hit), tested);
-        }
-        j += 1;
-    }
-    (None, tested)
-}
-
-/// Folds the hits of a leaf's triangles into `best` as the single walk does (the smallest
-/// `(t, primitive id)`); whether `best` changed.
-///
-/// # Safety
-/// The CPU must have AVX2.
-#[inline(always)]
-unsafe fn leaf_closest(
-    s: &Shear4,
-    leaf: &[Tri4],
-    tmin: f32,
-    tmax: f32,
-    best: &mut Option<Hit>,
-) -> bool {
-    let mut changed = false;
-    let mut take = |t: f32, prim: u32, u: f32, v: f32| {
-        if better(t, prim, *best) {
-            *best = Some(Hit { t, prim, u, v });
-            changed = true;
-        }
-    };
-    let mut j = 0;
-    while j < leaf.len() {
-        if j + 1 < leaf.len() {
-            let (a, b) = (&leaf[j], &leaf[j + 1]);
-            // SAFETY: the CPU has AVX2 (see `# Safety`).
-            let h = unsafe { s.intersect8(a, b, tmin, tmax) };
-            let mut m = h.mask;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                let prim = if k < 4 { a.prim[k] } else { b.prim[k - 4] };
-                let (t, u, v) = h.hit(k);
-                take(t, prim, u, v);
-            }
-            j += 2;
-            continue;
-        }
-        let g = &leaf[j];
-        let h = s.intersect4(g, tmin, tmax);
-        let mut m = h.mask;
-        while m != 0 {
-            let k = m.trailing_zeros() as usize;
-            m &= m - 1;
-            let (t, u, v) = h.hit(k);
-            take(t, g.prim[k], u, v);
-        }
-        j += 1;
-    }
-    changed
 }
 
 /// `rows` with byte `r` bit `k` moved to byte `k` bit `r`: the rays that hit child `k`, from

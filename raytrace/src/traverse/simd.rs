@@ -1,6 +1,7 @@
 //! Lane kernels of the wide traversal: the conservative box test of a node's eight children
-//! ([`Box8Ray::hit8`]) and the watertight test of four or eight triangles
-//! ([`Shear4::intersect4`], [`Shear4::intersect8`]).
+//! ([`Box8Ray::hit8`]), the watertight test of four or eight triangles
+//! ([`Shear4::intersect4`], [`Shear4::intersect8`]), and a leaf's triangles tested with them
+//! ([`leaf_hits`]).
 //!
 //! Each lane does exactly what the scalar tests do ([`crate::slab`] and
 //! [`crate::intersect_watertight`]): the same IEEE operations in the same order, with no fused
@@ -15,8 +16,9 @@
 //! would cost two vector divisions per group for nothing.
 
 use crate::bvh::wide::{Node8, Tri4, WIDTH};
-use crate::ray::Ray;
+use crate::ray::{Hit, Ray};
 use crate::slab::far_scale;
+use crate::traverse::closest::better;
 use crate::triangle::RayShear;
 
 /// Whether this CPU runs the AVX2 box test; detected once (std caches the answer).
@@ -272,6 +274,76 @@ impl Shear4 {
         }
         h
     }
+}
+
+/// Tests a ray against a leaf's `count` triangles (its groups `leaf`) within `[tmin, tmax]`,
+/// folding the hits into `best` as every walk does (the smallest `(t, primitive id)`; with
+/// `any`, the first hit found, lowest group then lowest lane, ends the test). Returns whether
+/// `best` changed, and the triangles tested (the walk's `T`: the groups tested, not the
+/// repeats that fill the last one). With `AVX2`, two groups are tested in one eight-lane pass,
+/// for the cost of one. A lane that hits pays for the divisions only if it is kept.
+///
+/// # Safety
+/// With `AVX2`, the CPU must have AVX2.
+#[inline(always)]
+pub(crate) unsafe fn leaf_hits<const AVX2: bool>(
+    any: bool,
+    shear: &Shear4,
+    leaf: &[Tri4],
+    tmin: f32,
+    tmax: f32,
+    count: u32,
+    best: &mut Option<Hit>,
+) -> (bool, u32) {
+    let (mut changed, mut tested) = (false, 0);
+    macro_rules! take {
+        ($h:expr, $k:expr, $prim:expr) => {{
+            let (t, u, v) = $h.hit($k);
+            if better(t, $prim, *best) {
+                *best = Some(Hit {
+                    t,
+                    prim: $prim,
+                    u,
+                    v,
+                });
+                changed = true;
+                if any {
+                    return (changed, tested);
+                }
+            }
+        }};
+    }
+    let n = leaf.len();
+    let mut j = 0;
+    while j < n {
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 && j + 1 < n {
+            let (a, b) = (&leaf[j], &leaf[j + 1]);
+            tested += (count - 4 * j as u32).min(8);
+            // SAFETY: as the caller states (see `# Safety`).
+            let h = unsafe { shear.intersect8(a, b, tmin, tmax) };
+            let mut m = h.mask;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let prim = if k < 4 { a.prim[k] } else { b.prim[k - 4] };
+                take!(h, k, prim);
+            }
+            j += 2;
+            continue;
+        }
+        let g = &leaf[j];
+        tested += (count - 4 * j as u32).min(4);
+        let h = shear.intersect4(g, tmin, tmax);
+        let mut m = h.mask;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            take!(h, k, g.prim[k]);
+        }
+        j += 1;
+    }
+    (changed, tested)
 }
 
 #[cfg(target_arch = "x86_64")]

@@ -37,12 +37,12 @@ use std::mem::MaybeUninit;
 use crate::bvh::Bvh;
 use crate::bvh::wide::WIDTH;
 use crate::ray::{Hit, Ray, RayBatch};
-use crate::traverse::closest::{better, cull_bound};
+use crate::traverse::closest::cull_bound;
 use crate::traverse::counts::Counts;
 use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
 #[cfg(target_arch = "x86_64")]
 use crate::traverse::shared::PACKET;
-use crate::traverse::simd::{self, Box8Ray, Shear4};
+use crate::traverse::simd::{self, Box8Ray, Shear4, leaf_hits};
 use crate::triangle::RayShear;
 
 /// Wide levels the common traversal's stack is sized for (under 4 KiB of entries); deeper
@@ -327,58 +327,17 @@ impl Bvh {
                 // SAFETY: a leaf's `ceil(count / 4)` groups from `child` were pushed by
                 // `WideBvh::collapse` when it wrote the leaf.
                 let leaf = unsafe { groups.get_unchecked(first..first + n) };
-                // A lane that hits: keep it if it is the nearest so far (and stop there for
-                // an any-hit query). Only such lanes pay for the divisions.
-                macro_rules! take {
-                    ($h:expr, $k:expr, $prim:expr) => {{
-                        let (t, u, v) = $h.hit($k);
-                        if better(t, $prim, best) {
-                            best = Some(Hit {
-                                t,
-                                prim: $prim,
-                                u,
-                                v,
-                            });
-                            if any {
-                                return (best, counts);
-                            }
-                            cull = cull_bound(t);
-                        }
-                    }};
+                // SAFETY: as the caller states (see `# Safety`).
+                let (changed, tested) =
+                    unsafe { leaf_hits::<AVX2>(any, shear, leaf, tmin, tmax, count, &mut best) };
+                if counted {
+                    counts.tris += tested;
                 }
-                let mut j = 0;
-                while j < n {
-                    #[cfg(target_arch = "x86_64")]
-                    if AVX2 && j + 1 < n {
-                        // Two groups in one eight-lane pass: the cost of one.
-                        let (a, b) = (&leaf[j], &leaf[j + 1]);
-                        if counted {
-                            counts.tris += (count - 4 * j as u32).min(8);
-                        }
-                        // SAFETY: as the caller states (see `# Safety`).
-                        let h = unsafe { shear.intersect8(a, b, tmin, tmax) };
-                        let mut m = h.mask;
-                        while m != 0 {
-                            let k = m.trailing_zeros() as usize;
-                            m &= m - 1;
-                            let prim = if k < 4 { a.prim[k] } else { b.prim[k - 4] };
-                            take!(h, k, prim);
-                        }
-                        j += 2;
-                        continue;
+                if let (true, Some(hit)) = (changed, best) {
+                    if any {
+                        return (best, counts);
                     }
-                    let g = &leaf[j];
-                    if counted {
-                        counts.tris += (count - 4 * j as u32).min(4);
-                    }
-                    let h = shear.intersect4(g, tmin, tmax);
-                    let mut m = h.mask;
-                    while m != 0 {
-                        let k = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        take!(h, k, g.prim[k]);
-                    }
-                    j += 1;
+                    cull = cull_bound(hit.t);
                 }
             }
             // Pop the next node, skipping those now beyond the nearest hit.
