@@ -2,7 +2,7 @@
 //! (rayon, in chunks of rays), and the trace left once a sample's rays are known.
 //!
 //! Hit batches walk the wide tree a chunk of rays per call ([`Bvh::wide_each`]), so that rays
-//! sharing an origin walk together where AVX2 runs; reduced counts walk in SSE or AVX2
+//! sharing an origin walk together where AVX2 runs; reduced counts walk in AVX2
 //! packets (`packet.rs`).
 
 use rayon::prelude::*;

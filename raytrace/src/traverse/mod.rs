@@ -15,7 +15,7 @@
 //! - `wide.rs`: the 8-wide tree, eight boxes and four triangles a step (`simd.rs` holds the
 //!   lane kernels), and runs of rays sharing an origin handed to
 //! - `shared.rs`: any-hit and closest-hit rays sharing an origin walked together (AVX2);
-//! - `packet.rs`: reduced and first-leaf walks of four or eight rays at once (SSE, AVX2);
+//! - `packet.rs`: reduced and first-leaf walks of eight rays at once (AVX2);
 //! - `batch.rs`: the batch queries over a [`crate::RayBatch`], in parallel.
 
 pub(crate) mod batch;
