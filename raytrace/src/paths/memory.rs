@@ -8,7 +8,7 @@
 //! run, and its relative speed of 1 planned against another class measured alone gave a GPU
 //! and a CPU core equal shares. A first frame plans with the paths per second of its classes
 //! where every class has one, and at equal speeds otherwise. A class's model costs the frames
-//! only when that class estimates them (the first device's), and is fitted only on frames it
+//! only when that class estimates them (the fastest device's), and is fitted only on frames it
 //! estimated, since work is counted differently by each kind of device. Within a run the
 //! model stays the one the run started with, so that its frames are costed in one unit and
 //! compare.

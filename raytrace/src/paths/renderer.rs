@@ -14,7 +14,8 @@ use super::choice::{ChoiceKey, SetTimes, choice_key};
 use super::history::History;
 use super::learn::{Learnt, launches, learn, relative_speeds};
 use super::{
-    BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, Traffic, walk_paths,
+    BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, TaskValues, Traffic,
+    walk_paths,
 };
 use super::{Mode, Settings, TaskStats};
 use crate::cost::{CostModel, Work};
@@ -49,7 +50,7 @@ pub struct PathRenderer<'a> {
     settings: Settings,
     /// Relative speed per device class, from the frames rendered so far (or recalled).
     pub(super) speeds: HashMap<String, f64>,
-    /// `kB`, `kT` per device class, recalled: the first device's class costs the frames.
+    /// `kB`, `kT` per device class, recalled: the estimating device's class costs the frames.
     pub(super) models: HashMap<String, CostModel>,
     /// What the frames taught, per device class, for the next run's calibration.
     pub(super) history: HashMap<String, History>,
@@ -324,10 +325,12 @@ impl<'a> PathRenderer<'a> {
         let estimating = Instant::now();
         // One device runs every task whatever their costs: its estimate would change nothing.
         let estimated = self.settings.mode == Mode::Cost && active.len() > 1;
+        // The fastest device's kind estimates: no frame waits on a slow device's estimate.
         // Costs need one unit for all devices: the model of the class that estimates.
-        let model = self.cost_model(active[0]);
+        let lead = fastest(&speeds);
+        let model = self.cost_model(active[lead]);
         let (costs, work, estimate_traffic) = if estimated {
-            let (work, traffic) = self.estimate(frame, tasks, &active, &speeds);
+            let (work, traffic) = self.estimate(frame, tasks, &active, &speeds, lead);
             // Counts are finite and non-negative, so only an empty frame could fail.
             let costs =
                 Costs::new(model.costs(&work)).unwrap_or_else(|_| Costs::uniform(tasks.len()));
@@ -429,15 +432,7 @@ impl<'a> PathRenderer<'a> {
             }
         }
         self.measure_rates(frame, &devices, &task_stats, tasks);
-        let opens: Vec<bool> = report.outputs.iter().map(|o| o.launch.is_some()).collect();
-        let spikes = self.learn(
-            &active,
-            &report.timeline,
-            tasks,
-            costs.as_slice(),
-            &work,
-            &opens,
-        );
+        let spikes = self.learn(&active, lead, &report, tasks, costs.as_slice(), &work);
 
         let stats = FrameStats {
             paths,
@@ -480,7 +475,7 @@ impl<'a> PathRenderer<'a> {
     }
 
     /// Each task's estimated work, and what crossed to each of the `active` devices (planned
-    /// at `speeds`) to estimate it. The devices of the first one's estimate kind estimate
+    /// at `speeds`) to estimate it. The devices of the estimate kind of `active[lead]` estimate
     /// the frame (counts of different kinds are not comparable): the tasks are cut into one
     /// contiguous share per such device, in proportion to its speed, and each estimates its
     /// share where it renders, all at once. A share whose device cannot estimate it is
@@ -491,12 +486,13 @@ impl<'a> PathRenderer<'a> {
         tasks: &[Range<usize>],
         active: &[usize],
         speeds: &[f64],
+        lead: usize,
     ) -> (Vec<Work>, Vec<Traffic>) {
         let (rate, walk) = (self.settings.sample_rate, self.settings.walk);
         // The reduced walks count the same on every device; the trace walk's counts are of
-        // the first device's kind.
+        // `lead`'s kind.
         let traced = matches!(walk, Walk::Trace { .. });
-        let kind = self.devices[active[0]].estimate_kind();
+        let kind = self.devices[active[lead]].estimate_kind();
         let estimating: Vec<f64> = active
             .iter()
             .zip(speeds)
@@ -630,16 +626,16 @@ impl<'a> PathRenderer<'a> {
     /// launches that were not timing spikes, relative to the fastest class) for the next
     /// frame's plan, and keeps what the launches taught for [`PathRenderer::remember`]. A
     /// class that did no work keeps its speed. `active[k]` is the renderer's index of the
-    /// timeline's device `k`; `tasks`, `costs` and `work` (empty when not estimated) are per
-    /// task, and `opens[t]` says whether task `t` opened a launch. Returns the spikes left out.
+    /// run's device `k`, and `active[lead]` the one whose kind estimated; `tasks`, `costs` and
+    /// `work` (empty when not estimated) are per task. Returns the spikes left out.
     fn learn(
         &mut self,
         active: &[usize],
-        timeline: &sched::Timeline,
+        lead: usize,
+        report: &sched::RunReport<TaskValues>,
         tasks: &[Range<usize>],
         costs: &[f64],
         work: &[Work],
-        opens: &[bool],
     ) -> usize {
         let mut names: Vec<String> = Vec::new();
         let class: Vec<usize> = active
@@ -657,17 +653,18 @@ impl<'a> PathRenderer<'a> {
             .collect();
         // A device retired during the frame measured its failure, not its speed.
         let paths: Vec<usize> = tasks.iter().map(ExactSizeIterator::len).collect();
-        let samples: Vec<_> = launches(timeline, costs, work, &paths, opens)
+        let opens: Vec<bool> = report.outputs.iter().map(|o| o.launch.is_some()).collect();
+        let samples: Vec<_> = launches(&report.timeline, costs, work, &paths, &opens)
             .into_iter()
             .filter(|l| !self.retired[active[l.device]])
             .collect();
         let learnt: Vec<Learnt> = learn(&samples, &class, names.len());
-        let first_class = class.first().copied();
+        let estimating = class.get(lead).copied();
         for (c, (name, l)) in names.iter().zip(&learnt).enumerate() {
             let h = self.history.entry(name.clone()).or_default();
             // Only the estimating class's fit can cost a later frame: work is counted in its
             // kind of counts.
-            h.add(l, Some(c) == first_class && !work.is_empty());
+            h.add(l, Some(c) == estimating && !work.is_empty());
         }
         // Classes measured before but not on this frame keep their speed, rescaled with the
         // others only when they share a frame again.
@@ -678,6 +675,11 @@ impl<'a> PathRenderer<'a> {
         }
         learnt.iter().map(|l| l.spikes).sum()
     }
+}
+
+/// The index of the highest of `speeds` (the first of equals; 0 when empty).
+fn fastest(speeds: &[f64]) -> usize {
+    (0..speeds.len()).fold(0, |b, d| if speeds[d] > speeds[b] { d } else { b })
 }
 
 /// `n` tasks cut into one contiguous share per device, in proportion to `speeds` (a device

@@ -417,3 +417,96 @@ fn frames_are_predicted_once_their_classes_were_measured() {
     let other = next.render(&scene, &bvh, &whitted).expect("frame").stats;
     assert_eq!(other.predicted_makespan, None);
 }
+
+/// A device of its own class and estimate kind, counting the estimates it is asked for.
+struct Kinded {
+    inner: Box<dyn PathDevice>,
+    kind: &'static str,
+    estimates: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+}
+
+impl PathDevice for Kinded {
+    fn render(
+        &mut self,
+        frame: &crate::paths::Frame<'_>,
+        tasks: &[&std::ops::Range<usize>],
+    ) -> Result<crate::paths::Launch, sched::DeviceError> {
+        self.inner.render(frame, tasks)
+    }
+
+    fn estimate(
+        &mut self,
+        frame: &crate::paths::Frame<'_>,
+        tasks: &[&std::ops::Range<usize>],
+        rate: sched::SampleRate,
+        walk: crate::traverse::Walk,
+    ) -> Result<crate::paths::Estimate, sched::DeviceError> {
+        self.estimates
+            .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        self.inner.estimate(frame, tasks, rate, walk)
+    }
+
+    fn estimate_kind(&self) -> &'static str {
+        self.kind
+    }
+
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+
+    fn class(&self) -> String {
+        self.kind.to_owned()
+    }
+}
+
+/// Devices of two kinds, the one listed first the slower: the frame's tasks are estimated by
+/// the faster one's kind, never at the slower one's pace, and the image does not change.
+#[test]
+fn the_fastest_devices_kind_estimates_the_frame() {
+    use crate::calibration::{Calibration, Entry, Key};
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    let (scene, bvh, options, reference) = small_forest(SHADERS[1]);
+    let counts = [Arc::new(AtomicUsize::new(0)), Arc::new(AtomicUsize::new(0))];
+    let devices: Vec<Box<dyn PathDevice>> = cpus(2)
+        .into_iter()
+        .zip(["slow", "fast"])
+        .zip(&counts)
+        .map(|((inner, kind), c)| {
+            Box::new(Kinded {
+                inner,
+                kind,
+                estimates: Arc::clone(c),
+            }) as Box<dyn PathDevice>
+        })
+        .collect();
+    let mut r = PathRenderer::new(devices, Settings::default()).expect("renderer");
+    // Speeds known before the first frame, as a calibration file gives them.
+    let mut calibration = Calibration::new();
+    for (class, rate) in [("slow", 1e5), ("fast", 1e6)] {
+        let entry = Entry {
+            speed: 1.0,
+            paths_per_second: Some(rate),
+            model: None,
+            samples: 8,
+            spikes: 0,
+        };
+        calibration.insert(Key::new("host", class, "w"), entry);
+    }
+    assert_eq!(r.recall(&calibration, "host", "w"), 2);
+    // The first two frames run each way once: on both devices, and on the faster alone.
+    let mut estimated = 0;
+    for _ in 0..2 {
+        let out = r.render(&scene, &bvh, &options).expect("frame");
+        assert_eq!(bits(&out.film), reference);
+        estimated += usize::from(out.stats.estimated);
+    }
+    assert_eq!(estimated, 1, "one frame on both devices, estimated");
+    assert_eq!(
+        counts[0].load(Ordering::SeqCst),
+        0,
+        "the slower kind estimated"
+    );
+    assert!(counts[1].load(Ordering::SeqCst) > 0);
+}
