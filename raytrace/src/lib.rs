@@ -27,6 +27,7 @@
 
 mod aabb;
 pub mod ao;
+pub mod atomic;
 pub mod baseline;
 pub mod bench;
 pub mod builtin;
