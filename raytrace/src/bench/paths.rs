@@ -13,7 +13,6 @@ use crate::paths::Settings;
 use crate::paths::{Frame, FrameStats, PathRenderer, SlowPaths, build_path_devices, walk_paths};
 use crate::run::{CalibrationReport, workload};
 use crate::shade::RenderOptions;
-use crate::traffic::Traffic;
 use crate::traverse::walk::Walk;
 
 impl SceneMatrix<'_> {
@@ -153,17 +152,13 @@ impl SceneMatrix<'_> {
         r.run_predicted_over_measured = predicted
             .map(|p| vec![p / r.seconds.max(1e-12)])
             .unwrap_or_default();
-        let mut traffic = Traffic::default();
-        for f in frames {
-            traffic += f.traffic();
-        }
         if let Some(f) = frames.first() {
             (r.tasks, r.cut_task_size) = (f.tasks, f.task_size);
         }
-        r.host_to_device_bytes = Some(traffic.host_to_device_bytes);
-        r.device_to_host_bytes = Some(traffic.device_to_host_bytes);
-        r.host_waits = Some(traffic.host_waits);
-        r.film_bytes = Some(frames.iter().map(FrameStats::film_bytes).sum());
+        for f in frames {
+            r.traffic += f.traffic();
+        }
+        r.film_bytes = frames.iter().map(FrameStats::film_bytes).sum();
         r.left_idle = frames.iter().flat_map(|f| f.left_idle.clone()).collect();
         r.left_idle.sort();
         r.left_idle.dedup();
