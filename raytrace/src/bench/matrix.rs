@@ -11,7 +11,7 @@ use super::record::Record;
 use super::repeats;
 use crate::bvh::Bvh;
 use crate::cost::SampleRate;
-use crate::paths::{KeptDevices, Mode, Settings};
+use crate::paths::{FrameStats, KeptDevices, Mode, Settings};
 use crate::run::Store;
 use crate::scene::Scene;
 use crate::shade::{AoSettings, Shader, WhittedSettings};
@@ -80,21 +80,13 @@ impl Record {
     }
 }
 
-/// What one run of a cell gave: its record, the tasks the simulator replays (one entry per
-/// measured frame), and, when measured, the estimate's prediction error.
+/// What one run of a cell gave: its record, its measured frames (whose tasks the simulator
+/// replays: each one's planned cost and measured time), and, when measured, the estimate's
+/// prediction error.
 pub struct CellRun {
     pub record: Record,
-    pub replay: Vec<Replay>,
+    pub frames: Vec<FrameStats>,
     pub error: Option<f64>,
-}
-
-/// Measured tasks of one frame, for the simulator: estimated cost and seconds of each.
-#[derive(Clone, Debug, Default)]
-pub struct Replay {
-    pub rays: usize,
-    pub estimate_seconds: f64,
-    pub estimated: Vec<f64>,
-    pub seconds: Vec<f64>,
 }
 
 /// The cost-mode run of one (workload, task size) kept for the simulator (see
@@ -104,7 +96,7 @@ pub struct Replays {
     pub(crate) workload: Workload,
     pub(crate) task_size: usize,
     pub(crate) prediction_error: Option<f64>,
-    pub(crate) gens: Vec<Replay>,
+    pub(crate) frames: Vec<FrameStats>,
 }
 
 /// What to run on one scene: every cell (workload, task size, policy, mode) of its matrix.
@@ -202,7 +194,7 @@ impl SceneMatrix<'_> {
         let mut errors: Vec<((Workload, usize), f64)> = Vec::new();
         let mut runs: Vec<Vec<Record>> = vec![Vec::new(); cells.len()];
         let kept_policy = replay_policy(self.policies);
-        let mut kept: Vec<Vec<Vec<Replay>>> = vec![Vec::new(); cells.len()];
+        let mut kept: Vec<Vec<Vec<FrameStats>>> = vec![Vec::new(); cells.len()];
         // Round after round of the whole matrix, so that a spell of load on the machine falls
         // on every cell alike instead of on all the runs of one cell or one task size.
         for _ in 0..self.repeats {
@@ -215,7 +207,7 @@ impl SceneMatrix<'_> {
                     errors.push((key, e));
                 }
                 if settings.mode == Mode::Cost && Some(settings.policy) == kept_policy {
-                    kept[cell].push(run.replay);
+                    kept[cell].push(run.frames);
                 }
                 runs[cell].push(run.record);
                 tick(&format!(
@@ -242,7 +234,7 @@ impl SceneMatrix<'_> {
                     workload: *w,
                     task_size: settings.task_size.get(),
                     prediction_error: error,
-                    gens: std::mem::take(&mut kept[cell][mid]),
+                    frames: std::mem::take(&mut kept[cell][mid]),
                 });
             }
             records.push(r);

@@ -14,7 +14,6 @@ use sched::mpi::Cluster;
 
 use super::error::BenchError;
 use super::matrix::{CellRun, SceneMatrix, Workload};
-use super::paths::replay_frame;
 use super::record::{MpiFigures, Record};
 use super::simulate::{Machines, SimRecord, simulate};
 use crate::distributed::render_over_ranks;
@@ -73,7 +72,7 @@ impl SceneMatrix<'_> {
         });
         Ok(CellRun {
             record,
-            replay: frames.iter().map(replay_frame).collect(),
+            frames,
             error: None,
         })
     }

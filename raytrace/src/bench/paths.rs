@@ -4,7 +4,7 @@
 //! the simulator replays each frame's tasks.
 
 use super::error::BenchError;
-use super::matrix::{CellRun, Replay, SceneMatrix, Workload};
+use super::matrix::{CellRun, SceneMatrix, Workload};
 use super::record::Record;
 use super::replay::{Replayed, replay};
 use crate::camera::Camera;
@@ -88,7 +88,7 @@ impl SceneMatrix<'_> {
         record.calibration = recalled;
         Ok(CellRun {
             record,
-            replay: frames.iter().map(replay_frame).collect(),
+            frames,
             error,
         })
     }
@@ -185,14 +185,4 @@ fn frame_error(frame: &Frame<'_>, stats: &FrameStats, walk: Walk) -> (Vec<f64>, 
         .cost_model
         .costs(&walk_paths(frame, &tasks, SampleRate::FULL, walk));
     (stats.task_stats.iter().map(|t| t.cost).collect(), full)
-}
-
-/// A frame's tasks for the simulator: each one's planned cost and measured time.
-pub(super) fn replay_frame(f: &FrameStats) -> Replay {
-    Replay {
-        rays: f.rays,
-        estimate_seconds: f.estimate_seconds,
-        estimated: f.task_stats.iter().map(|t| t.cost).collect(),
-        seconds: f.task_stats.iter().map(|t| t.seconds).collect(),
-    }
 }

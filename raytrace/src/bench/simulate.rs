@@ -117,7 +117,7 @@ pub fn simulate(
 ) -> Result<Vec<SimRecord>, BenchError> {
     let mut out = Vec::new();
     for rep in replays {
-        let (w, task_size, gens) = (rep.workload, rep.task_size, &rep.gens);
+        let (w, task_size) = (rep.workload, rep.task_size);
         for &m in machines.counts {
             let speeds = Speeds::new((machines.speeds)(m))?;
             for &(link, latency) in machines.links {
@@ -127,10 +127,11 @@ pub fn simulate(
                         let (mut seconds, mut bound, mut busy, mut capacity) = (0.0, 0.0, 0.0, 0.0);
                         let (mut rays, mut launches) = (0usize, 0u64);
                         let (mut est, mut plan_s) = (0.0, 0.0);
-                        for g in gens {
-                            let actual = Costs::new(g.seconds.clone())?;
+                        for g in &rep.frames {
+                            let tasks = &g.task_stats;
+                            let actual = Costs::new(tasks.iter().map(|t| t.seconds).collect())?;
                             let plan = if cost {
-                                Costs::new(g.estimated.clone())?
+                                Costs::new(tasks.iter().map(|t| t.cost).collect())?
                             } else {
                                 Costs::uniform(actual.len())
                             };
