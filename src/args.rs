@@ -472,18 +472,25 @@ pub struct ShaderArgs {
     pub ao_distance: Option<f32>,
 }
 
-impl ShaderArgs {
-    /// The shader these settings make.
-    pub fn shader(&self) -> raytrace::shade::Shader {
+impl ShaderKind {
+    /// The shader, AO with `ao_samples` rays per hit of `ao_distance` (default: the scene's).
+    pub fn shader(self, ao_samples: u32, ao_distance: Option<f32>) -> raytrace::shade::Shader {
         use raytrace::shade::{AoSettings, Shader, WhittedSettings};
-        match self.shader {
+        match self {
             ShaderKind::Ao => Shader::Ao(AoSettings {
-                samples: self.ao_samples,
-                max_distance: self.ao_distance,
+                samples: ao_samples,
+                max_distance: ao_distance,
                 ..Default::default()
             }),
             ShaderKind::Whitted => Shader::Whitted(WhittedSettings::default()),
         }
+    }
+}
+
+impl ShaderArgs {
+    /// The shader these settings make.
+    pub fn shader(&self) -> raytrace::shade::Shader {
+        self.shader.shader(self.ao_samples, self.ao_distance)
     }
 }
 

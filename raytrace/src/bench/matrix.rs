@@ -14,55 +14,26 @@ use crate::cost::SampleRate;
 use crate::paths::{FrameStats, KeptDevices, Mode, Settings};
 use crate::run::Store;
 use crate::scene::Scene;
-use crate::shade::{AoSettings, Shader, WhittedSettings};
+use crate::shade::Shader;
 
-/// The two workloads of the thesis.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Workload {
-    /// Whitted shading: coherent rays.
-    Whitted,
-    /// 32-sample ambient occlusion: diffuse rays.
-    Ao,
-}
-
-impl Workload {
-    /// The name records give it: `whitted` or `ao`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Whitted => "whitted",
-            Self::Ao => "ao",
-        }
-    }
-
-    /// Its shader, with `ao_samples` probes per primary hit for AO.
-    pub fn shader(self, ao_samples: u32) -> Shader {
-        match self {
-            Self::Whitted => Shader::Whitted(WhittedSettings::default()),
-            Self::Ao => Shader::Ao(AoSettings {
-                samples: ao_samples,
-                ..Default::default()
-            }),
-        }
-    }
-
-    /// The kind of its rays: `coherent` or `diffuse`.
-    pub fn ray_kind(self) -> &'static str {
-        match self {
-            Self::Whitted => "coherent",
-            Self::Ao => "diffuse",
-        }
+/// The kind of a workload's rays, as records name it: Whitted's are `coherent`, AO's
+/// `diffuse`.
+pub(super) fn ray_kind(shader: &Shader) -> &'static str {
+    match shader {
+        Shader::Whitted(_) => "coherent",
+        Shader::Ao(_) => "diffuse",
     }
 }
 
 impl Record {
     /// A record of one run of `matrix`'s cell (`w`, `settings`) on `devices` devices, its
     /// figures still zero.
-    pub fn new(matrix: &SceneMatrix<'_>, w: Workload, settings: Settings, devices: usize) -> Self {
+    pub fn new(matrix: &SceneMatrix<'_>, w: Shader, settings: Settings, devices: usize) -> Self {
         Self {
             source: "measured",
             scene: matrix.scene_name.to_string(),
             shader: w.name(),
-            ray_kind: w.ray_kind(),
+            ray_kind: ray_kind(&w),
             policy: settings.policy.name(),
             mode: settings.mode.name(),
             walk: settings.walk.name(),
@@ -93,7 +64,7 @@ pub struct CellRun {
 /// `replay_policy`).
 #[derive(Clone, Debug)]
 pub struct Replays {
-    pub(crate) workload: Workload,
+    pub(crate) workload: Shader,
     pub(crate) task_size: usize,
     pub(crate) prediction_error: Option<f64>,
     pub(crate) frames: Vec<FrameStats>,
@@ -111,8 +82,9 @@ pub struct SceneMatrix<'a> {
     pub devices: &'a [crate::devices::DeviceSpec],
     /// The devices as the records list them (`--devices`).
     pub device_list: &'a str,
-    /// The workloads, task sizes and policies of the matrix.
-    pub workloads: &'a [Workload],
+    /// The workloads: each a shader with its settings (Whitted: coherent rays; AO: diffuse
+    /// rays).
+    pub workloads: &'a [Shader],
     /// Paths per task, each a cell of every workload.
     pub task_sizes: &'a [NonZeroUsize],
     /// The policies, each in every mode of `modes`.
@@ -172,7 +144,7 @@ impl SceneMatrix<'_> {
             self.run_paths(w, Settings::default(), false)?;
         }
         // Every cell of the matrix: (workload, task size) blocks of policies and modes.
-        let mut cells: Vec<(Workload, Settings)> = Vec::new();
+        let mut cells: Vec<(Shader, Settings)> = Vec::new();
         for &w in self.workloads {
             for &size in self.task_sizes {
                 for &policy in self.policies {
@@ -190,8 +162,8 @@ impl SceneMatrix<'_> {
                 }
             }
         }
-        let block = |(w, s): &(Workload, Settings)| (*w, s.task_size.get());
-        let mut errors: Vec<((Workload, usize), f64)> = Vec::new();
+        let block = |(w, s): &(Shader, Settings)| (*w, s.task_size.get());
+        let mut errors: Vec<((Shader, usize), f64)> = Vec::new();
         let mut runs: Vec<Vec<Record>> = vec![Vec::new(); cells.len()];
         let kept_policy = replay_policy(self.policies);
         let mut kept: Vec<Vec<Vec<FrameStats>>> = vec![Vec::new(); cells.len()];

@@ -4,7 +4,7 @@
 //! the simulator replays each frame's tasks.
 
 use super::error::BenchError;
-use super::matrix::{CellRun, SceneMatrix, Workload};
+use super::matrix::{CellRun, SceneMatrix};
 use super::record::Record;
 use super::replay::{Replayed, replay};
 use crate::camera::Camera;
@@ -12,7 +12,7 @@ use crate::cost::SampleRate;
 use crate::paths::Settings;
 use crate::paths::{Frame, FrameStats, PathRenderer, SlowPaths, build_path_devices, walk_paths};
 use crate::run::{CalibrationReport, workload};
-use crate::shade::RenderOptions;
+use crate::shade::{RenderOptions, Shader};
 use crate::traverse::walk::Walk;
 
 impl SceneMatrix<'_> {
@@ -21,7 +21,7 @@ impl SceneMatrix<'_> {
     /// prediction error of each frame's estimate against every path counted.
     pub(super) fn run_paths(
         &self,
-        w: Workload,
+        w: Shader,
         settings: Settings,
         measure_error: bool,
     ) -> Result<CellRun, BenchError> {
@@ -37,7 +37,7 @@ impl SceneMatrix<'_> {
                 PathRenderer::new(SlowPaths::wrap(devices, self.slow), settings)?
             }
         };
-        let workload = workload(self.scene_name, &w.shader(self.ao_samples));
+        let workload = workload(self.scene_name, &w);
         let recalled = self.calibration.map(|store| {
             let mut store = store.borrow_mut();
             let used = store.recall(&mut renderer, &workload);
@@ -109,7 +109,7 @@ impl SceneMatrix<'_> {
     /// their replays where every frame could be replayed.
     pub(super) fn frames_record(
         &self,
-        w: Workload,
+        w: Shader,
         settings: Settings,
         frames: &[FrameStats],
     ) -> Record {
@@ -166,12 +166,12 @@ impl SceneMatrix<'_> {
     }
 
     /// The image, camera and shader of camera `cam` for workload `w`.
-    pub(super) fn options(&self, w: Workload, cam: usize) -> RenderOptions {
+    pub(super) fn options(&self, w: Shader, cam: usize) -> RenderOptions {
         RenderOptions::new(
             self.width,
             self.height,
             Camera::orbit(&self.scene.bounds(), cam),
-            w.shader(self.ao_samples),
+            w,
         )
     }
 }

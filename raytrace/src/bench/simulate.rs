@@ -9,7 +9,7 @@ use sched::{Costs, Policy, Simulation, Speeds};
 use serde::Serialize;
 
 use super::error::BenchError;
-use super::matrix::Replays;
+use super::matrix::{Replays, ray_kind};
 use crate::paths::Mode;
 
 /// Launch latencies: a kernel launch over PCIe, and a message to another node.
@@ -156,7 +156,7 @@ pub fn simulate(
                             source: machines.source,
                             scene: scene.to_string(),
                             shader: w.name(),
-                            ray_kind: w.ray_kind(),
+                            ray_kind: ray_kind(&w),
                             policy: policy.name(),
                             mode: mode.name(),
                             task_size,
