@@ -15,12 +15,6 @@ use crate::paths::Mode;
 /// Launch latencies: a kernel launch over PCIe, and a message to another node.
 pub const LINKS: [(&str, f64); 2] = [("pcie", 10e-6), ("network", 200e-6)];
 
-/// Speeds of a mixed machine of `m` devices: a repeating pattern of slow and fast devices
-/// (CPU sockets and GPUs of two generations), so no two neighbours are alike.
-pub fn mixed_speeds(m: usize) -> Vec<f64> {
-    (0..m).map(|d| [1.0, 4.0, 2.0, 8.0][d % 4]).collect()
-}
-
 /// One simulated run.
 #[derive(Clone, Debug, Serialize)]
 pub struct SimRecord {
@@ -99,7 +93,9 @@ impl<'a> Machines<'a> {
         Self {
             source: "simulated",
             counts,
-            speeds: mixed_speeds,
+            // A repeating pattern of slow and fast devices (CPU sockets and GPUs of two
+            // generations), so no two neighbours are alike.
+            speeds: |m| (0..m).map(|d| [1.0, 4.0, 2.0, 8.0][d % 4]).collect(),
             links: &LINKS,
             policies: &Policy::ALL,
             modes: &Mode::ALL,
