@@ -251,10 +251,15 @@ impl FromStr for Devices {
     }
 }
 
-/// `DEVICE@WHEN`: a device index and when it fails, `what` naming `WHEN` in errors;
-/// `usage` is the error when there is no `@`.
-fn device_at<T: FromStr>(text: &str, what: &str, usage: &str) -> Result<(usize, T), String> {
-    let (device, when) = text.trim().split_once('@').ok_or(usage)?;
+/// `DEVICE@WHEN` (or `DEVICE=WHAT`, as `at` says): a device index and what befalls it, `what`
+/// naming `WHEN` in errors; `usage` is the error when there is no `at`.
+fn device_at<T: FromStr>(
+    text: &str,
+    at: char,
+    what: &str,
+    usage: &str,
+) -> Result<(usize, T), String> {
+    let (device, when) = text.trim().split_once(at).ok_or(usage)?;
     let device = device
         .trim()
         .parse()
@@ -270,7 +275,7 @@ fn device_at<T: FromStr>(text: &str, what: &str, usage: &str) -> Result<(usize, 
 /// tasks. Whether the device exists depends on `--devices`: [`check_faults`].
 pub fn fail_after(text: &str) -> Result<FailAfter, String> {
     let usage = "expected DEVICE@TASKS, e.g. 1@3 (device 1 fails after 3 tasks)";
-    let (device, tasks) = device_at(text, "task count", usage)?;
+    let (device, tasks) = device_at(text, '@', "task count", usage)?;
     Ok(FailAfter { device, tasks })
 }
 
@@ -279,15 +284,7 @@ pub fn fail_after(text: &str) -> Result<FailAfter, String> {
 /// [`check_slow`].
 pub fn slow_by(text: &str) -> Result<SlowBy, String> {
     let usage = "expected DEVICE=K, e.g. 1=50 (device 1 takes 50 times as long)";
-    let (device, factor) = text.trim().split_once('=').ok_or(usage)?;
-    let device = device
-        .trim()
-        .parse()
-        .map_err(|_| format!("{device:?} is not a device index"))?;
-    let factor: f64 = factor
-        .trim()
-        .parse()
-        .map_err(|_| format!("{factor:?} is not a number"))?;
+    let (device, factor): (usize, f64) = device_at(text, '=', "number", usage)?;
     if !(factor.is_finite() && factor >= 1.0) {
         return Err(format!("the factor {factor} is not finite and at least 1"));
     }
@@ -379,7 +376,7 @@ pub fn speed(text: &str) -> Result<f64, String> {
 /// the simulation checks it.
 pub fn fault_time(text: &str) -> Result<Fault, String> {
     let usage = "expected DEVICE@TIME, e.g. 1@0.5 (device 1 stops at time 0.5)";
-    let (device, at): (usize, f64) = device_at(text, "time", usage)?;
+    let (device, at): (usize, f64) = device_at(text, '@', "time", usage)?;
     if !(at.is_finite() && at >= 0.0) {
         return Err(format!("the time {at} is not finite and non-negative"));
     }
@@ -475,18 +472,25 @@ pub struct ShaderArgs {
     pub ao_distance: Option<f32>,
 }
 
-impl ShaderArgs {
-    /// The shader these settings make.
-    pub fn shader(&self) -> raytrace::shade::Shader {
+impl ShaderKind {
+    /// The shader, AO with `ao_samples` rays per hit of `ao_distance` (default: the scene's).
+    pub fn shader(self, ao_samples: u32, ao_distance: Option<f32>) -> raytrace::shade::Shader {
         use raytrace::shade::{AoSettings, Shader, WhittedSettings};
-        match self.shader {
+        match self {
             ShaderKind::Ao => Shader::Ao(AoSettings {
-                samples: self.ao_samples,
-                max_distance: self.ao_distance,
+                samples: ao_samples,
+                max_distance: ao_distance,
                 ..Default::default()
             }),
             ShaderKind::Whitted => Shader::Whitted(WhittedSettings::default()),
         }
+    }
+}
+
+impl ShaderArgs {
+    /// The shader these settings make.
+    pub fn shader(&self) -> raytrace::shade::Shader {
+        self.shader.shader(self.ao_samples, self.ao_distance)
     }
 }
 

@@ -112,6 +112,15 @@ impl CliError {
         }
     }
 
+    /// A GPU's error, naming the flag that asked for the GPU (`--device gpu`).
+    pub fn gpu(message: impl std::fmt::Display) -> Self {
+        Self::Arg {
+            flag: "device",
+            value: "gpu".into(),
+            message: message.to_string(),
+        }
+    }
+
     /// The error of a run on `devices` (the `--devices` text) that gave no image.
     pub fn run(devices: &str, e: raytrace::run::RunError) -> Self {
         use raytrace::run::RunError;
@@ -122,6 +131,9 @@ impl CliError {
         }
     }
 }
+
+/// Why `--device gpu` cannot be: this build has no GPU.
+pub const NO_GPU: &str = "this cobalt was built without the `gpu` feature";
 
 impl From<raytrace::bench::BenchError> for CliError {
     fn from(e: raytrace::bench::BenchError) -> Self {
@@ -143,19 +155,11 @@ impl From<raytrace::bench::BenchError> for CliError {
 impl From<raytrace::estimate::EstimateError> for CliError {
     fn from(e: raytrace::estimate::EstimateError) -> Self {
         use raytrace::estimate::EstimateError;
-        // A GPU error names the flag that asked for the GPU.
-        let device = |message: String| Self::Arg {
-            flag: "device",
-            value: "gpu".into(),
-            message,
-        };
         match e {
             EstimateError::Cost(e) => e.into(),
             #[cfg(feature = "gpu")]
-            EstimateError::Gpu(e) => device(e.to_string()),
-            EstimateError::NoGpu => {
-                device("this cobalt was built without the `gpu` feature".into())
-            }
+            EstimateError::Gpu(e) => Self::gpu(e),
+            EstimateError::NoGpu => Self::gpu(NO_GPU),
         }
     }
 }

@@ -1,16 +1,15 @@
 //! The one way commands write files: every output path is checked before any work starts, and
 //! all of a command's outputs replace their targets together once every one of them is ready.
 //!
-//! Each file is written to a temporary created exclusively (`O_EXCL`, a random name) in the
-//! target's own directory, flushed to disk, and renamed over the target. A planted link or file
-//! at a predictable name cannot redirect the write, a failure at any step leaves the old outputs
-//! as they were and removes the temporaries, and a replaced file keeps its permissions. `-`
-//! means standard output.
+//! Each file is written as [`raytrace::atomic`] writes one, flushed to disk, and renamed over
+//! the target: a failure at any step leaves the old outputs as they were and removes the
+//! temporaries, and a replaced file keeps its permissions. `-` means standard output.
 
 use std::fs::{self, Metadata, Permissions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use raytrace::atomic::{parent_dir, temporary};
 use tempfile::NamedTempFile;
 
 use crate::error::CliError;
@@ -146,25 +145,6 @@ fn stage(target: &Target, file: &FileTarget, bytes: &[u8]) -> Result<NamedTempFi
     Ok(tmp)
 }
 
-/// An exclusively created temporary in `dir`, named after the target so that one left by a
-/// killed process says what it was for.
-fn temporary(dir: &Path, target: &Path) -> std::io::Result<NamedTempFile> {
-    let name = target
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let prefix = format!(".{name}.");
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(&prefix).suffix(".tmp");
-    // A new file gets what the umask leaves of rw-rw-rw-, as one created by `open` would,
-    // instead of the temporary's private default.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(Permissions::from_mode(0o666));
-    }
-    builder.tempfile_in(dir)
-}
-
 fn check_one(
     flag: &'static str,
     path: &Path,
@@ -184,10 +164,7 @@ fn check_one(
     let Some(name) = path.file_name().filter(|_| !text.ends_with('/')) else {
         return Err(bad(flag, path, "names a directory, not a file".into()));
     };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_owned(),
-        _ => PathBuf::from("."),
-    };
+    let dir = parent_dir(path);
     match fs::metadata(&dir) {
         Ok(meta) if meta.is_dir() => {}
         Ok(_) => {

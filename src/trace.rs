@@ -160,34 +160,24 @@ fn gpu_trace(
     any_hit: bool,
 ) -> Result<(HitBatch, f64, Option<String>), CliError> {
     use raytrace::devices::GpuSelect;
-    use raytrace::gpu::{GpuContext, GpuDevice, GpuError, GpuOptions};
-    // A GPU error names the flag that asked for the GPU.
-    let gpu_err = |e: GpuError| CliError::Arg {
-        flag: "device",
-        value: "gpu".into(),
-        message: e.to_string(),
-    };
+    use raytrace::gpu::{GpuContext, GpuDevice, GpuOptions};
     // The first GPU found, with the `COBALT_GPU_*` options from the environment.
     let ctx = GpuContext::open(GpuSelect::All, GpuOptions::from_env())
-        .map_err(gpu_err)?
+        .map_err(CliError::gpu)?
         .swap_remove(0);
     let name = ctx.info.name.clone();
-    let dev = GpuDevice::new(ctx, bvh).map_err(gpu_err)?;
+    let dev = GpuDevice::new(ctx, bvh).map_err(CliError::gpu)?;
     let tracing = Instant::now();
     let hits = dev
         .hits(any_hit, rays, &[&(0..rays.len())])
-        .map_err(gpu_err)?;
+        .map_err(CliError::gpu)?;
     Ok((hits, tracing.elapsed().as_secs_f64(), Some(name)))
 }
 
 /// Without the `gpu` feature, `--device gpu` is refused.
 #[cfg(not(feature = "gpu"))]
 fn gpu_trace(_: &Bvh, _: &RayBatch, _: bool) -> Result<(HitBatch, f64, Option<String>), CliError> {
-    Err(CliError::Arg {
-        flag: "device",
-        value: "gpu".into(),
-        message: "this cobalt was built without the `gpu` feature".into(),
-    })
+    Err(CliError::gpu(crate::error::NO_GPU))
 }
 
 /// Reads and checks a ray file (or standard input for `-`) one ray at a time, so that the

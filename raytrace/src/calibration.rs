@@ -25,6 +25,7 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
+use crate::atomic;
 use crate::cost::CostModel;
 
 /// The version of the file format this module reads and writes.
@@ -416,21 +417,14 @@ impl Calibration {
             path: at.to_owned(),
             source,
         };
-        let (dir, name) = dir_and_name(path);
+        let dir = atomic::parent_dir(path);
         fs::create_dir_all(&dir).map_err(|e| failed(&dir, e))?;
-        let (temp, mut file) = exclusive_temp(&dir, &name).map_err(|e| failed(path, e))?;
-        let written = file
-            .write_all(self.to_json().as_bytes())
-            .and_then(|()| file.sync_all())
-            .and_then(|()| {
-                drop(file);
-                fs::rename(&temp, path)
-            });
-        if let Err(e) = written {
-            // Best effort: the write already failed, and that is the error worth reporting.
-            let _ = fs::remove_file(&temp);
-            return Err(failed(path, e));
-        }
+        // A temporary not persisted is removed as it drops, leaving `path` as it was.
+        let mut temp = atomic::temporary(&dir, path).map_err(|e| failed(path, e))?;
+        temp.write_all(self.to_json().as_bytes())
+            .and_then(|()| temp.as_file().sync_all())
+            .map_err(|e| failed(path, e))?;
+        temp.persist(path).map_err(|e| failed(path, e.error))?;
         Ok(())
     }
 
@@ -523,8 +517,11 @@ fn lock(path: &Path) -> Result<fs::File, CalibrationError> {
         path: at.to_owned(),
         source,
     };
-    let (dir, name) = dir_and_name(path);
+    let dir = atomic::parent_dir(path);
     fs::create_dir_all(&dir).map_err(|e| failed(&dir, e))?;
+    let name = path
+        .file_name()
+        .map_or("calibration".into(), |n| n.to_string_lossy());
     let lock_path = dir.join(format!(".{name}.lock"));
     let file = fs::OpenOptions::new()
         .create(true)
@@ -549,44 +546,6 @@ fn lock(path: &Path) -> Result<fs::File, CalibrationError> {
             Err(fs::TryLockError::Error(e)) => return Err(failed(&lock_path, e)),
         }
     }
-}
-
-/// The directory of the calibration at `path` (`.` for a bare name) and its file name.
-fn dir_and_name(path: &Path) -> (PathBuf, String) {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
-        _ => PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "calibration".to_owned());
-    (dir, name)
-}
-
-/// A new file in `dir` beside `name`, created exclusively (it cannot be a planted link or
-/// another run's temporary).
-fn exclusive_temp(dir: &Path, name: &str) -> std::io::Result<(PathBuf, fs::File)> {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    let mut last = None;
-    for attempt in 0..16u32 {
-        let temp = dir.join(format!(
-            ".{name}.{}.{nanos:x}{attempt}.tmp",
-            std::process::id()
-        ));
-        match fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&temp)
-        {
-            Ok(file) => return Ok((temp, file)),
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => last = Some(e),
-            Err(e) => return Err(e),
-        }
-    }
-    Err(last.unwrap_or_else(|| std::io::Error::other("no free temporary name")))
 }
 
 /// Where the calibration is kept by default: `$XDG_CACHE_HOME/cobalt/calibration.json`, else

@@ -27,6 +27,7 @@
 
 mod aabb;
 pub mod ao;
+pub mod atomic;
 pub mod bench;
 pub mod builtin;
 pub mod bvh;

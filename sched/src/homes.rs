@@ -102,8 +102,8 @@ impl Homes {
         self.home.is_empty()
     }
 
-    /// The finish time of every device under `plan`, the moves included.
-    pub fn finish_times(&self, plan: &Plan, costs: &Costs, speeds: &Speeds) -> Vec<f64> {
+    /// The makespan of `plan`, the moves included.
+    pub fn makespan(&self, plan: &Plan, costs: &Costs, speeds: &Speeds) -> f64 {
         (0..plan.devices())
             .map(|d| {
                 let s = speeds.as_slice()[d];
@@ -115,13 +115,6 @@ impl Homes {
                     })
                     .value()
             })
-            .collect()
-    }
-
-    /// The makespan of `plan`, the moves included.
-    pub fn makespan(&self, plan: &Plan, costs: &Costs, speeds: &Speeds) -> f64 {
-        self.finish_times(plan, costs, speeds)
-            .into_iter()
             .fold(0.0, f64::max)
     }
 

@@ -34,8 +34,9 @@ impl Plan {
         out
     }
 
-    /// When each device finishes if costs are exact: `Σ cost / speed`, summed exactly.
-    pub fn finish_times(&self, costs: &Costs, speeds: &Speeds) -> Vec<f64> {
+    /// The latest finish time, each device's `Σ cost / speed` summed exactly: the plan's
+    /// makespan with exact costs and no dispatch latency.
+    pub fn makespan(&self, costs: &Costs, speeds: &Speeds) -> f64 {
         self.devices
             .iter()
             .enumerate()
@@ -44,13 +45,6 @@ impl Plan {
                     .fold(Load::ZERO, |l, &t| l.plus(costs[t as usize] / speeds[d]))
                     .value()
             })
-            .collect()
-    }
-
-    /// The latest finish time: the plan's makespan with exact costs and no dispatch latency.
-    pub fn makespan(&self, costs: &Costs, speeds: &Speeds) -> f64 {
-        self.finish_times(costs, speeds)
-            .into_iter()
             .fold(0.0, f64::max)
     }
 }

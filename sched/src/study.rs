@@ -131,13 +131,19 @@ where
     let estimated = Costs::new(estimated)?;
     let uniform = Costs::uniform(n);
     let modes = [("regular", &uniform), ("cost", &estimated)];
-    // A run's record; its overhead is known once every task has been measured.
+    // A run's record, charged `estimate_seconds` in cost mode; its overhead is known once
+    // every task has been measured.
     let record = |(policy, mode): (Policy, &'static str),
                   (simulated, speeds): (bool, &[f64]),
                   estimate_seconds: f64,
                   plan_seconds: f64,
                   metrics: &Metrics,
                   launches: &[u64]| {
+        let estimate_seconds = if mode == "cost" {
+            estimate_seconds
+        } else {
+            0.0
+        };
         let seconds = estimate_seconds + plan_seconds + metrics.makespan;
         Record {
             workload: work.name.clone(),
@@ -171,12 +177,8 @@ where
                 let t = &mut measured[s.task as usize];
                 *t = t.min(s.end - s.start);
             }
-            let est = if mode == "cost" {
-                estimate_seconds
-            } else {
-                0.0
-            };
             let (plan_s, m, l) = (run.plan_seconds, &run.metrics, &run.launches);
+            let est = estimate_seconds;
             records.push(record((policy, mode), (false, &real), est, plan_s, m, l));
         }
     }
@@ -194,16 +196,9 @@ where
     for &policy in policies {
         for (mode, plan) in modes {
             let sim = simulate(policy, plan)?;
-            let est = if mode == "cost" { spread } else { 0.0 };
             let (plan_s, m, l) = (sim.plan_seconds, &sim.metrics, &sim.launches);
-            records.push(record(
-                (policy, mode),
-                (true, &SIM_SPEEDS),
-                est,
-                plan_s,
-                m,
-                l,
-            ));
+            let speeds = (true, &SIM_SPEEDS[..]);
+            records.push(record((policy, mode), speeds, spread, plan_s, m, l));
         }
     }
     for r in &mut records {

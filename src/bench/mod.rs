@@ -15,9 +15,10 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use raytrace::bench::{Machines, Record, SceneMatrix, SimRecord, TradePoint, Workload, table};
+use raytrace::bench::{Machines, Record, SceneMatrix, SimRecord, TradePoint, table};
 use raytrace::cost::SampleRate;
 use raytrace::paths::Mode;
+use raytrace::shade::Shader;
 use raytrace::{BuildPreset, Bvh, Camera, Scene, SceneNeeds};
 use sched::Policy;
 
@@ -117,7 +118,7 @@ struct Matrix {
     task_sizes: Vec<NonZeroUsize>,
     policies: Vec<Policy>,
     modes: Vec<Mode>,
-    workloads: Vec<Workload>,
+    workloads: Vec<Shader>,
     scenes: Vec<String>,
     /// What every scene must provide for the workloads.
     needs: SceneNeeds,
@@ -128,7 +129,7 @@ impl Matrix {
         let Size { width, height } =
             args.size
                 .unwrap_or(Size::square(if args.full { 1024 } else { 512 }));
-        let workloads: Vec<Workload> = args.shaders.iter().map(|&s| workload(s)).collect();
+        let shader = |s: &ShaderKind| s.shader(args.ao_samples, None);
         Self {
             width,
             height,
@@ -146,21 +147,13 @@ impl Matrix {
             } else {
                 args.scenes.clone()
             },
-            needs: if workloads.contains(&Workload::Whitted) {
+            needs: if args.shaders.contains(&ShaderKind::Whitted) {
                 SceneNeeds::WHITTED
             } else {
                 SceneNeeds::AO
             },
-            workloads,
+            workloads: args.shaders.iter().map(shader).collect(),
         }
-    }
-}
-
-/// The bench's workload of a `--shaders` entry.
-fn workload(shader: ShaderKind) -> Workload {
-    match shader {
-        ShaderKind::Whitted => Workload::Whitted,
-        ShaderKind::Ao => Workload::Ao,
     }
 }
 
@@ -278,16 +271,11 @@ fn write_json(
         return Ok(());
     };
     let json = |e: serde_json::Error| CliError::Write(e.to_string());
-    let mut all: Vec<serde_json::Value> = Vec::with_capacity(records.len() + sims.len());
-    for r in records {
-        all.push(serde_json::to_value(r).map_err(json)?);
-    }
-    for r in sims {
-        all.push(serde_json::to_value(r).map_err(json)?);
-    }
-    for p in points {
-        all.push(serde_json::to_value(p).map_err(json)?);
-    }
+    let all = (records.iter().map(serde_json::to_value))
+        .chain(sims.iter().map(serde_json::to_value))
+        .chain(points.iter().map(serde_json::to_value))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(json)?;
     let text = serde_json::to_vec_pretty(&all).map_err(json)?;
     crate::output::write_file(path, &text)
 }

@@ -11,6 +11,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
@@ -61,14 +62,38 @@ fn draw_err<E: std::fmt::Debug>(e: E) -> CliError {
     CliError::Write(format!("drawing a chart: {e:?}"))
 }
 
-/// Encodes an RGB buffer as PNG and writes it atomically.
-fn save(path: &Path, rgb: Vec<u8>, w: u32, h: u32) -> Result<(), CliError> {
+/// Draws a chart of `w × h` pixels on white with `draw`, and writes it to `path` as PNG.
+fn chart(
+    path: &Path,
+    (w, h): (u32, u32),
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), CliError>,
+) -> Result<(), CliError> {
     use image::ImageEncoder;
+    let mut rgb = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_err)?;
+        draw(&root)?;
+        root.present().map_err(draw_err)?;
+    }
     let mut png = Vec::new();
     image::codecs::png::PngEncoder::new(&mut png)
         .write_image(&rgb, w, h, image::ExtendedColorType::Rgb8)
         .map_err(|e| CliError::Write(format!("{}: {e}", path.display())))?;
     crate::output::write_file(path, &png)
+}
+
+/// The legend of a chart's series, in its corner.
+fn legend<'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, BitMapBackend<'a>, CT>,
+) -> Result<(), CliError> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()
+        .map_err(draw_err)
 }
 
 fn policy_abbrev(p: &str) -> &'static str {
@@ -98,10 +123,7 @@ fn bars(
         }
     }
     let h = PANEL_H * panels.len().max(1) as u32;
-    let mut rgb = vec![255u8; (W * h * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (W, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(draw_err)?;
+    chart(path, (W, h), |root| {
         for (area, (scene, shader)) in root
             .split_evenly((panels.len().max(1), 1))
             .iter()
@@ -169,17 +191,10 @@ fn bars(
                         Rectangle::new([(x, y - 6), (x + 12, y + 6)], colour.filled())
                     });
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 14))
-                .draw()
-                .map_err(draw_err)?;
+            legend(&mut chart)?;
         }
-        root.present().map_err(draw_err)?;
-    }
-    save(path, rgb, W, h)
+        Ok(())
+    })
 }
 
 /// The estimators' trade: error against measured time over net overhead, one line per ray kind
@@ -199,11 +214,7 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
         .iter()
         .filter(|p| p.scene == first.scene && p.task_size == size)
         .collect();
-    let (w, h) = (900u32, 560u32);
-    let mut rgb = vec![255u8; (w * h * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(draw_err)?;
+    chart(path, (900, 560), |root| {
         // Net overheads can be negative (a sample traced for real can cost less than the
         // rays it saves): the axis starts below the least.
         let xmin = points
@@ -224,7 +235,7 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
             .fold(0.0, f64::max)
             * 1.25
             + 0.5;
-        let mut chart = ChartBuilder::on(&root)
+        let mut chart = ChartBuilder::on(root)
             .caption(
                 format!(
                     "Estimators: error vs time over net overhead ({}, tasks of {size} rays)",
@@ -293,16 +304,9 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
                 }))
                 .map_err(draw_err)?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .draw()
-            .map_err(draw_err)?;
-        root.present().map_err(draw_err)?;
-    }
-    save(path, rgb, w, h)
+        legend(&mut chart)?;
+        Ok(())
+    })
 }
 
 /// The charts `--plots` may write into its directory, in the order [`write_all`] writes them:

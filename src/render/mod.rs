@@ -27,7 +27,7 @@ use crate::args::{
 };
 use crate::error::CliError;
 use crate::output::Outputs;
-use header::{Drawn, Header};
+use header::Header;
 
 /// Arguments of `cobalt render`.
 #[derive(Debug, clap::Args)]
@@ -145,7 +145,8 @@ fn one_frame<'a>(args: &'a Args, faults: &'a [FailAfter], settings: Settings) ->
     }
 }
 
-/// Loads the scene and builds its BVH, and the report's header of a render of it.
+/// Loads the scene and builds its BVH, and the report's header of a render of it: the scene
+/// as given and as loaded, its tree, and the view.
 fn load(
     args: &Args,
     shader: &Shader,
@@ -156,17 +157,30 @@ fn load(
     let load_seconds = loading.elapsed().as_secs_f64();
     let bvh = Bvh::build(&scene, args.scene.preset)?;
     let (view, camera_index) = camera.resolve(&scene);
-    let header = Header::new(&Drawn {
-        source: &args.scene.scene,
-        scene: &scene,
-        bvh: &bvh,
-        preset: args.scene.preset,
+    let (ao, whitted) = match shader {
+        Shader::Ao(s) => {
+            let distance = scene.length_to_source(s.distance(&scene));
+            (Some((s.samples, distance)), None)
+        }
+        Shader::Whitted(s) => (None, Some(s.bounces)),
+    };
+    let header = Header {
+        scene: args.scene.scene.clone(),
+        triangles: scene.len(),
+        shader: shader.name(),
+        size: args.size.to_string(),
+        width: args.size.width,
+        height: args.size.height,
+        camera: camera_index,
+        eye: scene.to_source(view.eye).to_array(),
+        at: scene.to_source(view.at).to_array(),
+        preset: args.scene.preset.name().to_string(),
+        ao_samples: ao.map(|(samples, _)| samples),
+        ao_distance: ao.map(|(_, distance)| distance),
+        bounces: whitted,
         load_seconds,
-        shader,
-        size: args.size,
-        camera: &view,
-        camera_index,
-    });
+        build_seconds: bvh.report().build_seconds,
+    };
     Ok((scene, bvh, view, header))
 }
 

@@ -11,58 +11,29 @@ use super::record::Record;
 use super::repeats;
 use crate::bvh::Bvh;
 use crate::cost::SampleRate;
-use crate::paths::{KeptDevices, Mode, Settings};
+use crate::paths::{FrameStats, KeptDevices, Mode, Settings};
 use crate::run::Store;
 use crate::scene::Scene;
-use crate::shade::{AoSettings, Shader, WhittedSettings};
+use crate::shade::Shader;
 
-/// The two workloads of the thesis.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Workload {
-    /// Whitted shading: coherent rays.
-    Whitted,
-    /// 32-sample ambient occlusion: diffuse rays.
-    Ao,
-}
-
-impl Workload {
-    /// The name records give it: `whitted` or `ao`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Whitted => "whitted",
-            Self::Ao => "ao",
-        }
-    }
-
-    /// Its shader, with `ao_samples` probes per primary hit for AO.
-    pub fn shader(self, ao_samples: u32) -> Shader {
-        match self {
-            Self::Whitted => Shader::Whitted(WhittedSettings::default()),
-            Self::Ao => Shader::Ao(AoSettings {
-                samples: ao_samples,
-                ..Default::default()
-            }),
-        }
-    }
-
-    /// The kind of its rays: `coherent` or `diffuse`.
-    pub fn ray_kind(self) -> &'static str {
-        match self {
-            Self::Whitted => "coherent",
-            Self::Ao => "diffuse",
-        }
+/// The kind of a workload's rays, as records name it: Whitted's are `coherent`, AO's
+/// `diffuse`.
+pub(super) fn ray_kind(shader: &Shader) -> &'static str {
+    match shader {
+        Shader::Whitted(_) => "coherent",
+        Shader::Ao(_) => "diffuse",
     }
 }
 
 impl Record {
     /// A record of one run of `matrix`'s cell (`w`, `settings`) on `devices` devices, its
     /// figures still zero.
-    pub fn new(matrix: &SceneMatrix<'_>, w: Workload, settings: Settings, devices: usize) -> Self {
+    pub fn new(matrix: &SceneMatrix<'_>, w: Shader, settings: Settings, devices: usize) -> Self {
         Self {
             source: "measured",
             scene: matrix.scene_name.to_string(),
             shader: w.name(),
-            ray_kind: w.ray_kind(),
+            ray_kind: ray_kind(&w),
             policy: settings.policy.name(),
             mode: settings.mode.name(),
             walk: settings.walk.name(),
@@ -80,31 +51,23 @@ impl Record {
     }
 }
 
-/// What one run of a cell gave: its record, the tasks the simulator replays (one entry per
-/// measured frame), and, when measured, the estimate's prediction error.
+/// What one run of a cell gave: its record, its measured frames (whose tasks the simulator
+/// replays: each one's planned cost and measured time), and, when measured, the estimate's
+/// prediction error.
 pub struct CellRun {
     pub record: Record,
-    pub replay: Vec<Replay>,
+    pub frames: Vec<FrameStats>,
     pub error: Option<f64>,
-}
-
-/// Measured tasks of one frame, for the simulator: estimated cost and seconds of each.
-#[derive(Clone, Debug, Default)]
-pub struct Replay {
-    pub rays: usize,
-    pub estimate_seconds: f64,
-    pub estimated: Vec<f64>,
-    pub seconds: Vec<f64>,
 }
 
 /// The cost-mode run of one (workload, task size) kept for the simulator (see
 /// `replay_policy`).
 #[derive(Clone, Debug)]
 pub struct Replays {
-    pub(crate) workload: Workload,
+    pub(crate) workload: Shader,
     pub(crate) task_size: usize,
     pub(crate) prediction_error: Option<f64>,
-    pub(crate) gens: Vec<Replay>,
+    pub(crate) frames: Vec<FrameStats>,
 }
 
 /// What to run on one scene: every cell (workload, task size, policy, mode) of its matrix.
@@ -119,8 +82,9 @@ pub struct SceneMatrix<'a> {
     pub devices: &'a [crate::devices::DeviceSpec],
     /// The devices as the records list them (`--devices`).
     pub device_list: &'a str,
-    /// The workloads, task sizes and policies of the matrix.
-    pub workloads: &'a [Workload],
+    /// The workloads: each a shader with its settings (Whitted: coherent rays; AO: diffuse
+    /// rays).
+    pub workloads: &'a [Shader],
     /// Paths per task, each a cell of every workload.
     pub task_sizes: &'a [NonZeroUsize],
     /// The policies, each in every mode of `modes`.
@@ -180,7 +144,7 @@ impl SceneMatrix<'_> {
             self.run_paths(w, Settings::default(), false)?;
         }
         // Every cell of the matrix: (workload, task size) blocks of policies and modes.
-        let mut cells: Vec<(Workload, Settings)> = Vec::new();
+        let mut cells: Vec<(Shader, Settings)> = Vec::new();
         for &w in self.workloads {
             for &size in self.task_sizes {
                 for &policy in self.policies {
@@ -198,11 +162,11 @@ impl SceneMatrix<'_> {
                 }
             }
         }
-        let block = |(w, s): &(Workload, Settings)| (*w, s.task_size.get());
-        let mut errors: Vec<((Workload, usize), f64)> = Vec::new();
+        let block = |(w, s): &(Shader, Settings)| (*w, s.task_size.get());
+        let mut errors: Vec<((Shader, usize), f64)> = Vec::new();
         let mut runs: Vec<Vec<Record>> = vec![Vec::new(); cells.len()];
         let kept_policy = replay_policy(self.policies);
-        let mut kept: Vec<Vec<Vec<Replay>>> = vec![Vec::new(); cells.len()];
+        let mut kept: Vec<Vec<Vec<FrameStats>>> = vec![Vec::new(); cells.len()];
         // Round after round of the whole matrix, so that a spell of load on the machine falls
         // on every cell alike instead of on all the runs of one cell or one task size.
         for _ in 0..self.repeats {
@@ -215,7 +179,7 @@ impl SceneMatrix<'_> {
                     errors.push((key, e));
                 }
                 if settings.mode == Mode::Cost && Some(settings.policy) == kept_policy {
-                    kept[cell].push(run.replay);
+                    kept[cell].push(run.frames);
                 }
                 runs[cell].push(run.record);
                 tick(&format!(
@@ -242,7 +206,7 @@ impl SceneMatrix<'_> {
                     workload: *w,
                     task_size: settings.task_size.get(),
                     prediction_error: error,
-                    gens: std::mem::take(&mut kept[cell][mid]),
+                    frames: std::mem::take(&mut kept[cell][mid]),
                 });
             }
             records.push(r);

@@ -23,7 +23,7 @@ pub mod table;
 mod trade;
 
 pub use error::BenchError;
-pub use matrix::{Replays, SceneMatrix, Workload};
+pub use matrix::{Replays, SceneMatrix};
 pub use record::{MpiFigures, Record};
 pub use simulate::{Machines, SimRecord, simulate};
 pub use trade::{TradePoint, sampling_trade};

@@ -13,8 +13,7 @@ use sched::Policy;
 use sched::mpi::Cluster;
 
 use super::error::BenchError;
-use super::matrix::{CellRun, SceneMatrix, Workload};
-use super::paths::replay_frame;
+use super::matrix::{CellRun, SceneMatrix};
 use super::record::{MpiFigures, Record};
 use super::simulate::{Machines, SimRecord, simulate};
 use crate::distributed::render_over_ranks;
@@ -34,7 +33,7 @@ impl SceneMatrix<'_> {
     pub(super) fn run_over_ranks(
         &self,
         cluster: &Cluster,
-        w: Workload,
+        w: crate::shade::Shader,
         settings: Settings,
     ) -> Result<CellRun, BenchError> {
         let links_before = cluster.links();
@@ -73,7 +72,7 @@ impl SceneMatrix<'_> {
         });
         Ok(CellRun {
             record,
-            replay: frames.iter().map(replay_frame).collect(),
+            frames,
             error: None,
         })
     }

@@ -4,7 +4,7 @@
 //! the simulator replays each frame's tasks.
 
 use super::error::BenchError;
-use super::matrix::{CellRun, Replay, SceneMatrix, Workload};
+use super::matrix::{CellRun, SceneMatrix};
 use super::record::Record;
 use super::replay::{Replayed, replay};
 use crate::camera::Camera;
@@ -14,8 +14,7 @@ use crate::paths::{
     Frame, FrameStats, InjectedPaths, PathRenderer, build_path_devices, walk_paths,
 };
 use crate::run::{CalibrationReport, workload};
-use crate::shade::RenderOptions;
-use crate::traffic::Traffic;
+use crate::shade::{RenderOptions, Shader};
 use crate::traverse::walk::Walk;
 
 impl SceneMatrix<'_> {
@@ -24,7 +23,7 @@ impl SceneMatrix<'_> {
     /// prediction error of each frame's estimate against every path counted.
     pub(super) fn run_paths(
         &self,
-        w: Workload,
+        w: Shader,
         settings: Settings,
         measure_error: bool,
     ) -> Result<CellRun, BenchError> {
@@ -40,7 +39,7 @@ impl SceneMatrix<'_> {
                 PathRenderer::new(InjectedPaths::wrap(devices, &[], self.slow), settings)?
             }
         };
-        let workload = workload(self.scene_name, &w.shader(self.ao_samples));
+        let workload = workload(self.scene_name, &w);
         let recalled = self.calibration.map(|store| {
             let mut store = store.borrow_mut();
             let used = store.recall(&mut renderer, &workload);
@@ -91,7 +90,7 @@ impl SceneMatrix<'_> {
         record.calibration = recalled;
         Ok(CellRun {
             record,
-            replay: frames.iter().map(replay_frame).collect(),
+            frames,
             error,
         })
     }
@@ -112,7 +111,7 @@ impl SceneMatrix<'_> {
     /// their replays where every frame could be replayed.
     pub(super) fn frames_record(
         &self,
-        w: Workload,
+        w: Shader,
         settings: Settings,
         frames: &[FrameStats],
     ) -> Record {
@@ -155,17 +154,13 @@ impl SceneMatrix<'_> {
         r.run_predicted_over_measured = predicted
             .map(|p| vec![p / r.seconds.max(1e-12)])
             .unwrap_or_default();
-        let mut traffic = Traffic::default();
-        for f in frames {
-            traffic += f.traffic();
-        }
         if let Some(f) = frames.first() {
             (r.tasks, r.cut_task_size) = (f.tasks, f.task_size);
         }
-        r.host_to_device_bytes = Some(traffic.host_to_device_bytes);
-        r.device_to_host_bytes = Some(traffic.device_to_host_bytes);
-        r.host_waits = Some(traffic.host_waits);
-        r.film_bytes = Some(frames.iter().map(FrameStats::film_bytes).sum());
+        for f in frames {
+            r.traffic += f.traffic();
+        }
+        r.film_bytes = frames.iter().map(FrameStats::film_bytes).sum();
         r.left_idle = frames.iter().flat_map(|f| f.left_idle.clone()).collect();
         r.left_idle.sort();
         r.left_idle.dedup();
@@ -173,12 +168,12 @@ impl SceneMatrix<'_> {
     }
 
     /// The image, camera and shader of camera `cam` for workload `w`.
-    pub(super) fn options(&self, w: Workload, cam: usize) -> RenderOptions {
+    pub(super) fn options(&self, w: Shader, cam: usize) -> RenderOptions {
         RenderOptions::new(
             self.width,
             self.height,
             Camera::orbit(&self.scene.bounds(), cam),
-            w.shader(self.ao_samples),
+            w,
         )
     }
 }
@@ -192,14 +187,4 @@ fn frame_error(frame: &Frame<'_>, stats: &FrameStats, walk: Walk) -> (Vec<f64>, 
         .cost_model
         .costs(&walk_paths(frame, &tasks, SampleRate::FULL, walk));
     (stats.task_stats.iter().map(|t| t.cost).collect(), full)
-}
-
-/// A frame's tasks for the simulator: each one's planned cost and measured time.
-pub(super) fn replay_frame(f: &FrameStats) -> Replay {
-    Replay {
-        rays: f.rays,
-        estimate_seconds: f.estimate_seconds,
-        estimated: f.task_stats.iter().map(|t| t.cost).collect(),
-        seconds: f.task_stats.iter().map(|t| t.seconds).collect(),
-    }
 }

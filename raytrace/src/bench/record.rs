@@ -65,19 +65,11 @@ pub struct Record {
     pub run_mrays_per_s: Vec<f64>,
     /// Every run's balance efficiency, in the order they ran.
     pub run_balance_efficiency: Vec<f64>,
-    /// What crossed between the host and the devices, the paths' values excepted (path
-    /// pipeline only).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub host_to_device_bytes: Option<u64>,
-    /// What crossed from the devices to the host, the paths' values excepted.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub device_to_host_bytes: Option<u64>,
-    /// Times the host blocked on a device (path pipeline only).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub host_waits: Option<u64>,
-    /// Bytes of the paths' values sent to the host (path pipeline only).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub film_bytes: Option<u64>,
+    /// What crossed between the host and the devices, the paths' values excepted.
+    #[serde(flatten)]
+    pub traffic: crate::traffic::Traffic,
+    /// Bytes of the paths' values sent to the host.
+    pub film_bytes: u64,
     /// `seconds` with the run's makespans replaced by their replays in `sched`'s simulator,
     /// from the run's own task times, speeds and launch delays (the median over the runs);
     /// `None` where a frame could not be replayed (a device failed).

@@ -9,17 +9,11 @@ use sched::{Costs, Policy, Simulation, Speeds};
 use serde::Serialize;
 
 use super::error::BenchError;
-use super::matrix::Replays;
+use super::matrix::{Replays, ray_kind};
 use crate::paths::Mode;
 
 /// Launch latencies: a kernel launch over PCIe, and a message to another node.
 pub const LINKS: [(&str, f64); 2] = [("pcie", 10e-6), ("network", 200e-6)];
-
-/// Speeds of a mixed machine of `m` devices: a repeating pattern of slow and fast devices
-/// (CPU sockets and GPUs of two generations), so no two neighbours are alike.
-pub fn mixed_speeds(m: usize) -> Vec<f64> {
-    (0..m).map(|d| [1.0, 4.0, 2.0, 8.0][d % 4]).collect()
-}
 
 /// One simulated run.
 #[derive(Clone, Debug, Serialize)]
@@ -99,7 +93,9 @@ impl<'a> Machines<'a> {
         Self {
             source: "simulated",
             counts,
-            speeds: mixed_speeds,
+            // A repeating pattern of slow and fast devices (CPU sockets and GPUs of two
+            // generations), so no two neighbours are alike.
+            speeds: |m| (0..m).map(|d| [1.0, 4.0, 2.0, 8.0][d % 4]).collect(),
             links: &LINKS,
             policies: &Policy::ALL,
             modes: &Mode::ALL,
@@ -117,7 +113,7 @@ pub fn simulate(
 ) -> Result<Vec<SimRecord>, BenchError> {
     let mut out = Vec::new();
     for rep in replays {
-        let (w, task_size, gens) = (rep.workload, rep.task_size, &rep.gens);
+        let (w, task_size) = (rep.workload, rep.task_size);
         for &m in machines.counts {
             let speeds = Speeds::new((machines.speeds)(m))?;
             for &(link, latency) in machines.links {
@@ -127,10 +123,11 @@ pub fn simulate(
                         let (mut seconds, mut bound, mut busy, mut capacity) = (0.0, 0.0, 0.0, 0.0);
                         let (mut rays, mut launches) = (0usize, 0u64);
                         let (mut est, mut plan_s) = (0.0, 0.0);
-                        for g in gens {
-                            let actual = Costs::new(g.seconds.clone())?;
+                        for g in &rep.frames {
+                            let tasks = &g.task_stats;
+                            let actual = Costs::new(tasks.iter().map(|t| t.seconds).collect())?;
                             let plan = if cost {
-                                Costs::new(g.estimated.clone())?
+                                Costs::new(tasks.iter().map(|t| t.cost).collect())?
                             } else {
                                 Costs::uniform(actual.len())
                             };
@@ -155,7 +152,7 @@ pub fn simulate(
                             source: machines.source,
                             scene: scene.to_string(),
                             shader: w.name(),
-                            ray_kind: w.ray_kind(),
+                            ray_kind: ray_kind(&w),
                             policy: policy.name(),
                             mode: mode.name(),
                             task_size,

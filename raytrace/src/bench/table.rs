@@ -32,15 +32,6 @@ fn of_runs(n: usize, ok: impl Fn(usize) -> bool) -> String {
     }
 }
 
-/// Bytes that crossed between the host and the devices, both ways, the film excepted; `–`
-/// where the pipeline does not count them.
-fn link_bytes(r: &Record) -> String {
-    match (r.host_to_device_bytes, r.device_to_host_bytes) {
-        (Some(up), Some(down)) => (up + down).to_string(),
-        _ => "–".into(),
-    }
-}
-
 /// Every measured run.
 pub fn runs(records: &[Record]) -> String {
     let mut s = String::from(
@@ -78,7 +69,7 @@ pub fn runs(records: &[Record]) -> String {
             r.plan_seconds,
             r.prediction_error.map_or_else(|| "–".into(), pct),
             r.launches,
-            link_bytes(r),
+            r.traffic.bytes(),
         );
     }
     s

@@ -19,39 +19,28 @@ use crate::workload;
 /// The sampling rates measured: the thesis's four, and two below them.
 pub const RATES: [f64; 6] = [0.03125, 0.0625, 0.125, 0.25, 0.5, 1.0];
 
-/// One cell pair of thesis Table 4.1: error and overhead at a sampling rate.
-struct Published {
-    rate: f64,
-    error: f64,
-    overhead: f64,
-}
-
-const fn published(rate: f64, error: f64, overhead: f64) -> Published {
-    Published {
-        rate,
-        error,
-        overhead,
-    }
-}
+/// One cell pair of thesis Table 4.1: a sampling rate, and the prediction error and the
+/// estimation overhead published for it.
+type Published = (f64, f64, f64);
 
 /// Thesis Table 4.1 (averaged over its nine scenes), per ray kind.
 const THESIS: [(&str, [Published; 4]); 2] = [
     (
         "coherent",
         [
-            published(0.125, 0.032, 0.050),
-            published(0.25, 0.025, 0.125),
-            published(0.5, 0.007, 0.225),
-            published(1.0, 0.0, 0.425),
+            (0.125, 0.032, 0.050),
+            (0.25, 0.025, 0.125),
+            (0.5, 0.007, 0.225),
+            (1.0, 0.0, 0.425),
         ],
     ),
     (
         "diffuse",
         [
-            published(0.125, 0.041, 0.062),
-            published(0.25, 0.027, 0.152),
-            published(0.5, 0.012, 0.235),
-            published(1.0, 0.0, 0.435),
+            (0.125, 0.041, 0.062),
+            (0.25, 0.027, 0.152),
+            (0.5, 0.012, 0.235),
+            (1.0, 0.0, 0.435),
         ],
     ),
 ];
@@ -193,7 +182,7 @@ fn point(
     let traced = f.walk == Walk::Trace { any: false }.name();
     let thesis_at = published
         .filter(|_| !traced)
-        .and_then(|t| t.iter().find(|x| x.rate == r.sample_rate));
+        .and_then(|t| t.iter().find(|x| x.0 == r.sample_rate));
     TradePoint {
         source: "sampling_trade",
         scene: r.scene.clone(),
@@ -214,8 +203,8 @@ fn point(
         prediction_error,
         overhead: f.overhead,
         net_overhead: f.net_overhead,
-        thesis_prediction_error: thesis_at.map(|x| x.error),
-        thesis_overhead: thesis_at.map(|x| x.overhead),
+        thesis_prediction_error: thesis_at.map(|x| x.1),
+        thesis_overhead: thesis_at.map(|x| x.2),
         meets_target: meets_target(ray_kind, prediction_error, f.overhead),
         lpt_balance: f.lpt_balance,
     }

@@ -63,11 +63,6 @@ impl Policy {
         }
     }
 
-    /// True for policies that plan everything up front and launch once per device.
-    pub fn is_static(self) -> bool {
-        matches!(self, Policy::StaticEqual | Policy::StaticLpt)
-    }
-
     /// The up-front plan of a static policy, or the starting plan of `Hybrid`; `None` for the
     /// queues, which decide at run time.
     pub fn plan(self, costs: &Costs, speeds: &Speeds) -> Option<Plan> {
