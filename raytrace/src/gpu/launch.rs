@@ -11,10 +11,11 @@
 //! Nothing of a trace is uploaded: its queue is a new (zeroed) buffer and its ray count is
 //! copied on the device from the launch's [`Header`](super::header::Header).
 
-use super::buffers::{SceneBuffers, init, read_back, storage};
+use super::buffers::{SceneBuffers, init, read_back, readable, storage};
 use super::program::{Kernel, READ, WRITE};
 use super::trace::{
-    TraceKernels, TraceMode, TraceRound, grid, stamp_seconds, timestamps, trace_resident,
+    TraceKernels, TraceMode, TraceRound, grid, loop_cut, pass_timestamps, stamp_seconds,
+    timestamps, trace_resident,
 };
 use super::{GpuContext, GpuError};
 use crate::Traffic;
@@ -165,15 +166,8 @@ impl<'a> Recorder<'a> {
     ) {
         let first = self.passes == 0;
         self.passes += 1;
-        let timestamp_writes = self
-            .timing
-            .as_ref()
-            .filter(|_| first || last)
-            .map(|(set, _)| wgpu::ComputePassTimestampWrites {
-                query_set: set,
-                beginning_of_pass_write_index: first.then_some(0),
-                end_of_pass_write_index: last.then_some(1),
-            });
+        let timestamp_writes =
+            (self.timing.as_ref()).and_then(|(set, _)| pass_timestamps(set, first, last));
         let mut pass = self
             .encoder
             .begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -323,12 +317,11 @@ impl<'a> Recorder<'a> {
         // The values, then the verdict's word, then the two timestamps.
         let head = bytes.next_multiple_of(4);
         let stamps = if self.timing.is_some() { 16 } else { 0 };
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("cobalt launch read-back"),
-            size: (head + 4 + stamps).max(16),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let readback = readable(
+            device,
+            "cobalt launch read-back",
+            (head + 4 + stamps).max(16),
+        );
         if bytes > 0 {
             self.copy(values, 0, &readback, 0, bytes);
         }
@@ -346,10 +339,7 @@ impl<'a> Recorder<'a> {
         let at = head as usize;
         let verdict: u32 = bytemuck::pod_read_unaligned(&all[at..at + 4]);
         if verdict & LOOP_CUT != 0 {
-            return Err(GpuError::LoopCut {
-                adapter: name.to_string(),
-                batches: super::trace::BATCHES,
-            });
+            return Err(loop_cut(name));
         }
         let drained = verdict & NOT_DRAINED == 0;
         let kernel_seconds = match &self.timing {

@@ -9,7 +9,7 @@
 //! again while rays remain (an implementation that ends loops early, as lavapipe may, still
 //! drains), and fails with [`GpuError::LoopCut`] if a traversal loop itself was cut short.
 
-use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, init, read_back, storage};
+use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, init, read_back, readable, storage};
 use super::program::{Program, READ, UNIFORM, WRITE};
 use super::{GpuContext, GpuError};
 use crate::Traffic;
@@ -137,20 +137,27 @@ impl TraceKernels {
     }
 }
 
-/// The timestamp writes of pass `k` of `passes`: the start of the first and the end of the
-/// last. A pass in between gets none at all, since wgpu refuses writes that name neither index
-/// (a large GPU's launch may take dozens of passes).
-fn pass_timestamps(
+/// The timestamp writes of a pass: the start of a launch's `first` pass and the end of its
+/// `last`. A pass in between gets none at all, since wgpu refuses writes that name neither
+/// index (a large GPU's launch may take dozens of passes).
+pub(crate) fn pass_timestamps(
     set: &wgpu::QuerySet,
-    k: u64,
-    passes: u64,
+    first: bool,
+    last: bool,
 ) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
-    let (first, last) = (k == 0, k + 1 == passes);
     (first || last).then_some(wgpu::ComputePassTimestampWrites {
         query_set: set,
         beginning_of_pass_write_index: first.then_some(0),
         end_of_pass_write_index: last.then_some(1),
     })
+}
+
+/// The error of a launch whose traversal loop `adapter` cut short.
+pub(crate) fn loop_cut(adapter: &str) -> GpuError {
+    GpuError::LoopCut {
+        adapter: adapter.to_string(),
+        batches: BATCHES,
+    }
 }
 
 /// A two-dimensional grid of `workgroups` workgroups: one dimension holds at most
@@ -270,7 +277,8 @@ impl TraceRound {
     ) {
         let pipeline = &kernels.pipelines[self.mode];
         for k in 0..dispatches {
-            let timestamp_writes = timing.and_then(|set| pass_timestamps(set, k, dispatches));
+            let timestamp_writes =
+                timing.and_then(|set| pass_timestamps(set, k == 0, k + 1 == dispatches));
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("cobalt traverse pass"),
                 timestamp_writes,
@@ -290,10 +298,7 @@ impl TraceRound {
         n: u32,
     ) -> Result<Option<u64>, GpuError> {
         if state[1] != 0 {
-            return Err(GpuError::LoopCut {
-                adapter: adapter.to_string(),
-                batches: BATCHES,
-            });
+            return Err(loop_cut(adapter));
         }
         if state[0] >= n {
             return Ok(None);
@@ -355,12 +360,7 @@ pub(crate) fn trace_resident(
     let device = &ctx.device;
     let name = ctx.info.name.as_str();
     let round = TraceRound::new(ctx, kernels, scene, rays, out, n, mode, traffic);
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("cobalt queue state read-back"),
-        size: 8 + 16,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let readback = readable(device, "cobalt queue state read-back", 8 + 16);
     let timing = timestamps(ctx);
     let mut gpu_seconds = 0.0;
     let mut dispatches = round.dispatches;

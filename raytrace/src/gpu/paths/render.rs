@@ -30,7 +30,7 @@ use crate::gpu::header::{self, Header, Setup, task_list};
 use crate::gpu::launch::{Count, Recorder, verdict_kernel};
 use crate::gpu::program::{Kernel, Program, READ, UNIFORM, WRITE};
 use crate::gpu::resident::Resident;
-use crate::gpu::trace::{TraceKernels, TraceMode};
+use crate::gpu::trace::{TraceKernels, TraceMode, loop_cut};
 use crate::scene::Scene;
 use crate::shade::AoSettings;
 use crate::traffic::Traffic;
@@ -433,7 +433,19 @@ impl GpuRenderer {
         tasks: &[&Range<usize>],
         settings: &AoSettings,
     ) -> Result<PathValues, GpuError> {
-        self.drained(|checked| self.launch_ao(frame, tasks, settings, checked))
+        let samples = settings.samples;
+        let grey: fn(&[u8]) -> Vec3 = |c| Vec3::splat(bytemuck::pod_read_unaligned::<f32>(c));
+        self.drained(|checked| {
+            let values = (Vec3::ONE, 4, grey);
+            self.launch(
+                frame,
+                tasks,
+                (settings, samples),
+                checked,
+                values,
+                |l, s, g, t| self.record_ao(l, s, g, samples, None, t),
+            )
+        })
     }
 
     /// What `launch(false)` gives, one submission; should a queue not be drained (`None`),
@@ -447,31 +459,36 @@ impl GpuRenderer {
     ) -> Result<T, GpuError> {
         match launch(false)? {
             Some(out) => Ok(out),
-            None => launch(true)?.ok_or_else(|| GpuError::LoopCut {
-                adapter: self.ctx.info.name.clone(),
-                batches: crate::gpu::trace::BATCHES,
-            }),
+            None => launch(true)?.ok_or_else(|| loop_cut(&self.ctx.info.name)),
         }
     }
 
-    /// One launch of [`GpuRenderer::render_ao`], recorded as one submission (`checked`: the
-    /// host checks each trace); `None` when a trace's queue was found not drained.
-    fn launch_ao(
+    /// One launch of paths of `tasks` with the probes of `settings` and `secondary`
+    /// secondary rays per path (see [`GpuRenderer::begin`]), recorded as one submission
+    /// (`checked`: the host checks each trace) by `record`, which returns the buffer of the
+    /// paths' values and the rays traced; `None` when a trace's queue was found not drained.
+    /// A value is `bytes` long, read by `value`; in an empty scene every primary misses and
+    /// sees `sky`.
+    pub(in crate::gpu) fn launch(
         &self,
         frame: &FrameParams<'_>,
         tasks: &[&Range<usize>],
-        settings: &AoSettings,
+        (settings, secondary): (&AoSettings, u32),
         checked: bool,
+        (sky, bytes, value): Values,
+        record: impl FnOnce(
+            &mut Recorder<'_>,
+            &Stage,
+            &wgpu::BindGroup,
+            &mut Traffic,
+        ) -> Result<(wgpu::Buffer, usize), GpuError>,
     ) -> Result<Option<PathValues>, GpuError> {
         let mut traffic = Traffic::default();
-        let (stage, first) =
-            self.begin(frame, tasks, settings, settings.samples, 1, &mut traffic)?;
+        let (stage, first) = self.begin(frame, tasks, settings, secondary, 1, &mut traffic)?;
         let n = stage.n;
-        let samples = settings.samples;
         if self.scene.empty {
-            // Every primary misses and sees the sky.
             return Ok(Some(PathValues {
-                values: vec![Vec3::ONE; n as usize],
+                values: vec![sky; n as usize],
                 rays: n as usize,
                 kernel_seconds: None,
                 traffic,
@@ -479,18 +496,21 @@ impl GpuRenderer {
             }));
         }
         let mut launch = self.recorder(&stage, checked);
-        self.record_ao(&mut launch, &stage, &first, samples, None, &mut traffic)?;
-        let film_bytes = u64::from(n) * 4;
-        let done = launch.finish(&stage.film, film_bytes, &mut traffic)?;
+        let (film, rays) = record(&mut launch, &stage, &first, &mut traffic)?;
+        let film_bytes = u64::from(n) * bytes;
+        let done = launch.finish(&film, film_bytes, &mut traffic)?;
         if !done.drained {
             return Ok(None);
         }
         // One pass from the bytes read back: each copy of a frame's values is a pass over
         // fresh pages.
-        let value = |c: &[u8]| Vec3::splat(bytemuck::pod_read_unaligned::<f32>(c));
         Ok(Some(PathValues {
-            values: done.values.chunks_exact(4).map(value).collect(),
-            rays: n as usize * (1 + samples as usize),
+            values: done
+                .values
+                .chunks_exact(bytes as usize)
+                .map(value)
+                .collect(),
+            rays,
             kernel_seconds: done.kernel_seconds,
             traffic,
             film_bytes,
@@ -500,7 +520,8 @@ impl GpuRenderer {
     /// Records an AO launch of `stage` (`first`: its first chunk's bind group) into `launch`:
     /// raygen, the primaries' trace, and per chunk the probes, their trace and the paths'
     /// values. With `tally`, every trace adds its rays' counts to their paths' entries and
-    /// no value is made (an estimate's launch, whose probes fit one chunk).
+    /// no value is made (an estimate's launch, whose probes fit one chunk; the camera rays
+    /// alone without probes). Returns the buffer of the paths' values and the rays traced.
     pub(in crate::gpu) fn record_ao(
         &self,
         launch: &mut Recorder<'_>,
@@ -509,7 +530,7 @@ impl GpuRenderer {
         samples: u32,
         tally: Option<&Tally>,
         traffic: &mut Traffic,
-    ) -> Result<(), GpuError> {
+    ) -> Result<(wgpu::Buffer, usize), GpuError> {
         let n = stage.n;
         launch.pass_over(&self.raygen, first, n);
         let header = &stage.header;
@@ -517,7 +538,7 @@ impl GpuRenderer {
             &stage.primary,
             &stage.hits,
             n,
-            TraceMode::Closest,
+            tally.map_or(TraceMode::Closest, |t| t.primary),
             match tally {
                 Some(t) => Count::Counted {
                     counts: &t.paths,
@@ -571,7 +592,7 @@ impl GpuRenderer {
             }
             base += len;
         }
-        Ok(())
+        Ok((stage.film.clone(), n as usize * (1 + samples as usize)))
     }
 
     /// The primary rays a launch of `tasks` generates on the device, read back (the CPU's
@@ -600,11 +621,17 @@ impl GpuRenderer {
     }
 }
 
+/// How a launch's values are read back: what every path sees in an empty scene, the bytes
+/// of one value, and how one is read.
+pub(in crate::gpu) type Values = (Vec3, u64, fn(&[u8]) -> Vec3);
+
 /// Where an estimate's launch adds its rays' counts `B` and `T`: two words a path slot, the
-/// primary, mirror and shadow rays' in `paths`, the AO probes' in `probes`.
+/// primary, mirror and shadow rays' in `paths`, the AO probes' in `probes`; the camera rays
+/// counted by `primary` (the closest-hit trace, or a reduced walk's counting mode).
 pub(in crate::gpu) struct Tally {
     pub(in crate::gpu) paths: wgpu::Buffer,
     pub(in crate::gpu) probes: wgpu::Buffer,
+    pub(in crate::gpu) primary: TraceMode,
 }
 
 /// The buffers of one launch, on the device.

@@ -17,8 +17,7 @@ use std::ops::Range;
 use super::render::{FrameParams, GpuRenderer, Tally};
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{check_size, storage};
-use crate::gpu::launch::Count;
-use crate::gpu::trace::{TraceMode, grid};
+use crate::gpu::trace::{TraceMode, grid, loop_cut};
 use crate::shade::{AoSettings, Shader};
 use crate::traffic::Traffic;
 use crate::traverse::walk::Walk;
@@ -63,10 +62,7 @@ impl GpuRenderer {
         walk: Walk,
     ) -> Result<SampledPaths, GpuError> {
         self.sample_launch(frame, tasks, shader, stride, walk)?
-            .ok_or_else(|| GpuError::LoopCut {
-                adapter: self.ctx.info.name.clone(),
-                batches: crate::gpu::trace::BATCHES,
-            })
+            .ok_or_else(|| loop_cut(&self.ctx.info.name))
     }
 
     /// One launch of [`GpuRenderer::sample_paths`], one submission; `None` when a queue was
@@ -123,38 +119,23 @@ impl GpuRenderer {
         let tally = Tally {
             paths: zeroed("cobalt sampled path counts", n * 8, none),
             probes: zeroed("cobalt sampled probe counts", n * 8, none),
+            // A reduced walk counts the camera rays by its own mode, the trace walk traces them.
+            primary: TraceMode::counts(walk).unwrap_or(TraceMode::Closest),
         };
         let mut launch = self.recorder(&stage, false);
-        match shader {
-            _ if reduced => {
-                launch.pass_over(&self.raygen, &first, stage.n);
-                let count = Count::Counted {
-                    counts: &tally.paths,
-                    per_path: 1,
-                };
-                let mode = TraceMode::counts(walk)?;
-                launch.trace(
-                    &stage.primary,
-                    &stage.hits,
-                    stage.n,
-                    mode,
-                    count,
-                    &mut traffic,
-                )?;
-            }
-            Shader::Ao(s) => {
-                self.record_ao(
-                    &mut launch,
-                    &stage,
-                    &first,
-                    s.samples,
-                    Some(&tally),
-                    &mut traffic,
-                )?;
-            }
-            Shader::Whitted(s) => {
-                self.record_whitted(&mut launch, &stage, &first, s, Some(&tally), &mut traffic)?;
-            }
+        if let (Shader::Whitted(s), false) = (shader, reduced) {
+            self.record_whitted(&mut launch, &stage, &first, s, Some(&tally), &mut traffic)?;
+        } else {
+            // Without probes (a reduced walk's), the camera rays alone.
+            let samples = ao.samples;
+            self.record_ao(
+                &mut launch,
+                &stage,
+                &first,
+                samples,
+                Some(&tally),
+                &mut traffic,
+            )?;
         }
         // The sums read the launch's own task list and header: no second one crosses.
         let t = tasks.len() as u64;

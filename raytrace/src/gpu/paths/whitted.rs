@@ -57,57 +57,27 @@ impl GpuRenderer {
         tasks: &[&Range<usize>],
         settings: &WhittedSettings,
     ) -> Result<PathValues, GpuError> {
-        self.drained(|checked| self.launch_whitted(frame, tasks, settings, checked))
-    }
-
-    /// One launch of [`GpuRenderer::render_whitted`], recorded as one submission (`checked`:
-    /// the host checks each trace); `None` when a trace's queue was found not drained.
-    fn launch_whitted(
-        &self,
-        frame: &FrameParams<'_>,
-        tasks: &[&Range<usize>],
-        settings: &WhittedSettings,
-        checked: bool,
-    ) -> Result<Option<PathValues>, GpuError> {
         // No probes: the stage's probe buffer (one ray per path) holds the mirror rays.
         let no_probes = AoSettings {
             samples: 0,
             ..AoSettings::default()
         };
-        let mut traffic = Traffic::default();
-        let lights = self.whitted.light_count;
-        let (stage, raygen) = self.begin(frame, tasks, &no_probes, lights, 1, &mut traffic)?;
-        let n = stage.n;
-        if self.scene.empty {
-            // Every primary misses and sees the sky.
-            return Ok(Some(PathValues {
-                values: vec![SKY; n as usize],
-                rays: n as usize,
-                kernel_seconds: None,
-                traffic,
-                film_bytes: 0,
-            }));
-        }
-        let mut launch = self.recorder(&stage, checked);
-        let (film, traced) =
-            self.record_whitted(&mut launch, &stage, &raygen, settings, None, &mut traffic)?;
-        let film_bytes = u64::from(n) * 16;
-        let done = launch.finish(&film, film_bytes, &mut traffic)?;
-        if !done.drained {
-            return Ok(None);
-        }
-        // One pass from the bytes read back, as for AO.
-        let value = |c: &[u8]| {
+        let rgb: fn(&[u8]) -> Vec3 = |c| {
             let v: [f32; 4] = bytemuck::pod_read_unaligned(c);
             Vec3::new(v[0], v[1], v[2])
         };
-        Ok(Some(PathValues {
-            values: done.values.chunks_exact(16).map(value).collect(),
-            rays: traced,
-            kernel_seconds: done.kernel_seconds,
-            traffic,
-            film_bytes,
-        }))
+        let lights = self.whitted.light_count;
+        self.drained(|checked| {
+            let values = (SKY, 16, rgb);
+            self.launch(
+                frame,
+                tasks,
+                (&no_probes, lights),
+                checked,
+                values,
+                |l, s, g, t| self.record_whitted(l, s, g, settings, None, t),
+            )
+        })
     }
 
     /// Records a Whitted launch of `stage` (`raygen`: the bind group of its primaries) into
