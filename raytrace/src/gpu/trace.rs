@@ -86,10 +86,12 @@ impl TraceKernels {
         }
         // A traversal holds at most depth - 1 entries; round up so that few variants exist.
         let stack = depth.max(1).next_multiple_of(32);
-        let source = include_str!("traverse.wgsl").replace(
-            "const STACK: u32 = 64u;",
-            &format!("const STACK: u32 = {stack}u;"),
-        );
+        let source = [include_str!("ray.wgsl"), include_str!("traverse.wgsl")]
+            .concat()
+            .replace(
+                "const STACK: u32 = 64u;",
+                &format!("const STACK: u32 = {stack}u;"),
+            );
         let program = Program::new(
             device,
             "traverse",
