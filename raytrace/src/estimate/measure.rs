@@ -16,7 +16,7 @@ use crate::cost::{
 };
 use crate::ray::{RayBatch, RayKind};
 use crate::scene::Scene;
-use crate::traverse::{self, Walk};
+use crate::traverse::Walk;
 
 /// Where the estimate and the full trace run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -163,7 +163,6 @@ impl<'a> Cut<'a> {
         let mut tasks = Vec::new();
         let mut parts = Vec::new();
         let mut measured = Vec::new();
-        let mut trace_work = Vec::new();
         for (batch, kind) in segments {
             let (base, first) = (rays.len(), tasks.len());
             let own = sched::split_ranges(batch.len(), task_size);
@@ -173,14 +172,8 @@ impl<'a> Cut<'a> {
             measured.extend(measure_seconds(
                 bvh, batch, &own, *kind, s.repeats, s.clock,
             )?);
-            let counts = if kind.is_occlusion() {
-                traverse::any_hits_counted(bvh, batch).1
-            } else {
-                traverse::closest_hits_counted(bvh, batch).1
-            };
-            trace_work.extend(own.into_iter().map(|r| Work::sum(&counts[r])));
         }
-        Ok(Self {
+        let mut cut = Self {
             bvh,
             segments,
             task_size,
@@ -188,8 +181,11 @@ impl<'a> Cut<'a> {
             tasks,
             parts,
             measured,
-            trace_work,
-        })
+            trace_work: Vec::new(),
+        };
+        // The trace walk's full count is the real trace's, each generation's query its own.
+        cut.trace_work = cut.full(Walk::Trace { any: false })?;
+        Ok(cut)
     }
 
     /// `work` calibrated against the measured times and judged by them.
