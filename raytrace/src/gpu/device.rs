@@ -10,9 +10,8 @@ use crate::cost::CountRays;
 use crate::traverse::counts::Counts;
 use crate::{Bvh, HitBatch, RayBatch, Walk};
 
-use super::buffers::SceneBuffers;
 use super::staging::{Staging, staged};
-use super::trace::{TraceKernels, TraceMode};
+use super::trace::{TraceDevice, TraceMode};
 use super::{GpuContext, GpuError};
 
 /// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a batch of rays, all
@@ -20,9 +19,7 @@ use super::{GpuContext, GpuError};
 /// kernels' counting modes (as a [`CountRays`], under [`crate::cost::ReducedTraversal`]).
 #[derive(Debug)]
 pub struct GpuDevice {
-    ctx: GpuContext,
-    kernels: TraceKernels,
-    scene: SceneBuffers,
+    dev: TraceDevice,
     /// The last launch's GPU seconds as `f64` bits; NaN when unknown (launches take `&self`).
     last_seconds: AtomicU64,
     /// The hit launches' buffers, kept from one launch to the next.
@@ -36,12 +33,8 @@ impl GpuDevice {
     /// [`GpuError::TooLarge`] when the tree exceeds a binding limit, [`GpuError::TooDeep`]
     /// beyond the deepest supported tree.
     pub fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
-        let kernels = TraceKernels::new(&ctx.device, bvh.depth())?;
-        let scene = SceneBuffers::upload(&ctx, bvh)?;
         Ok(Self {
-            ctx,
-            kernels,
-            scene,
+            dev: TraceDevice::new(ctx, bvh)?,
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
             staging: Mutex::new(None),
         })
@@ -55,7 +48,7 @@ impl GpuDevice {
 
     /// The opened adapter.
     pub fn context(&self) -> &GpuContext {
-        &self.ctx
+        &self.dev.ctx
     }
 
     /// Hits of the rays of `ranges`, one after another, in one launch: any hits for occlusion
@@ -104,16 +97,8 @@ impl GpuDevice {
             s
         });
         // What crosses is counted for the path devices' reports; a batch's trace has none.
-        let (out, seconds) = staged(
-            &mut staging,
-            &self.ctx,
-            &self.kernels,
-            &self.scene,
-            rays,
-            ranges,
-            mode,
-            &mut Traffic::default(),
-        )?;
+        let traffic = &mut Traffic::default();
+        let (out, seconds) = staged(&mut staging, &self.dev, rays, ranges, mode, traffic)?;
         self.last_seconds
             .store(seconds.unwrap_or(f64::NAN).to_bits(), Ordering::Relaxed);
         Ok(out)

@@ -12,7 +12,7 @@ use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers};
 use super::staging::staged;
-use super::trace::{BATCHES, MAX_WORKGROUPS, TraceKernels, TraceMode};
+use super::trace::{BATCHES, MAX_WORKGROUPS, TraceDevice, TraceMode};
 use super::{FrameParams, GpuContext, GpuDevice, GpuError, GpuOptions, GpuRenderer};
 use crate::cost::{Compacted, CountRays, ReducedTraversal, SampleRate, full_work};
 use crate::devices::GpuSelect;
@@ -60,11 +60,10 @@ fn scene_bvh(name: &str) -> Bvh {
 
 /// What a raw launch needs on `ctx`: the kernels and buffers of `name`'s tree, and the rays
 /// of `rays_for(name, seed)`.
-fn launch_kit(ctx: &GpuContext, name: &str, seed: u64) -> (TraceKernels, SceneBuffers, RayBatch) {
+fn launch_kit(ctx: &GpuContext, name: &str, seed: u64) -> (TraceDevice, RayBatch) {
     let bvh = scene_bvh(name);
-    let kernels = TraceKernels::new(&ctx.device, bvh.depth()).expect("kernels");
-    let scene = SceneBuffers::upload(ctx, &bvh).expect("upload");
-    (kernels, scene, rays_for(name, seed))
+    let dev = TraceDevice::new(ctx.clone(), &bvh).expect("kernels and upload");
+    (dev, rays_for(name, seed))
 }
 
 /// Camera rays of the four orbit cameras, AO rays from camera 0's hits, and random rays
@@ -247,32 +246,22 @@ fn forest_hits_and_counts_equal_cpu() {
 /// results; a scene beyond it is refused with the limit's name; ranges are concatenated.
 #[test]
 fn splits_launches_and_names_the_limit() {
-    let Some(mut ctx) = gpu() else { return };
+    let Some(ctx) = gpu() else { return };
+    let (mut dev, rays) = launch_kit(&ctx, "builtin:cornell:0.2", 13);
     let bvh = scene_bvh("builtin:cornell:0.2");
-    let rays = rays_for("builtin:cornell:0.2", 13);
-    let kernels = TraceKernels::new(&ctx.device, bvh.depth()).expect("kernels");
-    let scene = SceneBuffers::upload(&ctx, &bvh).expect("upload");
     let (a, b) = (0..1000, 1500..rays.len());
-    let run = |ctx: &GpuContext, ranges: &[&std::ops::Range<usize>]| {
+    let run = |dev: &TraceDevice, ranges: &[&std::ops::Range<usize>]| {
         let mut traffic = crate::Traffic::default();
         let mut staging = None;
-        staged(
-            &mut staging,
-            ctx,
-            &kernels,
-            &scene,
-            &rays,
-            ranges,
-            TraceMode::Closest,
-            &mut traffic,
-        )
-        .expect("launch")
-        .0
+        let mode = TraceMode::Closest;
+        staged(&mut staging, dev, &rays, ranges, mode, &mut traffic)
+            .expect("launch")
+            .0
     };
-    let whole = run(&ctx, &[&a, &b]);
+    let whole = run(&dev, &[&a, &b]);
     // 640 rays a launch: several launches, the last one partial.
-    ctx.limits.max_storage_buffer_binding_size = 640 * size_of::<GpuRay>() as u64;
-    assert_eq!(whole, run(&ctx, &[&a, &b]));
+    dev.ctx.limits.max_storage_buffer_binding_size = 640 * size_of::<GpuRay>() as u64;
+    assert_eq!(whole, run(&dev, &[&a, &b]));
     let cpu = traverse::closest_hits(&bvh, &rays);
     let mut want = HitBatch::misses(0);
     let mut got = HitBatch::misses(0);
@@ -284,14 +273,14 @@ fn splits_launches_and_names_the_limit() {
     }
     // Exact-distance ties may go to another triangle on the GPU (see `assert_same_hits`).
     assert_same_hits("split launches", &want, &got);
-    let e = SceneBuffers::upload(&ctx, &bvh).expect_err("nodes beyond the limit");
+    let e = SceneBuffers::upload(&dev.ctx, &bvh).expect_err("nodes beyond the limit");
     assert!(matches!(e, GpuError::TooLarge { .. }), "{e:?}");
     assert!(
         e.to_string().contains("max_storage_buffer_binding_size"),
         "{e}"
     );
     // Empty launches return nothing.
-    assert!(run(&ctx, &[]).is_empty());
+    assert!(run(&dev, &[]).is_empty());
 }
 
 /// Throughput on the first adapter against the CPU (all cores), for forest primary and AO
@@ -474,7 +463,7 @@ fn estimator_refuses_bad_tasks_and_serves_sched() {
 #[test]
 fn a_launch_of_three_passes_is_timed_and_traced_whole() {
     let Some(ctx) = gpu() else { return };
-    let (kernels, scene, rays) = launch_kit(&ctx, "builtin:cornell:0.2", 15);
+    let (dev, rays) = launch_kit(&ctx, "builtin:cornell:0.2", 15);
     let pass = (MAX_WORKGROUPS * BATCHES * 64) as usize;
     let mut many = RayBatch::with_capacity(2 * pass + 65);
     for i in 0..2 * pass + 65 {
@@ -486,9 +475,7 @@ fn a_launch_of_three_passes_is_timed_and_traced_whole() {
         let mut traffic = crate::Traffic::default();
         staged(
             &mut staging,
-            &ctx,
-            &kernels,
-            &scene,
+            &dev,
             rays,
             &[&all],
             TraceMode::Reduced,
@@ -714,7 +701,11 @@ fn check_whitted_image(name: &str, bent: bool) {
         .collect();
     // Rounding (see `bit_exact`) moves a pixel by far less than this; a tie that picks
     // another triangle or flips a shadow moves it by far more.
-    let rounding = if bit_exact(&renderer.ctx) { 0.0 } else { 1e-4 };
+    let rounding = if bit_exact(&renderer.dev.ctx) {
+        0.0
+    } else {
+        1e-4
+    };
     let differ = diffs.iter().filter(|&&d| d > rounding).count();
     let mean = diffs.iter().sum::<f32>() / diffs.len() as f32;
     let worst = diffs.iter().copied().fold(0.0, f32::max);

@@ -12,7 +12,7 @@
 use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, init, read_back, readable, storage};
 use super::program::{Program, READ, UNIFORM, WRITE};
 use super::{GpuContext, GpuError};
-use crate::Traffic;
+use crate::{Bvh, Traffic};
 
 /// Batches of 64 rays a workgroup takes per dispatch: few enough that one invocation stays far
 /// below lavapipe's ~65 535 loop iterations (a ray rarely needs more than a few hundred).
@@ -139,6 +139,30 @@ impl TraceKernels {
     }
 }
 
+/// A device with a tree uploaded and the trace kernels compiled for it: what every trace
+/// needs, held by both GPU devices ([`super::GpuDevice`] and [`super::GpuRenderer`]).
+#[derive(Debug)]
+pub(crate) struct TraceDevice {
+    pub(crate) ctx: GpuContext,
+    pub(crate) kernels: TraceKernels,
+    pub(crate) scene: SceneBuffers,
+}
+
+impl TraceDevice {
+    /// Uploads `bvh` to `ctx`'s device and compiles the kernels for it.
+    ///
+    /// # Errors
+    /// [`GpuError::TooLarge`] when the tree exceeds a binding limit, [`GpuError::TooDeep`]
+    /// beyond the deepest supported tree.
+    pub(crate) fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
+        Ok(Self {
+            kernels: TraceKernels::new(&ctx.device, bvh.depth())?,
+            scene: SceneBuffers::upload(&ctx, bvh)?,
+            ctx,
+        })
+    }
+}
+
 /// The timestamp writes of a pass: the start of a launch's `first` pass and the end of its
 /// `last`. A pass in between gets none at all, since wgpu refuses writes that name neither
 /// index (a large GPU's launch may take dozens of passes).
@@ -187,18 +211,15 @@ pub(crate) struct TraceRound {
 impl TraceRound {
     /// Binds the first `n` rays of `rays` and their results in `out` for a trace in `mode`;
     /// uploads the queue's two words and the parameters (counted).
-    #[allow(clippy::too_many_arguments)] // the buffers and the choice of a trace
     pub(crate) fn new(
-        ctx: &GpuContext,
-        kernels: &TraceKernels,
-        scene: &SceneBuffers,
+        dev: &TraceDevice,
         rays: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
         mode: TraceMode,
         traffic: &mut Traffic,
     ) -> Self {
-        let device = &ctx.device;
+        let device = &dev.ctx.device;
         let queue = init(
             device,
             "cobalt ray queue",
@@ -213,7 +234,7 @@ impl TraceRound {
         );
         // The queue's two words and the parameters.
         traffic.host_to_device_bytes += 8 + 16;
-        Self::bound(ctx, kernels, scene, rays, out, n, mode, queue, params, None)
+        Self::bound(dev, rays, out, n, mode, queue, params, None)
     }
 
     /// As [`TraceRound::new`] with the queue (two words, zero) and the parameters (the ray
@@ -221,9 +242,7 @@ impl TraceRound {
     /// counts of a trace whose parameters ask for them.
     #[allow(clippy::too_many_arguments)] // the buffers and the choice of a trace
     pub(crate) fn bound(
-        ctx: &GpuContext,
-        kernels: &TraceKernels,
-        scene: &SceneBuffers,
+        dev: &TraceDevice,
         rays: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
@@ -232,6 +251,7 @@ impl TraceRound {
         params: wgpu::Buffer,
         counts: Option<&wgpu::Buffer>,
     ) -> Self {
+        let (ctx, scene) = (&dev.ctx, &dev.scene);
         let device = &ctx.device;
         // Only the launch's rays and results are bound: a device's reused buffers are larger,
         // and wgpu tracks the initialisation of every byte a bind group covers.
@@ -241,7 +261,7 @@ impl TraceRound {
             size: std::num::NonZeroU64::new(bytes),
         };
         let whole = wgpu::Buffer::as_entire_buffer_binding;
-        let bind = kernels.program.bind_ranges(
+        let bind = dev.kernels.program.bind_ranges(
             device,
             "cobalt traverse bind group",
             &[
@@ -251,7 +271,7 @@ impl TraceRound {
                 first(out, u64::from(n) * RESULT_BYTES),
                 whole(&queue),
                 whole(&params),
-                whole(counts.unwrap_or(&kernels.no_counts)),
+                whole(counts.unwrap_or(&dev.kernels.no_counts)),
             ],
         );
         let batches = n.div_ceil(64);
@@ -345,23 +365,21 @@ pub(crate) fn stamp_seconds(ctx: &GpuContext, stamps: [u64; 2]) -> f64 {
 /// # Errors
 /// [`GpuError::Readback`] when the GPU cannot be waited for or read, [`GpuError::LoopCut`]
 /// when the implementation ended a traversal loop early.
-#[allow(clippy::too_many_arguments)] // the buffers and the choice of a trace
 pub(crate) fn trace_resident(
-    ctx: &GpuContext,
-    kernels: &TraceKernels,
-    scene: &SceneBuffers,
+    dev: &TraceDevice,
     rays: &wgpu::Buffer,
     out: &wgpu::Buffer,
     n: u32,
     mode: TraceMode,
     traffic: &mut Traffic,
 ) -> Result<Option<f64>, GpuError> {
+    let ctx = &dev.ctx;
     if n == 0 {
         return Ok(ctx.timestamps.then_some(0.0));
     }
     let device = &ctx.device;
     let name = ctx.info.name.as_str();
-    let round = TraceRound::new(ctx, kernels, scene, rays, out, n, mode, traffic);
+    let round = TraceRound::new(dev, rays, out, n, mode, traffic);
     let readback = readable(device, "cobalt queue state read-back", 8 + 16);
     let timing = timestamps(ctx);
     let mut gpu_seconds = 0.0;
@@ -371,7 +389,7 @@ pub(crate) fn trace_resident(
             label: Some("cobalt traverse commands"),
         });
         round.record(
-            kernels,
+            &dev.kernels,
             &mut encoder,
             dispatches,
             timing.as_ref().map(|t| &t.0),

@@ -22,15 +22,13 @@ use super::whitted_kernels::WhittedKernels;
 use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::gpu::GpuError;
-use crate::gpu::buffers::{
-    GpuRay, RESULT_BYTES, SceneBuffers, check_size, fetch, init, rays_per_launch,
-};
+use crate::gpu::buffers::{GpuRay, RESULT_BYTES, check_size, fetch, init, rays_per_launch};
 use crate::gpu::context::GpuContext;
 use crate::gpu::header::{self, Header, Setup, task_list};
 use crate::gpu::launch::{Count, Recorder, verdict_kernel};
 use crate::gpu::program::{Kernel, Program, READ, UNIFORM, WRITE};
 use crate::gpu::resident::Resident;
-use crate::gpu::trace::{TraceKernels, TraceMode, loop_cut};
+use crate::gpu::trace::{TraceDevice, TraceMode, loop_cut};
 use crate::scene::Scene;
 use crate::shade::AoSettings;
 use crate::traffic::Traffic;
@@ -118,9 +116,7 @@ pub struct FrameParams<'a> {
 /// device.
 #[derive(Debug)]
 pub struct GpuRenderer {
-    pub(in crate::gpu) ctx: GpuContext,
-    pub(in crate::gpu) kernels: TraceKernels,
-    pub(in crate::gpu) scene: SceneBuffers,
+    pub(in crate::gpu) dev: TraceDevice,
     pub(in crate::gpu) tris: wgpu::Buffer,
     pub(super) whitted: WhittedKernels,
     program: Program,
@@ -152,8 +148,8 @@ impl GpuRenderer {
     /// [`GpuError::TooLarge`] when a scene buffer exceeds a binding limit,
     /// [`GpuError::TooDeep`] beyond the deepest supported tree.
     pub fn new(ctx: GpuContext, scene: &Scene, bvh: &Bvh) -> Result<Self, GpuError> {
-        let kernels = TraceKernels::new(&ctx.device, bvh.depth())?;
-        let scene_buffers = SceneBuffers::upload(&ctx, bvh)?;
+        let dev = TraceDevice::new(ctx, bvh)?;
+        let ctx = &dev.ctx;
         let mut tris: Vec<SceneTri> = (0..scene.len())
             .map(|prim| SceneTri {
                 v: scene.vertices(prim).map(|p| p.extend(0.0).to_array()),
@@ -164,7 +160,7 @@ impl GpuRenderer {
             tris.push(SceneTri::default());
         }
         let tri_bytes: &[u8] = bytemuck::cast_slice(&tris);
-        check_size(&ctx, "scene triangles", tri_bytes.len() as u64)?;
+        check_size(ctx, "scene triangles", tri_bytes.len() as u64)?;
         let device = &ctx.device;
         let tris = init(
             device,
@@ -179,7 +175,7 @@ impl GpuRenderer {
             &[UNIFORM, WRITE, WRITE, READ, READ, WRITE, READ, WRITE, READ],
         );
         let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
-        let whitted = WhittedKernels::new(&ctx, scene);
+        let whitted = WhittedKernels::new(ctx, scene);
         let verdict = verdict_kernel(device);
         let path_sums = sums_kernel(device);
         let header = header::header_kernel(device);
@@ -192,13 +188,11 @@ impl GpuRenderer {
             tris,
             diagonal: scene.bounds().extent().length(),
             unit: scene.unit,
-            ctx,
-            kernels,
-            scene: scene_buffers,
             resident: Resident::default(),
             verdict,
             header,
             path_sums,
+            dev,
             #[cfg(test)]
             starved: false,
         })
@@ -206,7 +200,7 @@ impl GpuRenderer {
 
     /// The opened adapter.
     pub fn context(&self) -> &GpuContext {
-        &self.ctx
+        &self.dev.ctx
     }
 
     /// Checks the image and the launch, uploads its task list and number of tasks (`secondary`
@@ -223,7 +217,7 @@ impl GpuRenderer {
         stride: u32,
         traffic: &mut Traffic,
     ) -> Result<(Stage, wgpu::BindGroup), GpuError> {
-        let ctx = &self.ctx;
+        let ctx = &self.dev.ctx;
         let (width, height) = (frame.width, frame.height);
         let too_large =
             |what: &'static str, bytes: u64, limit: &'static str, max: u64| GpuError::TooLarge {
@@ -361,17 +355,11 @@ impl GpuRenderer {
     /// launch's counts from its task list (`header.wgsl`) and copying them into the frame's
     /// parameters.
     pub(in crate::gpu) fn recorder(&self, stage: &Stage, checked: bool) -> Recorder<'_> {
-        let mut launch = Recorder::new(
-            &self.ctx,
-            &self.kernels,
-            &self.scene,
-            &self.verdict,
-            checked,
-        );
+        let mut launch = Recorder::new(&self.dev, &self.verdict, checked);
         header::record(
             &self.header,
             &mut launch,
-            &self.ctx.device,
+            &self.dev.ctx.device,
             [&stage.header, &stage.tasks, &stage.setup],
         );
         launch.copy(
@@ -396,13 +384,14 @@ impl GpuRenderer {
         size: u64,
         usage: wgpu::BufferUsages,
     ) -> wgpu::Buffer {
-        self.resident.scratch(&self.ctx.device, label, size, usage)
+        self.resident
+            .scratch(&self.dev.ctx.device, label, size, usage)
     }
 
     /// A bind group of `stage`'s buffers with the parameters `uniform`.
     fn bind(&self, stage: &Stage, uniform: &wgpu::Buffer) -> wgpu::BindGroup {
         self.program.bind(
-            &self.ctx.device,
+            &self.dev.ctx.device,
             "cobalt render bind group",
             &[
                 uniform,
@@ -459,7 +448,7 @@ impl GpuRenderer {
     ) -> Result<T, GpuError> {
         match launch(false)? {
             Some(out) => Ok(out),
-            None => launch(true)?.ok_or_else(|| loop_cut(&self.ctx.info.name)),
+            None => launch(true)?.ok_or_else(|| loop_cut(&self.dev.ctx.info.name)),
         }
     }
 
@@ -486,7 +475,7 @@ impl GpuRenderer {
         let mut traffic = Traffic::default();
         let (stage, first) = self.begin(frame, tasks, settings, secondary, 1, &mut traffic)?;
         let n = stage.n;
-        if self.scene.empty {
+        if self.dev.scene.empty {
             return Ok(Some(PathValues {
                 values: vec![sky; n as usize],
                 rays: n as usize,
@@ -561,7 +550,7 @@ impl GpuRenderer {
             let other = (base > 0).then(|| {
                 traffic.host_to_device_bytes += size_of::<Params>() as u64;
                 let uniform = init(
-                    &self.ctx.device,
+                    &self.dev.ctx.device,
                     "cobalt path chunk parameters",
                     bytemuck::bytes_of(&params),
                     wgpu::BufferUsages::UNIFORM,
@@ -612,8 +601,12 @@ impl GpuRenderer {
         launch.pass_over(&self.raygen, &group, stage.n);
         launch.finish(&stage.film, 0, &mut traffic)?;
         let n = u64::from(stage.n);
-        let rays = fetch(&self.ctx, &stage.primary, n * size_of::<GpuRay>() as u64)?;
-        let ranks = fetch(&self.ctx, &stage.ranks, n * 4)?;
+        let rays = fetch(
+            &self.dev.ctx,
+            &stage.primary,
+            n * size_of::<GpuRay>() as u64,
+        )?;
+        let ranks = fetch(&self.dev.ctx, &stage.ranks, n * 4)?;
         Ok((
             bytemuck::pod_collect_to_vec(&rays),
             bytemuck::pod_collect_to_vec(&ranks),

@@ -62,7 +62,7 @@ impl GpuRenderer {
         walk: Walk,
     ) -> Result<SampledPaths, GpuError> {
         self.sample_launch(frame, tasks, shader, stride, walk)?
-            .ok_or_else(|| loop_cut(&self.ctx.info.name))
+            .ok_or_else(|| loop_cut(&self.dev.ctx.info.name))
     }
 
     /// One launch of [`GpuRenderer::sample_paths`], one submission; `None` when a queue was
@@ -90,7 +90,7 @@ impl GpuRenderer {
         let (stage, first) = self.begin(frame, tasks, &ao, secondary, stride, &mut traffic)?;
         let stride = stride.max(1) as usize;
         let sampled: Vec<usize> = tasks.iter().map(|t| t.len().div_ceil(stride)).collect();
-        if self.scene.empty {
+        if self.dev.scene.empty {
             // Every ray misses the root: nothing is counted.
             let tasks = sampled
                 .iter()
@@ -103,7 +103,7 @@ impl GpuRenderer {
         }
         if stage.chunk < stage.n {
             return Err(GpuError::TooLarge {
-                adapter: self.ctx.info.name.clone(),
+                adapter: self.dev.ctx.info.name.clone(),
                 what: "AO probes of a sample",
                 bytes: u64::from(stage.n) * u64::from(ao.samples) * 32,
                 limit: "max_storage_buffer_binding_size",
@@ -111,10 +111,10 @@ impl GpuRenderer {
             });
         }
         let n = u64::from(stage.n);
-        let device = &self.ctx.device;
+        let device = &self.dev.ctx.device;
         // New buffers are zeroed by wgpu: every launch counts from nothing.
         let zeroed = |label: &str, size: u64, usage| storage(device, label, size.max(16), usage);
-        check_size(&self.ctx, "per-path counts", n * 8)?;
+        check_size(&self.dev.ctx, "per-path counts", n * 8)?;
         let none = wgpu::BufferUsages::empty();
         let tally = Tally {
             paths: zeroed("cobalt sampled path counts", n * 8, none),
@@ -154,7 +154,7 @@ impl GpuRenderer {
         launch.pass(
             &self.path_sums.pipeline,
             &group,
-            grid(&self.ctx.limits, tasks.len() as u32),
+            grid(&self.dev.ctx.limits, tasks.len() as u32),
         );
         let done = launch.finish(&sums, 16 * t, &mut traffic)?;
         traffic.device_to_host_bytes += 16 * t;
@@ -164,7 +164,7 @@ impl GpuRenderer {
         let words: Vec<[u32; 4]> = bytemuck::pod_collect_to_vec(&done.values);
         if let Some(task) = words.iter().position(|w| w.contains(&u32::MAX)) {
             return Err(GpuError::CountOverflow {
-                adapter: self.ctx.info.name.clone(),
+                adapter: self.dev.ctx.info.name.clone(),
                 task,
             });
         }

@@ -96,7 +96,7 @@ impl GpuRenderer {
     ) -> Result<(wgpu::Buffer, usize), GpuError> {
         let n = stage.n;
         let lights = self.whitted.light_count;
-        let ctx = &self.ctx;
+        let ctx = &self.dev.ctx;
         let device = &ctx.device;
         let w = &self.whitted;
         let prims = w.prims.as_ref().map_err(Clone::clone)?;
