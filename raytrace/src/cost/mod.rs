@@ -51,9 +51,9 @@ mod sample;
 
 pub use calibrate::{Fit, FitForm, calibrate};
 pub use error::CostError;
-pub use estimator::{CountRays, ReducedTraversal, Sample, Traced, full_work};
+pub use estimator::{CountRays, ReducedTraversal, full_work};
 pub use measure::measure_seconds;
 pub use metrics::{error_vs_time, spearman};
 pub use model::{CostModel, Work};
 pub use rounds::{Budget, Rounds, SlicedStep, SlicedTraces, WholeStep};
-pub use sample::{Compacted, SampleRate, SampleRun};
+pub use sample::{Compacted, Sample, SampleRate, SampleRun, Traced};

@@ -1,12 +1,13 @@
 //! Uniform task sampling and compaction (thesis, figure 3.1 b and section 3.3): every task
 //! keeps rays at a fixed stride (runs of neighbours, see [`SampleRun`]), and the kept rays
 //! of all tasks are gathered into one contiguous batch, so the reduced trace streams through
-//! memory and its parallel loop sees one flat array instead of many short strided ones.
+//! memory and its parallel loop sees one flat array instead of many short strided ones. What
+//! a sample found is a [`Sample`], with the hits of a sample traced for real ([`Traced`]).
 
 use std::ops::Range;
 
-use super::CostError;
-use crate::RayBatch;
+use super::{CostError, Work};
+use crate::{HitBatch, RayBatch};
 
 /// The fraction of each task's rays that is traced, in `(0, 1]`: `sched`'s, shared by
 /// every estimator of the workspace.
@@ -153,6 +154,27 @@ impl Compacted {
             lens: tasks.iter().map(|r| r.len()).collect(),
         })
     }
+}
+
+/// What an estimate's sample found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Sample {
+    /// Each task's estimated work.
+    pub work: Vec<Work>,
+    /// Rays traced by the estimate, over all tasks.
+    pub sampled: usize,
+    /// The sampled rays' hits, with [`Walk::Trace`](crate::Walk::Trace).
+    pub traced: Option<Traced>,
+}
+
+/// The hits of a sample traced for real ([`Walk::Trace`](crate::Walk::Trace)): ray `index[k]` of the batch hit
+/// `hits.get(k)`. Sorted by index when the tasks were.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Traced {
+    /// Indices in the batch of the traced rays.
+    pub index: Vec<usize>,
+    /// Their hits, in the same order.
+    pub hits: HitBatch,
 }
 
 /// Every task non-empty and inside a consistent batch: checked before any ray is read.
