@@ -10,7 +10,6 @@ use sched::{DeviceError, SampleRate};
 
 use super::estimate::{sampled_options, task_work};
 use super::{Estimate, Frame, Launch, PathDevice};
-use crate::cost::Work;
 use crate::gpu::{FrameParams, GpuContext, GpuError, GpuRenderer};
 use crate::shade::Shader;
 use crate::traverse::walk::Walk;
@@ -105,25 +104,11 @@ impl PathDevice for GpuPaths {
         let sampled = self
             .renderer
             .sample_paths(&params, tasks, &options.shader, stride, walk)?;
-        // `task_work` sets the task's `R`.
-        let work = |[nodes, tris]: [u64; 2]| Work {
-            nodes: nodes as f64,
-            tris: tris as f64,
-            rays: 0.0,
-        };
         Ok(Estimate {
             work: tasks
                 .iter()
                 .zip(&sampled.tasks)
-                .map(|(t, s)| {
-                    task_work(
-                        work(s.paths),
-                        work(s.probes),
-                        t.len(),
-                        s.sampled,
-                        probe_scale,
-                    )
-                })
+                .map(|(t, s)| task_work(s.paths, s.probes, t.len(), s.sampled, probe_scale))
                 .collect(),
             traffic: sampled.traffic,
         })

@@ -15,6 +15,7 @@
 use std::ops::Range;
 
 use super::render::{FrameParams, GpuRenderer, Tally};
+use crate::cost::Work;
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{check_size, storage};
 use crate::gpu::trace::{TraceMode, grid, loop_cut};
@@ -22,13 +23,14 @@ use crate::shade::{AoSettings, Shader};
 use crate::traffic::Traffic;
 use crate::traverse::walk::Walk;
 
-/// One task's sample as the GPU summed it.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// One task's sample as the GPU summed it; its `R` is left 0 (a path's, not its rays', see
+/// [`crate::paths::task_work`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PathSums {
     /// `B` and `T` of the sampled paths' primary, mirror and shadow rays.
-    pub paths: [u64; 2],
+    pub paths: Work,
     /// `B` and `T` of their AO probes.
-    pub probes: [u64; 2],
+    pub probes: Work,
     /// Paths sampled.
     pub sampled: usize,
 }
@@ -171,10 +173,17 @@ impl GpuRenderer {
         let tasks = sampled
             .iter()
             .zip(&words)
-            .map(|(&sampled, w)| PathSums {
-                paths: [w[0], w[1]].map(u64::from),
-                probes: [w[2], w[3]].map(u64::from),
-                sampled,
+            .map(|(&sampled, w)| {
+                let work = |nodes: u32, tris: u32| Work {
+                    nodes: nodes.into(),
+                    tris: tris.into(),
+                    rays: 0.0,
+                };
+                PathSums {
+                    paths: work(w[0], w[1]),
+                    probes: work(w[2], w[3]),
+                    sampled,
+                }
             })
             .collect();
         Ok(Some(SampledPaths { tasks, traffic }))
