@@ -25,7 +25,7 @@ pub struct Judged {
 
 /// `work` calibrated against `measured` (one time per task) and judged by it.
 pub fn judge(work: &[Work], measured: &[f64]) -> Judged {
-    let Ok(fit) = calibrate(work, measured) else {
+    let Some(fit) = calibrate(work, measured) else {
         return Judged::default();
     };
     let costs = fit.model.costs(work);
