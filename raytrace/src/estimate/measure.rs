@@ -48,15 +48,6 @@ impl std::str::FromStr for WalkChoice {
     }
 }
 
-impl std::fmt::Display for WalkChoice {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Self::Fixed(p) => p.name(),
-            Self::Auto => "auto",
-        })
-    }
-}
-
 /// How the estimate is taken and timed.
 #[derive(Clone, Copy, Debug)]
 pub struct Settings<'a> {
@@ -306,14 +297,12 @@ fn time_on_cpu(
     walk: Walk,
     full: &[Work],
 ) -> Result<Timed, CostError> {
-    let mut candidates = vec![Walk::Trace { any: false }, Walk::Reduced, Walk::FirstLeaf];
-    let chosen = candidates
-        .iter()
-        .position(|p| p.name() == walk.name())
-        .unwrap_or_else(|| {
-            candidates.push(walk);
-            candidates.len() - 1
-        });
+    let candidates = [Walk::Trace { any: false }, Walk::Reduced, Walk::FirstLeaf];
+    let chosen = match walk {
+        Walk::Trace { .. } => 0,
+        Walk::Reduced => 1,
+        Walk::FirstLeaf => 2,
+    };
     let estimator = ReducedTraversal::new(cut.bvh, &cut.rays, s.sample_rate)
         .with_run(s.sample_run)
         .with_sample_error(s.sample_error);
@@ -564,7 +553,10 @@ fn report(
         trace_nodes_per_ray: per_ray(trace_nodes),
         trace_tris_per_ray: per_ray(trace_tris),
         default_model: model,
-        calibration: judged.fit.map(Calibration::from),
+        calibration: judged.fit.map(|fit| Calibration {
+            device: "cpu-thread",
+            fit,
+        }),
         build_seconds: cut.bvh.report().build_seconds,
     }
 }
