@@ -13,7 +13,7 @@ use sched::CostEstimator;
 use super::buffers::{GpuRay, SceneBuffers};
 use super::staging::staged;
 use super::trace::{BATCHES, MAX_WORKGROUPS, TraceDevice, TraceMode};
-use super::{FrameParams, GpuContext, GpuDevice, GpuError, GpuOptions, GpuRenderer};
+use super::{GpuContext, GpuDevice, GpuError, GpuOptions, GpuRenderer};
 use crate::cost::{Compacted, CountRays, ReducedTraversal, SampleRate, full_work};
 use crate::devices::GpuSelect;
 use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, WhittedSettings, render};
@@ -517,11 +517,7 @@ fn raygen_equals_cpu_primary_rays() {
         let n = cpu.rays.len();
         // Two tasks, the later one first: a launch's slots follow its task list.
         let (late, early) = (n / 3..n, 0..n / 3);
-        let frame = FrameParams {
-            width: w,
-            height: h,
-            camera: &camera,
-        };
+        let frame = RenderOptions::new(w, h, camera, Shader::Ao(AoSettings::default()));
         let (rays, ranks) = renderer
             .primary_rays(&frame, &[&late, &early])
             .expect("raygen");
@@ -569,15 +565,7 @@ fn gpu_film(
     let n = (w * h) as usize;
     let tasks = [n / 2..n, 0..n / 7, n / 7..n / 2];
     let refs: Vec<&std::ops::Range<usize>> = tasks.iter().collect();
-    let frame = FrameParams {
-        width: w,
-        height: h,
-        camera: &options.camera,
-    };
-    let out = match options.shader {
-        Shader::Ao(s) => renderer.render_ao(&frame, &refs, &s),
-        Shader::Whitted(s) => renderer.render_whitted(&frame, &refs, &s),
-    }?;
+    let out = renderer.render(options, &refs)?;
     let order = crate::camera::morton_order(w, h);
     let mut film = crate::Film::new(w, h);
     for (rank, &v) in tasks.iter().flat_map(|t| t.clone()).zip(&out.values) {
@@ -982,11 +970,7 @@ fn the_header_kernel_counts_as_the_host_does() {
     let r = GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer");
     let camera = Camera::orbit(&scene.bounds(), 0);
     let (w, h) = (40u32, 30u32);
-    let frame = FrameParams {
-        width: w,
-        height: h,
-        camera: &camera,
-    };
+    let frame = RenderOptions::new(w, h, camera, Shader::Ao(AoSettings::default()));
     let mut rng = Rng::new(11);
     for case in 0..16 {
         let mut cuts: Vec<usize> = (0..1 + rng.below(9))
@@ -1136,19 +1120,9 @@ fn an_undrained_launch_is_run_again_checked() {
             out.traffic
         );
         // An estimate's traces would not count when checked: it says so instead.
-        let frame = FrameParams {
-            width: 40,
-            height: 24,
-            camera: &options.camera,
-        };
         let all = 0..40 * 24;
-        let sampled = starved.sample_paths(
-            &frame,
-            &[&all],
-            &shader,
-            4,
-            crate::Walk::Trace { any: false },
-        );
+        let walk = crate::Walk::Trace { any: false };
+        let sampled = starved.sample_paths(&options, &[&all], 4, walk);
         assert!(
             matches!(sampled, Err(GpuError::LoopCut { .. })),
             "{sampled:?}"

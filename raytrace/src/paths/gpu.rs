@@ -10,8 +10,7 @@ use sched::{DeviceError, SampleRate};
 
 use super::estimate::{sampled_options, task_work};
 use super::{Estimate, Frame, Launch, PathDevice};
-use crate::gpu::{FrameParams, GpuContext, GpuError, GpuRenderer};
-use crate::shade::Shader;
+use crate::gpu::{GpuContext, GpuError, GpuRenderer};
 use crate::traverse::walk::Walk;
 use crate::{Bvh, Scene};
 
@@ -55,16 +54,7 @@ impl PathDevice for GpuPaths {
         tasks: &[&Range<usize>],
     ) -> Result<Launch, DeviceError> {
         let started = Instant::now();
-        let o = frame.options;
-        let params = FrameParams {
-            width: o.width,
-            height: o.height,
-            camera: &o.camera,
-        };
-        let out = match o.shader {
-            Shader::Ao(s) => self.renderer.render_ao(&params, tasks, &s),
-            Shader::Whitted(s) => self.renderer.render_whitted(&params, tasks, &s),
-        }?;
+        let out = self.renderer.render(frame.options, tasks)?;
         if let Some(kernels) = out.kernel_seconds {
             let beyond = started.elapsed().as_secs_f64() - kernels;
             if self.overheads.len() == OVERHEADS_KEPT {
@@ -95,15 +85,8 @@ impl PathDevice for GpuPaths {
             Walk::Trace { .. } => sampled_options(frame.options, rate),
             _ => (*frame.options, 1.0),
         };
-        let params = FrameParams {
-            width: options.width,
-            height: options.height,
-            camera: &options.camera,
-        };
         let stride = u32::try_from(rate.stride()).unwrap_or(u32::MAX);
-        let sampled = self
-            .renderer
-            .sample_paths(&params, tasks, &options.shader, stride, walk)?;
+        let sampled = self.renderer.sample_paths(&options, tasks, stride, walk)?;
         Ok(Estimate {
             work: tasks
                 .iter()

@@ -20,7 +20,6 @@ use super::shading::with_shading;
 use super::sums::sums_kernel;
 use super::whitted_kernels::WhittedKernels;
 use crate::bvh::Bvh;
-use crate::camera::Camera;
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{GpuRay, RESULT_BYTES, check_size, fetch, init, rays_per_launch};
 use crate::gpu::context::GpuContext;
@@ -30,7 +29,7 @@ use crate::gpu::program::{Kernel, Program, READ, UNIFORM, WRITE};
 use crate::gpu::resident::Resident;
 use crate::gpu::trace::{TraceDevice, TraceMode, loop_cut};
 use crate::scene::Scene;
-use crate::shade::AoSettings;
+use crate::shade::{AoSettings, RenderOptions};
 use crate::traffic::Traffic;
 
 /// The uniform block of `render.wgsl` (`struct Params`).
@@ -99,17 +98,6 @@ pub struct PathValues {
     pub traffic: Traffic,
     /// Bytes of the values read back.
     pub film_bytes: u64,
-}
-
-/// What a frame is: the image, its camera and the shader's settings.
-#[derive(Clone, Copy, Debug)]
-pub struct FrameParams<'a> {
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// The camera.
-    pub camera: &'a Camera,
 }
 
 /// One GPU with a scene and the path kernels: renders ranges of paths entirely on the
@@ -210,7 +198,7 @@ impl GpuRenderer {
     /// `stride`-th path of each task, from its first (1 to render; the sample to estimate).
     pub(in crate::gpu) fn begin(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
         settings: &AoSettings,
         secondary: u32,
@@ -407,18 +395,12 @@ impl GpuRenderer {
         )
     }
 
-    /// Renders the paths of `tasks` with ambient occlusion as [`crate::shade::render`] does
-    /// with [`crate::shade::Shader::Ao`]`(settings)`: `settings.samples` probes per primary
-    /// hit, each path's probes seeded by its rank, so a path's value does not depend on the
-    /// launch it is in.
-    ///
-    /// # Errors
-    /// [`GpuError::TooLarge`] when the launch's primary rays exceed a binding (about 4
-    /// million under lavapipe's 128 MiB), a side of the image is not in 1..=65536 or a task
-    /// reaches past the image, and the errors of a trace.
-    pub fn render_ao(
+    /// The paths of `tasks` with ambient occlusion (see [`GpuRenderer::render`]):
+    /// `settings.samples` probes per primary hit, each path's probes seeded by its rank, so a
+    /// path's value does not depend on the launch it is in.
+    pub(in crate::gpu) fn render_ao(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
         settings: &AoSettings,
     ) -> Result<PathValues, GpuError> {
@@ -460,7 +442,7 @@ impl GpuRenderer {
     /// sees `sky`.
     pub(in crate::gpu) fn launch(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
         (settings, secondary): (&AoSettings, u32),
         checked: bool,
@@ -584,14 +566,14 @@ impl GpuRenderer {
         Ok((stage.film.clone(), n as usize * (1 + samples as usize)))
     }
 
-    /// The primary rays a launch of `tasks` generates on the device, read back (the CPU's
-    /// [`Camera::primary_rays_of`]), with each one's rank.
+    /// The primary rays a launch of `tasks` of `frame`'s image generates on the device, read
+    /// back (the CPU's [`crate::Camera::primary_rays_of`]), with each one's rank.
     ///
     /// # Errors
-    /// As [`GpuRenderer::render_ao`].
+    /// As [`GpuRenderer::render`].
     pub fn primary_rays(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
     ) -> Result<(Vec<GpuRay>, Vec<u32>), GpuError> {
         let mut traffic = Traffic::default();

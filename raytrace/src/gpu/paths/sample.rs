@@ -14,12 +14,12 @@
 
 use std::ops::Range;
 
-use super::render::{FrameParams, GpuRenderer, Tally};
+use super::render::{GpuRenderer, Tally};
 use crate::cost::Work;
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{check_size, storage};
 use crate::gpu::trace::{TraceMode, grid, loop_cut};
-use crate::shade::{AoSettings, Shader};
+use crate::shade::{AoSettings, RenderOptions, Shader};
 use crate::traffic::Traffic;
 use crate::traverse::walk::Walk;
 
@@ -45,25 +45,24 @@ pub struct SampledPaths {
 }
 
 impl GpuRenderer {
-    /// Traces every `stride`-th path of each of `tasks` (from its first) with `shader`, or
-    /// walks its camera ray alone by a reduced `walk`, and sums its rays' counts per task
-    /// (see the module docs).
+    /// Traces every `stride`-th path of each of `tasks` (from its first) of `frame`, or walks
+    /// its camera ray alone by a reduced `walk`, and sums its rays' counts per task (see the
+    /// module docs).
     ///
     /// # Errors
     /// [`GpuError::TooLarge`] when the sampled paths or their probes exceed one binding,
     /// [`GpuError::LoopCut`] when a trace's queue was not drained (a checked re-run, which
     /// the renders have, would not count: the caller estimates elsewhere),
     /// [`GpuError::CountOverflow`] when a task's sums do not fit 32 bits, and the errors of
-    /// [`GpuRenderer::render_ao`].
+    /// [`GpuRenderer::render`].
     pub fn sample_paths(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
-        shader: &Shader,
         stride: u32,
         walk: Walk,
     ) -> Result<SampledPaths, GpuError> {
-        self.sample_launch(frame, tasks, shader, stride, walk)?
+        self.sample_launch(frame, tasks, stride, walk)?
             .ok_or_else(|| loop_cut(&self.dev.ctx.info.name))
     }
 
@@ -71,12 +70,12 @@ impl GpuRenderer {
     /// not drained.
     fn sample_launch(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
-        shader: &Shader,
         stride: u32,
         walk: Walk,
     ) -> Result<Option<SampledPaths>, GpuError> {
+        let shader = &frame.shader;
         let mut traffic = Traffic::default();
         let reduced = !matches!(walk, Walk::Trace { .. });
         let no_ao = AoSettings {

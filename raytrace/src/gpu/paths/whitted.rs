@@ -1,4 +1,5 @@
-//! Whitted shading on the GPU ([`GpuRenderer::render_whitted`]): a launch's primary rays
+//! Whitted shading on the GPU, and the render of either shader ([`GpuRenderer::render`]): a
+//! Whitted launch's primary rays
 //! from the path kernels' `raygen`, then per bounce a closest-hit trace, `whitted.wgsl`'s
 //! `shade` (emission, ambient, one shadow ray per light, the mirror ray), an any-hit trace of
 //! the shadow rays and `shadows` (their light); every buffer stays on the device until the
@@ -13,13 +14,13 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::render::{FrameParams, GpuRenderer, PathValues, Stage, Tally};
+use super::render::{GpuRenderer, PathValues, Stage, Tally};
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{GpuRay, RESULT_BYTES, check_size};
 use crate::gpu::header::Header;
 use crate::gpu::launch::{Count, Recorder};
 use crate::gpu::trace::TraceMode;
-use crate::shade::{AMBIENT, AoSettings, SKY, WhittedSettings};
+use crate::shade::{AMBIENT, AoSettings, RenderOptions, SKY, Shader, WhittedSettings};
 use crate::traffic::Traffic;
 
 /// `whitted.wgsl`'s `struct Params`.
@@ -43,17 +44,30 @@ const _: () = assert!(size_of::<Params>() == 48);
 const COUNT_AT: u64 = 16;
 
 impl GpuRenderer {
-    /// Renders the paths of `tasks` with Whitted shading as [`crate::shade::render`] does
-    /// with [`crate::shade::Shader::Whitted`]`(settings)`, with the scene's materials,
-    /// normals and lights (those of the scene this renderer was made with).
+    /// Renders the paths of `tasks` (ranges of paths in `frame`'s Morton order) as
+    /// [`crate::shade::render`] does with `frame`, with the materials, normals and lights of
+    /// the scene this renderer was made with.
     ///
     /// # Errors
-    /// [`GpuError::TooLarge`] when the launch's primary rays, its shadow rays (one per path
-    /// and light) or the scene's materials and normals exceed a binding, a side of the image
-    /// is not in 1..=65536 or a task reaches past the image, and the errors of a trace.
-    pub fn render_whitted(
+    /// [`GpuError::TooLarge`] when the launch's primary rays exceed a binding (about 4
+    /// million under lavapipe's 128 MiB), or with Whitted shading its shadow rays (one per
+    /// path and light) or the scene's materials and normals do, a side of the image is not in
+    /// 1..=65536 or a task reaches past the image, and the errors of a trace.
+    pub fn render(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
+        tasks: &[&Range<usize>],
+    ) -> Result<PathValues, GpuError> {
+        match frame.shader {
+            Shader::Ao(s) => self.render_ao(frame, tasks, &s),
+            Shader::Whitted(s) => self.render_whitted(frame, tasks, &s),
+        }
+    }
+
+    /// The paths of `tasks` with Whitted shading (see [`GpuRenderer::render`]).
+    fn render_whitted(
+        &self,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
         settings: &WhittedSettings,
     ) -> Result<PathValues, GpuError> {
