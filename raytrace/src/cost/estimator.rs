@@ -142,7 +142,7 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
             check_tasks(self.rays, tasks)?;
             return refine(tasks, self.rate, self.run, target, trace);
         }
-        let sample = Compacted::gather_in_runs(self.rays, tasks, self.rate, self.run)?;
+        let sample = Compacted::gather(self.rays, tasks, self.rate, self.run)?;
         let (traced, counts) = trace(&sample.index)?;
         let work = sample
             .offsets
@@ -310,7 +310,8 @@ pub(super) mod tests {
             let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS).with_walk(walk);
             let Sample { work, traced, .. } = e.try_sample(&tasks).unwrap();
             let traced = traced.expect("the sample's hits");
-            let sample = Compacted::gather(&rays, &tasks, SampleRate::THESIS).unwrap();
+            let sample =
+                Compacted::gather(&rays, &tasks, SampleRate::THESIS, SampleRun::DEFAULT).unwrap();
             assert_eq!(traced.index, sample.index);
             assert!(traced.index.windows(2).all(|w| w[0] < w[1]), "sorted");
             for (k, &i) in traced.index.iter().enumerate() {

@@ -260,7 +260,7 @@ mod tests {
         assert_eq!(s.sampled, 64 + 64 + 32);
         let traced = s.traced.expect("the trace walk's hits");
         assert_eq!(per_task(&traced.index, &tasks), vec![64, 64, 32]);
-        let full = Compacted::gather_in_runs(
+        let full = Compacted::gather(
             &rays,
             &tasks,
             SampleRate::new(RATE).unwrap(),

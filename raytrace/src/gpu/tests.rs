@@ -14,7 +14,7 @@ use super::buffers::{GpuRay, SceneBuffers};
 use super::staging::staged;
 use super::trace::{BATCHES, MAX_WORKGROUPS, TraceDevice, TraceMode};
 use super::{GpuContext, GpuDevice, GpuError, GpuOptions, GpuRenderer};
-use crate::cost::{Compacted, CountRays, ReducedTraversal, SampleRate, full_work};
+use crate::cost::{Compacted, CountRays, ReducedTraversal, SampleRate, SampleRun, full_work};
 use crate::devices::GpuSelect;
 use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, WhittedSettings, render};
 use crate::{BuildPreset, Bvh, Camera, HitBatch, Ray, RayBatch, Rng, SceneNeeds, SceneSource};
@@ -355,7 +355,8 @@ fn check_estimates(name: &str) {
             for rate in [0.125, 0.25, 0.5, 1.0] {
                 let rate = SampleRate::new(rate).expect("rate");
                 let at = format!("{name} {what}, tasks of {size}, rate {}", rate.get());
-                let sample = Compacted::gather(rays, &tasks, rate).expect("CPU sample");
+                let sample =
+                    Compacted::gather(rays, &tasks, rate, SampleRun::DEFAULT).expect("CPU sample");
                 let gpu = dev
                     .count_at(rays, crate::Walk::Reduced, &sample.index)
                     .expect("GPU counts");
