@@ -11,7 +11,7 @@ use crate::traverse::counts::Counts;
 use crate::{Bvh, HitBatch, RayBatch, Walk};
 
 use super::staging::{Staging, staged};
-use super::trace::{TraceDevice, TraceMode};
+use super::trace::TraceDevice;
 use super::{GpuContext, GpuError};
 
 /// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a batch of rays, all
@@ -66,12 +66,7 @@ impl GpuDevice {
         rays: &RayBatch,
         ranges: &[&Range<usize>],
     ) -> Result<HitBatch, GpuError> {
-        let mode = if occlusion {
-            TraceMode::Any
-        } else {
-            TraceMode::Closest
-        };
-        let out = self.trace(rays, ranges, mode)?;
+        let out = self.trace(rays, ranges, Walk::Trace { any: occlusion })?;
         Ok(HitBatch {
             t: out.iter().map(|r| f32::from_bits(r[0])).collect(),
             prim: out.iter().map(|r| r[1]).collect(),
@@ -88,7 +83,7 @@ impl GpuDevice {
         &self,
         rays: &RayBatch,
         ranges: &[&Range<usize>],
-        mode: TraceMode,
+        mode: Walk,
     ) -> Result<Vec<[u32; 2]>, GpuError> {
         // A launch that panicked left nothing worth keeping: its buffers are dropped.
         let mut staging = self.staging.lock().unwrap_or_else(|poisoned| {
@@ -120,7 +115,9 @@ impl CountRays for GpuDevice {
         walk: Walk,
         index: &[usize],
     ) -> Result<(Option<HitBatch>, Vec<Counts>), GpuError> {
-        let mode = TraceMode::counts(walk)?;
+        if let Walk::Trace { .. } = walk {
+            return Err(GpuError::WalkUnsupported { walk: walk.name() });
+        }
         // The samples come in runs of neighbours: one range a run.
         let mut runs: Vec<Range<usize>> = Vec::new();
         for &i in index {
@@ -129,7 +126,7 @@ impl CountRays for GpuDevice {
                 _ => runs.push(i..i + 1),
             }
         }
-        let out = self.trace(rays, &runs.iter().collect::<Vec<_>>(), mode)?;
+        let out = self.trace(rays, &runs.iter().collect::<Vec<_>>(), walk)?;
         let counts = out
             .into_iter()
             .map(|[nodes, tris]| Counts { nodes, tris })

@@ -14,11 +14,11 @@
 use super::buffers::{init, read_back, readable, storage};
 use super::program::{Kernel, READ, WRITE};
 use super::trace::{
-    TraceDevice, TraceMode, TraceRound, grid, loop_cut, pass_timestamps, stamp_seconds, timestamps,
+    TraceDevice, TraceRound, grid, loop_cut, pass_timestamps, stamp_seconds, timestamps,
     trace_resident,
 };
 use super::{GpuContext, GpuError};
-use crate::Traffic;
+use crate::{Traffic, Walk};
 
 /// The kernel folding a launch's queue states into one word (`verdict.wgsl`).
 pub(super) fn verdict_kernel(device: &wgpu::Device) -> Kernel {
@@ -185,7 +185,7 @@ impl<'a> Recorder<'a> {
         rays: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
-        mode: TraceMode,
+        mode: Walk,
         count: Count<'_>,
         traffic: &mut Traffic,
     ) -> Result<(), GpuError> {

@@ -42,7 +42,7 @@ pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
 pub use paths::render::{GpuRenderer, PathValues};
 pub use paths::sample::{PathSums, SampledPaths};
-pub use trace::{TraceKernels, TraceMode};
+pub use trace::TraceKernels;
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or
 /// the limit that was hit.

@@ -11,11 +11,10 @@
 
 use std::ops::Range;
 
-use crate::RayBatch;
-use crate::Traffic;
+use crate::{RayBatch, Traffic, Walk};
 
 use super::buffers::{GpuRay, RESULT_BYTES, copy, map, rays_per_launch, readback_err};
-use super::trace::{TraceDevice, TraceMode, trace_resident};
+use super::trace::{TraceDevice, trace_resident};
 use super::{GpuContext, GpuError};
 
 const RAY_BYTES: u64 = size_of::<GpuRay>() as u64;
@@ -91,15 +90,15 @@ pub(crate) fn staged(
     dev: &TraceDevice,
     rays: &RayBatch,
     ranges: &[&Range<usize>],
-    mode: TraceMode,
+    mode: Walk,
     traffic: &mut Traffic,
 ) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     let total: usize = ranges.iter().map(|r| r.len()).sum();
     let ctx = &dev.ctx;
     if dev.scene.empty {
         let none = match mode {
-            TraceMode::Reduced | TraceMode::FirstLeaf => [0, 0],
-            TraceMode::Closest | TraceMode::Any => [f32::INFINITY.to_bits(), u32::MAX],
+            Walk::Trace { .. } => [f32::INFINITY.to_bits(), u32::MAX],
+            Walk::Reduced | Walk::FirstLeaf => [0, 0],
         };
         return Ok((vec![none; total], None));
     }
@@ -147,7 +146,7 @@ fn run(
     dev: &TraceDevice,
     rays: &RayBatch,
     chunk: &[Range<usize>],
-    mode: TraceMode,
+    mode: Walk,
     out: &mut Vec<[u32; 2]>,
     traffic: &mut Traffic,
 ) -> Result<Option<f64>, GpuError> {

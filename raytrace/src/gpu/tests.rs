@@ -12,7 +12,7 @@ use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers};
 use super::staging::staged;
-use super::trace::{BATCHES, MAX_WORKGROUPS, TraceDevice, TraceMode};
+use super::trace::{BATCHES, CLOSEST, MAX_WORKGROUPS, TraceDevice};
 use super::{GpuContext, GpuDevice, GpuError, GpuOptions, GpuRenderer};
 use crate::cost::{Compacted, CountRays, ReducedTraversal, SampleRate, SampleRun, full_work};
 use crate::devices::GpuSelect;
@@ -253,7 +253,7 @@ fn splits_launches_and_names_the_limit() {
     let run = |dev: &TraceDevice, ranges: &[&std::ops::Range<usize>]| {
         let mut traffic = crate::Traffic::default();
         let mut staging = None;
-        let mode = TraceMode::Closest;
+        let mode = CLOSEST;
         staged(&mut staging, dev, &rays, ranges, mode, &mut traffic)
             .expect("launch")
             .0
@@ -479,7 +479,7 @@ fn a_launch_of_three_passes_is_timed_and_traced_whole() {
             &dev,
             rays,
             &[&all],
-            TraceMode::Reduced,
+            crate::Walk::Reduced,
             &mut traffic,
         )
         .expect("launch")

@@ -12,7 +12,7 @@
 use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, init, read_back, readable, storage};
 use super::program::{Program, READ, UNIFORM, WRITE};
 use super::{GpuContext, GpuError};
-use crate::{Bvh, Traffic};
+use crate::{Bvh, Traffic, Walk};
 
 /// Batches of 64 rays a workgroup takes per dispatch: few enough that one invocation stays far
 /// below lavapipe's ~65 535 loop iterations (a ray rarely needs more than a few hundred).
@@ -25,39 +25,19 @@ pub(crate) const MAX_WORKGROUPS: u32 = 2048;
 /// Stack entries the kernels are compiled with at most (`Bvh::depth` is at most 256).
 const MAX_STACK: usize = 256;
 
-/// What a launch computes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum TraceMode {
-    /// The nearest hit (`Bvh::closest_hit`).
-    Closest,
-    /// The first hit found (`Bvh::any_hit`).
-    Any,
-    /// Reduced-traversal counts `B`, `T` (`Bvh::reduced_traversal`).
-    Reduced,
-    /// First-leaf reduced-traversal counts (`Bvh::first_leaf_traversal`).
-    FirstLeaf,
-}
+/// The closest-hit trace (`Bvh::closest_hit`), as a launch's mode.
+pub(crate) const CLOSEST: Walk = Walk::Trace { any: false };
+/// The any-hit trace (`Bvh::any_hit`): the first hit found.
+pub(crate) const ANY: Walk = Walk::Trace { any: true };
 
-impl TraceMode {
-    fn index(self) -> usize {
-        match self {
-            Self::Closest => 0,
-            Self::Any => 1,
-            Self::Reduced => 2,
-            Self::FirstLeaf => 3,
-        }
-    }
-
-    /// The counting mode of a walk: the reduced traversals have one, the trace walk none.
-    ///
-    /// # Errors
-    /// [`GpuError::WalkUnsupported`] for [`crate::Walk::Trace`].
-    pub fn counts(walk: crate::Walk) -> Result<Self, GpuError> {
-        match walk {
-            crate::Walk::Reduced => Ok(Self::Reduced),
-            crate::Walk::FirstLeaf => Ok(Self::FirstLeaf),
-            crate::Walk::Trace { .. } => Err(GpuError::WalkUnsupported { walk: walk.name() }),
-        }
+/// The kernels' `MODE` for a launch that traces `walk`: the trace walk's hits, or the counts
+/// `B`, `T` of a reduced walk (`Bvh::reduced_traversal`, `Bvh::first_leaf_traversal`).
+fn mode_index(walk: Walk) -> usize {
+    match walk {
+        CLOSEST => 0,
+        ANY => 1,
+        Walk::Reduced => 2,
+        Walk::FirstLeaf => 3,
     }
 }
 
@@ -65,7 +45,7 @@ impl TraceMode {
 #[derive(Debug)]
 pub struct TraceKernels {
     program: Program,
-    /// By [`TraceMode::index`].
+    /// By `mode_index`.
     pipelines: [wgpu::ComputePipeline; 4],
     stack: usize,
     /// Bound as the per-path counts of a trace that counts nothing.
@@ -216,7 +196,7 @@ impl TraceRound {
         rays: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
-        mode: TraceMode,
+        mode: Walk,
         traffic: &mut Traffic,
     ) -> Self {
         let device = &dev.ctx.device;
@@ -246,7 +226,7 @@ impl TraceRound {
         rays: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
-        mode: TraceMode,
+        mode: Walk,
         queue: wgpu::Buffer,
         params: wgpu::Buffer,
         counts: Option<&wgpu::Buffer>,
@@ -284,7 +264,7 @@ impl TraceRound {
             per_dispatch,
             queue,
             dispatches: u64::from(n).div_ceil(per_dispatch),
-            mode: mode.index(),
+            mode: mode_index(mode),
         }
     }
 
@@ -370,7 +350,7 @@ pub(crate) fn trace_resident(
     rays: &wgpu::Buffer,
     out: &wgpu::Buffer,
     n: u32,
-    mode: TraceMode,
+    mode: Walk,
     traffic: &mut Traffic,
 ) -> Result<Option<f64>, GpuError> {
     let ctx = &dev.ctx;

@@ -27,10 +27,11 @@ use crate::gpu::header::{self, Header, Setup, task_list};
 use crate::gpu::launch::{Count, Recorder, verdict_kernel};
 use crate::gpu::program::{Kernel, Program, READ, UNIFORM, WRITE};
 use crate::gpu::resident::Resident;
-use crate::gpu::trace::{TraceDevice, TraceMode, loop_cut};
+use crate::gpu::trace::{ANY, CLOSEST, TraceDevice, loop_cut};
 use crate::scene::Scene;
 use crate::shade::{AoSettings, RenderOptions};
 use crate::traffic::Traffic;
+use crate::traverse::walk::Walk;
 
 /// The uniform block of `render.wgsl` (`struct Params`).
 #[repr(C)]
@@ -509,7 +510,7 @@ impl GpuRenderer {
             &stage.primary,
             &stage.hits,
             n,
-            tally.map_or(TraceMode::Closest, |t| t.primary),
+            tally.map_or(CLOSEST, |t| t.primary),
             match tally {
                 Some(t) => Count::Counted {
                     counts: &t.paths,
@@ -546,7 +547,7 @@ impl GpuRenderer {
                     &stage.probes,
                     &stage.probe_hits,
                     len * samples,
-                    TraceMode::Any,
+                    ANY,
                     match tally {
                         Some(t) => Count::Counted {
                             counts: &t.probes,
@@ -606,7 +607,7 @@ pub(in crate::gpu) type Values = (Vec3, u64, fn(&[u8]) -> Vec3);
 pub(in crate::gpu) struct Tally {
     pub(in crate::gpu) paths: wgpu::Buffer,
     pub(in crate::gpu) probes: wgpu::Buffer,
-    pub(in crate::gpu) primary: TraceMode,
+    pub(in crate::gpu) primary: Walk,
 }
 
 /// The buffers of one launch, on the device.

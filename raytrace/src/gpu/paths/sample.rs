@@ -18,7 +18,8 @@ use super::render::{GpuRenderer, Tally};
 use crate::cost::Work;
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{check_size, storage};
-use crate::gpu::trace::{TraceMode, grid, loop_cut};
+use crate::gpu::trace::{grid, loop_cut};
+use crate::ray::RayKind;
 use crate::shade::{AoSettings, RenderOptions, Shader};
 use crate::traffic::Traffic;
 use crate::traverse::walk::Walk;
@@ -120,8 +121,8 @@ impl GpuRenderer {
         let tally = Tally {
             paths: zeroed("cobalt sampled path counts", n * 8, none),
             probes: zeroed("cobalt sampled probe counts", n * 8, none),
-            // A reduced walk counts the camera rays by its own mode, the trace walk traces them.
-            primary: TraceMode::counts(walk).unwrap_or(TraceMode::Closest),
+            // A reduced walk counts the camera rays by its own walk, the trace walk traces them.
+            primary: walk.for_kind(RayKind::Primary),
         };
         let mut launch = self.recorder(&stage, false);
         if let (Shader::Whitted(s), false) = (shader, reduced) {

@@ -19,7 +19,7 @@ use crate::gpu::GpuError;
 use crate::gpu::buffers::{GpuRay, RESULT_BYTES, check_size};
 use crate::gpu::header::Header;
 use crate::gpu::launch::{Count, Recorder};
-use crate::gpu::trace::TraceMode;
+use crate::gpu::trace::{ANY, CLOSEST};
 use crate::shade::{AMBIENT, AoSettings, RenderOptions, SKY, Shader, WhittedSettings};
 use crate::traffic::Traffic;
 
@@ -191,7 +191,7 @@ impl GpuRenderer {
                 },
                 None => Count::Copied(header, Header::COUNT),
             };
-            launch.trace(rays, &stage.hits, n, TraceMode::Closest, count, traffic)?;
+            launch.trace(rays, &stage.hits, n, CLOSEST, count, traffic)?;
             launch.pass_over(&w.shade, group, n);
             if lights > 0 {
                 // `slots` fits one binding, so far below 2^32.
@@ -199,7 +199,7 @@ impl GpuRenderer {
                     &shadow_rays,
                     &shadow_hits,
                     slots as u32,
-                    TraceMode::Any,
+                    ANY,
                     match tally {
                         Some(t) => Count::Counted {
                             counts: &t.paths,
