@@ -40,7 +40,7 @@ pub mod trace;
 
 pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
-pub use paths::render::{GpuRenderer, PathValues};
+pub use paths::render::GpuRenderer;
 pub use paths::sample::{PathSums, SampledPaths};
 pub use trace::TraceKernels;
 

@@ -561,7 +561,7 @@ fn raygen_equals_cpu_primary_rays() {
 fn gpu_film(
     renderer: &GpuRenderer,
     options: &RenderOptions,
-) -> Result<(crate::Film, crate::gpu::PathValues), GpuError> {
+) -> Result<(crate::Film, crate::paths::Launch), GpuError> {
     let (w, h) = (options.width, options.height);
     let n = (w * h) as usize;
     let tasks = [n / 2..n, 0..n / 7, n / 7..n / 2];

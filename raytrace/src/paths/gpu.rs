@@ -55,20 +55,14 @@ impl PathDevice for GpuPaths {
     ) -> Result<Launch, DeviceError> {
         let started = Instant::now();
         let out = self.renderer.render(frame.options, tasks)?;
-        if let Some(kernels) = out.kernel_seconds {
+        if let Some(kernels) = out.device_seconds {
             let beyond = started.elapsed().as_secs_f64() - kernels;
             if self.overheads.len() == OVERHEADS_KEPT {
                 self.overheads.pop_front();
             }
             self.overheads.push_back(beyond.max(0.0));
         }
-        Ok(Launch {
-            values: out.values,
-            rays: out.rays,
-            traffic: out.traffic,
-            film_bytes: out.film_bytes,
-            device_seconds: out.kernel_seconds,
-        })
+        Ok(out)
     }
 
     /// On the GPU: the sample is made, traced (or its camera rays walked) and summed by the

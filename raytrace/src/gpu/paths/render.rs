@@ -28,6 +28,7 @@ use crate::gpu::launch::{Count, Recorder, verdict_kernel};
 use crate::gpu::program::{Kernel, Program, READ, UNIFORM, WRITE};
 use crate::gpu::resident::Resident;
 use crate::gpu::trace::{ANY, CLOSEST, TraceDevice, loop_cut};
+use crate::paths::Launch;
 use crate::scene::Scene;
 use crate::shade::{AoSettings, RenderOptions};
 use crate::traffic::Traffic;
@@ -82,23 +83,6 @@ impl Params {
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 struct SceneTri {
     v: [[f32; 4]; 3],
-}
-
-/// What a launch of paths produced on the GPU.
-#[derive(Clone, Debug, Default)]
-pub struct PathValues {
-    /// Each path's radiance (grey for ambient occlusion), task after task as launched.
-    pub values: Vec<Vec3>,
-    /// Rays traced: the primary rays, then `samples` AO probes per primary ray, or per
-    /// bounce one shadow ray per light and one mirror ray per path (slots of paths that ended
-    /// hold empty-range rays, which end at once and add nothing).
-    pub rays: usize,
-    /// Kernel time of the launch from timestamp queries, where the device has them.
-    pub kernel_seconds: Option<f64>,
-    /// What crossed between host and device, the values excepted.
-    pub traffic: Traffic,
-    /// Bytes of the values read back.
-    pub film_bytes: u64,
 }
 
 /// One GPU with a scene and the path kernels: renders ranges of paths entirely on the
@@ -404,7 +388,7 @@ impl GpuRenderer {
         frame: &RenderOptions,
         tasks: &[&Range<usize>],
         settings: &AoSettings,
-    ) -> Result<PathValues, GpuError> {
+    ) -> Result<Launch, GpuError> {
         let samples = settings.samples;
         let grey: fn(&[u8]) -> Vec3 = |c| Vec3::splat(bytemuck::pod_read_unaligned::<f32>(c));
         self.drained(|checked| {
@@ -454,15 +438,15 @@ impl GpuRenderer {
             &wgpu::BindGroup,
             &mut Traffic,
         ) -> Result<(wgpu::Buffer, usize), GpuError>,
-    ) -> Result<Option<PathValues>, GpuError> {
+    ) -> Result<Option<Launch>, GpuError> {
         let mut traffic = Traffic::default();
         let (stage, first) = self.begin(frame, tasks, settings, secondary, 1, &mut traffic)?;
         let n = stage.n;
         if self.dev.scene.empty {
-            return Ok(Some(PathValues {
+            return Ok(Some(Launch {
                 values: vec![sky; n as usize],
                 rays: n as usize,
-                kernel_seconds: None,
+                device_seconds: None,
                 traffic,
                 film_bytes: 0,
             }));
@@ -476,14 +460,14 @@ impl GpuRenderer {
         }
         // One pass from the bytes read back: each copy of a frame's values is a pass over
         // fresh pages.
-        Ok(Some(PathValues {
+        Ok(Some(Launch {
             values: done
                 .values
                 .chunks_exact(bytes as usize)
                 .map(value)
                 .collect(),
             rays,
-            kernel_seconds: done.kernel_seconds,
+            device_seconds: done.kernel_seconds,
             traffic,
             film_bytes,
         }))

@@ -14,12 +14,13 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::render::{GpuRenderer, PathValues, Stage, Tally};
+use super::render::{GpuRenderer, Stage, Tally};
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{GpuRay, RESULT_BYTES, check_size};
 use crate::gpu::header::Header;
 use crate::gpu::launch::{Count, Recorder};
 use crate::gpu::trace::{ANY, CLOSEST};
+use crate::paths::Launch;
 use crate::shade::{AMBIENT, AoSettings, RenderOptions, SKY, Shader, WhittedSettings};
 use crate::traffic::Traffic;
 
@@ -46,7 +47,11 @@ const COUNT_AT: u64 = 16;
 impl GpuRenderer {
     /// Renders the paths of `tasks` (ranges of paths in `frame`'s Morton order) as
     /// [`crate::shade::render`] does with `frame`, with the materials, normals and lights of
-    /// the scene this renderer was made with.
+    /// the scene this renderer was made with. The launch's rays are the primary rays, then
+    /// `samples` AO probes per primary ray, or per bounce one shadow ray per light and one
+    /// mirror ray per path (slots of paths that ended hold empty-range rays, which end at
+    /// once and add nothing); its device seconds are its kernels' time from timestamp
+    /// queries, where the device has them.
     ///
     /// # Errors
     /// [`GpuError::TooLarge`] when the launch's primary rays exceed a binding (about 4
@@ -57,7 +62,7 @@ impl GpuRenderer {
         &self,
         frame: &RenderOptions,
         tasks: &[&Range<usize>],
-    ) -> Result<PathValues, GpuError> {
+    ) -> Result<Launch, GpuError> {
         match frame.shader {
             Shader::Ao(s) => self.render_ao(frame, tasks, &s),
             Shader::Whitted(s) => self.render_whitted(frame, tasks, &s),
@@ -70,7 +75,7 @@ impl GpuRenderer {
         frame: &RenderOptions,
         tasks: &[&Range<usize>],
         settings: &WhittedSettings,
-    ) -> Result<PathValues, GpuError> {
+    ) -> Result<Launch, GpuError> {
         // No probes: the stage's probe buffer (one ray per path) holds the mirror rays.
         let no_probes = AoSettings {
             samples: 0,
