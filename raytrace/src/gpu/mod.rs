@@ -41,7 +41,6 @@ pub mod trace;
 pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
 pub use paths::render::GpuRenderer;
-pub use paths::sample::{PathSums, SampledPaths};
 pub use trace::TraceKernels;
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or

@@ -1123,7 +1123,7 @@ fn an_undrained_launch_is_run_again_checked() {
         // An estimate's traces would not count when checked: it says so instead.
         let all = 0..40 * 24;
         let walk = crate::Walk::Trace { any: false };
-        let sampled = starved.sample_paths(&options, &[&all], 4, walk);
+        let sampled = starved.sample_paths(&options, &[&all], SampleRate::new(0.25).unwrap(), walk);
         assert!(
             matches!(sampled, Err(GpuError::LoopCut { .. })),
             "{sampled:?}"

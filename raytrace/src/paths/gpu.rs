@@ -8,7 +8,6 @@ use std::time::Instant;
 
 use sched::{DeviceError, SampleRate};
 
-use super::estimate::{sampled_options, task_work};
 use super::{Estimate, Frame, Launch, PathDevice};
 use crate::gpu::{GpuContext, GpuError, GpuRenderer};
 use crate::traverse::walk::Walk;
@@ -75,20 +74,9 @@ impl PathDevice for GpuPaths {
         rate: SampleRate,
         walk: Walk,
     ) -> Result<Estimate, DeviceError> {
-        let (options, probe_scale) = match walk {
-            Walk::Trace { .. } => sampled_options(frame.options, rate),
-            _ => (*frame.options, 1.0),
-        };
-        let stride = u32::try_from(rate.stride()).unwrap_or(u32::MAX);
-        let sampled = self.renderer.sample_paths(&options, tasks, stride, walk)?;
-        Ok(Estimate {
-            work: tasks
-                .iter()
-                .zip(&sampled.tasks)
-                .map(|(t, s)| task_work(s.paths, s.probes, t.len(), s.sampled, probe_scale))
-                .collect(),
-            traffic: sampled.traffic,
-        })
+        Ok(self
+            .renderer
+            .sample_paths(frame.options, tasks, rate, walk)?)
     }
 
     /// The kernels count on the binary tree.

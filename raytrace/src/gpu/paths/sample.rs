@@ -14,41 +14,26 @@
 
 use std::ops::Range;
 
+use sched::SampleRate;
+
 use super::render::{GpuRenderer, Tally};
 use crate::cost::Work;
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{check_size, storage};
 use crate::gpu::trace::{grid, loop_cut};
+use crate::paths::{Estimate, sampled_options, task_work};
 use crate::ray::RayKind;
 use crate::shade::{AoSettings, RenderOptions, Shader};
 use crate::traffic::Traffic;
 use crate::traverse::walk::Walk;
 
-/// One task's sample as the GPU summed it; its `R` is left 0 (a path's, not its rays', see
-/// [`crate::paths::task_work`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PathSums {
-    /// `B` and `T` of the sampled paths' primary, mirror and shadow rays.
-    pub paths: Work,
-    /// `B` and `T` of their AO probes.
-    pub probes: Work,
-    /// Paths sampled.
-    pub sampled: usize,
-}
-
-/// What a sampling launch returned: each task's sums, and what crossed.
-#[derive(Clone, Debug, Default)]
-pub struct SampledPaths {
-    /// Per task, in order.
-    pub tasks: Vec<PathSums>,
-    /// Bytes each way and host waits.
-    pub traffic: Traffic,
-}
-
 impl GpuRenderer {
-    /// Traces every `stride`-th path of each of `tasks` (from its first) of `frame`, or walks
-    /// its camera ray alone by a reduced `walk`, and sums its rays' counts per task (see the
-    /// module docs).
+    /// The estimated work of each of `tasks` of `frame` from a sample at `rate`: every
+    /// `rate.stride()`-th path of each task (from its first) traced as the render would trace
+    /// it, with the rate's share of its AO probes ([`crate::paths::sampled_options`]), or its
+    /// camera ray alone walked by a reduced `walk`, its rays' counts summed per task on the
+    /// device and scaled to the task as the host scales them ([`crate::paths::task_work`]; see
+    /// the module docs).
     ///
     /// # Errors
     /// [`GpuError::TooLarge`] when the sampled paths or their probes exceed one binding,
@@ -60,22 +45,26 @@ impl GpuRenderer {
         &self,
         frame: &RenderOptions,
         tasks: &[&Range<usize>],
-        stride: u32,
+        rate: SampleRate,
         walk: Walk,
-    ) -> Result<SampledPaths, GpuError> {
-        self.sample_launch(frame, tasks, stride, walk)?
+    ) -> Result<Estimate, GpuError> {
+        let (options, probe_scale) = match walk {
+            Walk::Trace { .. } => sampled_options(frame, rate),
+            _ => (*frame, 1.0),
+        };
+        let stride = u32::try_from(rate.stride()).unwrap_or(u32::MAX);
+        let launch = (&options, tasks, stride, probe_scale);
+        self.sample_launch(launch, walk)?
             .ok_or_else(|| loop_cut(&self.dev.ctx.info.name))
     }
 
-    /// One launch of [`GpuRenderer::sample_paths`], one submission; `None` when a queue was
-    /// not drained.
+    /// One launch of [`GpuRenderer::sample_paths`] of every `stride`-th path, one submission,
+    /// its probes' counts scaled by `probe_scale`; `None` when a queue was not drained.
     fn sample_launch(
         &self,
-        frame: &RenderOptions,
-        tasks: &[&Range<usize>],
-        stride: u32,
+        (frame, tasks, stride, probe_scale): (&RenderOptions, &[&Range<usize>], u32, f64),
         walk: Walk,
-    ) -> Result<Option<SampledPaths>, GpuError> {
+    ) -> Result<Option<Estimate>, GpuError> {
         let shader = &frame.shader;
         let mut traffic = Traffic::default();
         let reduced = !matches!(walk, Walk::Trace { .. });
@@ -90,18 +79,26 @@ impl GpuRenderer {
             _ => (no_ao, 0),
         };
         let (stage, first) = self.begin(frame, tasks, &ao, secondary, stride, &mut traffic)?;
+        // Each task's work from its sampled paths' sums `B`, `T` and their probes'.
         let stride = stride.max(1) as usize;
-        let sampled: Vec<usize> = tasks.iter().map(|t| t.len().div_ceil(stride)).collect();
+        let scaled = |words: &[[u32; 4]]| -> Vec<Work> {
+            let work = |nodes: u32, tris: u32| Work {
+                nodes: nodes.into(),
+                tris: tris.into(),
+                rays: 0.0,
+            };
+            (tasks.iter().zip(words))
+                .map(|(t, w)| {
+                    let (paths, probes) = (work(w[0], w[1]), work(w[2], w[3]));
+                    let sampled = t.len().div_ceil(stride);
+                    task_work(paths, probes, t.len(), sampled, probe_scale)
+                })
+                .collect()
+        };
         if self.dev.scene.empty {
             // Every ray misses the root: nothing is counted.
-            let tasks = sampled
-                .iter()
-                .map(|&sampled| PathSums {
-                    sampled,
-                    ..PathSums::default()
-                })
-                .collect();
-            return Ok(Some(SampledPaths { tasks, traffic }));
+            let work = scaled(&vec![[0; 4]; tasks.len()]);
+            return Ok(Some(Estimate { work, traffic }));
         }
         if stage.chunk < stage.n {
             return Err(GpuError::TooLarge {
@@ -170,22 +167,9 @@ impl GpuRenderer {
                 task,
             });
         }
-        let tasks = sampled
-            .iter()
-            .zip(&words)
-            .map(|(&sampled, w)| {
-                let work = |nodes: u32, tris: u32| Work {
-                    nodes: nodes.into(),
-                    tris: tris.into(),
-                    rays: 0.0,
-                };
-                PathSums {
-                    paths: work(w[0], w[1]),
-                    probes: work(w[2], w[3]),
-                    sampled,
-                }
-            })
-            .collect();
-        Ok(Some(SampledPaths { tasks, traffic }))
+        Ok(Some(Estimate {
+            work: scaled(&words),
+            traffic,
+        }))
     }
 }
