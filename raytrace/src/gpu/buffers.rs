@@ -87,8 +87,6 @@ pub struct SceneBuffers {
     pub tris: wgpu::Buffer,
     /// True when the tree has no triangle: nothing is launched, every ray misses.
     pub empty: bool,
-    /// The tree's depth (the kernels' stack must hold `depth - 1` entries).
-    pub depth: usize,
 }
 
 impl SceneBuffers {
@@ -114,7 +112,6 @@ impl SceneBuffers {
             nodes: init("cobalt bvh nodes", nodes),
             tris: init("cobalt bvh triangles", tris),
             empty,
-            depth: bvh.depth(),
         })
     }
 }

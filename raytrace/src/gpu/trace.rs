@@ -47,7 +47,6 @@ pub struct TraceKernels {
     program: Program,
     /// By `mode_index`.
     pipelines: [wgpu::ComputePipeline; 4],
-    stack: usize,
     /// Bound as the per-path counts of a trace that counts nothing.
     no_counts: wgpu::Buffer,
 }
@@ -103,7 +102,6 @@ impl TraceKernels {
                 make(3, "cobalt first-leaf reduced-traversal pipeline"),
             ],
             program,
-            stack,
             no_counts: storage(
                 device,
                 "cobalt no path counts",
@@ -111,11 +109,6 @@ impl TraceKernels {
                 wgpu::BufferUsages::empty(),
             ),
         })
-    }
-
-    /// Entries of the traversal stack compiled in.
-    pub fn stack(&self) -> usize {
-        self.stack
     }
 }
 

@@ -39,11 +39,6 @@ impl GpuPaths {
             overheads: VecDeque::new(),
         })
     }
-
-    /// The kernels and buffers of the device.
-    pub fn renderer(&self) -> &GpuRenderer {
-        &self.renderer
-    }
 }
 
 impl PathDevice for GpuPaths {
