@@ -49,14 +49,6 @@ pub fn primary_cost_image(bvh: &Bvh, camera: &Camera, width: u32, height: u32) -
     cost_image(&primary_counts(bvh, camera, width, height), width, height)
 }
 
-/// Largest `B` and `T` over the pixels: the values each panel's top colour stands for.
-pub fn max_counts(counts: &[Counts]) -> Counts {
-    counts.iter().fold(Counts::default(), |m, c| Counts {
-        nodes: m.nodes.max(c.nodes),
-        tris: m.tris.max(c.tris),
-    })
-}
-
 /// The `2 width x height` heat map of `counts` (row-major, `y * width + x`), `B` left and `T`
 /// right; encode it with [`crate::film::ToneMap::Display`].
 ///
@@ -68,10 +60,11 @@ pub fn cost_image(counts: &[Counts], width: u32, height: u32) -> Film {
         width as usize * height as usize,
         "one count per pixel"
     );
-    let max = max_counts(counts);
-    // A panel with no work at all stays black instead of dividing by zero.
-    let scale = |m: u32| if m == 0 { 0.0 } else { 1.0 / m as f32 };
-    let (sb, st) = (scale(max.nodes), scale(max.tris));
+    // Each panel's top colour stands for its largest count; a panel with no work at all stays
+    // black instead of dividing by zero.
+    let scale = |m: Option<u32>| m.filter(|&m| m > 0).map_or(0.0, |m| 1.0 / m as f32);
+    let sb = scale(counts.iter().map(|c| c.nodes).max());
+    let st = scale(counts.iter().map(|c| c.tris).max());
     let mut film = Film::new(2 * width, height);
     let w2 = 2 * width as usize;
     for (i, c) in counts.iter().enumerate() {

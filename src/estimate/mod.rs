@@ -8,36 +8,53 @@
 //! time, both on all cores) follow. On the CPU every walk is timed in the same rounds, so the
 //! report holds the whole trade.
 //!
-//! [`Args`] are its arguments; [`run`] checks them, loads the scene, makes the rays ([`rays`]),
-//! has the library measure, and prints the report as a table or one JSON object.
+//! [`Args`] are its arguments; [`run`] checks them, loads the scene, makes the rays `--rays`
+//! asks for (camera, AO, a Whitted render's generations or a ray file), has the library
+//! measure, and prints the report as a table or one JSON object.
 
 mod args;
-mod rays;
+
+use std::path::Path;
 
 use raytrace::cost::SampleRun;
-use raytrace::estimate::{Device, Settings, WalkChoice};
-use raytrace::{Bvh, Camera, Walk};
+use raytrace::estimate::{Device, Generations, Settings, WalkChoice};
+use raytrace::{Bvh, Camera, SceneNeeds, Walk};
 
+use crate::args::Size;
 use crate::error::CliError;
 use crate::trace::Device as DeviceArg;
-use rays::{RaySettings, RaySource};
 
 pub use args::Args;
 
 /// Runs the command: all arguments are checked before the scene is loaded, and the rays
 /// before anything is timed.
 pub fn run(args: Args) -> Result<(), CliError> {
-    let source = RaySource::parse(&args.rays, args.ray_kind);
-
-    let scene = crate::limits::scene(&args.scene.scene)?.load(source.needs())?;
+    // A Whitted render's generations need the scene's materials.
+    let needs = if args.rays == "whitted" {
+        SceneNeeds::WHITTED
+    } else {
+        SceneNeeds::AO
+    };
+    let scene = crate::limits::scene(&args.scene.scene)?.load(needs)?;
     let bvh = Bvh::build(&scene, args.scene.preset)?;
     let camera = Camera::orbit(&scene.bounds(), args.camera);
-    let settings = RaySettings {
-        size: args.size,
-        ao_samples: args.ao_samples,
-        ao_distance: args.ao_distance,
+    let Size { width, height } = args.size;
+    let rays = match args.rays.as_str() {
+        "primary" => Generations::primary(&camera, width, height),
+        "ao" => Generations::ao(
+            (&scene, &bvh),
+            &camera,
+            (width, height),
+            args.ao_samples,
+            args.ao_distance,
+        ),
+        "whitted" => Generations::whitted((&scene, &bvh), camera, width, height),
+        path => {
+            let mut rays = crate::trace::read_rays(Path::new(path))?;
+            scene.rays_to_scene(&mut rays);
+            Generations::of(rays, args.ray_kind)
+        }
     };
-    let rays = source.generations(&scene, &bvh, camera, &settings)?;
     if rays.segments.iter().all(|(batch, _)| batch.is_empty()) {
         return Err(CliError::Arg {
             flag: "rays",

@@ -28,36 +28,6 @@ pub enum CostError {
     /// The ray batch's eight columns have different lengths.
     #[error("the ray batch is inconsistent: its columns have different lengths")]
     InconsistentBatch,
-    /// Two inputs that must describe the same tasks have different lengths.
-    #[error("{what}: {expected} vs {got} values")]
-    LengthMismatch {
-        /// What was compared.
-        what: &'static str,
-        /// Length of the first input.
-        expected: usize,
-        /// Length of the second.
-        got: usize,
-    },
-    /// A metric or fit got fewer tasks than it needs.
-    #[error("{what} needs at least {needed} tasks, got {got}")]
-    TooFewTasks {
-        /// The metric or fit.
-        what: &'static str,
-        /// The least it needs.
-        needed: usize,
-        /// How many it got.
-        got: usize,
-    },
-    /// A value is NaN, infinite or negative where a cost or a time is expected.
-    #[error("{what} of task {task} is {value}: it must be finite and non-negative")]
-    BadValue {
-        /// What the value is (a measured time, a full cost…).
-        what: &'static str,
-        /// Index of the task.
-        task: usize,
-        /// The rejected value.
-        value: f64,
-    },
     /// The input carries no information for the quantity asked (all zero, or constant).
     #[error("{what} is undefined: {why}")]
     Degenerate {

@@ -6,7 +6,7 @@
 use std::ops::Range;
 
 use super::refine::refine;
-use super::sample::{Compacted, check_tasks};
+use super::sample::{Compacted, Sample, Traced, check_tasks};
 use super::{CostError, CostModel, SampleRate, SampleRun, Work};
 use crate::traverse::batch::{reduced_counts_at, traced_at};
 use crate::traverse::counts::Counts;
@@ -140,17 +140,9 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
         // A sample of every ray is asked for exactly; nothing is left to refine towards.
         if let Some(target) = self.sample_error.filter(|_| self.rate < SampleRate::FULL) {
             check_tasks(self.rays, tasks)?;
-            let r = refine(tasks, self.rate, self.run, target, trace)?;
-            return Ok(Sample {
-                sampled: r.index.len(),
-                work: r.work,
-                traced: r.hits.map(|hits| Traced {
-                    index: r.index,
-                    hits,
-                }),
-            });
+            return refine(tasks, self.rate, self.run, target, trace);
         }
-        let sample = Compacted::gather_in_runs(self.rays, tasks, self.rate, self.run)?;
+        let sample = Compacted::gather(self.rays, tasks, self.rate, self.run)?;
         let (traced, counts) = trace(&sample.index)?;
         let work = sample
             .offsets
@@ -200,27 +192,6 @@ impl<C: CountRays> sched::CostEstimator<Range<usize>> for ReducedTraversal<'_, C
             }
         }
     }
-}
-
-/// What an estimate's sample found.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Sample {
-    /// Each task's estimated work.
-    pub work: Vec<Work>,
-    /// Rays traced by the estimate, over all tasks.
-    pub sampled: usize,
-    /// The sampled rays' hits, with [`Walk::Trace`].
-    pub traced: Option<Traced>,
-}
-
-/// The hits of a sample traced for real ([`Walk::Trace`]): ray `index[k]` of the batch hit
-/// `hits.get(k)`. Sorted by index when the tasks were.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Traced {
-    /// Indices in the batch of the traced rays.
-    pub index: Vec<usize>,
-    /// Their hits, in the same order.
-    pub hits: HitBatch,
 }
 
 /// `walk`'s reduced traversal of *every* ray of every task: the "full" of the thesis's
@@ -339,7 +310,8 @@ pub(super) mod tests {
             let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS).with_walk(walk);
             let Sample { work, traced, .. } = e.try_sample(&tasks).unwrap();
             let traced = traced.expect("the sample's hits");
-            let sample = Compacted::gather(&rays, &tasks, SampleRate::THESIS).unwrap();
+            let sample =
+                Compacted::gather(&rays, &tasks, SampleRate::THESIS, SampleRun::DEFAULT).unwrap();
             assert_eq!(traced.index, sample.index);
             assert!(traced.index.windows(2).all(|w| w[0] < w[1]), "sorted");
             for (k, &i) in traced.index.iter().enumerate() {

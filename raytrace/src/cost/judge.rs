@@ -5,7 +5,7 @@
 //! that swaps big and small tasks costs it much.
 
 use super::calibrate::{Fit, calibrate};
-use super::metrics::{error_vs_time, spearman};
+use super::metrics::error_vs_time;
 use super::model::Work;
 use sched::{Costs, Speeds, plan_equal, plan_lpt};
 
@@ -17,7 +17,7 @@ pub struct Judged {
     pub fit: Option<Fit>,
     /// The calibrated estimates' error against the times ([`error_vs_time`]).
     pub error_vs_time: Option<f64>,
-    /// Their rank correlation with the times ([`spearman`]).
+    /// Their rank correlation with the times ([`sched::rank_correlation`]).
     pub spearman_vs_time: Option<f64>,
     /// The balance of an LPT plan by them, judged by the times ([`lpt`]).
     pub lpt_balance: Option<f64>,
@@ -25,14 +25,14 @@ pub struct Judged {
 
 /// `work` calibrated against `measured` (one time per task) and judged by it.
 pub fn judge(work: &[Work], measured: &[f64]) -> Judged {
-    let Ok(fit) = calibrate(work, measured) else {
+    let Some(fit) = calibrate(work, measured) else {
         return Judged::default();
     };
     let costs = fit.model.costs(work);
     Judged {
         fit: Some(fit),
-        error_vs_time: error_vs_time(&costs, measured).ok(),
-        spearman_vs_time: spearman(&costs, measured).ok(),
+        error_vs_time: error_vs_time(&costs, measured),
+        spearman_vs_time: sched::rank_correlation(&costs, measured),
         lpt_balance: lpt(&costs, measured),
     }
 }

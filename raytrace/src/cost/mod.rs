@@ -1,7 +1,7 @@
 //! Cost estimation of ray tasks by the thesis's reduced traversal (section 3.1), and what is
 //! needed to judge it: full counts, measured task times, a least-squares calibration of
 //! `C = kB·B + kT·T`, and the error metrics (the thesis's [`sched::prediction_error`],
-//! [`error_vs_time`], [`spearman`]).
+//! [`error_vs_time`], [`sched::rank_correlation`]).
 //!
 //! A task is a `Range<usize>` of a [`RayBatch`](crate::RayBatch) (`sched` implements
 //! [`sched::Task`] for ranges). The pieces:
@@ -13,8 +13,8 @@
 //!   count over *all* rays, the reference of the prediction error;
 //! - [`measure_seconds`]: the measured trace time of each task;
 //! - [`CostModel`] and [`calibrate`]: `kB`, `kT` fitted to measured times;
-//! - [`error_vs_time`] and [`spearman`]: the metrics beyond the thesis's, and [`judge`]:
-//!   estimates judged by measured times, with the balance they buy a plan;
+//! - [`error_vs_time`] and `sched::rank_correlation`: the metrics beyond the thesis's, and
+//!   [`judge`]: estimates judged by measured times, with the balance they buy a plan;
 //! - [`Rounds`]: an estimate timed against the trace it saves, in rounds.
 //!
 //! ## Example
@@ -51,9 +51,9 @@ mod sample;
 
 pub use calibrate::{Fit, FitForm, calibrate};
 pub use error::CostError;
-pub use estimator::{CountRays, ReducedTraversal, Sample, Traced, full_work};
+pub use estimator::{CountRays, ReducedTraversal, full_work};
 pub use measure::measure_seconds;
-pub use metrics::{error_vs_time, spearman};
+pub use metrics::error_vs_time;
 pub use model::{CostModel, Work};
 pub use rounds::{Budget, Rounds, SlicedStep, SlicedTraces, WholeStep};
-pub use sample::{Compacted, SampleRate, SampleRun};
+pub use sample::{Compacted, Sample, SampleRate, SampleRun, Traced};

@@ -22,7 +22,7 @@
 
 use std::ops::Range;
 
-use super::sample::sample_runs;
+use super::sample::{Sample, Traced, sample_runs};
 use super::{CostModel, SampleRate, SampleRun, Work};
 use crate::HitBatch;
 use crate::traverse::counts::Counts;
@@ -33,16 +33,6 @@ const LEVELS: u32 = 2;
 /// Runs a task needs at the first level to be refined at all; below, its two halves would be
 /// too few to disagree meaningfully, and it takes its whole sample at once.
 const MIN_RUNS: usize = 8;
-
-/// What a refined sample found.
-pub(super) struct Refined {
-    /// Each task's work, scaled from its sample to all its rays.
-    pub work: Vec<Work>,
-    /// The sampled rays' indices, task by task, in order within each task.
-    pub index: Vec<usize>,
-    /// Their hits, in the same order, where the walk traced them for real.
-    pub hits: Option<HitBatch>,
-}
 
 /// Where a run was traced: the pass, its first ray's place in that pass, and its counts' sum.
 type Found = Option<(usize, usize, Work)>;
@@ -57,7 +47,7 @@ pub(super) fn refine<E>(
     run: SampleRun,
     target: f64,
     mut trace: impl FnMut(&[usize]) -> Result<(Option<HitBatch>, Vec<Counts>), E>,
-) -> Result<Refined, E> {
+) -> Result<Sample, E> {
     // Every task's runs in one list, task `t`'s at `runs[from[t]..from[t + 1]]`: this
     // bookkeeping runs on one thread between parallel passes, and with a list per task and a
     // scan of all of a task's runs for each half, camera-ray estimates took 8–10 % longer.
@@ -157,14 +147,16 @@ fn halves(found: &[Found], stride: usize, len: usize) -> (f64, f64) {
     (per_task(half[0]), per_task(half[1]))
 }
 
-/// Each task's runs in order, gathered from the passes that traced them.
+/// Each task's runs in order, gathered from the passes that traced them: the sampled rays'
+/// indices task by task, their work scaled to each task's rays, and their hits where the walk
+/// traced them for real.
 fn assemble(
     tasks: &[Range<usize>],
     from: &[usize],
     runs: &[Range<usize>],
     found: &[Found],
     passes: &[Option<HitBatch>],
-) -> Refined {
+) -> Sample {
     let traced = passes.iter().any(Option::is_some);
     let rays: usize = runs
         .iter()
@@ -194,10 +186,10 @@ fn assemble(
         }
         work.push(sum.scaled(task.len(), sum.rays as usize));
     }
-    Refined {
+    Sample {
+        sampled: index.len(),
         work,
-        index,
-        hits: traced.then_some(hits),
+        traced: traced.then_some(Traced { index, hits }),
     }
 }
 
@@ -268,7 +260,7 @@ mod tests {
         assert_eq!(s.sampled, 64 + 64 + 32);
         let traced = s.traced.expect("the trace walk's hits");
         assert_eq!(per_task(&traced.index, &tasks), vec![64, 64, 32]);
-        let full = Compacted::gather_in_runs(
+        let full = Compacted::gather(
             &rays,
             &tasks,
             SampleRate::new(RATE).unwrap(),

@@ -1,12 +1,13 @@
 //! Uniform task sampling and compaction (thesis, figure 3.1 b and section 3.3): every task
 //! keeps rays at a fixed stride (runs of neighbours, see [`SampleRun`]), and the kept rays
 //! of all tasks are gathered into one contiguous batch, so the reduced trace streams through
-//! memory and its parallel loop sees one flat array instead of many short strided ones.
+//! memory and its parallel loop sees one flat array instead of many short strided ones. What
+//! a sample found is a [`Sample`], with the hits of a sample traced for real ([`Traced`]).
 
 use std::ops::Range;
 
-use super::CostError;
-use crate::RayBatch;
+use super::{CostError, Work};
+use crate::{HitBatch, RayBatch};
 
 /// The fraction of each task's rays that is traced, in `(0, 1]`: `sched`'s, shared by
 /// every estimator of the workspace.
@@ -115,21 +116,12 @@ pub struct Compacted {
 }
 
 impl Compacted {
-    /// Samples every task of `rays` at `rate` in runs of [`SampleRun::DEFAULT`] and gathers
-    /// the samples.
+    /// Samples every task of `rays` at `rate` in runs of `run` adjacent rays and gathers the
+    /// samples.
     ///
     /// Checks before reading: every task must be non-empty and inside the batch, and the
     /// batch's columns must agree in length.
     pub fn gather(
-        rays: &RayBatch,
-        tasks: &[Range<usize>],
-        rate: SampleRate,
-    ) -> Result<Self, CostError> {
-        Self::gather_in_runs(rays, tasks, rate, SampleRun::DEFAULT)
-    }
-
-    /// [`Compacted::gather`] with samples in runs of `run` adjacent rays.
-    pub fn gather_in_runs(
         rays: &RayBatch,
         tasks: &[Range<usize>],
         rate: SampleRate,
@@ -153,6 +145,27 @@ impl Compacted {
             lens: tasks.iter().map(|r| r.len()).collect(),
         })
     }
+}
+
+/// What an estimate's sample found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Sample {
+    /// Each task's estimated work.
+    pub work: Vec<Work>,
+    /// Rays traced by the estimate, over all tasks.
+    pub sampled: usize,
+    /// The sampled rays' hits, with [`Walk::Trace`](crate::Walk::Trace).
+    pub traced: Option<Traced>,
+}
+
+/// The hits of a sample traced for real ([`Walk::Trace`](crate::Walk::Trace)): ray `index[k]` of the batch hit
+/// `hits.get(k)`. Sorted by index when the tasks were.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Traced {
+    /// Indices in the batch of the traced rays.
+    pub index: Vec<usize>,
+    /// Their hits, in the same order.
+    pub hits: HitBatch,
 }
 
 /// Every task non-empty and inside a consistent batch: checked before any ray is read.
@@ -191,7 +204,13 @@ mod tests {
     #[test]
     fn every_task_keeps_at_least_one_ray_even_at_tiny_rates() {
         let rate = SampleRate::new(1e-9).unwrap();
-        let c = Compacted::gather(&batch(1000), &sched::split_ranges(1000, 7), rate).unwrap();
+        let c = Compacted::gather(
+            &batch(1000),
+            &sched::split_ranges(1000, 7),
+            rate,
+            SampleRun::DEFAULT,
+        )
+        .unwrap();
         assert_eq!(c.lens.len(), 143);
         assert!(c.offsets.windows(2).all(|w| w[1] - w[0] == 1));
         assert_eq!(c.index.len(), 143);
@@ -204,12 +223,17 @@ mod tests {
     fn samples_are_runs_at_a_uniform_stride_and_rate_one_keeps_everything() {
         let rays = batch(64);
         let pairs = SampleRun::new(2).unwrap();
-        let c =
-            Compacted::gather_in_runs(&rays, &[0..32, 32..64], SampleRate::THESIS, pairs).unwrap();
+        let c = Compacted::gather(&rays, &[0..32, 32..64], SampleRate::THESIS, pairs).unwrap();
         // Each pair starts on the even ray just before its stratum's middle.
         assert_eq!(c.index, vec![6, 7, 22, 23, 38, 39, 54, 55]);
         assert_eq!(c.offsets, vec![0, 4, 8]);
-        let all = Compacted::gather(&rays, &[0..40, 40..64], SampleRate::FULL).unwrap();
+        let all = Compacted::gather(
+            &rays,
+            &[0..40, 40..64],
+            SampleRate::FULL,
+            SampleRun::DEFAULT,
+        )
+        .unwrap();
         assert!(all.index.iter().copied().eq(0..64));
         assert_eq!(all.offsets, vec![0, 40, 64]);
         assert_eq!(SampleRate::THESIS.samples(4096), 512);
@@ -239,8 +263,7 @@ mod tests {
     fn a_long_run_keeps_neighbours_together_in_the_middle_of_each_stratum() {
         let rays = batch(256);
         let run = SampleRun::new(8).unwrap();
-        let c =
-            Compacted::gather_in_runs(&rays, &[0..128, 128..256], SampleRate::THESIS, run).unwrap();
+        let c = Compacted::gather(&rays, &[0..128, 128..256], SampleRate::THESIS, run).unwrap();
         // 16 samples a task: two runs of 8, each in the middle of a stratum of 64, on the
         // multiple of 8 before it.
         let first: Vec<usize> = (24..32).chain(88..96).collect();
@@ -254,7 +277,7 @@ mod tests {
     fn default_runs_fill_whole_groups_of_eight_in_tasks_of_a_multiple_of_eight() {
         let rays = batch(3 * 4096);
         let tasks = sched::split_ranges(rays.len(), 4096);
-        let c = Compacted::gather(&rays, &tasks, SampleRate::THESIS).unwrap();
+        let c = Compacted::gather(&rays, &tasks, SampleRate::THESIS, SampleRun::DEFAULT).unwrap();
         assert_eq!(SampleRun::DEFAULT.get(), 8);
         assert_eq!(c.index.len(), 3 * 512);
         for run in c.index.chunks(8) {
@@ -266,9 +289,11 @@ mod tests {
     #[test]
     fn empty_and_out_of_range_tasks_are_errors_naming_the_task() {
         let rays = batch(10);
-        let empty = Compacted::gather(&rays, &[0..5, 5..5], SampleRate::FULL).unwrap_err();
+        let empty = Compacted::gather(&rays, &[0..5, 5..5], SampleRate::FULL, SampleRun::DEFAULT)
+            .unwrap_err();
         assert_eq!(empty, CostError::EmptyTask { task: 1 });
-        let out = Compacted::gather(&rays, &[0..5, 5..11], SampleRate::FULL).unwrap_err();
+        let out = Compacted::gather(&rays, &[0..5, 5..11], SampleRate::FULL, SampleRun::DEFAULT)
+            .unwrap_err();
         assert!(matches!(
             out,
             CostError::TaskOutOfRange {
@@ -280,7 +305,8 @@ mod tests {
         ));
         let mut broken = rays.clone();
         broken.tmax.pop();
-        let err = Compacted::gather(&broken, &[0..5, 5..9], SampleRate::FULL).unwrap_err();
+        let err = Compacted::gather(&broken, &[0..5, 5..9], SampleRate::FULL, SampleRun::DEFAULT)
+            .unwrap_err();
         assert_eq!(err, CostError::InconsistentBatch);
     }
 }

@@ -11,12 +11,12 @@ use super::report::{Calibration, Report, WalkFigures, WalkFit};
 use crate::bvh::Bvh;
 use crate::cost::judge::{self, Judged, judge};
 use crate::cost::{
-    Budget, CostError, CostModel, ReducedTraversal, Rounds, SampleRate, SampleRun, SlicedTraces,
-    Work, full_work, measure_seconds,
+    Budget, CostError, CostModel, CountRays, ReducedTraversal, Rounds, SampleRate, SampleRun,
+    SlicedTraces, Work, full_work, measure_seconds,
 };
 use crate::ray::{RayBatch, RayKind};
 use crate::scene::Scene;
-use crate::traverse::{self, Walk};
+use crate::traverse::Walk;
 
 /// Where the estimate and the full trace run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,15 +44,6 @@ impl std::str::FromStr for WalkChoice {
         }
         s.parse().map(Self::Fixed).map_err(|_| {
             format!("unknown walk `{s}` (expected reduced, first-leaf, trace or auto)")
-        })
-    }
-}
-
-impl std::fmt::Display for WalkChoice {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Self::Fixed(p) => p.name(),
-            Self::Auto => "auto",
         })
     }
 }
@@ -119,7 +110,7 @@ pub fn measure_samples(
             let chosen = cut.choose(s.walk)?;
             let timed = match s.device {
                 Device::Cpu => time_on_cpu(&cut, s, chosen.walk, &chosen.full)?,
-                Device::Gpu => time_on_gpu(&cut, s, &cut.jobs(chosen.walk))?,
+                Device::Gpu => time_on_gpu(&cut, s, chosen.walk)?,
             };
             Ok(report(&cut, s, (scene, rays), chosen, timed))
         })
@@ -163,7 +154,6 @@ impl<'a> Cut<'a> {
         let mut tasks = Vec::new();
         let mut parts = Vec::new();
         let mut measured = Vec::new();
-        let mut trace_work = Vec::new();
         for (batch, kind) in segments {
             let (base, first) = (rays.len(), tasks.len());
             let own = sched::split_ranges(batch.len(), task_size);
@@ -173,14 +163,8 @@ impl<'a> Cut<'a> {
             measured.extend(measure_seconds(
                 bvh, batch, &own, *kind, s.repeats, s.clock,
             )?);
-            let counts = if kind.is_occlusion() {
-                traverse::any_hits_counted(bvh, batch).1
-            } else {
-                traverse::closest_hits_counted(bvh, batch).1
-            };
-            trace_work.extend(own.into_iter().map(|r| Work::sum(&counts[r])));
         }
-        Ok(Self {
+        let mut cut = Self {
             bvh,
             segments,
             task_size,
@@ -188,8 +172,11 @@ impl<'a> Cut<'a> {
             tasks,
             parts,
             measured,
-            trace_work,
-        })
+            trace_work: Vec::new(),
+        };
+        // The trace walk's full count is the real trace's, each generation's query its own.
+        cut.trace_work = cut.full(Walk::Trace { any: false })?;
+        Ok(cut)
     }
 
     /// `work` calibrated against the measured times and judged by them.
@@ -207,12 +194,21 @@ impl<'a> Cut<'a> {
         Ok(full)
     }
 
-    /// Each generation's tasks and the walk that estimates them.
-    fn jobs(&self, walk: Walk) -> Vec<(&[Range<usize>], Walk)> {
-        self.parts
-            .iter()
-            .map(|(range, kind)| (&self.tasks[range.clone()], walk.for_kind(*kind)))
-            .collect()
+    /// `estimator`'s sample of every task, each generation's walked by `walk` for its kind:
+    /// the tasks' estimated work and the rays sampled.
+    fn sample<C: CountRays>(
+        &self,
+        estimator: &ReducedTraversal<'_, C>,
+        walk: Walk,
+    ) -> Result<(Vec<Work>, usize), C::Error> {
+        let (mut work, mut sampled) = (Vec::with_capacity(self.tasks.len()), 0);
+        for (range, kind) in &self.parts {
+            let own = &self.tasks[range.clone()];
+            let s = estimator.with_walk(walk.for_kind(*kind)).try_sample(own)?;
+            work.extend(s.work);
+            sampled += s.sampled;
+        }
+        Ok((work, sampled))
     }
 
     /// The walk asked for with its full counts, or with [`WalkChoice::Auto`] the best fit and
@@ -310,14 +306,12 @@ fn time_on_cpu(
     walk: Walk,
     full: &[Work],
 ) -> Result<Timed, CostError> {
-    let mut candidates = vec![Walk::Trace { any: false }, Walk::Reduced, Walk::FirstLeaf];
-    let chosen = candidates
-        .iter()
-        .position(|p| p.name() == walk.name())
-        .unwrap_or_else(|| {
-            candidates.push(walk);
-            candidates.len() - 1
-        });
+    let candidates = [Walk::Trace { any: false }, Walk::Reduced, Walk::FirstLeaf];
+    let chosen = match walk {
+        Walk::Trace { .. } => 0,
+        Walk::Reduced => 1,
+        Walk::FirstLeaf => 2,
+    };
     let estimator = ReducedTraversal::new(cut.bvh, &cut.rays, s.sample_rate)
         .with_run(s.sample_run)
         .with_sample_error(s.sample_error);
@@ -390,16 +384,9 @@ fn time_rounds(
     let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CostError> + '_>> = ests
         .iter_mut()
         .zip(candidates)
-        .map(|((est, sampled), &p)| {
-            let jobs = cut.jobs(p);
+        .map(|(slot, &p)| {
             Box::new(move || -> Result<(), CostError> {
-                est.clear();
-                *sampled = 0;
-                for &(own, p) in &jobs {
-                    let s = estimator.with_walk(p).try_sample(own)?;
-                    est.extend(s.work);
-                    *sampled += s.sampled;
-                }
+                *slot = cut.sample(estimator, p)?;
                 Ok(())
             }) as Box<dyn FnMut() -> Result<(), CostError> + '_>
         })
@@ -426,26 +413,15 @@ fn time_rounds(
 /// On the first usable GPU adapter: the best of `repeats` times of the estimate and of the
 /// full trace.
 #[cfg(feature = "gpu")]
-fn time_on_gpu(
-    cut: &Cut<'_>,
-    s: &Settings<'_>,
-    jobs: &[(&[Range<usize>], Walk)],
-) -> Result<Timed, EstimateError> {
+fn time_on_gpu(cut: &Cut<'_>, s: &Settings<'_>, walk: Walk) -> Result<Timed, EstimateError> {
     use crate::devices::GpuSelect;
     use crate::gpu::{GpuContext, GpuDevice, GpuOptions};
     let ctx = GpuContext::open(GpuSelect::All, GpuOptions::from_env())?.swap_remove(0);
     let name = ctx.info.name.clone();
     let dev = GpuDevice::new(ctx, cut.bvh)?;
     let estimator = ReducedTraversal::new(&dev, &cut.rays, s.sample_rate);
-    let (estimate_seconds, (est, sampled_rays)) = min_time(s.repeats, || {
-        let (mut work, mut sampled) = (Vec::new(), 0);
-        for &(own, p) in jobs {
-            let s = estimator.with_walk(p).try_sample(own)?;
-            work.extend(s.work);
-            sampled += s.sampled;
-        }
-        Ok::<_, EstimateError>((work, sampled))
-    })?;
+    let (estimate_seconds, (est, sampled_rays)) =
+        min_time(s.repeats, || cut.sample(&estimator, walk))?;
     let (trace_seconds, ()) = min_time(s.repeats, || {
         for (batch, kind) in cut.segments {
             let all = 0..batch.len();
@@ -469,11 +445,7 @@ fn time_on_gpu(
 
 /// Without the `gpu` feature there is no GPU to time on.
 #[cfg(not(feature = "gpu"))]
-fn time_on_gpu(
-    _: &Cut<'_>,
-    _: &Settings<'_>,
-    _: &[(&[Range<usize>], Walk)],
-) -> Result<Timed, EstimateError> {
+fn time_on_gpu(_: &Cut<'_>, _: &Settings<'_>, _: Walk) -> Result<Timed, EstimateError> {
     Err(EstimateError::NoGpu)
 }
 
@@ -568,7 +540,10 @@ fn report(
         trace_nodes_per_ray: per_ray(trace_nodes),
         trace_tris_per_ray: per_ray(trace_tris),
         default_model: model,
-        calibration: judged.fit.map(Calibration::from),
+        calibration: judged.fit.map(|fit| Calibration {
+            device: "cpu-thread",
+            fit,
+        }),
         build_seconds: cut.bvh.report().build_seconds,
     }
 }

@@ -51,15 +51,6 @@ pub struct Calibration {
     pub fit: Fit,
 }
 
-impl From<Fit> for Calibration {
-    fn from(fit: Fit) -> Self {
-        Self {
-            device: "cpu-thread",
-            fit,
-        }
-    }
-}
-
 /// Everything is a fraction (not a percentage); a metric that is undefined for the input
 /// (one task, all rays missing the scene) is `null`.
 #[derive(Debug, Serialize)]

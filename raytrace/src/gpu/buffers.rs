@@ -87,8 +87,6 @@ pub struct SceneBuffers {
     pub tris: wgpu::Buffer,
     /// True when the tree has no triangle: nothing is launched, every ray misses.
     pub empty: bool,
-    /// The tree's depth (the kernels' stack must hold `depth - 1` entries).
-    pub depth: usize,
 }
 
 impl SceneBuffers {
@@ -114,7 +112,6 @@ impl SceneBuffers {
             nodes: init("cobalt bvh nodes", nodes),
             tris: init("cobalt bvh triangles", tris),
             empty,
-            depth: bvh.depth(),
         })
     }
 }
@@ -148,6 +145,16 @@ pub(crate) fn init(
     })
 }
 
+/// A buffer of `size` bytes the host maps to read what is copied into it.
+pub(crate) fn readable(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
 /// Copies the first `bytes` of `buffer` (usage `COPY_SRC`) back, once the work submitted
 /// before has run.
 ///
@@ -160,12 +167,7 @@ pub(crate) fn fetch(
 ) -> Result<Vec<u8>, GpuError> {
     let device = &ctx.device;
     // A mapped buffer may not be empty.
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("cobalt read-back"),
-        size: bytes.max(16),
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let readback = readable(device, "cobalt read-back", bytes.max(16));
     copy(ctx, "cobalt read-back copy", buffer, &readback, bytes);
     let mut all = read_back(device, &ctx.info.name, &readback)?;
     all.truncate(bytes as usize);

@@ -10,9 +10,8 @@ use crate::cost::CountRays;
 use crate::traverse::counts::Counts;
 use crate::{Bvh, HitBatch, RayBatch, Walk};
 
-use super::buffers::SceneBuffers;
 use super::staging::{Staging, staged};
-use super::trace::{TraceKernels, TraceMode};
+use super::trace::TraceDevice;
 use super::{GpuContext, GpuError};
 
 /// A GPU with a BVH uploaded and its kernels compiled: traces ranges of a batch of rays, all
@@ -20,9 +19,7 @@ use super::{GpuContext, GpuError};
 /// kernels' counting modes (as a [`CountRays`], under [`crate::cost::ReducedTraversal`]).
 #[derive(Debug)]
 pub struct GpuDevice {
-    ctx: GpuContext,
-    kernels: TraceKernels,
-    scene: SceneBuffers,
+    dev: TraceDevice,
     /// The last launch's GPU seconds as `f64` bits; NaN when unknown (launches take `&self`).
     last_seconds: AtomicU64,
     /// The hit launches' buffers, kept from one launch to the next.
@@ -36,12 +33,8 @@ impl GpuDevice {
     /// [`GpuError::TooLarge`] when the tree exceeds a binding limit, [`GpuError::TooDeep`]
     /// beyond the deepest supported tree.
     pub fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
-        let kernels = TraceKernels::new(&ctx.device, bvh.depth())?;
-        let scene = SceneBuffers::upload(&ctx, bvh)?;
         Ok(Self {
-            ctx,
-            kernels,
-            scene,
+            dev: TraceDevice::new(ctx, bvh)?,
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
             staging: Mutex::new(None),
         })
@@ -55,7 +48,7 @@ impl GpuDevice {
 
     /// The opened adapter.
     pub fn context(&self) -> &GpuContext {
-        &self.ctx
+        &self.dev.ctx
     }
 
     /// Hits of the rays of `ranges`, one after another, in one launch: any hits for occlusion
@@ -73,12 +66,7 @@ impl GpuDevice {
         rays: &RayBatch,
         ranges: &[&Range<usize>],
     ) -> Result<HitBatch, GpuError> {
-        let mode = if occlusion {
-            TraceMode::Any
-        } else {
-            TraceMode::Closest
-        };
-        let out = self.trace(rays, ranges, mode)?;
+        let out = self.trace(rays, ranges, Walk::Trace { any: occlusion })?;
         Ok(HitBatch {
             t: out.iter().map(|r| f32::from_bits(r[0])).collect(),
             prim: out.iter().map(|r| r[1]).collect(),
@@ -95,7 +83,7 @@ impl GpuDevice {
         &self,
         rays: &RayBatch,
         ranges: &[&Range<usize>],
-        mode: TraceMode,
+        mode: Walk,
     ) -> Result<Vec<[u32; 2]>, GpuError> {
         // A launch that panicked left nothing worth keeping: its buffers are dropped.
         let mut staging = self.staging.lock().unwrap_or_else(|poisoned| {
@@ -104,16 +92,8 @@ impl GpuDevice {
             s
         });
         // What crosses is counted for the path devices' reports; a batch's trace has none.
-        let (out, seconds) = staged(
-            &mut staging,
-            &self.ctx,
-            &self.kernels,
-            &self.scene,
-            rays,
-            ranges,
-            mode,
-            &mut Traffic::default(),
-        )?;
+        let traffic = &mut Traffic::default();
+        let (out, seconds) = staged(&mut staging, &self.dev, rays, ranges, mode, traffic)?;
         self.last_seconds
             .store(seconds.unwrap_or(f64::NAN).to_bits(), Ordering::Relaxed);
         Ok(out)
@@ -135,7 +115,9 @@ impl CountRays for GpuDevice {
         walk: Walk,
         index: &[usize],
     ) -> Result<(Option<HitBatch>, Vec<Counts>), GpuError> {
-        let mode = TraceMode::counts(walk)?;
+        if let Walk::Trace { .. } = walk {
+            return Err(GpuError::WalkUnsupported { walk: walk.name() });
+        }
         // The samples come in runs of neighbours: one range a run.
         let mut runs: Vec<Range<usize>> = Vec::new();
         for &i in index {
@@ -144,7 +126,7 @@ impl CountRays for GpuDevice {
                 _ => runs.push(i..i + 1),
             }
         }
-        let out = self.trace(rays, &runs.iter().collect::<Vec<_>>(), mode)?;
+        let out = self.trace(rays, &runs.iter().collect::<Vec<_>>(), walk)?;
         let counts = out
             .into_iter()
             .map(|[nodes, tris]| Counts { nodes, tris })

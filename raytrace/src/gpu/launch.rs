@@ -11,13 +11,14 @@
 //! Nothing of a trace is uploaded: its queue is a new (zeroed) buffer and its ray count is
 //! copied on the device from the launch's [`Header`](super::header::Header).
 
-use super::buffers::{SceneBuffers, init, read_back, storage};
+use super::buffers::{init, read_back, readable, storage};
 use super::program::{Kernel, READ, WRITE};
 use super::trace::{
-    TraceKernels, TraceMode, TraceRound, grid, stamp_seconds, timestamps, trace_resident,
+    TraceDevice, TraceRound, grid, loop_cut, pass_timestamps, stamp_seconds, timestamps,
+    trace_resident,
 };
 use super::{GpuContext, GpuError};
-use crate::Traffic;
+use crate::{Traffic, Walk};
 
 /// The kernel folding a launch's queue states into one word (`verdict.wgsl`).
 pub(super) fn verdict_kernel(device: &wgpu::Device) -> Kernel {
@@ -56,9 +57,7 @@ struct Recorded {
 
 /// The commands of one launch, recorded until [`Recorder::finish`] submits them.
 pub(super) struct Recorder<'a> {
-    ctx: &'a GpuContext,
-    kernels: &'a TraceKernels,
-    scene: &'a SceneBuffers,
+    dev: &'a TraceDevice,
     verdict: &'a Kernel,
     encoder: wgpu::CommandEncoder,
     traces: Vec<Recorded>,
@@ -95,19 +94,12 @@ fn encoder(ctx: &GpuContext) -> wgpu::CommandEncoder {
 }
 
 impl<'a> Recorder<'a> {
-    /// A launch on `ctx` tracing `scene` with `kernels`; `checked` has the host
-    /// check every trace's queue before the next step is recorded.
-    pub(super) fn new(
-        ctx: &'a GpuContext,
-        kernels: &'a TraceKernels,
-        scene: &'a SceneBuffers,
-        verdict: &'a Kernel,
-        checked: bool,
-    ) -> Self {
+    /// A launch on `dev`; `checked` has the host check every trace's queue before the next
+    /// step is recorded.
+    pub(super) fn new(dev: &'a TraceDevice, verdict: &'a Kernel, checked: bool) -> Self {
+        let ctx = &dev.ctx;
         Self {
-            ctx,
-            kernels,
-            scene,
+            dev,
             verdict,
             encoder: encoder(ctx),
             traces: Vec::new(),
@@ -141,7 +133,11 @@ impl<'a> Recorder<'a> {
         group: &wgpu::BindGroup,
         items: u32,
     ) {
-        self.pass(pipeline, group, grid(&self.ctx.limits, items.div_ceil(64)));
+        self.pass(
+            pipeline,
+            group,
+            grid(&self.dev.ctx.limits, items.div_ceil(64)),
+        );
     }
 
     /// Records one pass of `pipeline` over `grid` workgroups.
@@ -165,15 +161,8 @@ impl<'a> Recorder<'a> {
     ) {
         let first = self.passes == 0;
         self.passes += 1;
-        let timestamp_writes = self
-            .timing
-            .as_ref()
-            .filter(|_| first || last)
-            .map(|(set, _)| wgpu::ComputePassTimestampWrites {
-                query_set: set,
-                beginning_of_pass_write_index: first.then_some(0),
-                end_of_pass_write_index: last.then_some(1),
-            });
+        let timestamp_writes =
+            (self.timing.as_ref()).and_then(|(set, _)| pass_timestamps(set, first, last));
         let mut pass = self
             .encoder
             .begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -196,7 +185,7 @@ impl<'a> Recorder<'a> {
         rays: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
-        mode: TraceMode,
+        mode: Walk,
         count: Count<'_>,
         traffic: &mut Traffic,
     ) -> Result<(), GpuError> {
@@ -205,22 +194,13 @@ impl<'a> Recorder<'a> {
         }
         if self.checked {
             // What was recorded runs first; the trace then waits on the device.
-            let before = std::mem::replace(&mut self.encoder, encoder(self.ctx));
-            self.ctx.queue.submit([before.finish()]);
-            let seconds = trace_resident(
-                self.ctx,
-                self.kernels,
-                self.scene,
-                rays,
-                out,
-                n,
-                mode,
-                traffic,
-            )?;
+            let before = std::mem::replace(&mut self.encoder, encoder(&self.dev.ctx));
+            self.dev.ctx.queue.submit([before.finish()]);
+            let seconds = trace_resident(self.dev, rays, out, n, mode, traffic)?;
             self.checked_seconds += seconds.unwrap_or(0.0);
             return Ok(());
         }
-        let device = &self.ctx.device;
+        let device = &self.dev.ctx.device;
         // New buffers are zeroed by wgpu: the queue starts empty without an upload.
         let queue = storage(device, "cobalt ray queue", 8, wgpu::BufferUsages::COPY_SRC);
         let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_SRC;
@@ -249,18 +229,7 @@ impl<'a> Recorder<'a> {
                 (upload([n, per_path.max(1), 1, 0]), Some(counts))
             }
         };
-        let round = TraceRound::bound(
-            self.ctx,
-            self.kernels,
-            self.scene,
-            rays,
-            out,
-            n,
-            mode,
-            queue,
-            params.clone(),
-            counts,
-        );
+        let round = TraceRound::bound(self.dev, rays, out, n, mode, queue, params.clone(), counts);
         // A launch that starts with a trace starts its time there.
         let timing = self.timing.as_ref().filter(|_| self.passes == 0);
         #[cfg(test)]
@@ -268,7 +237,7 @@ impl<'a> Recorder<'a> {
         #[cfg(not(test))]
         let dispatches = round.dispatches;
         round.record(
-            self.kernels,
+            &self.dev.kernels,
             &mut self.encoder,
             dispatches,
             timing.map(|(set, _)| set),
@@ -290,7 +259,7 @@ impl<'a> Recorder<'a> {
         bytes: u64,
         traffic: &mut Traffic,
     ) -> Result<Finished, GpuError> {
-        let device = &self.ctx.device;
+        let device = &self.dev.ctx.device;
         // Each trace's queue (head, cut) and ray count, side by side for the verdict; one
         // empty state when there is no trace, so that the binding is not empty.
         let states = storage(
@@ -317,18 +286,20 @@ impl<'a> Recorder<'a> {
             "cobalt launch verdict bind group",
             &[&states, &word],
         );
-        let workgroups = grid(&self.ctx.limits, (traces.len().max(1) as u32).div_ceil(64));
+        let workgroups = grid(
+            &self.dev.ctx.limits,
+            (traces.len().max(1) as u32).div_ceil(64),
+        );
         self.pass_timed(&verdict.pipeline, &group, workgroups, true);
 
         // The values, then the verdict's word, then the two timestamps.
         let head = bytes.next_multiple_of(4);
         let stamps = if self.timing.is_some() { 16 } else { 0 };
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("cobalt launch read-back"),
-            size: (head + 4 + stamps).max(16),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let readback = readable(
+            device,
+            "cobalt launch read-back",
+            (head + 4 + stamps).max(16),
+        );
         if bytes > 0 {
             self.copy(values, 0, &readback, 0, bytes);
         }
@@ -338,26 +309,23 @@ impl<'a> Recorder<'a> {
             self.encoder
                 .copy_buffer_to_buffer(resolve, 0, &readback, head + 4, 16);
         }
-        self.ctx.queue.submit([self.encoder.finish()]);
-        let name = self.ctx.info.name.as_str();
+        self.dev.ctx.queue.submit([self.encoder.finish()]);
+        let name = self.dev.ctx.info.name.as_str();
         let mut all = read_back(device, name, &readback)?;
         traffic.device_to_host_bytes += 4 + stamps;
         traffic.host_waits += 1;
         let at = head as usize;
         let verdict: u32 = bytemuck::pod_read_unaligned(&all[at..at + 4]);
         if verdict & LOOP_CUT != 0 {
-            return Err(GpuError::LoopCut {
-                adapter: name.to_string(),
-                batches: super::trace::BATCHES,
-            });
+            return Err(loop_cut(name));
         }
         let drained = verdict & NOT_DRAINED == 0;
         let kernel_seconds = match &self.timing {
             Some(_) => Some(stamp_seconds(
-                self.ctx,
+                &self.dev.ctx,
                 bytemuck::pod_read_unaligned(&all[at + 4..at + 20]),
             )),
-            None => self.ctx.timestamps.then_some(self.checked_seconds),
+            None => self.dev.ctx.timestamps.then_some(self.checked_seconds),
         };
         // The values are most of the bytes read back: kept where they are, not copied.
         all.truncate(bytes as usize);

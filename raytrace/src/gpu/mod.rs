@@ -40,9 +40,8 @@ pub mod trace;
 
 pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
-pub use paths::render::{FrameParams, GpuRenderer, PathValues};
-pub use paths::sample::{PathSums, SampledPaths};
-pub use trace::{TraceKernels, TraceMode};
+pub use paths::render::GpuRenderer;
+pub use trace::TraceKernels;
 
 /// Why a GPU could not be opened or could not trace. Each message names the missing piece or
 /// the limit that was hit.

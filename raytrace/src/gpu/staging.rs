@@ -11,13 +11,10 @@
 
 use std::ops::Range;
 
-use crate::RayBatch;
-use crate::Traffic;
+use crate::{RayBatch, Traffic, Walk};
 
-use super::buffers::{
-    GpuRay, RESULT_BYTES, SceneBuffers, copy, map, rays_per_launch, readback_err,
-};
-use super::trace::{TraceKernels, TraceMode, trace_resident};
+use super::buffers::{GpuRay, RESULT_BYTES, copy, map, rays_per_launch, readback_err};
+use super::trace::{TraceDevice, trace_resident};
 use super::{GpuContext, GpuError};
 
 const RAY_BYTES: u64 = size_of::<GpuRay>() as u64;
@@ -88,22 +85,20 @@ impl Staging {
 ///
 /// # Errors
 /// The errors of [`trace_resident`], and [`GpuError::Readback`] when mapping fails.
-#[allow(clippy::too_many_arguments)] // the device's parts, its buffers and the choice of a trace
 pub(crate) fn staged(
     staging: &mut Option<Staging>,
-    ctx: &GpuContext,
-    kernels: &TraceKernels,
-    scene: &SceneBuffers,
+    dev: &TraceDevice,
     rays: &RayBatch,
     ranges: &[&Range<usize>],
-    mode: TraceMode,
+    mode: Walk,
     traffic: &mut Traffic,
 ) -> Result<(Vec<[u32; 2]>, Option<f64>), GpuError> {
     let total: usize = ranges.iter().map(|r| r.len()).sum();
-    if scene.empty {
+    let ctx = &dev.ctx;
+    if dev.scene.empty {
         let none = match mode {
-            TraceMode::Reduced | TraceMode::FirstLeaf => [0, 0],
-            TraceMode::Closest | TraceMode::Any => [f32::INFINITY.to_bits(), u32::MAX],
+            Walk::Trace { .. } => [f32::INFINITY.to_bits(), u32::MAX],
+            Walk::Reduced | Walk::FirstLeaf => [0, 0],
         };
         return Ok((vec![none; total], None));
     }
@@ -113,9 +108,7 @@ pub(crate) fn staged(
     for launch in launches(ranges, most) {
         let n: usize = launch.iter().map(Range::len).sum();
         let s = Staging::fit(staging.take(), ctx, n as u64);
-        let launched = run(
-            &s, ctx, kernels, scene, rays, &launch, mode, &mut out, traffic,
-        );
+        let launched = run(&s, dev, rays, &launch, mode, &mut out, traffic);
         // A launch that failed may have left a buffer mapped: the next one starts afresh.
         if launched.is_ok() {
             *staging = Some(s);
@@ -148,18 +141,16 @@ fn launches(ranges: &[&Range<usize>], most: usize) -> Vec<Vec<Range<usize>>> {
 }
 
 /// One launch of the rays of `chunk`, its results appended to `out`.
-#[allow(clippy::too_many_arguments)] // as `staged_hits`, plus the launch's rays and output
 fn run(
     s: &Staging,
-    ctx: &GpuContext,
-    kernels: &TraceKernels,
-    scene: &SceneBuffers,
+    dev: &TraceDevice,
     rays: &RayBatch,
     chunk: &[Range<usize>],
-    mode: TraceMode,
+    mode: Walk,
     out: &mut Vec<[u32; 2]>,
     traffic: &mut Traffic,
 ) -> Result<Option<f64>, GpuError> {
+    let ctx = &dev.ctx;
     let name = ctx.info.name.as_str();
     let n: u64 = chunk.iter().map(|r| r.len() as u64).sum();
     // Only what the launch writes and reads is mapped: wgpu zeroes a mapped range it has not
@@ -188,7 +179,7 @@ fn run(
     copy(ctx, "cobalt ray upload", &s.upload, &s.rays, n * RAY_BYTES);
     // `n` is at most one binding of rays, far below 2^32.
     let count = u32::try_from(n).unwrap_or(u32::MAX);
-    let seconds = trace_resident(ctx, kernels, scene, &s.rays, &s.out, count, mode, traffic)?;
+    let seconds = trace_resident(dev, &s.rays, &s.out, count, mode, traffic)?;
     copy(
         ctx,
         "cobalt results read-back",

@@ -12,9 +12,9 @@ use sched::CostEstimator;
 
 use super::buffers::{GpuRay, SceneBuffers};
 use super::staging::staged;
-use super::trace::{BATCHES, MAX_WORKGROUPS, TraceKernels, TraceMode};
-use super::{FrameParams, GpuContext, GpuDevice, GpuError, GpuOptions, GpuRenderer};
-use crate::cost::{Compacted, CountRays, ReducedTraversal, SampleRate, full_work};
+use super::trace::{BATCHES, CLOSEST, MAX_WORKGROUPS, TraceDevice};
+use super::{GpuContext, GpuDevice, GpuError, GpuOptions, GpuRenderer};
+use crate::cost::{Compacted, CountRays, ReducedTraversal, SampleRate, SampleRun, full_work};
 use crate::devices::GpuSelect;
 use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, WhittedSettings, render};
 use crate::{BuildPreset, Bvh, Camera, HitBatch, Ray, RayBatch, Rng, SceneNeeds, SceneSource};
@@ -60,11 +60,10 @@ fn scene_bvh(name: &str) -> Bvh {
 
 /// What a raw launch needs on `ctx`: the kernels and buffers of `name`'s tree, and the rays
 /// of `rays_for(name, seed)`.
-fn launch_kit(ctx: &GpuContext, name: &str, seed: u64) -> (TraceKernels, SceneBuffers, RayBatch) {
+fn launch_kit(ctx: &GpuContext, name: &str, seed: u64) -> (TraceDevice, RayBatch) {
     let bvh = scene_bvh(name);
-    let kernels = TraceKernels::new(&ctx.device, bvh.depth()).expect("kernels");
-    let scene = SceneBuffers::upload(ctx, &bvh).expect("upload");
-    (kernels, scene, rays_for(name, seed))
+    let dev = TraceDevice::new(ctx.clone(), &bvh).expect("kernels and upload");
+    (dev, rays_for(name, seed))
 }
 
 /// Camera rays of the four orbit cameras, AO rays from camera 0's hits, and random rays
@@ -247,32 +246,22 @@ fn forest_hits_and_counts_equal_cpu() {
 /// results; a scene beyond it is refused with the limit's name; ranges are concatenated.
 #[test]
 fn splits_launches_and_names_the_limit() {
-    let Some(mut ctx) = gpu() else { return };
+    let Some(ctx) = gpu() else { return };
+    let (mut dev, rays) = launch_kit(&ctx, "builtin:cornell:0.2", 13);
     let bvh = scene_bvh("builtin:cornell:0.2");
-    let rays = rays_for("builtin:cornell:0.2", 13);
-    let kernels = TraceKernels::new(&ctx.device, bvh.depth()).expect("kernels");
-    let scene = SceneBuffers::upload(&ctx, &bvh).expect("upload");
     let (a, b) = (0..1000, 1500..rays.len());
-    let run = |ctx: &GpuContext, ranges: &[&std::ops::Range<usize>]| {
+    let run = |dev: &TraceDevice, ranges: &[&std::ops::Range<usize>]| {
         let mut traffic = crate::Traffic::default();
         let mut staging = None;
-        staged(
-            &mut staging,
-            ctx,
-            &kernels,
-            &scene,
-            &rays,
-            ranges,
-            TraceMode::Closest,
-            &mut traffic,
-        )
-        .expect("launch")
-        .0
+        let mode = CLOSEST;
+        staged(&mut staging, dev, &rays, ranges, mode, &mut traffic)
+            .expect("launch")
+            .0
     };
-    let whole = run(&ctx, &[&a, &b]);
+    let whole = run(&dev, &[&a, &b]);
     // 640 rays a launch: several launches, the last one partial.
-    ctx.limits.max_storage_buffer_binding_size = 640 * size_of::<GpuRay>() as u64;
-    assert_eq!(whole, run(&ctx, &[&a, &b]));
+    dev.ctx.limits.max_storage_buffer_binding_size = 640 * size_of::<GpuRay>() as u64;
+    assert_eq!(whole, run(&dev, &[&a, &b]));
     let cpu = traverse::closest_hits(&bvh, &rays);
     let mut want = HitBatch::misses(0);
     let mut got = HitBatch::misses(0);
@@ -284,14 +273,14 @@ fn splits_launches_and_names_the_limit() {
     }
     // Exact-distance ties may go to another triangle on the GPU (see `assert_same_hits`).
     assert_same_hits("split launches", &want, &got);
-    let e = SceneBuffers::upload(&ctx, &bvh).expect_err("nodes beyond the limit");
+    let e = SceneBuffers::upload(&dev.ctx, &bvh).expect_err("nodes beyond the limit");
     assert!(matches!(e, GpuError::TooLarge { .. }), "{e:?}");
     assert!(
         e.to_string().contains("max_storage_buffer_binding_size"),
         "{e}"
     );
     // Empty launches return nothing.
-    assert!(run(&ctx, &[]).is_empty());
+    assert!(run(&dev, &[]).is_empty());
 }
 
 /// Throughput on the first adapter against the CPU (all cores), for forest primary and AO
@@ -366,7 +355,8 @@ fn check_estimates(name: &str) {
             for rate in [0.125, 0.25, 0.5, 1.0] {
                 let rate = SampleRate::new(rate).expect("rate");
                 let at = format!("{name} {what}, tasks of {size}, rate {}", rate.get());
-                let sample = Compacted::gather(rays, &tasks, rate).expect("CPU sample");
+                let sample =
+                    Compacted::gather(rays, &tasks, rate, SampleRun::DEFAULT).expect("CPU sample");
                 let gpu = dev
                     .count_at(rays, crate::Walk::Reduced, &sample.index)
                     .expect("GPU counts");
@@ -474,7 +464,7 @@ fn estimator_refuses_bad_tasks_and_serves_sched() {
 #[test]
 fn a_launch_of_three_passes_is_timed_and_traced_whole() {
     let Some(ctx) = gpu() else { return };
-    let (kernels, scene, rays) = launch_kit(&ctx, "builtin:cornell:0.2", 15);
+    let (dev, rays) = launch_kit(&ctx, "builtin:cornell:0.2", 15);
     let pass = (MAX_WORKGROUPS * BATCHES * 64) as usize;
     let mut many = RayBatch::with_capacity(2 * pass + 65);
     for i in 0..2 * pass + 65 {
@@ -486,12 +476,10 @@ fn a_launch_of_three_passes_is_timed_and_traced_whole() {
         let mut traffic = crate::Traffic::default();
         staged(
             &mut staging,
-            &ctx,
-            &kernels,
-            &scene,
+            &dev,
             rays,
             &[&all],
-            TraceMode::Reduced,
+            crate::Walk::Reduced,
             &mut traffic,
         )
         .expect("launch")
@@ -530,11 +518,7 @@ fn raygen_equals_cpu_primary_rays() {
         let n = cpu.rays.len();
         // Two tasks, the later one first: a launch's slots follow its task list.
         let (late, early) = (n / 3..n, 0..n / 3);
-        let frame = FrameParams {
-            width: w,
-            height: h,
-            camera: &camera,
-        };
+        let frame = RenderOptions::new(w, h, camera, Shader::Ao(AoSettings::default()));
         let (rays, ranks) = renderer
             .primary_rays(&frame, &[&late, &early])
             .expect("raygen");
@@ -577,20 +561,12 @@ fn raygen_equals_cpu_primary_rays() {
 fn gpu_film(
     renderer: &GpuRenderer,
     options: &RenderOptions,
-) -> Result<(crate::Film, crate::gpu::PathValues), GpuError> {
+) -> Result<(crate::Film, crate::paths::Launch), GpuError> {
     let (w, h) = (options.width, options.height);
     let n = (w * h) as usize;
     let tasks = [n / 2..n, 0..n / 7, n / 7..n / 2];
     let refs: Vec<&std::ops::Range<usize>> = tasks.iter().collect();
-    let frame = FrameParams {
-        width: w,
-        height: h,
-        camera: &options.camera,
-    };
-    let out = match options.shader {
-        Shader::Ao(s) => renderer.render_ao(&frame, &refs, &s),
-        Shader::Whitted(s) => renderer.render_whitted(&frame, &refs, &s),
-    }?;
+    let out = renderer.render(options, &refs)?;
     let order = crate::camera::morton_order(w, h);
     let mut film = crate::Film::new(w, h);
     for (rank, &v) in tasks.iter().flat_map(|t| t.clone()).zip(&out.values) {
@@ -714,7 +690,11 @@ fn check_whitted_image(name: &str, bent: bool) {
         .collect();
     // Rounding (see `bit_exact`) moves a pixel by far less than this; a tie that picks
     // another triangle or flips a shadow moves it by far more.
-    let rounding = if bit_exact(&renderer.ctx) { 0.0 } else { 1e-4 };
+    let rounding = if bit_exact(&renderer.dev.ctx) {
+        0.0
+    } else {
+        1e-4
+    };
     let differ = diffs.iter().filter(|&&d| d > rounding).count();
     let mean = diffs.iter().sum::<f32>() / diffs.len() as f32;
     let worst = diffs.iter().copied().fold(0.0, f32::max);
@@ -991,11 +971,7 @@ fn the_header_kernel_counts_as_the_host_does() {
     let r = GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer");
     let camera = Camera::orbit(&scene.bounds(), 0);
     let (w, h) = (40u32, 30u32);
-    let frame = FrameParams {
-        width: w,
-        height: h,
-        camera: &camera,
-    };
+    let frame = RenderOptions::new(w, h, camera, Shader::Ao(AoSettings::default()));
     let mut rng = Rng::new(11);
     for case in 0..16 {
         let mut cuts: Vec<usize> = (0..1 + rng.below(9))
@@ -1145,19 +1121,9 @@ fn an_undrained_launch_is_run_again_checked() {
             out.traffic
         );
         // An estimate's traces would not count when checked: it says so instead.
-        let frame = FrameParams {
-            width: 40,
-            height: 24,
-            camera: &options.camera,
-        };
         let all = 0..40 * 24;
-        let sampled = starved.sample_paths(
-            &frame,
-            &[&all],
-            &shader,
-            4,
-            crate::Walk::Trace { any: false },
-        );
+        let walk = crate::Walk::Trace { any: false };
+        let sampled = starved.sample_paths(&options, &[&all], SampleRate::new(0.25).unwrap(), walk);
         assert!(
             matches!(sampled, Err(GpuError::LoopCut { .. })),
             "{sampled:?}"

@@ -9,10 +9,10 @@
 //! again while rays remain (an implementation that ends loops early, as lavapipe may, still
 //! drains), and fails with [`GpuError::LoopCut`] if a traversal loop itself was cut short.
 
-use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, init, read_back, storage};
+use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, init, read_back, readable, storage};
 use super::program::{Program, READ, UNIFORM, WRITE};
 use super::{GpuContext, GpuError};
-use crate::Traffic;
+use crate::{Bvh, Traffic, Walk};
 
 /// Batches of 64 rays a workgroup takes per dispatch: few enough that one invocation stays far
 /// below lavapipe's ~65 535 loop iterations (a ray rarely needs more than a few hundred).
@@ -25,39 +25,19 @@ pub(crate) const MAX_WORKGROUPS: u32 = 2048;
 /// Stack entries the kernels are compiled with at most (`Bvh::depth` is at most 256).
 const MAX_STACK: usize = 256;
 
-/// What a launch computes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum TraceMode {
-    /// The nearest hit (`Bvh::closest_hit`).
-    Closest,
-    /// The first hit found (`Bvh::any_hit`).
-    Any,
-    /// Reduced-traversal counts `B`, `T` (`Bvh::reduced_traversal`).
-    Reduced,
-    /// First-leaf reduced-traversal counts (`Bvh::first_leaf_traversal`).
-    FirstLeaf,
-}
+/// The closest-hit trace (`Bvh::closest_hit`), as a launch's mode.
+pub(crate) const CLOSEST: Walk = Walk::Trace { any: false };
+/// The any-hit trace (`Bvh::any_hit`): the first hit found.
+pub(crate) const ANY: Walk = Walk::Trace { any: true };
 
-impl TraceMode {
-    fn index(self) -> usize {
-        match self {
-            Self::Closest => 0,
-            Self::Any => 1,
-            Self::Reduced => 2,
-            Self::FirstLeaf => 3,
-        }
-    }
-
-    /// The counting mode of a walk: the reduced traversals have one, the trace walk none.
-    ///
-    /// # Errors
-    /// [`GpuError::WalkUnsupported`] for [`crate::Walk::Trace`].
-    pub fn counts(walk: crate::Walk) -> Result<Self, GpuError> {
-        match walk {
-            crate::Walk::Reduced => Ok(Self::Reduced),
-            crate::Walk::FirstLeaf => Ok(Self::FirstLeaf),
-            crate::Walk::Trace { .. } => Err(GpuError::WalkUnsupported { walk: walk.name() }),
-        }
+/// The kernels' `MODE` for a launch that traces `walk`: the trace walk's hits, or the counts
+/// `B`, `T` of a reduced walk (`Bvh::reduced_traversal`, `Bvh::first_leaf_traversal`).
+fn mode_index(walk: Walk) -> usize {
+    match walk {
+        CLOSEST => 0,
+        ANY => 1,
+        Walk::Reduced => 2,
+        Walk::FirstLeaf => 3,
     }
 }
 
@@ -65,9 +45,8 @@ impl TraceMode {
 #[derive(Debug)]
 pub struct TraceKernels {
     program: Program,
-    /// By [`TraceMode::index`].
+    /// By `mode_index`.
     pipelines: [wgpu::ComputePipeline; 4],
-    stack: usize,
     /// Bound as the per-path counts of a trace that counts nothing.
     no_counts: wgpu::Buffer,
 }
@@ -86,10 +65,12 @@ impl TraceKernels {
         }
         // A traversal holds at most depth - 1 entries; round up so that few variants exist.
         let stack = depth.max(1).next_multiple_of(32);
-        let source = include_str!("traverse.wgsl").replace(
-            "const STACK: u32 = 64u;",
-            &format!("const STACK: u32 = {stack}u;"),
-        );
+        let source = [include_str!("ray.wgsl"), include_str!("traverse.wgsl")]
+            .concat()
+            .replace(
+                "const STACK: u32 = 64u;",
+                &format!("const STACK: u32 = {stack}u;"),
+            );
         let program = Program::new(
             device,
             "traverse",
@@ -121,7 +102,6 @@ impl TraceKernels {
                 make(3, "cobalt first-leaf reduced-traversal pipeline"),
             ],
             program,
-            stack,
             no_counts: storage(
                 device,
                 "cobalt no path counts",
@@ -130,27 +110,53 @@ impl TraceKernels {
             ),
         })
     }
+}
 
-    /// Entries of the traversal stack compiled in.
-    pub fn stack(&self) -> usize {
-        self.stack
+/// A device with a tree uploaded and the trace kernels compiled for it: what every trace
+/// needs, held by both GPU devices ([`super::GpuDevice`] and [`super::GpuRenderer`]).
+#[derive(Debug)]
+pub(crate) struct TraceDevice {
+    pub(crate) ctx: GpuContext,
+    pub(crate) kernels: TraceKernels,
+    pub(crate) scene: SceneBuffers,
+}
+
+impl TraceDevice {
+    /// Uploads `bvh` to `ctx`'s device and compiles the kernels for it.
+    ///
+    /// # Errors
+    /// [`GpuError::TooLarge`] when the tree exceeds a binding limit, [`GpuError::TooDeep`]
+    /// beyond the deepest supported tree.
+    pub(crate) fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
+        Ok(Self {
+            kernels: TraceKernels::new(&ctx.device, bvh.depth())?,
+            scene: SceneBuffers::upload(&ctx, bvh)?,
+            ctx,
+        })
     }
 }
 
-/// The timestamp writes of pass `k` of `passes`: the start of the first and the end of the
-/// last. A pass in between gets none at all, since wgpu refuses writes that name neither index
-/// (a large GPU's launch may take dozens of passes).
-fn pass_timestamps(
+/// The timestamp writes of a pass: the start of a launch's `first` pass and the end of its
+/// `last`. A pass in between gets none at all, since wgpu refuses writes that name neither
+/// index (a large GPU's launch may take dozens of passes).
+pub(crate) fn pass_timestamps(
     set: &wgpu::QuerySet,
-    k: u64,
-    passes: u64,
+    first: bool,
+    last: bool,
 ) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
-    let (first, last) = (k == 0, k + 1 == passes);
     (first || last).then_some(wgpu::ComputePassTimestampWrites {
         query_set: set,
         beginning_of_pass_write_index: first.then_some(0),
         end_of_pass_write_index: last.then_some(1),
     })
+}
+
+/// The error of a launch whose traversal loop `adapter` cut short.
+pub(crate) fn loop_cut(adapter: &str) -> GpuError {
+    GpuError::LoopCut {
+        adapter: adapter.to_string(),
+        batches: BATCHES,
+    }
 }
 
 /// A two-dimensional grid of `workgroups` workgroups: one dimension holds at most
@@ -178,18 +184,15 @@ pub(crate) struct TraceRound {
 impl TraceRound {
     /// Binds the first `n` rays of `rays` and their results in `out` for a trace in `mode`;
     /// uploads the queue's two words and the parameters (counted).
-    #[allow(clippy::too_many_arguments)] // the buffers and the choice of a trace
     pub(crate) fn new(
-        ctx: &GpuContext,
-        kernels: &TraceKernels,
-        scene: &SceneBuffers,
+        dev: &TraceDevice,
         rays: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
-        mode: TraceMode,
+        mode: Walk,
         traffic: &mut Traffic,
     ) -> Self {
-        let device = &ctx.device;
+        let device = &dev.ctx.device;
         let queue = init(
             device,
             "cobalt ray queue",
@@ -204,7 +207,7 @@ impl TraceRound {
         );
         // The queue's two words and the parameters.
         traffic.host_to_device_bytes += 8 + 16;
-        Self::bound(ctx, kernels, scene, rays, out, n, mode, queue, params, None)
+        Self::bound(dev, rays, out, n, mode, queue, params, None)
     }
 
     /// As [`TraceRound::new`] with the queue (two words, zero) and the parameters (the ray
@@ -212,17 +215,16 @@ impl TraceRound {
     /// counts of a trace whose parameters ask for them.
     #[allow(clippy::too_many_arguments)] // the buffers and the choice of a trace
     pub(crate) fn bound(
-        ctx: &GpuContext,
-        kernels: &TraceKernels,
-        scene: &SceneBuffers,
+        dev: &TraceDevice,
         rays: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
-        mode: TraceMode,
+        mode: Walk,
         queue: wgpu::Buffer,
         params: wgpu::Buffer,
         counts: Option<&wgpu::Buffer>,
     ) -> Self {
+        let (ctx, scene) = (&dev.ctx, &dev.scene);
         let device = &ctx.device;
         // Only the launch's rays and results are bound: a device's reused buffers are larger,
         // and wgpu tracks the initialisation of every byte a bind group covers.
@@ -232,7 +234,7 @@ impl TraceRound {
             size: std::num::NonZeroU64::new(bytes),
         };
         let whole = wgpu::Buffer::as_entire_buffer_binding;
-        let bind = kernels.program.bind_ranges(
+        let bind = dev.kernels.program.bind_ranges(
             device,
             "cobalt traverse bind group",
             &[
@@ -242,7 +244,7 @@ impl TraceRound {
                 first(out, u64::from(n) * RESULT_BYTES),
                 whole(&queue),
                 whole(&params),
-                whole(counts.unwrap_or(&kernels.no_counts)),
+                whole(counts.unwrap_or(&dev.kernels.no_counts)),
             ],
         );
         let batches = n.div_ceil(64);
@@ -255,7 +257,7 @@ impl TraceRound {
             per_dispatch,
             queue,
             dispatches: u64::from(n).div_ceil(per_dispatch),
-            mode: mode.index(),
+            mode: mode_index(mode),
         }
     }
 
@@ -270,7 +272,8 @@ impl TraceRound {
     ) {
         let pipeline = &kernels.pipelines[self.mode];
         for k in 0..dispatches {
-            let timestamp_writes = timing.and_then(|set| pass_timestamps(set, k, dispatches));
+            let timestamp_writes =
+                timing.and_then(|set| pass_timestamps(set, k == 0, k + 1 == dispatches));
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("cobalt traverse pass"),
                 timestamp_writes,
@@ -290,10 +293,7 @@ impl TraceRound {
         n: u32,
     ) -> Result<Option<u64>, GpuError> {
         if state[1] != 0 {
-            return Err(GpuError::LoopCut {
-                adapter: adapter.to_string(),
-                batches: BATCHES,
-            });
+            return Err(loop_cut(adapter));
         }
         if state[0] >= n {
             return Ok(None);
@@ -338,29 +338,22 @@ pub(crate) fn stamp_seconds(ctx: &GpuContext, stamps: [u64; 2]) -> f64 {
 /// # Errors
 /// [`GpuError::Readback`] when the GPU cannot be waited for or read, [`GpuError::LoopCut`]
 /// when the implementation ended a traversal loop early.
-#[allow(clippy::too_many_arguments)] // the buffers and the choice of a trace
 pub(crate) fn trace_resident(
-    ctx: &GpuContext,
-    kernels: &TraceKernels,
-    scene: &SceneBuffers,
+    dev: &TraceDevice,
     rays: &wgpu::Buffer,
     out: &wgpu::Buffer,
     n: u32,
-    mode: TraceMode,
+    mode: Walk,
     traffic: &mut Traffic,
 ) -> Result<Option<f64>, GpuError> {
+    let ctx = &dev.ctx;
     if n == 0 {
         return Ok(ctx.timestamps.then_some(0.0));
     }
     let device = &ctx.device;
     let name = ctx.info.name.as_str();
-    let round = TraceRound::new(ctx, kernels, scene, rays, out, n, mode, traffic);
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("cobalt queue state read-back"),
-        size: 8 + 16,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let round = TraceRound::new(dev, rays, out, n, mode, traffic);
+    let readback = readable(device, "cobalt queue state read-back", 8 + 16);
     let timing = timestamps(ctx);
     let mut gpu_seconds = 0.0;
     let mut dispatches = round.dispatches;
@@ -369,7 +362,7 @@ pub(crate) fn trace_resident(
             label: Some("cobalt traverse commands"),
         });
         round.record(
-            kernels,
+            &dev.kernels,
             &mut encoder,
             dispatches,
             timing.as_ref().map(|t| &t.0),

@@ -5,9 +5,10 @@
 //   nodes skipped when their entry distance is beyond the nearest hit;
 // - Ize's conservative slab test: far distance times `FAR_SCALE` (1 + 2 gamma(3), from the
 //   host so it is the CPU's float bit for bit), NaN slabs ignored;
-// - the watertight test of Woop, Benthin and Wald in f32 only: where the CPU re-evaluates an
-//   edge function that is exactly 0 in f64, this kernel keeps the f32 value, so rays through a
-//   shared edge or vertex may pick the other triangle of the pair (same distance);
+// - the watertight test of Woop, Benthin and Wald in f32 only (`ray.wgsl`, which the host puts
+//   in front of this file): where the CPU re-evaluates an edge function that is exactly 0 in
+//   f64, this kernel keeps the f32 value, so rays through a shared edge or vertex may pick the
+//   other triangle of the pair (same distance);
 // - the hit queries test triangles against the ray's own range and keep the nearer hit, the
 //   smaller primitive id on a tie (`better`), and enter nodes up to `cull_bound` of it, so
 //   that the hit and the counts do not depend on the walk's order.
@@ -31,7 +32,6 @@ override CULL: f32 = 0.0;
 // Traversal stack entries; the host replaces this line with the tree's need (>= depth - 1).
 const STACK: u32 = 64u;
 const LANES: u32 = 64u;
-const MISS: u32 = 0xffffffffu;
 
 struct Node {
     min: vec3<f32>,
@@ -47,12 +47,6 @@ struct Tri {
     pad1: u32,
     v2: vec3<f32>,
     pad2: u32,
-}
-
-// `org.w` is tmin, `dir.w` is tmax.
-struct GpuRay {
-    org: vec4<f32>,
-    dir: vec4<f32>,
 }
 
 struct Params {
@@ -140,53 +134,6 @@ fn near_child_first(l: Node, r: Node, neg: vec3<bool>) -> bool {
     return (g[axis] >= 0.0) != neg[axis];
 }
 
-// The per-ray part of the watertight test (triangle.rs `RayShear`).
-struct Shear {
-    k: vec3<u32>,
-    s: vec3<f32>,
-}
-
-fn permute(v: vec3<f32>, k: vec3<u32>) -> vec3<f32> {
-    return vec3<f32>(v[k.x], v[k.y], v[k.z]);
-}
-
-// Distance in `.x`, `.y > 0` on a hit.
-fn tri_hit(sh: Shear, o: vec3<f32>, t: Tri, tmin: f32, tmax: f32) -> vec2<f32> {
-    let a = permute(t.v0 - o, sh.k);
-    let b = permute(t.v1 - o, sh.k);
-    let c = permute(t.v2 - o, sh.k);
-    let ax = a.x - sh.s.x * a.z;
-    let ay = a.y - sh.s.y * a.z;
-    let bx = b.x - sh.s.x * b.z;
-    let by = b.y - sh.s.y * b.z;
-    let cx = c.x - sh.s.x * c.z;
-    let cy = c.y - sh.s.y * c.z;
-    let u = cx * by - cy * bx;
-    let v = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    let miss = vec2<f32>(0.0, 0.0);
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return miss;
-    }
-    let det = u + v + w;
-    if det == 0.0 {
-        return miss;
-    }
-    let az = sh.s.z * a.z;
-    let bz = sh.s.z * b.z;
-    let cz = sh.s.z * c.z;
-    var t_scaled = u * az + v * bz + w * cz;
-    var det_abs = det;
-    if det < 0.0 {
-        t_scaled = -t_scaled;
-        det_abs = -det;
-    }
-    if t_scaled < tmin * det_abs || t_scaled > tmax * det_abs {
-        return miss;
-    }
-    return vec2<f32>(t_scaled / det_abs + 0.0, 1.0);
-}
-
 // Traces ray `r` and writes its result: (t bits, prim) for hits, (B, T) for MODEs 2 and 3;
 // B counts the nodes entered, T the triangles tested (up to the first hit for any hit), as
 // `traverse.rs` counts them.
@@ -207,24 +154,8 @@ fn trace(r: u32) {
 
     // The same early outs as the CPU: a ray that cannot hit anything, an empty or NaN range,
     // a missed root (the host never launches on a tree without triangles).
-    var valid = is_finite3(o) && is_finite3(d);
-    let ad = abs(d);
-    var kz = 2u;
-    if ad.x >= ad.y && ad.x >= ad.z {
-        kz = 0u;
-    } else if ad.y >= ad.z {
-        kz = 1u;
-    }
-    let dz = d[kz];
-    valid = valid && dz != 0.0 && tmin <= tmax;
-    var kx = select(kz + 1u, 0u, kz == 2u);
-    var ky = select(kx + 1u, 0u, kx == 2u);
-    if dz < 0.0 {
-        let tmp = kx;
-        kx = ky;
-        ky = tmp;
-    }
-    let sh = Shear(vec3<u32>(kx, ky, kz), vec3<f32>(d[kx] / dz, d[ky] / dz, 1.0 / dz));
+    let sh = shear(d);
+    let valid = is_finite3(o) && is_finite3(d) && d[sh.k.z] != 0.0 && tmin <= tmax;
     let bray = BoxRay(o, vec3<f32>(1.0) / d, (bitcast<vec3<u32>>(d) & vec3<u32>(0x80000000u)) != vec3<u32>(0u));
 
     if valid && box_hit(bray, nodes[0], tmin, best_t).y > 0.0 {
@@ -248,9 +179,9 @@ fn trace(r: u32) {
                     for (var k = node.index; k < node.index + node.count; k++) {
                         count_t += 1u;
                         let tri = tris[k];
-                        let h = tri_hit(sh, o, tri, tmin, tmax);
+                        let h = watertight(sh, o, tri.v0, tri.v1, tri.v2, tmin, tmax);
                         let nearer = h.x < hit_t || (h.x == hit_t && tri.prim < best_prim);
-                        if h.y > 0.0 && (best_prim == MISS || nearer) {
+                        if h.w > 0.0 && (best_prim == MISS || nearer) {
                             hit_t = h.x;
                             best_t = cull_bound(h.x);
                             best_prim = tri.prim;

@@ -8,11 +8,8 @@ use std::time::Instant;
 
 use sched::{DeviceError, SampleRate};
 
-use super::estimate::{sampled_options, task_work};
 use super::{Estimate, Frame, Launch, PathDevice};
-use crate::cost::Work;
-use crate::gpu::{FrameParams, GpuContext, GpuError, GpuRenderer};
-use crate::shade::Shader;
+use crate::gpu::{GpuContext, GpuError, GpuRenderer};
 use crate::traverse::walk::Walk;
 use crate::{Bvh, Scene};
 
@@ -42,11 +39,6 @@ impl GpuPaths {
             overheads: VecDeque::new(),
         })
     }
-
-    /// The kernels and buffers of the device.
-    pub fn renderer(&self) -> &GpuRenderer {
-        &self.renderer
-    }
 }
 
 impl PathDevice for GpuPaths {
@@ -56,30 +48,15 @@ impl PathDevice for GpuPaths {
         tasks: &[&Range<usize>],
     ) -> Result<Launch, DeviceError> {
         let started = Instant::now();
-        let o = frame.options;
-        let params = FrameParams {
-            width: o.width,
-            height: o.height,
-            camera: &o.camera,
-        };
-        let out = match o.shader {
-            Shader::Ao(s) => self.renderer.render_ao(&params, tasks, &s),
-            Shader::Whitted(s) => self.renderer.render_whitted(&params, tasks, &s),
-        }?;
-        if let Some(kernels) = out.kernel_seconds {
+        let out = self.renderer.render(frame.options, tasks)?;
+        if let Some(kernels) = out.device_seconds {
             let beyond = started.elapsed().as_secs_f64() - kernels;
             if self.overheads.len() == OVERHEADS_KEPT {
                 self.overheads.pop_front();
             }
             self.overheads.push_back(beyond.max(0.0));
         }
-        Ok(Launch {
-            values: out.values,
-            rays: out.rays,
-            traffic: out.traffic,
-            film_bytes: out.film_bytes,
-            device_seconds: out.kernel_seconds,
-        })
+        Ok(out)
     }
 
     /// On the GPU: the sample is made, traced (or its camera rays walked) and summed by the
@@ -92,41 +69,9 @@ impl PathDevice for GpuPaths {
         rate: SampleRate,
         walk: Walk,
     ) -> Result<Estimate, DeviceError> {
-        let (options, probe_scale) = match walk {
-            Walk::Trace { .. } => sampled_options(frame.options, rate),
-            _ => (*frame.options, 1.0),
-        };
-        let params = FrameParams {
-            width: options.width,
-            height: options.height,
-            camera: &options.camera,
-        };
-        let stride = u32::try_from(rate.stride()).unwrap_or(u32::MAX);
-        let sampled = self
+        Ok(self
             .renderer
-            .sample_paths(&params, tasks, &options.shader, stride, walk)?;
-        // `task_work` sets the task's `R`.
-        let work = |[nodes, tris]: [u64; 2]| Work {
-            nodes: nodes as f64,
-            tris: tris as f64,
-            rays: 0.0,
-        };
-        Ok(Estimate {
-            work: tasks
-                .iter()
-                .zip(&sampled.tasks)
-                .map(|(t, s)| {
-                    task_work(
-                        work(s.paths),
-                        work(s.probes),
-                        t.len(),
-                        s.sampled,
-                        probe_scale,
-                    )
-                })
-                .collect(),
-            traffic: sampled.traffic,
-        })
+            .sample_paths(frame.options, tasks, rate, walk)?)
     }
 
     /// The kernels count on the binary tree.

@@ -54,7 +54,7 @@ impl History {
             return None;
         }
         let (work, seconds): (Vec<Work>, Vec<f64>) = self.fit.iter().copied().unzip();
-        let m = calibrate(&work, &seconds).ok()?.model;
+        let m = calibrate(&work, &seconds)?.model;
         m.can_plan().then_some(m)
     }
 }

@@ -373,7 +373,7 @@ fn the_thesis_walks_estimate_camera_rays_and_leave_the_image_alone() {
         let first = crate::traverse::reduced_counts(&bvh, &rays, walk, 0..256);
         assert_eq!(full[0], Work::sum(&first).scaled(256, 256), "{walk:?}");
         let sampled = costs(walk_paths(&frame, &tasks, sched::SampleRate::THESIS, walk));
-        let rank = crate::cost::spearman(&sampled, &traced).expect("tasks");
+        let rank = sched::rank_correlation(&sampled, &traced).expect("tasks");
         assert!(rank > 0.5, "{walk:?}: rank correlation {rank}");
     }
     let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);

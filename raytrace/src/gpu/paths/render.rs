@@ -20,20 +20,19 @@ use super::shading::with_shading;
 use super::sums::sums_kernel;
 use super::whitted_kernels::WhittedKernels;
 use crate::bvh::Bvh;
-use crate::camera::Camera;
 use crate::gpu::GpuError;
-use crate::gpu::buffers::{
-    GpuRay, RESULT_BYTES, SceneBuffers, check_size, fetch, init, rays_per_launch,
-};
+use crate::gpu::buffers::{GpuRay, RESULT_BYTES, check_size, fetch, init, rays_per_launch};
 use crate::gpu::context::GpuContext;
 use crate::gpu::header::{self, Header, Setup, task_list};
 use crate::gpu::launch::{Count, Recorder, verdict_kernel};
 use crate::gpu::program::{Kernel, Program, READ, UNIFORM, WRITE};
 use crate::gpu::resident::Resident;
-use crate::gpu::trace::{TraceKernels, TraceMode};
+use crate::gpu::trace::{ANY, CLOSEST, TraceDevice, loop_cut};
+use crate::paths::Launch;
 use crate::scene::Scene;
-use crate::shade::AoSettings;
+use crate::shade::{AoSettings, RenderOptions};
 use crate::traffic::Traffic;
+use crate::traverse::walk::Walk;
 
 /// The uniform block of `render.wgsl` (`struct Params`).
 #[repr(C)]
@@ -86,41 +85,11 @@ struct SceneTri {
     v: [[f32; 4]; 3],
 }
 
-/// What a launch of paths produced on the GPU.
-#[derive(Clone, Debug, Default)]
-pub struct PathValues {
-    /// Each path's radiance (grey for ambient occlusion), task after task as launched.
-    pub values: Vec<Vec3>,
-    /// Rays traced: the primary rays, then `samples` AO probes per primary ray, or per
-    /// bounce one shadow ray per light and one mirror ray per path (slots of paths that ended
-    /// hold empty-range rays, which end at once and add nothing).
-    pub rays: usize,
-    /// Kernel time of the launch from timestamp queries, where the device has them.
-    pub kernel_seconds: Option<f64>,
-    /// What crossed between host and device, the values excepted.
-    pub traffic: Traffic,
-    /// Bytes of the values read back.
-    pub film_bytes: u64,
-}
-
-/// What a frame is: the image, its camera and the shader's settings.
-#[derive(Clone, Copy, Debug)]
-pub struct FrameParams<'a> {
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// The camera.
-    pub camera: &'a Camera,
-}
-
 /// One GPU with a scene and the path kernels: renders ranges of paths entirely on the
 /// device.
 #[derive(Debug)]
 pub struct GpuRenderer {
-    pub(in crate::gpu) ctx: GpuContext,
-    pub(in crate::gpu) kernels: TraceKernels,
-    pub(in crate::gpu) scene: SceneBuffers,
+    pub(in crate::gpu) dev: TraceDevice,
     pub(in crate::gpu) tris: wgpu::Buffer,
     pub(super) whitted: WhittedKernels,
     program: Program,
@@ -152,8 +121,8 @@ impl GpuRenderer {
     /// [`GpuError::TooLarge`] when a scene buffer exceeds a binding limit,
     /// [`GpuError::TooDeep`] beyond the deepest supported tree.
     pub fn new(ctx: GpuContext, scene: &Scene, bvh: &Bvh) -> Result<Self, GpuError> {
-        let kernels = TraceKernels::new(&ctx.device, bvh.depth())?;
-        let scene_buffers = SceneBuffers::upload(&ctx, bvh)?;
+        let dev = TraceDevice::new(ctx, bvh)?;
+        let ctx = &dev.ctx;
         let mut tris: Vec<SceneTri> = (0..scene.len())
             .map(|prim| SceneTri {
                 v: scene.vertices(prim).map(|p| p.extend(0.0).to_array()),
@@ -164,7 +133,7 @@ impl GpuRenderer {
             tris.push(SceneTri::default());
         }
         let tri_bytes: &[u8] = bytemuck::cast_slice(&tris);
-        check_size(&ctx, "scene triangles", tri_bytes.len() as u64)?;
+        check_size(ctx, "scene triangles", tri_bytes.len() as u64)?;
         let device = &ctx.device;
         let tris = init(
             device,
@@ -179,7 +148,7 @@ impl GpuRenderer {
             &[UNIFORM, WRITE, WRITE, READ, READ, WRITE, READ, WRITE, READ],
         );
         let make = |entry: &str, label: &str| program.pipeline(device, entry, label);
-        let whitted = WhittedKernels::new(&ctx, scene);
+        let whitted = WhittedKernels::new(ctx, scene);
         let verdict = verdict_kernel(device);
         let path_sums = sums_kernel(device);
         let header = header::header_kernel(device);
@@ -192,13 +161,11 @@ impl GpuRenderer {
             tris,
             diagonal: scene.bounds().extent().length(),
             unit: scene.unit,
-            ctx,
-            kernels,
-            scene: scene_buffers,
             resident: Resident::default(),
             verdict,
             header,
             path_sums,
+            dev,
             #[cfg(test)]
             starved: false,
         })
@@ -206,7 +173,7 @@ impl GpuRenderer {
 
     /// The opened adapter.
     pub fn context(&self) -> &GpuContext {
-        &self.ctx
+        &self.dev.ctx
     }
 
     /// Checks the image and the launch, uploads its task list and number of tasks (`secondary`
@@ -216,14 +183,14 @@ impl GpuRenderer {
     /// `stride`-th path of each task, from its first (1 to render; the sample to estimate).
     pub(in crate::gpu) fn begin(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
         settings: &AoSettings,
         secondary: u32,
         stride: u32,
         traffic: &mut Traffic,
     ) -> Result<(Stage, wgpu::BindGroup), GpuError> {
-        let ctx = &self.ctx;
+        let ctx = &self.dev.ctx;
         let (width, height) = (frame.width, frame.height);
         let too_large =
             |what: &'static str, bytes: u64, limit: &'static str, max: u64| GpuError::TooLarge {
@@ -361,17 +328,11 @@ impl GpuRenderer {
     /// launch's counts from its task list (`header.wgsl`) and copying them into the frame's
     /// parameters.
     pub(in crate::gpu) fn recorder(&self, stage: &Stage, checked: bool) -> Recorder<'_> {
-        let mut launch = Recorder::new(
-            &self.ctx,
-            &self.kernels,
-            &self.scene,
-            &self.verdict,
-            checked,
-        );
+        let mut launch = Recorder::new(&self.dev, &self.verdict, checked);
         header::record(
             &self.header,
             &mut launch,
-            &self.ctx.device,
+            &self.dev.ctx.device,
             [&stage.header, &stage.tasks, &stage.setup],
         );
         launch.copy(
@@ -396,13 +357,14 @@ impl GpuRenderer {
         size: u64,
         usage: wgpu::BufferUsages,
     ) -> wgpu::Buffer {
-        self.resident.scratch(&self.ctx.device, label, size, usage)
+        self.resident
+            .scratch(&self.dev.ctx.device, label, size, usage)
     }
 
     /// A bind group of `stage`'s buffers with the parameters `uniform`.
     fn bind(&self, stage: &Stage, uniform: &wgpu::Buffer) -> wgpu::BindGroup {
         self.program.bind(
-            &self.ctx.device,
+            &self.dev.ctx.device,
             "cobalt render bind group",
             &[
                 uniform,
@@ -418,22 +380,28 @@ impl GpuRenderer {
         )
     }
 
-    /// Renders the paths of `tasks` with ambient occlusion as [`crate::shade::render`] does
-    /// with [`crate::shade::Shader::Ao`]`(settings)`: `settings.samples` probes per primary
-    /// hit, each path's probes seeded by its rank, so a path's value does not depend on the
-    /// launch it is in.
-    ///
-    /// # Errors
-    /// [`GpuError::TooLarge`] when the launch's primary rays exceed a binding (about 4
-    /// million under lavapipe's 128 MiB), a side of the image is not in 1..=65536 or a task
-    /// reaches past the image, and the errors of a trace.
-    pub fn render_ao(
+    /// The paths of `tasks` with ambient occlusion (see [`GpuRenderer::render`]):
+    /// `settings.samples` probes per primary hit, each path's probes seeded by its rank, so a
+    /// path's value does not depend on the launch it is in.
+    pub(in crate::gpu) fn render_ao(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
         settings: &AoSettings,
-    ) -> Result<PathValues, GpuError> {
-        self.drained(|checked| self.launch_ao(frame, tasks, settings, checked))
+    ) -> Result<Launch, GpuError> {
+        let samples = settings.samples;
+        let grey: fn(&[u8]) -> Vec3 = |c| Vec3::splat(bytemuck::pod_read_unaligned::<f32>(c));
+        self.drained(|checked| {
+            let values = (Vec3::ONE, 4, grey);
+            self.launch(
+                frame,
+                tasks,
+                (settings, samples),
+                checked,
+                values,
+                |l, s, g, t| self.record_ao(l, s, g, samples, None, t),
+            )
+        })
     }
 
     /// What `launch(false)` gives, one submission; should a queue not be drained (`None`),
@@ -447,51 +415,59 @@ impl GpuRenderer {
     ) -> Result<T, GpuError> {
         match launch(false)? {
             Some(out) => Ok(out),
-            None => launch(true)?.ok_or_else(|| GpuError::LoopCut {
-                adapter: self.ctx.info.name.clone(),
-                batches: crate::gpu::trace::BATCHES,
-            }),
+            None => launch(true)?.ok_or_else(|| loop_cut(&self.dev.ctx.info.name)),
         }
     }
 
-    /// One launch of [`GpuRenderer::render_ao`], recorded as one submission (`checked`: the
-    /// host checks each trace); `None` when a trace's queue was found not drained.
-    fn launch_ao(
+    /// One launch of paths of `tasks` with the probes of `settings` and `secondary`
+    /// secondary rays per path (see [`GpuRenderer::begin`]), recorded as one submission
+    /// (`checked`: the host checks each trace) by `record`, which returns the buffer of the
+    /// paths' values and the rays traced; `None` when a trace's queue was found not drained.
+    /// A value is `bytes` long, read by `value`; in an empty scene every primary misses and
+    /// sees `sky`.
+    pub(in crate::gpu) fn launch(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
-        settings: &AoSettings,
+        (settings, secondary): (&AoSettings, u32),
         checked: bool,
-    ) -> Result<Option<PathValues>, GpuError> {
+        (sky, bytes, value): Values,
+        record: impl FnOnce(
+            &mut Recorder<'_>,
+            &Stage,
+            &wgpu::BindGroup,
+            &mut Traffic,
+        ) -> Result<(wgpu::Buffer, usize), GpuError>,
+    ) -> Result<Option<Launch>, GpuError> {
         let mut traffic = Traffic::default();
-        let (stage, first) =
-            self.begin(frame, tasks, settings, settings.samples, 1, &mut traffic)?;
+        let (stage, first) = self.begin(frame, tasks, settings, secondary, 1, &mut traffic)?;
         let n = stage.n;
-        let samples = settings.samples;
-        if self.scene.empty {
-            // Every primary misses and sees the sky.
-            return Ok(Some(PathValues {
-                values: vec![Vec3::ONE; n as usize],
+        if self.dev.scene.empty {
+            return Ok(Some(Launch {
+                values: vec![sky; n as usize],
                 rays: n as usize,
-                kernel_seconds: None,
+                device_seconds: None,
                 traffic,
                 film_bytes: 0,
             }));
         }
         let mut launch = self.recorder(&stage, checked);
-        self.record_ao(&mut launch, &stage, &first, samples, None, &mut traffic)?;
-        let film_bytes = u64::from(n) * 4;
-        let done = launch.finish(&stage.film, film_bytes, &mut traffic)?;
+        let (film, rays) = record(&mut launch, &stage, &first, &mut traffic)?;
+        let film_bytes = u64::from(n) * bytes;
+        let done = launch.finish(&film, film_bytes, &mut traffic)?;
         if !done.drained {
             return Ok(None);
         }
         // One pass from the bytes read back: each copy of a frame's values is a pass over
         // fresh pages.
-        let value = |c: &[u8]| Vec3::splat(bytemuck::pod_read_unaligned::<f32>(c));
-        Ok(Some(PathValues {
-            values: done.values.chunks_exact(4).map(value).collect(),
-            rays: n as usize * (1 + samples as usize),
-            kernel_seconds: done.kernel_seconds,
+        Ok(Some(Launch {
+            values: done
+                .values
+                .chunks_exact(bytes as usize)
+                .map(value)
+                .collect(),
+            rays,
+            device_seconds: done.kernel_seconds,
             traffic,
             film_bytes,
         }))
@@ -500,7 +476,8 @@ impl GpuRenderer {
     /// Records an AO launch of `stage` (`first`: its first chunk's bind group) into `launch`:
     /// raygen, the primaries' trace, and per chunk the probes, their trace and the paths'
     /// values. With `tally`, every trace adds its rays' counts to their paths' entries and
-    /// no value is made (an estimate's launch, whose probes fit one chunk).
+    /// no value is made (an estimate's launch, whose probes fit one chunk; the camera rays
+    /// alone without probes). Returns the buffer of the paths' values and the rays traced.
     pub(in crate::gpu) fn record_ao(
         &self,
         launch: &mut Recorder<'_>,
@@ -509,7 +486,7 @@ impl GpuRenderer {
         samples: u32,
         tally: Option<&Tally>,
         traffic: &mut Traffic,
-    ) -> Result<(), GpuError> {
+    ) -> Result<(wgpu::Buffer, usize), GpuError> {
         let n = stage.n;
         launch.pass_over(&self.raygen, first, n);
         let header = &stage.header;
@@ -517,7 +494,7 @@ impl GpuRenderer {
             &stage.primary,
             &stage.hits,
             n,
-            TraceMode::Closest,
+            tally.map_or(CLOSEST, |t| t.primary),
             match tally {
                 Some(t) => Count::Counted {
                     counts: &t.paths,
@@ -540,7 +517,7 @@ impl GpuRenderer {
             let other = (base > 0).then(|| {
                 traffic.host_to_device_bytes += size_of::<Params>() as u64;
                 let uniform = init(
-                    &self.ctx.device,
+                    &self.dev.ctx.device,
                     "cobalt path chunk parameters",
                     bytemuck::bytes_of(&params),
                     wgpu::BufferUsages::UNIFORM,
@@ -554,7 +531,7 @@ impl GpuRenderer {
                     &stage.probes,
                     &stage.probe_hits,
                     len * samples,
-                    TraceMode::Any,
+                    ANY,
                     match tally {
                         Some(t) => Count::Counted {
                             counts: &t.probes,
@@ -571,17 +548,17 @@ impl GpuRenderer {
             }
             base += len;
         }
-        Ok(())
+        Ok((stage.film.clone(), n as usize * (1 + samples as usize)))
     }
 
-    /// The primary rays a launch of `tasks` generates on the device, read back (the CPU's
-    /// [`Camera::primary_rays_of`]), with each one's rank.
+    /// The primary rays a launch of `tasks` of `frame`'s image generates on the device, read
+    /// back (the CPU's [`crate::Camera::primary_rays_of`]), with each one's rank.
     ///
     /// # Errors
-    /// As [`GpuRenderer::render_ao`].
+    /// As [`GpuRenderer::render`].
     pub fn primary_rays(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
     ) -> Result<(Vec<GpuRay>, Vec<u32>), GpuError> {
         let mut traffic = Traffic::default();
@@ -591,8 +568,12 @@ impl GpuRenderer {
         launch.pass_over(&self.raygen, &group, stage.n);
         launch.finish(&stage.film, 0, &mut traffic)?;
         let n = u64::from(stage.n);
-        let rays = fetch(&self.ctx, &stage.primary, n * size_of::<GpuRay>() as u64)?;
-        let ranks = fetch(&self.ctx, &stage.ranks, n * 4)?;
+        let rays = fetch(
+            &self.dev.ctx,
+            &stage.primary,
+            n * size_of::<GpuRay>() as u64,
+        )?;
+        let ranks = fetch(&self.dev.ctx, &stage.ranks, n * 4)?;
         Ok((
             bytemuck::pod_collect_to_vec(&rays),
             bytemuck::pod_collect_to_vec(&ranks),
@@ -600,11 +581,17 @@ impl GpuRenderer {
     }
 }
 
+/// How a launch's values are read back: what every path sees in an empty scene, the bytes
+/// of one value, and how one is read.
+pub(in crate::gpu) type Values = (Vec3, u64, fn(&[u8]) -> Vec3);
+
 /// Where an estimate's launch adds its rays' counts `B` and `T`: two words a path slot, the
-/// primary, mirror and shadow rays' in `paths`, the AO probes' in `probes`.
+/// primary, mirror and shadow rays' in `paths`, the AO probes' in `probes`; the camera rays
+/// counted by `primary` (the closest-hit trace, or a reduced walk's counting mode).
 pub(in crate::gpu) struct Tally {
     pub(in crate::gpu) paths: wgpu::Buffer,
     pub(in crate::gpu) probes: wgpu::Buffer,
+    pub(in crate::gpu) primary: Walk,
 }
 
 /// The buffers of one launch, on the device.

@@ -14,71 +14,58 @@
 
 use std::ops::Range;
 
-use super::render::{FrameParams, GpuRenderer, Tally};
+use sched::SampleRate;
+
+use super::render::{GpuRenderer, Tally};
+use crate::cost::Work;
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{check_size, storage};
-use crate::gpu::launch::Count;
-use crate::gpu::trace::{TraceMode, grid};
-use crate::shade::{AoSettings, Shader};
+use crate::gpu::trace::{grid, loop_cut};
+use crate::paths::{Estimate, sampled_options, task_work};
+use crate::ray::RayKind;
+use crate::shade::{AoSettings, RenderOptions, Shader};
 use crate::traffic::Traffic;
 use crate::traverse::walk::Walk;
 
-/// One task's sample as the GPU summed it.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct PathSums {
-    /// `B` and `T` of the sampled paths' primary, mirror and shadow rays.
-    pub paths: [u64; 2],
-    /// `B` and `T` of their AO probes.
-    pub probes: [u64; 2],
-    /// Paths sampled.
-    pub sampled: usize,
-}
-
-/// What a sampling launch returned: each task's sums, and what crossed.
-#[derive(Clone, Debug, Default)]
-pub struct SampledPaths {
-    /// Per task, in order.
-    pub tasks: Vec<PathSums>,
-    /// Bytes each way and host waits.
-    pub traffic: Traffic,
-}
-
 impl GpuRenderer {
-    /// Traces every `stride`-th path of each of `tasks` (from its first) with `shader`, or
-    /// walks its camera ray alone by a reduced `walk`, and sums its rays' counts per task
-    /// (see the module docs).
+    /// The estimated work of each of `tasks` of `frame` from a sample at `rate`: every
+    /// `rate.stride()`-th path of each task (from its first) traced as the render would trace
+    /// it, with the rate's share of its AO probes ([`crate::paths::sampled_options`]), or its
+    /// camera ray alone walked by a reduced `walk`, its rays' counts summed per task on the
+    /// device and scaled to the task as the host scales them ([`crate::paths::task_work`]; see
+    /// the module docs).
     ///
     /// # Errors
     /// [`GpuError::TooLarge`] when the sampled paths or their probes exceed one binding,
     /// [`GpuError::LoopCut`] when a trace's queue was not drained (a checked re-run, which
     /// the renders have, would not count: the caller estimates elsewhere),
     /// [`GpuError::CountOverflow`] when a task's sums do not fit 32 bits, and the errors of
-    /// [`GpuRenderer::render_ao`].
+    /// [`GpuRenderer::render`].
     pub fn sample_paths(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
-        shader: &Shader,
-        stride: u32,
+        rate: SampleRate,
         walk: Walk,
-    ) -> Result<SampledPaths, GpuError> {
-        self.sample_launch(frame, tasks, shader, stride, walk)?
-            .ok_or_else(|| GpuError::LoopCut {
-                adapter: self.ctx.info.name.clone(),
-                batches: crate::gpu::trace::BATCHES,
-            })
+    ) -> Result<Estimate, GpuError> {
+        let (options, probe_scale) = match walk {
+            Walk::Trace { .. } => sampled_options(frame, rate),
+            _ => (*frame, 1.0),
+        };
+        let stride = u32::try_from(rate.stride()).unwrap_or(u32::MAX);
+        let launch = (&options, tasks, stride, probe_scale);
+        self.sample_launch(launch, walk)?
+            .ok_or_else(|| loop_cut(&self.dev.ctx.info.name))
     }
 
-    /// One launch of [`GpuRenderer::sample_paths`], one submission; `None` when a queue was
-    /// not drained.
+    /// One launch of [`GpuRenderer::sample_paths`] of every `stride`-th path, one submission,
+    /// its probes' counts scaled by `probe_scale`; `None` when a queue was not drained.
     fn sample_launch(
         &self,
-        frame: &FrameParams<'_>,
-        tasks: &[&Range<usize>],
-        shader: &Shader,
-        stride: u32,
+        (frame, tasks, stride, probe_scale): (&RenderOptions, &[&Range<usize>], u32, f64),
         walk: Walk,
-    ) -> Result<Option<SampledPaths>, GpuError> {
+    ) -> Result<Option<Estimate>, GpuError> {
+        let shader = &frame.shader;
         let mut traffic = Traffic::default();
         let reduced = !matches!(walk, Walk::Trace { .. });
         let no_ao = AoSettings {
@@ -92,22 +79,30 @@ impl GpuRenderer {
             _ => (no_ao, 0),
         };
         let (stage, first) = self.begin(frame, tasks, &ao, secondary, stride, &mut traffic)?;
+        // Each task's work from its sampled paths' sums `B`, `T` and their probes'.
         let stride = stride.max(1) as usize;
-        let sampled: Vec<usize> = tasks.iter().map(|t| t.len().div_ceil(stride)).collect();
-        if self.scene.empty {
-            // Every ray misses the root: nothing is counted.
-            let tasks = sampled
-                .iter()
-                .map(|&sampled| PathSums {
-                    sampled,
-                    ..PathSums::default()
+        let scaled = |words: &[[u32; 4]]| -> Vec<Work> {
+            let work = |nodes: u32, tris: u32| Work {
+                nodes: nodes.into(),
+                tris: tris.into(),
+                rays: 0.0,
+            };
+            (tasks.iter().zip(words))
+                .map(|(t, w)| {
+                    let (paths, probes) = (work(w[0], w[1]), work(w[2], w[3]));
+                    let sampled = t.len().div_ceil(stride);
+                    task_work(paths, probes, t.len(), sampled, probe_scale)
                 })
-                .collect();
-            return Ok(Some(SampledPaths { tasks, traffic }));
+                .collect()
+        };
+        if self.dev.scene.empty {
+            // Every ray misses the root: nothing is counted.
+            let work = scaled(&vec![[0; 4]; tasks.len()]);
+            return Ok(Some(Estimate { work, traffic }));
         }
         if stage.chunk < stage.n {
             return Err(GpuError::TooLarge {
-                adapter: self.ctx.info.name.clone(),
+                adapter: self.dev.ctx.info.name.clone(),
                 what: "AO probes of a sample",
                 bytes: u64::from(stage.n) * u64::from(ao.samples) * 32,
                 limit: "max_storage_buffer_binding_size",
@@ -115,46 +110,31 @@ impl GpuRenderer {
             });
         }
         let n = u64::from(stage.n);
-        let device = &self.ctx.device;
+        let device = &self.dev.ctx.device;
         // New buffers are zeroed by wgpu: every launch counts from nothing.
         let zeroed = |label: &str, size: u64, usage| storage(device, label, size.max(16), usage);
-        check_size(&self.ctx, "per-path counts", n * 8)?;
+        check_size(&self.dev.ctx, "per-path counts", n * 8)?;
         let none = wgpu::BufferUsages::empty();
         let tally = Tally {
             paths: zeroed("cobalt sampled path counts", n * 8, none),
             probes: zeroed("cobalt sampled probe counts", n * 8, none),
+            // A reduced walk counts the camera rays by its own walk, the trace walk traces them.
+            primary: walk.for_kind(RayKind::Primary),
         };
         let mut launch = self.recorder(&stage, false);
-        match shader {
-            _ if reduced => {
-                launch.pass_over(&self.raygen, &first, stage.n);
-                let count = Count::Counted {
-                    counts: &tally.paths,
-                    per_path: 1,
-                };
-                let mode = TraceMode::counts(walk)?;
-                launch.trace(
-                    &stage.primary,
-                    &stage.hits,
-                    stage.n,
-                    mode,
-                    count,
-                    &mut traffic,
-                )?;
-            }
-            Shader::Ao(s) => {
-                self.record_ao(
-                    &mut launch,
-                    &stage,
-                    &first,
-                    s.samples,
-                    Some(&tally),
-                    &mut traffic,
-                )?;
-            }
-            Shader::Whitted(s) => {
-                self.record_whitted(&mut launch, &stage, &first, s, Some(&tally), &mut traffic)?;
-            }
+        if let (Shader::Whitted(s), false) = (shader, reduced) {
+            self.record_whitted(&mut launch, &stage, &first, s, Some(&tally), &mut traffic)?;
+        } else {
+            // Without probes (a reduced walk's), the camera rays alone.
+            let samples = ao.samples;
+            self.record_ao(
+                &mut launch,
+                &stage,
+                &first,
+                samples,
+                Some(&tally),
+                &mut traffic,
+            )?;
         }
         // The sums read the launch's own task list and header: no second one crosses.
         let t = tasks.len() as u64;
@@ -173,7 +153,7 @@ impl GpuRenderer {
         launch.pass(
             &self.path_sums.pipeline,
             &group,
-            grid(&self.ctx.limits, tasks.len() as u32),
+            grid(&self.dev.ctx.limits, tasks.len() as u32),
         );
         let done = launch.finish(&sums, 16 * t, &mut traffic)?;
         traffic.device_to_host_bytes += 16 * t;
@@ -183,19 +163,13 @@ impl GpuRenderer {
         let words: Vec<[u32; 4]> = bytemuck::pod_collect_to_vec(&done.values);
         if let Some(task) = words.iter().position(|w| w.contains(&u32::MAX)) {
             return Err(GpuError::CountOverflow {
-                adapter: self.ctx.info.name.clone(),
+                adapter: self.dev.ctx.info.name.clone(),
                 task,
             });
         }
-        let tasks = sampled
-            .iter()
-            .zip(&words)
-            .map(|(&sampled, w)| PathSums {
-                paths: [w[0], w[1]].map(u64::from),
-                probes: [w[2], w[3]].map(u64::from),
-                sampled,
-            })
-            .collect();
-        Ok(Some(SampledPaths { tasks, traffic }))
+        Ok(Some(Estimate {
+            work: scaled(&words),
+            traffic,
+        }))
     }
 }

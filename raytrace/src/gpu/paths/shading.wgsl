@@ -4,11 +4,6 @@
 // `Scene::surface_point` and `spawn.rs`'s offset origin. Where they may differ from the CPU:
 // an edge function that is exactly 0, which the CPU re-evaluates in f64.
 
-struct GpuRay {
-    org: vec4<f32>,
-    dir: vec4<f32>,
-}
-
 // A triangle of the scene by primitive id (`Scene::vertices`), `.w` unused.
 struct SceneTri {
     v0: vec4<f32>,
@@ -16,8 +11,6 @@ struct SceneTri {
     v2: vec4<f32>,
 }
 
-// A hit buffer's primitive for a miss.
-const MISS: u32 = 0xffffffffu;
 const F32_MAX: f32 = 3.40282347e38;
 
 // What a kernel's invocation knows of where it stands: every kernel takes one item.
@@ -84,57 +77,11 @@ fn next_down(v: f32) -> f32 {
 
 // The watertight test returning (t, u, v) and `.w > 0` on a hit (`intersect_watertight`).
 fn intersect(o: vec3<f32>, d: vec3<f32>, tri: SceneTri, tmin: f32, tmax: f32) -> vec4<f32> {
-    let miss = vec4<f32>(0.0);
-    let ad = abs(d);
-    var kz = 2u;
-    if ad.x >= ad.y && ad.x >= ad.z {
-        kz = 0u;
-    } else if ad.y >= ad.z {
-        kz = 1u;
+    let sh = shear(d);
+    if d[sh.k.z] == 0.0 {
+        return vec4<f32>(0.0);
     }
-    if d[kz] == 0.0 {
-        return miss;
-    }
-    var kx = select(kz + 1u, 0u, kz == 2u);
-    var ky = select(kx + 1u, 0u, kx == 2u);
-    if d[kz] < 0.0 {
-        let tmp = kx;
-        kx = ky;
-        ky = tmp;
-    }
-    let sx = d[kx] / d[kz];
-    let sy = d[ky] / d[kz];
-    let sz = 1.0 / d[kz];
-    let a = tri.v0.xyz - o;
-    let b = tri.v1.xyz - o;
-    let c = tri.v2.xyz - o;
-    let ax = a[kx] - sx * a[kz];
-    let ay = a[ky] - sy * a[kz];
-    let bx = b[kx] - sx * b[kz];
-    let by = b[ky] - sy * b[kz];
-    let cx = c[kx] - sx * c[kz];
-    let cy = c[ky] - sy * c[kz];
-    let u = cx * by - cy * bx;
-    let v = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return miss;
-    }
-    let det = u + v + w;
-    if det == 0.0 {
-        return miss;
-    }
-    var t_scaled = u * (sz * a[kz]) + v * (sz * b[kz]) + w * (sz * c[kz]);
-    var det_abs = det;
-    if det < 0.0 {
-        t_scaled = -t_scaled;
-        det_abs = -det;
-    }
-    if t_scaled < tmin * det_abs || t_scaled > tmax * det_abs {
-        return miss;
-    }
-    let rcp = 1.0 / det;
-    return vec4<f32>(t_scaled / det_abs + 0.0, v * rcp, w * rcp, 1.0);
+    return watertight(sh, o, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, tmin, tmax);
 }
 
 // `Scene::surface_point` of barycentrics `(u, v)` on `tri`: the point, its error bound, the

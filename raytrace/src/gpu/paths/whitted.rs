@@ -1,4 +1,5 @@
-//! Whitted shading on the GPU ([`GpuRenderer::render_whitted`]): a launch's primary rays
+//! Whitted shading on the GPU, and the render of either shader ([`GpuRenderer::render`]): a
+//! Whitted launch's primary rays
 //! from the path kernels' `raygen`, then per bounce a closest-hit trace, `whitted.wgsl`'s
 //! `shade` (emission, ambient, one shadow ray per light, the mirror ray), an any-hit trace of
 //! the shadow rays and `shadows` (their light); every buffer stays on the device until the
@@ -13,13 +14,14 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::render::{FrameParams, GpuRenderer, PathValues, Stage, Tally};
+use super::render::{GpuRenderer, Stage, Tally};
 use crate::gpu::GpuError;
 use crate::gpu::buffers::{GpuRay, RESULT_BYTES, check_size};
 use crate::gpu::header::Header;
 use crate::gpu::launch::{Count, Recorder};
-use crate::gpu::trace::TraceMode;
-use crate::shade::{AMBIENT, AoSettings, SKY, WhittedSettings};
+use crate::gpu::trace::{ANY, CLOSEST};
+use crate::paths::Launch;
+use crate::shade::{AMBIENT, AoSettings, RenderOptions, SKY, Shader, WhittedSettings};
 use crate::traffic::Traffic;
 
 /// `whitted.wgsl`'s `struct Params`.
@@ -43,71 +45,58 @@ const _: () = assert!(size_of::<Params>() == 48);
 const COUNT_AT: u64 = 16;
 
 impl GpuRenderer {
-    /// Renders the paths of `tasks` with Whitted shading as [`crate::shade::render`] does
-    /// with [`crate::shade::Shader::Whitted`]`(settings)`, with the scene's materials,
-    /// normals and lights (those of the scene this renderer was made with).
+    /// Renders the paths of `tasks` (ranges of paths in `frame`'s Morton order) as
+    /// [`crate::shade::render`] does with `frame`, with the materials, normals and lights of
+    /// the scene this renderer was made with. The launch's rays are the primary rays, then
+    /// `samples` AO probes per primary ray, or per bounce one shadow ray per light and one
+    /// mirror ray per path (slots of paths that ended hold empty-range rays, which end at
+    /// once and add nothing); its device seconds are its kernels' time from timestamp
+    /// queries, where the device has them.
     ///
     /// # Errors
-    /// [`GpuError::TooLarge`] when the launch's primary rays, its shadow rays (one per path
-    /// and light) or the scene's materials and normals exceed a binding, a side of the image
-    /// is not in 1..=65536 or a task reaches past the image, and the errors of a trace.
-    pub fn render_whitted(
+    /// [`GpuError::TooLarge`] when the launch's primary rays exceed a binding (about 4
+    /// million under lavapipe's 128 MiB), or with Whitted shading its shadow rays (one per
+    /// path and light) or the scene's materials and normals do, a side of the image is not in
+    /// 1..=65536 or a task reaches past the image, and the errors of a trace.
+    pub fn render(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
-        settings: &WhittedSettings,
-    ) -> Result<PathValues, GpuError> {
-        self.drained(|checked| self.launch_whitted(frame, tasks, settings, checked))
+    ) -> Result<Launch, GpuError> {
+        match frame.shader {
+            Shader::Ao(s) => self.render_ao(frame, tasks, &s),
+            Shader::Whitted(s) => self.render_whitted(frame, tasks, &s),
+        }
     }
 
-    /// One launch of [`GpuRenderer::render_whitted`], recorded as one submission (`checked`:
-    /// the host checks each trace); `None` when a trace's queue was found not drained.
-    fn launch_whitted(
+    /// The paths of `tasks` with Whitted shading (see [`GpuRenderer::render`]).
+    fn render_whitted(
         &self,
-        frame: &FrameParams<'_>,
+        frame: &RenderOptions,
         tasks: &[&Range<usize>],
         settings: &WhittedSettings,
-        checked: bool,
-    ) -> Result<Option<PathValues>, GpuError> {
+    ) -> Result<Launch, GpuError> {
         // No probes: the stage's probe buffer (one ray per path) holds the mirror rays.
         let no_probes = AoSettings {
             samples: 0,
             ..AoSettings::default()
         };
-        let mut traffic = Traffic::default();
-        let lights = self.whitted.light_count;
-        let (stage, raygen) = self.begin(frame, tasks, &no_probes, lights, 1, &mut traffic)?;
-        let n = stage.n;
-        if self.scene.empty {
-            // Every primary misses and sees the sky.
-            return Ok(Some(PathValues {
-                values: vec![SKY; n as usize],
-                rays: n as usize,
-                kernel_seconds: None,
-                traffic,
-                film_bytes: 0,
-            }));
-        }
-        let mut launch = self.recorder(&stage, checked);
-        let (film, traced) =
-            self.record_whitted(&mut launch, &stage, &raygen, settings, None, &mut traffic)?;
-        let film_bytes = u64::from(n) * 16;
-        let done = launch.finish(&film, film_bytes, &mut traffic)?;
-        if !done.drained {
-            return Ok(None);
-        }
-        // One pass from the bytes read back, as for AO.
-        let value = |c: &[u8]| {
+        let rgb: fn(&[u8]) -> Vec3 = |c| {
             let v: [f32; 4] = bytemuck::pod_read_unaligned(c);
             Vec3::new(v[0], v[1], v[2])
         };
-        Ok(Some(PathValues {
-            values: done.values.chunks_exact(16).map(value).collect(),
-            rays: traced,
-            kernel_seconds: done.kernel_seconds,
-            traffic,
-            film_bytes,
-        }))
+        let lights = self.whitted.light_count;
+        self.drained(|checked| {
+            let values = (SKY, 16, rgb);
+            self.launch(
+                frame,
+                tasks,
+                (&no_probes, lights),
+                checked,
+                values,
+                |l, s, g, t| self.record_whitted(l, s, g, settings, None, t),
+            )
+        })
     }
 
     /// Records a Whitted launch of `stage` (`raygen`: the bind group of its primaries) into
@@ -126,7 +115,7 @@ impl GpuRenderer {
     ) -> Result<(wgpu::Buffer, usize), GpuError> {
         let n = stage.n;
         let lights = self.whitted.light_count;
-        let ctx = &self.ctx;
+        let ctx = &self.dev.ctx;
         let device = &ctx.device;
         let w = &self.whitted;
         let prims = w.prims.as_ref().map_err(Clone::clone)?;
@@ -207,7 +196,7 @@ impl GpuRenderer {
                 },
                 None => Count::Copied(header, Header::COUNT),
             };
-            launch.trace(rays, &stage.hits, n, TraceMode::Closest, count, traffic)?;
+            launch.trace(rays, &stage.hits, n, CLOSEST, count, traffic)?;
             launch.pass_over(&w.shade, group, n);
             if lights > 0 {
                 // `slots` fits one binding, so far below 2^32.
@@ -215,7 +204,7 @@ impl GpuRenderer {
                     &shadow_rays,
                     &shadow_hits,
                     slots as u32,
-                    TraceMode::Any,
+                    ANY,
                     match tally {
                         Some(t) => Count::Counted {
                             counts: &t.paths,
