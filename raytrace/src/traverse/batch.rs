@@ -112,7 +112,8 @@ pub fn closest_hits_counted(bvh: &Bvh, rays: &RayBatch) -> (HitBatch, Vec<Counts
 }
 
 /// Closest hits (or, with `any`, any hits) and per-ray counts on the tree `layout` names, in
-/// parallel.
+/// parallel: on the wide tree, as the batch queries walk it (rays sharing an origin together,
+/// AVX2 where it runs), so that an estimate's sample costs what the render's trace does.
 ///
 /// # Panics
 /// Panics if the batch's columns have different lengths.
@@ -122,6 +123,13 @@ pub fn hits_counted_in(
     any: bool,
     layout: Layout,
 ) -> (HitBatch, Vec<Counts>) {
+    if layout == Layout::Wide {
+        return if any {
+            any_hits_counted(bvh, rays)
+        } else {
+            closest_hits_counted(bvh, rays)
+        };
+    }
     counted_at(rays, rays.len(), |first, ts, ps, cs| {
         for k in 0..ts.len() {
             let (hit, counts) = bvh.counted_in(&rays.get(first + k), any, layout);
