@@ -183,7 +183,10 @@ fn bench_projects_the_measured_tasks_on_more_devices_of_a_class() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("| cpu:2 | cpu:4 |"), "{text}");
-    assert!(text.contains("Assumptions: every projected device is identical"), "{text}");
+    assert!(
+        text.contains("Assumptions: every projected device is identical"),
+        "{text}"
+    );
     let v: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&json).expect("json written")).expect("valid JSON");
     let runs = v.as_array().expect("an array of runs");
@@ -229,6 +232,10 @@ fn bench_refuses_to_project_an_unmeasured_class() {
         err.contains("gpu") && err.contains("no measured device of this class"),
         "{err}"
     );
+    let o = cobalt(&["bench", "--project", "cpu:2,cpu:2"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("cpu:2 is listed twice"), "{err}");
     let o = cobalt(&["bench", "--project"]);
     assert_eq!(o.status.code(), Some(2));
 }

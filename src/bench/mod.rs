@@ -195,6 +195,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
     crate::limits::frame(size, size.pixels(), ao)?;
     check_outputs(&args, &m)?;
     if let Some(p) = &args.project {
+        let machine = ToString::to_string;
+        distinct("project", &p.machines, machine, machine)?;
         p.check(args.devices.specs())?;
     }
     #[cfg(feature = "mpi")]

@@ -154,6 +154,12 @@ pub struct Projected {
     pub devices: usize,
 }
 
+impl std::fmt::Display for Projected {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}", self.class, self.devices)
+    }
+}
+
 /// The machines of `cobalt bench --project`, as typed and as parsed.
 #[derive(Clone, Debug)]
 pub struct Projection {
@@ -379,9 +385,7 @@ pub fn simulate(
                         devices: m,
                         speeds: speeds.as_slice().to_vec(),
                         link: machine.link,
-                        device_list: machine
-                            .projected
-                            .map(|(p, _)| format!("{}:{}", p.class, p.devices)),
+                        device_list: machine.projected.map(|(p, _)| p.to_string()),
                         latency: machine.latency,
                         rays,
                         seconds,
