@@ -1,5 +1,13 @@
 use crate::testkit::{cobalt, temp_dir};
 
+/// `cobalt bench` on a tiny matrix (a small scene and image, two policies, few AO rays) with
+/// `more` arguments.
+fn tiny_bench(more: &[&str]) -> std::process::Output {
+    let tiny = ["bench", "--scene", "builtin:cornell:0.2", "--size", "32x32"];
+    let policies = ["--policies", "static-lpt,queue-fifo", "--ao-samples", "4"];
+    cobalt(&[&tiny[..], &policies, more].concat())
+}
+
 /// A tiny matrix end to end, every cell run twice: every promised JSON field, fractions in
 /// range, each cell's runs listed, the simulator's records, and the charts.
 #[test]
@@ -7,18 +15,9 @@ fn bench_writes_one_record_per_run_and_the_charts() {
     let dir = temp_dir("bench");
     let (json, plots) = (dir.join("b.json"), dir.join("plots"));
     let (json_s, plots_s) = (json.display().to_string(), plots.display().to_string());
-    let o = cobalt(&[
-        "bench",
-        "--scene",
-        "builtin:cornell:0.2",
-        "--size",
-        "32x32",
+    let o = tiny_bench(&[
         "--task-sizes",
         "256",
-        "--policies",
-        "static-lpt,queue-fifo",
-        "--ao-samples",
-        "4",
         "--repeats",
         "2",
         "--simulate",
@@ -162,18 +161,9 @@ fn bench_projects_the_measured_tasks_on_more_devices_of_a_class() {
     let dir = temp_dir("bench-project");
     let json = dir.join("p.json");
     let json_s = json.display().to_string();
-    let o = cobalt(&[
-        "bench",
-        "--scene",
-        "builtin:cornell:0.2",
-        "--size",
-        "32x32",
+    let o = tiny_bench(&[
         "--task-sizes",
         "64,32",
-        "--policies",
-        "static-lpt,queue-fifo",
-        "--ao-samples",
-        "4",
         "--no-trade",
         "--project",
         "cpu:2,cpu:4",
