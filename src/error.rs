@@ -146,6 +146,11 @@ impl From<raytrace::bench::BenchError> for CliError {
             BenchError::Sched(e) => e.into(),
             // The message the trade's estimates have always failed with.
             e @ BenchError::Estimate(_) => Self::Write(e.to_string()),
+            BenchError::Unmeasured(class) => Self::Arg {
+                flag: "project",
+                value: class.to_string(),
+                message: "no measured device of this class to project".into(),
+            },
             #[cfg(feature = "mpi")]
             BenchError::Cluster(e) => e.into(),
         }

@@ -1,5 +1,13 @@
 use crate::testkit::{cobalt, temp_dir};
 
+/// `cobalt bench` on a tiny matrix (a small scene and image, two policies, few AO rays) with
+/// `more` arguments.
+fn tiny_bench(more: &[&str]) -> std::process::Output {
+    let tiny = ["bench", "--scene", "builtin:cornell:0.2", "--size", "32x32"];
+    let policies = ["--policies", "static-lpt,queue-fifo", "--ao-samples", "4"];
+    cobalt(&[&tiny[..], &policies, more].concat())
+}
+
 /// A tiny matrix end to end, every cell run twice: every promised JSON field, fractions in
 /// range, each cell's runs listed, the simulator's records, and the charts.
 #[test]
@@ -7,18 +15,9 @@ fn bench_writes_one_record_per_run_and_the_charts() {
     let dir = temp_dir("bench");
     let (json, plots) = (dir.join("b.json"), dir.join("plots"));
     let (json_s, plots_s) = (json.display().to_string(), plots.display().to_string());
-    let o = cobalt(&[
-        "bench",
-        "--scene",
-        "builtin:cornell:0.2",
-        "--size",
-        "32x32",
+    let o = tiny_bench(&[
         "--task-sizes",
         "256",
-        "--policies",
-        "static-lpt,queue-fifo",
-        "--ao-samples",
-        "4",
         "--repeats",
         "2",
         "--simulate",
@@ -135,6 +134,8 @@ fn bench_rejects_bad_values_naming_them() {
         ("--devices", "cpu:0", "cpu:0"),
         ("--simulate", "x", "x"),
         ("--simulate", "8,0", "0"),
+        ("--project", "tpu:4", "tpu:4"),
+        ("--project", "gpu:all", "gpu:all"),
         ("--repeats", "0", "0"),
         ("--cameras", "5", "5"),
         ("--scene", "/no/such/scene.obj", "/no/such/scene.obj"),
@@ -151,4 +152,80 @@ fn bench_rejects_bad_values_naming_them() {
         };
         assert!(ok, "{flag} {value}: {err}");
     }
+}
+
+/// `--project cpu:2,cpu:4`: the measured tasks on machines of identical devices, one record
+/// per workload, task size, policy and mode of each, deterministic and scaling with devices.
+#[test]
+fn bench_projects_the_measured_tasks_on_more_devices_of_a_class() {
+    let dir = temp_dir("bench-project");
+    let json = dir.join("p.json");
+    let json_s = json.display().to_string();
+    let o = tiny_bench(&[
+        "--task-sizes",
+        "64,32",
+        "--no-trade",
+        "--project",
+        "cpu:2,cpu:4",
+        "--json",
+        &json_s,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("| cpu:2 | cpu:4 |"), "{text}");
+    assert!(
+        text.contains("Assumptions: every projected device is identical"),
+        "{text}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&json).expect("json written")).expect("valid JSON");
+    let runs = v.as_array().expect("an array of runs");
+    let projected: Vec<_> = runs.iter().filter(|r| r["source"] == "projected").collect();
+    // 2 shaders × 2 task sizes × 2 policies × 2 modes × 2 machines.
+    assert_eq!(projected.len(), 32);
+    let mrays = |shader: &str, size: u64, policy: &str, mode: &str, list: &str| {
+        let r = projected.iter().find(|r| {
+            (r["shader"] == shader && r["task_size"] == size && r["policy"] == policy)
+                && (r["mode"] == mode && r["device_list"] == list)
+        });
+        r.and_then(|r| r["mrays_per_s"].as_f64())
+            .expect("a record of every cell and machine")
+    };
+    for r in &projected {
+        let n = r["devices"].as_u64().expect("devices");
+        assert_eq!(r["device_list"], format!("cpu:{n}"), "{r}");
+        let m = r["mrays_per_s"].as_f64().expect("MRays/s");
+        assert!(m.is_finite() && m > 0.0, "{r}");
+        let balance = r["balance_efficiency"].as_f64().expect("balance");
+        assert!(balance > 0.0 && balance <= 1.0 + 1e-9, "{r}");
+    }
+    for shader in ["whitted", "ao"] {
+        for size in [64, 32] {
+            for mode in ["regular", "cost"] {
+                let (two, four) = (
+                    mrays(shader, size, "static-lpt", mode, "cpu:2"),
+                    mrays(shader, size, "static-lpt", mode, "cpu:4"),
+                );
+                assert!(four >= 0.95 * two, "{shader} {size} {mode}: {four} < {two}");
+            }
+        }
+    }
+}
+
+/// A class the run did not measure cannot be projected: refused before anything runs.
+#[test]
+fn bench_refuses_to_project_an_unmeasured_class() {
+    let o = cobalt(&["bench", "--devices", "cpu:1", "--project", "cpu:2,gpu:4"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("gpu") && err.contains("no measured device of this class"),
+        "{err}"
+    );
+    let o = cobalt(&["bench", "--project", "cpu:2,cpu:2"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("cpu:2 is listed twice"), "{err}");
+    let o = cobalt(&["bench", "--project"]);
+    assert_eq!(o.status.code(), Some(2));
 }

@@ -82,9 +82,16 @@ pub struct Args {
     /// (comma-separated, each 1..=65536), of mixed speeds, behind PCIe-like (10 µs) and
     /// network-like (200 µs) launch latencies.
     #[arg(long, value_delimiter = ',',
-          value_parser = clap::value_parser!(u32).range(1..=MAX_SIMULATED_DEVICES))]
+          value_parser = clap::value_parser!(u32).range(1..=raytrace::bench::MAX_DEVICES as i64))]
     simulate: Vec<u32>,
-    /// Write every run (measured, then simulated) as one JSON array to this file.
+    /// Also replay the measured tasks on machines of identical devices of the classes this
+    /// run measured, one machine per entry of a device list: `cpu:N` is N devices at the
+    /// measured CPU speed, `gpu:N` N at the measured GPU speed (e.g. `gpu:2,gpu:4,gpu:8`),
+    /// each launch delayed by the class's measured launch overhead.
+    #[arg(long)]
+    project: Option<raytrace::bench::Projection>,
+    /// Write every run (measured, then simulated and projected) as one JSON array to this
+    /// file.
     #[arg(long)]
     json: Option<PathBuf>,
     /// Draw charts (PNG) into this directory: MRays/s, balance, sampling trade, cost image.
@@ -99,16 +106,13 @@ pub struct Args {
     /// with balance over nodes and the time spent in MPI, then simulates 16 and 64 nodes
     /// behind the measured latency (feature `mpi`).
     #[cfg(feature = "mpi")]
-    #[arg(long, conflicts_with_all = ["plots", "simulate", "full", "repeats"])]
+    #[arg(long, conflicts_with_all = ["plots", "simulate", "project", "full", "repeats"])]
     mpi: bool,
     /// The path cells' calibration (as for `cobalt render`): every cell's first frame plans
     /// with the file as it was read, and what the cells learnt is written back at the end.
     #[command(flatten)]
     calibration: crate::calibration::CalibrationArgs,
 }
-
-/// Most devices of a simulated machine: the simulator plans every task on every device.
-const MAX_SIMULATED_DEVICES: i64 = 65536;
 
 /// The matrix the arguments ask for, with the defaults of a quick or a full run filled in.
 struct Matrix {
@@ -190,6 +194,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
     };
     crate::limits::frame(size, size.pixels(), ao)?;
     check_outputs(&args, &m)?;
+    if let Some(p) = &args.project {
+        let machine = ToString::to_string;
+        distinct("project", &p.machines, machine, machine)?;
+        p.check(args.devices.specs())?;
+    }
     #[cfg(feature = "mpi")]
     if args.mpi {
         return run_mpi(&args, m, started);
@@ -227,7 +236,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         out += &format!("\nCharts: {}\n", names.join(", "));
     }
     out += &format!(
-        "\n{} runs measured, {} simulated, in {:.1} s.\n",
+        "\n{} runs measured, {} simulated or projected, in {:.1} s.\n",
         records.len(),
         sims.len(),
         started.elapsed().as_secs_f64()
@@ -342,6 +351,12 @@ fn measure_scene(
     out.sims.extend(raytrace::bench::simulate(
         name, &replays, &machines, error_bar,
     )?);
+    if let Some(p) = &args.project {
+        let machines = Machines::projected(&p.machines, &m.policies);
+        out.sims.extend(raytrace::bench::simulate(
+            name, &replays, &machines, error_bar,
+        )?);
+    }
     if !args.no_trade {
         out.points.extend(raytrace::bench::sampling_trade(&matrix)?);
     }
@@ -387,13 +402,13 @@ fn summary(
         out += "\nSampling rate (thesis Table 4.1):\n\n";
         out += &table::trade(points);
     }
-    if !sims.is_empty() {
-        let shown = m
-            .task_sizes
-            .iter()
-            .map(|t| t.get())
-            .find(|&t| t == 4096)
-            .unwrap_or(m.task_sizes[0].get());
+    let shown = m
+        .task_sizes
+        .iter()
+        .map(|t| t.get())
+        .find(|&t| t == 4096)
+        .unwrap_or(m.task_sizes[0].get());
+    if !args.simulate.is_empty() {
         let bar = table::replay_error(records).map_or(String::new(), |(median, _, _)| {
             format!(
                 "; each figure within about ±{:.1} %, the median error of the simulator's replays of the measured runs",
@@ -404,6 +419,15 @@ fn summary(
             "\nSimulated machines from the measured tasks (PCIe link, task size {shown}; every link and size is in --json{bar}):\n\n"
         );
         out += &table::simulated(sims, shown);
+    }
+    if let Some(p) = &args.project {
+        out += &format!(
+            "\nProjected machines {} from the measured tasks (MRays/s / balance, thesis Figures 4.1 and 4.2; task size {shown}, every size is in --json):\n\n",
+            p.list
+        );
+        out += &table::projected(sims, shown);
+        out += "\n";
+        out += &table::projection_assumptions(sims);
     }
     out
 }

@@ -25,6 +25,9 @@ pub enum BenchError {
     /// An estimate of the sampling trade could not be made or judged.
     #[error("estimate: {0}")]
     Estimate(#[from] EstimateError),
+    /// A projected device class (`cpu` or `gpu`) that no device of the run was.
+    #[error("{0}: no measured device of this class to project")]
+    Unmeasured(&'static str),
     /// A step of the bench over MPI ranks failed on some rank.
     #[cfg(feature = "mpi")]
     #[error(transparent)]

@@ -6,7 +6,7 @@
 //! Cells run in rounds that each run the whole matrix once, and repeated runs of a cell are
 //! combined into medians (`repeats.rs`). Each measured frame is replayed in `sched`'s
 //! simulator with its own task times (`replay.rs`), and the measured tasks are replayed on
-//! machines this one is not ([`simulate`]). [`sampling_trade`] measures the sampling trade of
+//! machines this one is not, or on more devices of the classes it measured ([`simulate`]). [`sampling_trade`] measures the sampling trade of
 //! thesis Table 4.1; [`table`] turns all of it into Markdown tables. Over MPI, `mpi` does
 //! the same between nodes (feature `mpi`).
 
@@ -25,5 +25,5 @@ mod trade;
 pub use error::BenchError;
 pub use matrix::{Replays, SceneMatrix};
 pub use record::{MpiFigures, Record};
-pub use simulate::{Machines, SimRecord, simulate};
+pub use simulate::{Fleet, MAX_DEVICES, Machines, Projected, Projection, SimRecord, simulate};
 pub use trade::{TradePoint, sampling_trade};

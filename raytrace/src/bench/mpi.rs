@@ -15,7 +15,7 @@ use sched::mpi::Cluster;
 use super::error::BenchError;
 use super::matrix::{CellRun, SceneMatrix};
 use super::record::{MpiFigures, Record};
-use super::simulate::{Machines, SimRecord, simulate};
+use super::simulate::{Fleet, Machines, SimRecord, simulate};
 use crate::distributed::render_over_ranks;
 use crate::paths::{Frame, Mode, Settings, build_path_devices};
 
@@ -93,9 +93,11 @@ impl SceneMatrix<'_> {
         let (_, replays) = alone.run(|_| {})?;
         let machines = Machines {
             source: "simulated-cluster",
-            counts: &SIMULATED_NODES,
-            speeds: |nodes| vec![1.0; nodes],
-            links,
+            fleet: Fleet::Simulated {
+                counts: &SIMULATED_NODES,
+                speeds: |nodes| vec![1.0; nodes],
+                links,
+            },
             policies: self.policies,
             modes: &[Mode::Cost],
             spread_estimate: true,

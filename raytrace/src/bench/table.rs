@@ -1,5 +1,5 @@
 //! The readable side of `cobalt bench`: Markdown tables of the runs, the balance targets
-//! checked against them, the simulated machines and the sampling trade.
+//! checked against them, the simulated and projected machines and the sampling trade.
 
 use super::record::Record;
 use super::simulate::SimRecord;
@@ -160,7 +160,10 @@ pub fn simulated(records: &[SimRecord], task_size: usize) -> String {
         ("hybrid", "cost"),
     ];
     for r in records.iter().filter(|r| {
-        r.link == "pcie" && r.task_size == task_size && shown.contains(&(r.policy, r.mode))
+        r.source != "projected"
+            && r.link == "pcie"
+            && r.task_size == task_size
+            && shown.contains(&(r.policy, r.mode))
     }) {
         let speeds: Vec<String> = r.speeds.iter().take(4).map(|v| v.to_string()).collect();
         s += &format!(
@@ -180,6 +183,84 @@ pub fn simulated(records: &[SimRecord], task_size: usize) -> String {
         );
     }
     s
+}
+
+/// The projected machines for one task size (thesis Figures 4.1 and 4.2): MRays/s and balance
+/// of every policy and mode, a column per machine.
+pub fn projected(records: &[SimRecord], task_size: usize) -> String {
+    let shown: Vec<&SimRecord> = (records.iter())
+        .filter(|r| r.source == "projected" && r.task_size == task_size)
+        .collect();
+    let mut machines: Vec<&str> = Vec::new();
+    let mut rows: Vec<(&str, &str, &str, &str)> = Vec::new();
+    for r in &shown {
+        let machine = r.device_list.as_deref().unwrap_or_default();
+        if !machines.contains(&machine) {
+            machines.push(machine);
+        }
+        let row = (r.scene.as_str(), r.shader, r.policy, r.mode);
+        if !rows.contains(&row) {
+            rows.push(row);
+        }
+    }
+    let mut s = format!(
+        "| scene | shader | policy | mode | {} |\n|---|---|---|---|{}\n",
+        machines.join(" | "),
+        "---:|".repeat(machines.len())
+    );
+    for row in rows {
+        s += &format!("| {} | {} | {} | {} |", row.0, row.1, row.2, row.3);
+        for &machine in &machines {
+            let cell = shown.iter().find(|r| {
+                (r.scene.as_str(), r.shader, r.policy, r.mode) == row
+                    && r.device_list.as_deref() == Some(machine)
+            });
+            s += &cell.map_or(" – |".into(), |r| {
+                format!(" {:.2} / {} |", r.mrays_per_s, pct(r.balance_efficiency))
+            });
+        }
+        s += "\n";
+    }
+    s
+}
+
+/// What the projected figures assume, with each class's launch latency as the records used it.
+pub fn projection_assumptions(records: &[SimRecord]) -> String {
+    // Each class's range of latencies over the replays, and where they came from.
+    let mut classes: Vec<(&str, &str, f64, f64)> = Vec::new();
+    for r in records.iter().filter(|r| r.source == "projected") {
+        let class = r.device_list.as_deref().and_then(|l| l.split(':').next());
+        let class = class.unwrap_or_default();
+        match classes.iter_mut().find(|c| (c.0, c.1) == (class, r.link)) {
+            Some(c) => (c.2, c.3) = (c.2.min(r.latency), c.3.max(r.latency)),
+            None => classes.push((class, r.link, r.latency, r.latency)),
+        }
+    }
+    let latencies: Vec<String> = (classes.iter())
+        .map(|&(class, link, lo, hi)| {
+            let range = if hi > lo {
+                format!("{:.1}–{:.1}", 1e6 * lo, 1e6 * hi)
+            } else {
+                format!("{:.1}", 1e6 * lo)
+            };
+            let why = if link == "measured" {
+                "measured"
+            } else {
+                "the PCIe link's, none measured"
+            };
+            format!("{class} {range} µs, {why}")
+        })
+        .collect();
+    format!(
+        "Assumptions: every projected device is identical, at the mean speed the run measured \
+         for its class; each measured task takes its measured time scaled by its device's \
+         measured rate over that speed; each launch waits the class's launch latency ({}); \
+         the host-device traffic is what the measured task times include. Not modelled: \
+         contention between the devices for the link, the memory or the host (a host core \
+         per GPU), memory bandwidth and capacity, and the estimation and planning time \
+         (MRays/s is over the makespans alone).\n",
+        latencies.join("; ")
+    )
 }
 
 /// Table 4.1's trade, judged first by time: each estimate's calibrated error and rank
