@@ -267,8 +267,11 @@ impl Fleet<'_> {
                     .flat_map(|r| &r.frames)
                 };
                 for &p in *machines {
-                    let rate = mean(frames().flat_map(|f| class_rates(f, p.class)))
-                        .ok_or(BenchError::Unmeasured(p.class))?;
+                    // A class left idle in every cell of the workload has no rate to project
+                    // (its machines get no record of it), and the rest of the bench stands.
+                    let Some(rate) = mean(frames().flat_map(|f| class_rates(f, p.class))) else {
+                        continue;
+                    };
                     let mut seen: Vec<f64> = (frames().flat_map(|f| &f.devices))
                         .filter(|d| class_of(&d.name) == p.class)
                         .filter_map(|d| d.launch_overhead)
