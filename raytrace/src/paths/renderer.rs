@@ -476,9 +476,9 @@ impl<'a> PathRenderer<'a> {
 
     /// Each task's estimated work, and what crossed to each of the `active` devices (planned
     /// at `speeds`) to estimate it. The devices of the estimate kind of `active[lead]` estimate
-    /// the frame (counts of different kinds are not comparable): the tasks are cut into one
-    /// contiguous share per such device, in proportion to its speed, and each estimates its
-    /// share where it renders, all at once. A share whose device cannot estimate it is
+    /// the frame (counts of different kinds are not comparable): the tasks are dealt out to
+    /// such devices in proportion to their speeds ([`shares`]), and each estimates its share
+    /// where it renders, all at once. A share whose device cannot estimate it is
     /// estimated on the host.
     fn estimate(
         &mut self,
@@ -519,7 +519,7 @@ impl<'a> PathRenderer<'a> {
                 .into_iter()
                 .zip(&shares)
                 .map(|(device, share)| {
-                    let held: Vec<&Range<usize>> = tasks[share.clone()].iter().collect();
+                    let held: Vec<&Range<usize>> = share.iter().map(|&t| &tasks[t]).collect();
                     scope.spawn(move || {
                         if held.is_empty() {
                             return Estimate::default();
@@ -538,14 +538,18 @@ impl<'a> PathRenderer<'a> {
                 .map(|h| h.join().unwrap_or_default())
                 .collect()
         });
-        let mut work = Vec::with_capacity(tasks.len());
+        let mut work = vec![Work::default(); tasks.len()];
         let mut traffic = Vec::with_capacity(estimates.len());
         for (e, share) in estimates.into_iter().zip(&shares) {
-            if e.work.len() == share.len() {
-                work.extend(e.work);
+            let estimated = if e.work.len() == share.len() {
+                e.work
             } else {
                 // A device that answered for other tasks than it was given (or panicked).
-                work.extend(walk_paths(frame, &tasks[share.clone()], rate, walk));
+                let held: Vec<&Range<usize>> = share.iter().map(|&t| &tasks[t]).collect();
+                walk_paths(frame, &held, rate, walk)
+            };
+            for (&t, w) in share.iter().zip(estimated) {
+                work[t] = w;
             }
             traffic.push(e.traffic);
         }
@@ -682,9 +686,12 @@ fn fastest(speeds: &[f64]) -> usize {
     (0..speeds.len()).fold(0, |b, d| if speeds[d] > speeds[b] { d } else { b })
 }
 
-/// `n` tasks cut into one contiguous share per device, in proportion to `speeds` (a device
-/// of speed 0 gets none; a speed that is not finite and positive counts as 1 unless 0).
-fn shares(n: usize, speeds: &[f64]) -> Vec<Range<usize>> {
+/// `n` tasks dealt out to devices in proportion to `speeds` (a device of speed 0 gets none; a
+/// speed that is not finite and positive counts as 1 unless 0): each task in turn goes to the
+/// device that would hold the least per unit of speed with it (the first of equals), so every
+/// device's share spreads over the whole image, and the parts of the image that cost more are
+/// shared out as evenly as the rest.
+fn shares(n: usize, speeds: &[f64]) -> Vec<Vec<usize>> {
     let weight = |s: f64| {
         if s == 0.0 {
             0.0
@@ -694,25 +701,25 @@ fn shares(n: usize, speeds: &[f64]) -> Vec<Range<usize>> {
             1.0
         }
     };
-    let total: f64 = speeds.iter().map(|&s| weight(s)).sum();
-    let last = speeds.iter().rposition(|&s| weight(s) > 0.0);
-    let mut at = 0.0;
-    let mut start = 0;
-    (0..speeds.len())
-        .map(|d| {
-            at += weight(speeds[d]);
-            let end = if Some(d) == last {
-                n
-            } else if total > 0.0 {
-                ((at / total * n as f64).round() as usize).clamp(start, n)
-            } else {
-                start
-            };
-            let share = start..end;
-            start = end;
-            share
-        })
-        .collect()
+    let weights: Vec<f64> = speeds.iter().map(|&s| weight(s)).collect();
+    let mut out = vec![Vec::new(); speeds.len()];
+    if !weights.iter().any(|&w| w > 0.0) {
+        return out;
+    }
+    for task in 0..n {
+        let load = |d: usize| (out[d].len() + 1) as f64 / weights[d];
+        let to =
+            (0..weights.len())
+                .filter(|&d| weights[d] > 0.0)
+                .fold(None, |b: Option<usize>, d| match b {
+                    Some(b) if load(b) <= load(d) => Some(b),
+                    _ => Some(d),
+                });
+        if let Some(d) = to {
+            out[d].push(task);
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -721,12 +728,16 @@ mod tests {
 
     #[test]
     fn shares_cover_every_task_once_in_proportion() {
-        assert_eq!(shares(10, &[1.0, 1.0]), [0..5, 5..10]);
-        assert_eq!(shares(10, &[3.0, 1.0]), [0..8, 8..10]);
-        assert_eq!(shares(3, &[1.0, 1.0, 1.0, 1.0]), [0..1, 1..2, 2..2, 2..3]);
-        assert_eq!(shares(4, &[f64::NAN, 1.0]), [0..2, 2..4]);
-        assert_eq!(shares(9, &[2.0, 0.0, 1.0, 0.0]), [0..6, 6..6, 6..9, 9..9]);
-        assert_eq!(shares(0, &[1.0]), vec![0..0; 1]);
-        assert_eq!(shares(7, &[]), Vec::<std::ops::Range<usize>>::new());
+        assert_eq!(shares(4, &[1.0, 1.0]), [vec![0, 2], vec![1, 3]]);
+        assert_eq!(shares(8, &[3.0, 1.0]), [vec![0, 1, 2, 4, 5, 6], vec![3, 7]]);
+        assert_eq!(shares(3, &[1.0; 4]), [vec![0], vec![1], vec![2], vec![]]);
+        assert_eq!(shares(4, &[f64::NAN, 1.0]), [vec![0, 2], vec![1, 3]]);
+        assert_eq!(
+            shares(9, &[2.0, 0.0, 1.0, 0.0]),
+            [vec![0, 1, 3, 4, 6, 7], vec![], vec![2, 5, 8], vec![]]
+        );
+        assert_eq!(shares(0, &[1.0]), vec![Vec::<usize>::new()]);
+        assert_eq!(shares(7, &[]), Vec::<Vec<usize>>::new());
+        assert_eq!(shares(2, &[0.0, 0.0]), vec![Vec::<usize>::new(); 2]);
     }
 }
