@@ -153,23 +153,48 @@ pub enum CalibrationError {
     },
 }
 
-/// What frames on one set of device classes measured of running on every device or on the
-/// fastest class alone (see [`crate::paths::PathRenderer::render`]), for one workload and mode.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Choice {
-    /// The shader's name (`ao`, `whitted`): the renderer keeps its choices per shader.
+/// Where a [`Choice`] applies: the host, a set of device classes, the workload, the mode's
+/// name (`regular`, `cost`) and the shader's (`ao`, `whitted`), as the file spells them.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct ChoiceKey {
+    /// The host name ([`host_name`]).
+    pub host: String,
+    /// The device classes, sorted and joined by ` + ` ([`device_set`]).
+    pub devices: String,
+    /// The scene and shader, as the caller names them.
+    pub workload: String,
+    /// The mode's name.
+    pub mode: String,
+    /// The shader's name: the renderer keeps its choices per shader.
     pub shader: String,
-    /// Seconds per path of the latest frame on every device (finite and positive).
-    pub all: Option<f64>,
-    /// Seconds per path of the latest frame on the fastest class alone (finite and positive).
-    pub alone: Option<f64>,
-    /// The class that rendered alone.
-    pub fastest: Option<String>,
 }
 
-/// Where a [`Choice`] applies: a [`Key`] whose `device` is the set's classes, sorted and
-/// joined by ` + ` ([`device_set`]), and the mode's name (`regular`, `cost`).
-pub type ChoiceKey = (Key, String);
+/// What frames on one set of device classes measured of running on every device or on the
+/// fastest class alone (see [`crate::paths::PathRenderer::render`]), for one workload, mode
+/// and shader: the seconds per path of the latest frame rendered each way, where one was, and
+/// the class that renders alone.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Choice {
+    /// On every device (finite and positive).
+    #[serde(
+        rename = "all_seconds_per_path",
+        default,
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub all: Option<f64>,
+    /// On the devices of the fastest class alone (finite and positive).
+    #[serde(
+        rename = "alone_seconds_per_path",
+        default,
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub alone: Option<f64>,
+    /// The fastest class, as the speeds known after the first frame measured said: kept, so
+    /// that a renderer that starts without speeds (a bench's next cell) leaves the same
+    /// devices idle.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fastest: Option<String>,
+}
 
 /// The name of a set of device classes in a [`ChoiceKey`].
 pub fn device_set<'c>(classes: impl IntoIterator<Item = &'c str>) -> String {
@@ -200,17 +225,10 @@ struct File {
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ChoiceRecord {
-    host: String,
-    devices: String,
-    workload: String,
-    mode: String,
-    shader: String,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    all_seconds_per_path: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    alone_seconds_per_path: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    fastest: Option<String>,
+    #[serde(flatten)]
+    key: ChoiceKey,
+    #[serde(flatten)]
+    choice: Choice,
 }
 
 /// Whether `v` is a finite number > 0, as speeds and times must be.
@@ -338,30 +356,25 @@ impl Calibration {
             entries.insert(r.key, entry);
         }
         let mut choices = BTreeMap::new();
-        for (i, r) in file.choices.into_iter().enumerate() {
-            let bad = |field, value| CalibrationError::BadValue {
-                path: path.to_owned(),
-                entry: i,
-                key: format!("choice of {} on {}, {}", r.devices, r.host, r.workload),
-                field,
-                value,
-                why: "is not a finite number > 0",
-            };
+        for (i, ChoiceRecord { key, choice }) in file.choices.into_iter().enumerate() {
             for (field, v) in [
-                ("all_seconds_per_path", r.all_seconds_per_path),
-                ("alone_seconds_per_path", r.alone_seconds_per_path),
+                ("all_seconds_per_path", choice.all),
+                ("alone_seconds_per_path", choice.alone),
             ] {
-                if let Some(v) = v.filter(|&v| !positive(v)) {
-                    return Err(bad(field, v));
+                if let Some(value) = v.filter(|&v| !positive(v)) {
+                    return Err(CalibrationError::BadValue {
+                        path: path.to_owned(),
+                        entry: i,
+                        key: format!(
+                            "choice of {} on {}, {}",
+                            key.devices, key.host, key.workload
+                        ),
+                        field,
+                        value,
+                        why: "is not a finite number > 0",
+                    });
                 }
             }
-            let key = (Key::new(&r.host, &r.devices, &r.workload), r.mode);
-            let choice = Choice {
-                shader: r.shader,
-                all: r.all_seconds_per_path,
-                alone: r.alone_seconds_per_path,
-                fastest: r.fastest,
-            };
             choices.insert(key, choice);
         }
         Ok(Self { entries, choices })
@@ -388,15 +401,9 @@ impl Calibration {
             choices: self
                 .choices
                 .iter()
-                .map(|((key, mode), c)| ChoiceRecord {
-                    host: key.host.clone(),
-                    devices: key.device.clone(),
-                    workload: key.workload.clone(),
-                    mode: mode.clone(),
-                    shader: c.shader.clone(),
-                    all_seconds_per_path: c.all,
-                    alone_seconds_per_path: c.alone,
-                    fastest: c.fastest.clone(),
+                .map(|(key, choice)| ChoiceRecord {
+                    key: key.clone(),
+                    choice: choice.clone(),
                 })
                 .collect(),
         };
@@ -626,22 +633,24 @@ mod tests {
         ));
         let set = device_set(["gpu0 (lavapipe)", "cpu/1", "cpu/1"]);
         assert_eq!(set, "cpu/1 + gpu0 (lavapipe)");
+        let choice_key = |workload: &str, mode: &str, shader: &str| ChoiceKey {
+            host: "box".into(),
+            devices: set.clone(),
+            workload: workload.into(),
+            mode: mode.into(),
+            shader: shader.into(),
+        };
         assert!(c.insert_choice(
-            (
-                Key::new("box", &set, "builtin:cornell whitted"),
-                "cost".into()
-            ),
+            choice_key("builtin:cornell whitted", "cost", "whitted"),
             Choice {
-                shader: "whitted".into(),
                 all: Some(2.5e-7),
                 alone: Some(1.0 / 3.0 * 1e-6),
                 fastest: Some("cpu/1".into()),
             },
         ));
         assert!(!c.insert_choice(
-            (Key::new("box", &set, "w"), "regular".into()),
+            choice_key("w", "regular", "ao"),
             Choice {
-                shader: "ao".into(),
                 all: Some(f64::INFINITY),
                 alone: None,
                 fastest: None,
@@ -785,6 +794,16 @@ mod tests {
         let read = Calibration::parse(path, &older).expect("a file without kr");
         let models: Vec<_> = read.entries.values().filter_map(|e| e.model).collect();
         assert!(!models.is_empty() && models.iter().all(|m| m.kr == 0.0 && m.kb > 0.0));
+
+        // Fields the format does not have are refused, in a choice as in an entry.
+        let unknown = sample().to_json().replacen(
+            "\"fastest\": \"cpu/1\"",
+            "\"fastest\": \"cpu/1\", \"extra\": 1",
+            1,
+        );
+        assert_ne!(unknown, sample().to_json());
+        let err = Calibration::parse(path, &unknown).unwrap_err().to_string();
+        assert!(err.contains("extra"), "{err}");
 
         let future = sample()
             .to_json()

@@ -225,7 +225,7 @@ fn mpi(
     let (scene, bvh, view, header) =
         cluster.agree("loading the scene", load(args, &shader, camera))?;
     let run = one_frame(args, faults, settings);
-    let local = build_path_devices(&scene, &bvh, run.specs, run.faults);
+    let local = build_path_devices(&scene, &bvh, run.specs, run.faults, run.slow);
     let devices = cluster.agree("opening this rank's devices", local)?;
     let options = RenderOptions::new(args.size.width, args.size.height, view, shader);
     let frame = Frame {

@@ -10,9 +10,7 @@ use super::replay::{Replayed, replay};
 use crate::camera::Camera;
 use crate::cost::SampleRate;
 use crate::paths::Settings;
-use crate::paths::{
-    Frame, FrameStats, InjectedPaths, PathRenderer, build_path_devices, walk_paths,
-};
+use crate::paths::{Frame, FrameStats, PathRenderer, build_path_devices, walk_paths};
 use crate::run::{CalibrationReport, workload};
 use crate::shade::{RenderOptions, Shader};
 use crate::traverse::walk::Walk;
@@ -35,8 +33,9 @@ impl SceneMatrix<'_> {
         let mut renderer = match kept {
             Some(kept) => PathRenderer::from_kept(kept, settings)?,
             None => {
-                let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
-                PathRenderer::new(InjectedPaths::wrap(devices, &[], self.slow), settings)?
+                let devices =
+                    build_path_devices(self.scene, self.bvh, self.devices, &[], self.slow)?;
+                PathRenderer::new(devices, settings)?
             }
         };
         let workload = workload(self.scene_name, &w);

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use sched::{Costs, Runtime, SchedError, Speeds, split_ranges};
 
-use super::choice::{ChoiceKey, SetTimes, choice_key};
+use super::choice::{ChoiceKey, choice_key};
 use super::history::History;
 use super::learn::{Learnt, launches, learn, relative_speeds};
 use super::{
@@ -18,6 +18,7 @@ use super::{
     walk_paths,
 };
 use super::{Mode, Settings, TaskStats};
+use crate::calibration::Choice;
 use crate::cost::{CostModel, Work};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene, Walk};
@@ -26,7 +27,7 @@ use crate::{Bvh, Film, Scene, Walk};
 /// see [`PathRenderer::into_kept`].
 pub struct KeptDevices<'a> {
     devices: Vec<Box<dyn PathDevice + 'a>>,
-    choices: HashMap<ChoiceKey, SetTimes>,
+    choices: HashMap<ChoiceKey, Choice>,
     rates: HashMap<(String, &'static str), f64>,
 }
 
@@ -63,7 +64,7 @@ pub struct PathRenderer<'a> {
     idle: Vec<bool>,
     /// Per shader and mode, the seconds per path of frames on every device and on the fastest
     /// class alone (see `choice.rs`).
-    pub(super) choices: HashMap<ChoiceKey, SetTimes>,
+    pub(super) choices: HashMap<ChoiceKey, Choice>,
     /// The shader of the latest frame rendered, whose choices a calibration keeps.
     pub(super) last_shader: Option<&'static str>,
     log: Vec<FrameStats>,

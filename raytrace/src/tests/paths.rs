@@ -281,7 +281,7 @@ fn bad_device_lists_and_faults_are_named() {
     let shader = SHADERS[0];
     let (scene, bvh) = scene("builtin:cornell:0.2", &shader);
     let specs = parse_devices("cpu:1,gpu:99").expect("a valid list");
-    let e = build_path_devices(&scene, &bvh, &specs, &[])
+    let e = build_path_devices(&scene, &bvh, &specs, &[], &[])
         .err()
         .expect("no adapter 99")
         .to_string();
@@ -298,7 +298,7 @@ fn bad_device_lists_and_faults_are_named() {
         tasks: 1,
     }];
     let specs = parse_devices("cpu:2").expect("a valid list");
-    let e = build_path_devices(&scene, &bvh, &specs, &fault)
+    let e = build_path_devices(&scene, &bvh, &specs, &fault, &[])
         .err()
         .expect("no device 2");
     assert!(e.to_string().contains("2@1"), "{e}");
