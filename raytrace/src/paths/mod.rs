@@ -66,6 +66,6 @@ pub use fault::{FailAfter, InjectedFault, InjectedPaths, SlowBy};
 pub use frame::Frame;
 #[cfg(feature = "gpu")]
 pub use gpu::GpuPaths;
-pub use renderer::{FrameRendering, KeptDevices, PathRenderer};
+pub use renderer::{FrameRendering, PathRenderer};
 pub use settings::{Mode, Settings};
 pub use stats::{FrameStats, PathDeviceStats, TaskStats};

@@ -23,14 +23,6 @@ use crate::cost::{CostModel, Work};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene, Walk};
 
-/// A renderer's devices and what its frames measured of running them together and apart:
-/// see [`PathRenderer::into_kept`].
-pub struct KeptDevices<'a> {
-    devices: Vec<Box<dyn PathDevice + 'a>>,
-    choices: HashMap<ChoiceKey, Choice>,
-    rates: HashMap<(String, &'static str), f64>,
-}
-
 /// A rendered frame: the image and how it was made.
 #[derive(Clone, Debug)]
 pub struct FrameRendering {
@@ -103,22 +95,18 @@ impl<'a> PathRenderer<'a> {
         })
     }
 
-    /// The devices, with what the frames measured of running them together and apart, for
-    /// another renderer ([`PathRenderer::from_kept`]); `None` if a device failed.
-    pub fn into_kept(self) -> Option<KeptDevices<'a>> {
-        (!self.retired.contains(&true)).then_some(KeptDevices {
-            devices: self.devices,
-            choices: self.choices,
-            rates: self.rates,
-        })
+    /// This renderer, for another over its devices ([`PathRenderer::from_kept`]); `None` if a
+    /// device failed.
+    pub fn into_kept(self) -> Option<Self> {
+        (!self.retired.contains(&true)).then_some(self)
     }
 
-    /// A renderer over `kept` devices, as [`PathRenderer::new`] but choosing which devices run
-    /// a frame from what the renderer they come from measured.
+    /// A renderer over `kept`'s devices, as [`PathRenderer::new`] but choosing which devices
+    /// run a frame from what `kept` measured of running them together and apart.
     ///
     /// # Errors
     /// As [`PathRenderer::new`].
-    pub fn from_kept(kept: KeptDevices<'a>, settings: Settings) -> Result<Self, SchedError> {
+    pub fn from_kept(kept: Self, settings: Settings) -> Result<Self, SchedError> {
         let mut renderer = Self::new(kept.devices, settings)?;
         renderer.choices = kept.choices;
         renderer.rates = kept.rates;
