@@ -44,7 +44,7 @@ impl PathRenderer<'_> {
             }
         }
         for (class, e) in &entries {
-            if let Some(m) = e.model {
+            if let Some(m) = e.model() {
                 self.models.insert(class.clone(), m);
             }
         }
@@ -92,15 +92,16 @@ impl PathRenderer<'_> {
             };
             let key = Key::new(host, class, workload);
             let old = calibration.get(&key).copied();
-            let entry = Entry {
+            let mut entry = Entry {
                 speed,
                 paths_per_second: h
                     .paths_per_second()
                     .or(old.and_then(|e| e.paths_per_second)),
-                model: h.model().or(old.and_then(|e| e.model)),
                 samples: old.map_or(0, |e| e.samples) + h.samples,
                 spikes: old.map_or(0, |e| e.spikes) + h.spikes,
+                ..Entry::default()
             };
+            entry.set_model(h.model().or(old.and_then(|e| e.model())));
             if calibration.insert(key, entry) {
                 written += 1;
             }
@@ -223,9 +224,8 @@ mod tests {
         let entry = |paths_per_second| Entry {
             speed: 1.0,
             paths_per_second,
-            model: None,
             samples: 4,
-            spikes: 0,
+            ..Entry::default()
         };
         let mut calibration = Calibration::new();
         calibration.insert(Key::new("h", "cpu/1", "w"), entry(Some(1000.0)));

@@ -488,9 +488,8 @@ fn the_fastest_devices_kind_estimates_the_frame() {
         let entry = Entry {
             speed: 1.0,
             paths_per_second: Some(rate),
-            model: None,
             samples: 8,
-            spikes: 0,
+            ..Entry::default()
         };
         calibration.insert(Key::new("host", class, "w"), entry);
     }
