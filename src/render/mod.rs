@@ -80,7 +80,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let ao =
         (args.shader.shader == ShaderKind::Ao).then_some(("ao-samples", args.shader.ao_samples));
     crate::limits::frame(args.size, args.size.pixels(), ao)?;
-    let faults = faults(&args)?;
+    // GPU entries open however many adapters exist: the indices of faults on them are
+    // checked once the devices are built (naming the fault).
+    let faults = crate::args::check_faults(&args.fail, args.schedule.devices.known_count())?;
     let slow = crate::args::check_slow(&args.slow, args.schedule.devices.known_count())?;
     let settings = args.schedule.settings();
     let camera = args.camera.choice()?;
@@ -182,12 +184,6 @@ fn load(
         build_seconds: bvh.report().build_seconds,
     };
     Ok((scene, bvh, view, header))
-}
-
-/// `--fail`, each device an index into `--devices`. GPU entries open however many adapters
-/// exist: their indices are checked once the devices are built (naming the fault).
-fn faults(args: &Args) -> Result<Vec<FailAfter>, CliError> {
-    crate::args::check_faults(&args.fail, args.schedule.devices.known_count())
 }
 
 /// `cobalt render` under `mpirun`: the flags a cluster cannot honour are refused, then every

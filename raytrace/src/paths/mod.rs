@@ -50,7 +50,6 @@ mod fault;
 mod frame;
 #[cfg(feature = "gpu")]
 mod gpu;
-mod history;
 mod learn;
 mod memory;
 mod renderer;

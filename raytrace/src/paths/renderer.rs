@@ -11,8 +11,7 @@ use rayon::prelude::*;
 use sched::{Costs, Runtime, SchedError, Speeds, split_ranges};
 
 use super::choice::{ChoiceKey, choice_key};
-use super::history::History;
-use super::learn::{Learnt, launches, learn, relative_speeds};
+use super::learn::{History, Learnt, launches, learn, relative_speeds};
 use super::{
     BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, TaskValues, Traffic,
     walk_paths,
@@ -121,11 +120,6 @@ impl<'a> PathRenderer<'a> {
     /// Every frame rendered so far, in order.
     pub fn stats(&self) -> &[FrameStats] {
         &self.log
-    }
-
-    /// The device names, in order.
-    pub fn device_names(&self) -> Vec<String> {
-        self.devices.iter().map(|d| d.name()).collect()
     }
 
     /// The relative speed the next frame plans device `d` with.
