@@ -11,7 +11,7 @@ use crate::camera::Camera;
 use crate::cost::SampleRate;
 use crate::paths::Settings;
 use crate::paths::{Frame, FrameStats, PathRenderer, build_path_devices, walk_paths};
-use crate::run::{CalibrationReport, workload};
+use crate::run::workload;
 use crate::shade::{RenderOptions, Shader};
 use crate::traverse::walk::Walk;
 
@@ -39,15 +39,8 @@ impl SceneMatrix<'_> {
             }
         };
         let workload = workload(self.scene_name, &w);
-        let recalled = self.calibration.map(|store| {
-            let mut store = store.borrow_mut();
-            let used = store.recall(&mut renderer, &workload);
-            CalibrationReport {
-                file: Some(store.file()),
-                loaded_entries: used,
-                written_entries: 0,
-            }
-        });
+        let recalled =
+            (self.calibration).map(|store| store.borrow_mut().recall(&mut renderer, &workload));
         let mut frames = Vec::with_capacity(self.cameras);
         let (mut estimated, mut full) = (Vec::new(), Vec::new());
         for cam in 0..self.cameras {

@@ -340,7 +340,7 @@ impl<'a> PathRenderer<'a> {
             .filter(|(d, _)| runs[*d])
             .zip(&speeds)
             .map(|((_, device), &speed)| {
-                BoundPaths::new(device.as_mut(), frame, speed).in_pieces(self.settings.backups)
+                BoundPaths::new(device.as_mut(), frame, speed, self.settings.backups)
             })
             .collect();
         let running = Instant::now();
