@@ -219,6 +219,15 @@ impl<'a> PathRenderer<'a> {
         !self.retired[d] && !self.idle[d]
     }
 
+    /// The devices taking part in the frame being rendered, in order.
+    fn running_mut(&mut self) -> Vec<&mut Box<dyn PathDevice + 'a>> {
+        let (retired, idle) = (&self.retired, &self.idle);
+        (self.devices.iter_mut().enumerate())
+            .filter(|(d, _)| !retired[*d] && !idle[*d])
+            .map(|(_, device)| device)
+            .collect()
+    }
+
     /// Decides whether the next frame of `key` runs on the fastest class alone (see
     /// `choice.rs`) and leaves the other devices idle if so; `None` when the devices left are
     /// of one class, and there is nothing to choose.
@@ -332,20 +341,15 @@ impl<'a> PathRenderer<'a> {
         };
 
         let predicted_makespan = self.predict(frame, &active, tasks, &costs);
-        let runs: Vec<bool> = (0..self.devices.len()).map(|d| self.runs(d)).collect();
-        let mut bound: Vec<BoundPaths<'_, 'a>> = self
-            .devices
-            .iter_mut()
-            .enumerate()
-            .filter(|(d, _)| runs[*d])
-            .zip(&speeds)
-            .map(|((_, device), &speed)| {
-                BoundPaths::new(device.as_mut(), frame, speed, self.settings.backups)
-            })
+        let Settings {
+            policy, backups, ..
+        } = self.settings;
+        let mut bound: Vec<BoundPaths<'_, 'a>> = (self.running_mut().into_iter().zip(&speeds))
+            .map(|(device, &speed)| BoundPaths::new(device.as_mut(), frame, speed, backups))
             .collect();
         let running = Instant::now();
-        let result = Runtime::new(self.settings.policy)
-            .backups(self.settings.backups)
+        let result = Runtime::new(policy)
+            .backups(backups)
             .run(tasks, &costs, &mut bound);
         let run_seconds = running.elapsed().as_secs_f64();
         drop(bound);
@@ -488,14 +492,7 @@ impl<'a> PathRenderer<'a> {
             })
             .collect();
         let shares = shares(tasks.len(), &estimating);
-        let runs: Vec<bool> = (0..self.devices.len()).map(|d| self.runs(d)).collect();
-        let mine: Vec<&mut Box<dyn PathDevice + 'a>> = self
-            .devices
-            .iter_mut()
-            .enumerate()
-            .filter(|(d, _)| runs[*d])
-            .map(|(_, device)| device)
-            .collect();
+        let mine = self.running_mut();
         debug_assert_eq!(mine.len(), active.len());
         let estimates: Vec<Estimate> = std::thread::scope(|scope| {
             let running: Vec<_> = mine
