@@ -6,9 +6,7 @@
 //! render engine ([`paths`]), which returns the encoded outputs and the report, written all
 //! together at the end.
 
-mod header;
 mod paths;
-mod rendered;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -27,7 +25,7 @@ use crate::args::{
 };
 use crate::error::CliError;
 use crate::output::Outputs;
-use header::Header;
+use paths::Header;
 
 /// Arguments of `cobalt render`.
 #[derive(Debug, clap::Args)]
@@ -113,8 +111,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         (store, &workload),
         (header, args.cost_image.is_some()),
     )?;
-    let summary = rendered.report.summary();
-    rendered.write(&outputs, args.output.json, &summary)
+    rendered.write(&outputs, args.output.json)
 }
 
 /// Checks every output path before any work: none may be an input (the scene, the
@@ -240,11 +237,10 @@ fn mpi(
     };
     let report = paths::RenderReport::new(header, (&run, device_list), report, Default::default())
         .over_ranks(cluster.size());
-    let rendered = rendered::Rendered {
+    let rendered = paths::Rendered {
         image: film.png(raytrace::film::ToneMap::Srgb)?,
         cost_image: None,
         report,
     };
-    let summary = rendered.report.summary();
-    rendered.write(&outputs, args.output.json, &summary)
+    rendered.write(&outputs, args.output.json)
 }
