@@ -58,21 +58,72 @@ impl Key {
     }
 }
 
-/// What was learnt about one device on one workload.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// What was learnt about one device on one workload, as the file keeps it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Entry {
     /// Speed relative to the fastest device of the run that measured it (finite, > 0).
     pub speed: f64,
     /// Paths one device of the class rendered per second over the run's launches (finite and
     /// positive): unlike `speed`, comparable across runs, so the first plan takes its speeds
     /// from these. Absent in older files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paths_per_second: Option<f64>,
-    /// `kB`, `kT` fitted to the device's measured launch times, if a fit was made.
-    pub model: Option<CostModel>,
+    /// `kR` of the model fitted to the device's measured launch times ([`Entry::model`]);
+    /// absent in files written before the per-ray term, and read as 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kr: Option<f64>,
+    /// `kB` of the fitted model, if a fit was made.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kb: Option<f64>,
+    /// `kT` of the fitted model, if a fit was made.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kt: Option<f64>,
     /// Launches learnt from, over every run that updated the entry.
+    #[serde(default)]
     pub samples: u64,
     /// Launches left out as timing spikes, over every run that updated the entry.
+    #[serde(default)]
     pub spikes: u64,
+}
+
+impl Entry {
+    /// The model fitted to the device's launch times, if a fit was made.
+    pub fn model(&self) -> Option<CostModel> {
+        let (kb, kt) = (self.kb?, self.kt?);
+        let kr = self.kr.unwrap_or(0.0);
+        Some(CostModel { kr, kb, kt })
+    }
+
+    /// Sets the fitted model's constants (none for `None`).
+    pub fn set_model(&mut self, model: Option<CostModel>) {
+        self.kr = model.map(|m| m.kr);
+        self.kb = model.map(|m| m.kb);
+        self.kt = model.map(|m| m.kt);
+    }
+
+    /// The first value no plan can use, as its field, the value and what is wrong with it.
+    fn fault(&self) -> Option<(&'static str, f64, &'static str)> {
+        const POSITIVE: &str = "is not a finite number > 0";
+        if !positive(self.speed) {
+            return Some(("speed", self.speed, POSITIVE));
+        }
+        if let Some(v) = self.paths_per_second.filter(|&v| !positive(v)) {
+            return Some(("paths_per_second", v, POSITIVE));
+        }
+        let m = match (self.kb, self.kt) {
+            (None, None) => return self.kr.map(|v| ("kr", v, "comes without kb and kt")),
+            (Some(v), None) => return Some(("kb", v, "comes without kt")),
+            (None, Some(v)) => return Some(("kt", v, "comes without kb")),
+            (Some(_), Some(_)) => self.model()?,
+        };
+        let constants = [("kr", m.kr), ("kb", m.kb), ("kt", m.kt)];
+        if let Some((field, v)) =
+            (constants.into_iter()).find(|(_, v)| !(v.is_finite() && *v >= 0.0))
+        {
+            return Some((field, v, "is not a finite number >= 0"));
+        }
+        (m.kb + m.kt <= 0.0).then_some(("kb + kt", m.kb + m.kt, "is not > 0"))
+    }
 }
 
 /// Why a calibration file could not be read or written. Every message names the file.
@@ -153,23 +204,63 @@ pub enum CalibrationError {
     },
 }
 
-/// What frames on one set of device classes measured of running on every device or on the
-/// fastest class alone (see [`crate::paths::PathRenderer::render`]), for one workload and mode.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Choice {
-    /// The shader's name (`ao`, `whitted`): the renderer keeps its choices per shader.
+/// Where a [`Choice`] applies: the host, a set of device classes, the workload, the mode's
+/// name (`regular`, `cost`) and the shader's (`ao`, `whitted`), as the file spells them.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct ChoiceKey {
+    /// The host name ([`host_name`]).
+    pub host: String,
+    /// The device classes, sorted and joined by ` + ` ([`device_set`]).
+    pub devices: String,
+    /// The scene and shader, as the caller names them.
+    pub workload: String,
+    /// The mode's name.
+    pub mode: String,
+    /// The shader's name: the renderer keeps its choices per shader.
     pub shader: String,
-    /// Seconds per path of the latest frame on every device (finite and positive).
+}
+
+/// What frames on one set of device classes measured of running on every device or on the
+/// fastest class alone (see [`crate::paths::PathRenderer::render`]), for one workload, mode
+/// and shader: the seconds per path of the latest frame rendered each way, where one was, and
+/// the class that renders alone.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Choice {
+    /// On every device (finite and positive).
+    #[serde(
+        rename = "all_seconds_per_path",
+        default,
+        skip_serializing_if = "Option::is_none"
+    )]
     pub all: Option<f64>,
-    /// Seconds per path of the latest frame on the fastest class alone (finite and positive).
+    /// On the devices of the fastest class alone (finite and positive).
+    #[serde(
+        rename = "alone_seconds_per_path",
+        default,
+        skip_serializing_if = "Option::is_none"
+    )]
     pub alone: Option<f64>,
-    /// The class that rendered alone.
+    /// The fastest class, as the speeds known after the first frame measured said: kept, so
+    /// that a renderer that starts without speeds (a bench's next cell) leaves the same
+    /// devices idle.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fastest: Option<String>,
 }
 
-/// Where a [`Choice`] applies: a [`Key`] whose `device` is the set's classes, sorted and
-/// joined by ` + ` ([`device_set`]), and the mode's name (`regular`, `cost`).
-pub type ChoiceKey = (Key, String);
+impl Choice {
+    /// The first time that is not finite and positive, as its field, the time and what is
+    /// wrong with it.
+    fn fault(&self) -> Option<(&'static str, f64, &'static str)> {
+        let times = [
+            ("all_seconds_per_path", self.all),
+            ("alone_seconds_per_path", self.alone),
+        ];
+        let (field, v) = times
+            .into_iter()
+            .find(|(_, v)| v.is_some_and(|v| !positive(v)))?;
+        Some((field, v?, "is not a finite number > 0"))
+    }
+}
 
 /// The name of a set of device classes in a [`ChoiceKey`].
 pub fn device_set<'c>(classes: impl IntoIterator<Item = &'c str>) -> String {
@@ -186,57 +277,39 @@ pub struct Calibration {
     choices: BTreeMap<ChoiceKey, Choice>,
 }
 
-/// The file as written: a version, and the entries with their keys spelled out.
+/// The file as written: a version, and the entries and choices with their keys spelled out.
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct File {
     version: u32,
-    entries: Vec<Record>,
+    entries: Vec<Keyed<Key, Entry>>,
     /// Absent in files written before the renderer chose its devices.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    choices: Vec<ChoiceRecord>,
+    choices: Vec<Keyed<ChoiceKey, Choice>>,
 }
 
+/// An entry or a choice of the file: its key's fields, then its own.
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct ChoiceRecord {
-    host: String,
-    devices: String,
-    workload: String,
-    mode: String,
-    shader: String,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    all_seconds_per_path: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    alone_seconds_per_path: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    fastest: Option<String>,
+struct Keyed<K, V> {
+    #[serde(flatten)]
+    key: K,
+    #[serde(flatten)]
+    value: V,
+}
+
+impl<K: Clone, V: Clone> Keyed<K, V> {
+    fn of((key, value): (&K, &V)) -> Self {
+        Self {
+            key: key.clone(),
+            value: value.clone(),
+        }
+    }
 }
 
 /// Whether `v` is a finite number > 0, as speeds and times must be.
 fn positive(v: f64) -> bool {
     v.is_finite() && v > 0.0
-}
-
-#[derive(Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Record {
-    #[serde(flatten)]
-    key: Key,
-    speed: f64,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    paths_per_second: Option<f64>,
-    /// Absent in files written before the per-ray term: read as 0.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    kr: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    kb: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    kt: Option<f64>,
-    #[serde(default)]
-    samples: u64,
-    #[serde(default)]
-    spikes: u64,
 }
 
 impl Calibration {
@@ -291,78 +364,35 @@ impl Calibration {
             });
         }
         let mut entries = BTreeMap::new();
-        for (i, r) in file.entries.into_iter().enumerate() {
-            let bad = |field, value, why| CalibrationError::BadValue {
-                path: path.to_owned(),
-                entry: i,
-                key: format!("{} on {}, {}", r.key.device, r.key.host, r.key.workload),
-                field,
-                value,
-                why,
-            };
-            if !positive(r.speed) {
-                return Err(bad("speed", r.speed, "is not a finite number > 0"));
+        let bad = |entry, key, (field, value, why)| CalibrationError::BadValue {
+            path: path.to_owned(),
+            entry,
+            key,
+            field,
+            value,
+            why,
+        };
+        for (i, Keyed { key, mut value }) in file.entries.into_iter().enumerate() {
+            // A file written before the per-ray term has no `kr`: it reads as 0.
+            if value.kb.is_some() && value.kt.is_some() {
+                value.kr.get_or_insert(0.0);
             }
-            if let Some(v) = r.paths_per_second.filter(|&v| !positive(v)) {
-                return Err(bad("paths_per_second", v, "is not a finite number > 0"));
+            if let Some(fault) = value.fault() {
+                let name = format!("{} on {}, {}", key.device, key.host, key.workload);
+                return Err(bad(i, name, fault));
             }
-            let model = match (r.kb, r.kt) {
-                (None, None) => {
-                    if let Some(v) = r.kr {
-                        return Err(bad("kr", v, "comes without kb and kt"));
-                    }
-                    None
-                }
-                (Some(kb), Some(kt)) => {
-                    let kr = r.kr.unwrap_or(0.0);
-                    for (field, v) in [("kr", kr), ("kb", kb), ("kt", kt)] {
-                        if !(v.is_finite() && v >= 0.0) {
-                            return Err(bad(field, v, "is not a finite number >= 0"));
-                        }
-                    }
-                    if kb + kt <= 0.0 {
-                        return Err(bad("kb + kt", kb + kt, "is not > 0"));
-                    }
-                    Some(CostModel { kr, kb, kt })
-                }
-                (Some(v), None) => return Err(bad("kb", v, "comes without kt")),
-                (None, Some(v)) => return Err(bad("kt", v, "comes without kb")),
-            };
-            let entry = Entry {
-                speed: r.speed,
-                paths_per_second: r.paths_per_second,
-                model,
-                samples: r.samples,
-                spikes: r.spikes,
-            };
-            entries.insert(r.key, entry);
+            entries.insert(key, value);
         }
         let mut choices = BTreeMap::new();
-        for (i, r) in file.choices.into_iter().enumerate() {
-            let bad = |field, value| CalibrationError::BadValue {
-                path: path.to_owned(),
-                entry: i,
-                key: format!("choice of {} on {}, {}", r.devices, r.host, r.workload),
-                field,
-                value,
-                why: "is not a finite number > 0",
-            };
-            for (field, v) in [
-                ("all_seconds_per_path", r.all_seconds_per_path),
-                ("alone_seconds_per_path", r.alone_seconds_per_path),
-            ] {
-                if let Some(v) = v.filter(|&v| !positive(v)) {
-                    return Err(bad(field, v));
-                }
+        for (i, Keyed { key, value }) in file.choices.into_iter().enumerate() {
+            if let Some(fault) = value.fault() {
+                let name = format!(
+                    "choice of {} on {}, {}",
+                    key.devices, key.host, key.workload
+                );
+                return Err(bad(i, name, fault));
             }
-            let key = (Key::new(&r.host, &r.devices, &r.workload), r.mode);
-            let choice = Choice {
-                shader: r.shader,
-                all: r.all_seconds_per_path,
-                alone: r.alone_seconds_per_path,
-                fastest: r.fastest,
-            };
-            choices.insert(key, choice);
+            choices.insert(key, value);
         }
         Ok(Self { entries, choices })
     }
@@ -371,34 +401,8 @@ impl Calibration {
     pub fn to_json(&self) -> String {
         let file = File {
             version: FORMAT_VERSION,
-            entries: self
-                .entries
-                .iter()
-                .map(|(key, e)| Record {
-                    key: key.clone(),
-                    speed: e.speed,
-                    paths_per_second: e.paths_per_second,
-                    kr: e.model.map(|m| m.kr),
-                    kb: e.model.map(|m| m.kb),
-                    kt: e.model.map(|m| m.kt),
-                    samples: e.samples,
-                    spikes: e.spikes,
-                })
-                .collect(),
-            choices: self
-                .choices
-                .iter()
-                .map(|((key, mode), c)| ChoiceRecord {
-                    host: key.host.clone(),
-                    devices: key.device.clone(),
-                    workload: key.workload.clone(),
-                    mode: mode.clone(),
-                    shader: c.shader.clone(),
-                    all_seconds_per_path: c.all,
-                    alone_seconds_per_path: c.alone,
-                    fastest: c.fastest.clone(),
-                })
-                .collect(),
+            entries: self.entries.iter().map(Keyed::of).collect(),
+            choices: self.choices.iter().map(Keyed::of).collect(),
         };
         // Only strings, integers and finite numbers (checked on insert and load): cannot fail.
         let text = serde_json::to_string_pretty(&file).unwrap_or_default();
@@ -463,12 +467,11 @@ impl Calibration {
     /// not finite and positive, or a model with a negative or non-finite coefficient) is not
     /// recorded: returns whether it was.
     pub fn insert(&mut self, key: Key, entry: Entry) -> bool {
-        let speed_ok = positive(entry.speed) && entry.paths_per_second.is_none_or(positive);
-        let model_ok = entry.model.is_none_or(|m| m.can_plan());
-        if speed_ok && model_ok {
+        let ok = entry.fault().is_none();
+        if ok {
             self.entries.insert(key, entry);
         }
-        speed_ok && model_ok
+        ok
     }
 
     /// The choice kept for `key`, if there is one.
@@ -479,7 +482,7 @@ impl Calibration {
     /// Records (or replaces) the choice of `key`; one with a time that is not finite and
     /// positive is not recorded: returns whether it was.
     pub fn insert_choice(&mut self, key: ChoiceKey, choice: Choice) -> bool {
-        let ok = choice.all.is_none_or(positive) && choice.alone.is_none_or(positive);
+        let ok = choice.fault().is_none();
         if ok {
             self.choices.insert(key, choice);
         }
@@ -597,12 +600,16 @@ mod tests {
 
     fn sample() -> Calibration {
         let mut c = Calibration::new();
-        let entry = |speed, model, samples| Entry {
-            speed,
-            paths_per_second: Some(1.5e6 * speed),
-            model,
-            samples,
-            spikes: 1,
+        let entry = |speed, model, samples| {
+            let mut e = Entry {
+                speed,
+                paths_per_second: Some(1.5e6 * speed),
+                samples,
+                spikes: 1,
+                ..Entry::default()
+            };
+            e.set_model(model);
+            e
         };
         assert!(c.insert(
             Key::new("box", "cpu/1", "builtin:cornell whitted"),
@@ -626,22 +633,24 @@ mod tests {
         ));
         let set = device_set(["gpu0 (lavapipe)", "cpu/1", "cpu/1"]);
         assert_eq!(set, "cpu/1 + gpu0 (lavapipe)");
+        let choice_key = |workload: &str, mode: &str, shader: &str| ChoiceKey {
+            host: "box".into(),
+            devices: set.clone(),
+            workload: workload.into(),
+            mode: mode.into(),
+            shader: shader.into(),
+        };
         assert!(c.insert_choice(
-            (
-                Key::new("box", &set, "builtin:cornell whitted"),
-                "cost".into()
-            ),
+            choice_key("builtin:cornell whitted", "cost", "whitted"),
             Choice {
-                shader: "whitted".into(),
                 all: Some(2.5e-7),
                 alone: Some(1.0 / 3.0 * 1e-6),
                 fastest: Some("cpu/1".into()),
             },
         ));
         assert!(!c.insert_choice(
-            (Key::new("box", &set, "w"), "regular".into()),
+            choice_key("w", "regular", "ao"),
             Choice {
-                shader: "ao".into(),
                 all: Some(f64::INFINITY),
                 alone: None,
                 fastest: None,
@@ -686,10 +695,8 @@ mod tests {
         let mut ours = Calibration::new();
         let entry = |speed| Entry {
             speed,
-            paths_per_second: None,
-            model: None,
             samples: 1,
-            spikes: 0,
+            ..Entry::default()
         };
         ours.insert(Key::new("h", "cpu/1", "a"), entry(1.0));
         let mut theirs = Calibration::new();
@@ -783,8 +790,25 @@ mod tests {
         let older = sample().to_json().replacen("\"kr\": 4e-8,", "", 1);
         assert_ne!(older, sample().to_json());
         let read = Calibration::parse(path, &older).expect("a file without kr");
-        let models: Vec<_> = read.entries.values().filter_map(|e| e.model).collect();
+        let models: Vec<_> = read.entries.values().filter_map(|e| e.model()).collect();
         assert!(!models.is_empty() && models.iter().all(|m| m.kr == 0.0 && m.kb > 0.0));
+
+        // Fields the format does not have are refused, in a choice as in an entry.
+        let unknown = sample().to_json().replacen(
+            "\"fastest\": \"cpu/1\"",
+            "\"fastest\": \"cpu/1\", \"extra\": 1",
+            1,
+        );
+        assert_ne!(unknown, sample().to_json());
+        let err = Calibration::parse(path, &unknown).unwrap_err().to_string();
+        assert!(err.contains("extra"), "{err}");
+        let unknown =
+            sample()
+                .to_json()
+                .replacen("\"samples\": 12", "\"samples\": 12, \"other\": 1", 1);
+        assert_ne!(unknown, sample().to_json());
+        let err = Calibration::parse(path, &unknown).unwrap_err().to_string();
+        assert!(err.contains("other"), "{err}");
 
         let future = sample()
             .to_json()
@@ -800,12 +824,14 @@ mod tests {
     fn unusable_entries_are_not_recorded() {
         let mut c = Calibration::new();
         let key = Key::new("h", "d", "w");
-        let entry = |speed, kb| Entry {
-            speed,
-            paths_per_second: None,
-            model: Some(CostModel::counts_only(kb, 0.0)),
-            samples: 1,
-            spikes: 0,
+        let entry = |speed, kb| {
+            let mut e = Entry {
+                speed,
+                samples: 1,
+                ..Entry::default()
+            };
+            e.set_model(Some(CostModel::counts_only(kb, 0.0)));
+            e
         };
         assert!(!c.insert(key.clone(), entry(f64::NAN, 1.0)));
         assert!(!c.insert(key.clone(), entry(1.0, -1.0)));

@@ -6,9 +6,7 @@
 //! render engine ([`paths`]), which returns the encoded outputs and the report, written all
 //! together at the end.
 
-mod header;
 mod paths;
-mod rendered;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -27,7 +25,7 @@ use crate::args::{
 };
 use crate::error::CliError;
 use crate::output::Outputs;
-use header::Header;
+use paths::Header;
 
 /// Arguments of `cobalt render`.
 #[derive(Debug, clap::Args)]
@@ -80,7 +78,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let ao =
         (args.shader.shader == ShaderKind::Ao).then_some(("ao-samples", args.shader.ao_samples));
     crate::limits::frame(args.size, args.size.pixels(), ao)?;
-    let faults = faults(&args)?;
+    // GPU entries open however many adapters exist: the indices of faults on them are
+    // checked once the devices are built (naming the fault).
+    let faults = crate::args::check_faults(&args.fail, args.schedule.devices.known_count())?;
     let slow = crate::args::check_slow(&args.slow, args.schedule.devices.known_count())?;
     let settings = args.schedule.settings();
     let camera = args.camera.choice()?;
@@ -111,8 +111,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         (store, &workload),
         (header, args.cost_image.is_some()),
     )?;
-    let summary = rendered.report.summary();
-    rendered.write(&outputs, args.output.json, &summary)
+    rendered.write(&outputs, args.output.json)
 }
 
 /// Checks every output path before any work: none may be an input (the scene, the
@@ -184,12 +183,6 @@ fn load(
     Ok((scene, bvh, view, header))
 }
 
-/// `--fail`, each device an index into `--devices`. GPU entries open however many adapters
-/// exist: their indices are checked once the devices are built (naming the fault).
-fn faults(args: &Args) -> Result<Vec<FailAfter>, CliError> {
-    crate::args::check_faults(&args.fail, args.schedule.devices.known_count())
-}
-
 /// `cobalt render` under `mpirun`: the flags a cluster cannot honour are refused, then every
 /// rank renders the same image together ([`raytrace::distributed`]); rank 0 writes the PNG,
 /// the report and the summary. Every fallible step before the render (checking rank 0's
@@ -225,7 +218,7 @@ fn mpi(
     let (scene, bvh, view, header) =
         cluster.agree("loading the scene", load(args, &shader, camera))?;
     let run = one_frame(args, faults, settings);
-    let local = build_path_devices(&scene, &bvh, run.specs, run.faults);
+    let local = build_path_devices(&scene, &bvh, run.specs, run.faults, run.slow);
     let devices = cluster.agree("opening this rank's devices", local)?;
     let options = RenderOptions::new(args.size.width, args.size.height, view, shader);
     let frame = Frame {
@@ -244,11 +237,10 @@ fn mpi(
     };
     let report = paths::RenderReport::new(header, (&run, device_list), report, Default::default())
         .over_ranks(cluster.size());
-    let rendered = rendered::Rendered {
+    let rendered = paths::Rendered {
         image: film.png(raytrace::film::ToneMap::Srgb)?,
         cost_image: None,
         report,
     };
-    let summary = rendered.report.summary();
-    rendered.write(&outputs, args.output.json, &summary)
+    rendered.write(&outputs, args.output.json)
 }

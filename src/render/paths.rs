@@ -1,4 +1,5 @@
-//! `cobalt render`'s run ([`raytrace::run::Run`]), its report and its summary.
+//! `cobalt render`'s run ([`raytrace::run::Run`]), its report (opening with the scene, the
+//! image, the camera and the shader) and its summary, and the encoded outputs.
 
 use raytrace::cost_image::primary_cost_image;
 use raytrace::film::ToneMap;
@@ -8,9 +9,69 @@ use raytrace::{Bvh, Scene};
 use sched::Policy;
 use serde::Serialize;
 
-use super::header::Header;
-use super::rendered::Rendered;
 use crate::error::CliError;
+use crate::output::Outputs;
+
+/// The opening fields of a render report.
+#[derive(Debug, Serialize)]
+pub struct Header {
+    pub scene: String,
+    pub triangles: usize,
+    pub shader: &'static str,
+    pub size: String,
+    pub width: u32,
+    pub height: u32,
+    /// The orbit camera's index; null for `--eye`/`--at`.
+    pub camera: Option<usize>,
+    pub eye: [f32; 3],
+    pub at: [f32; 3],
+    pub preset: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ao_samples: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ao_distance: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bounces: Option<u32>,
+    pub load_seconds: f64,
+    pub build_seconds: f64,
+}
+
+impl Header {
+    /// The summary's opening words: shader, size, scene and its triangles.
+    pub fn what(&self) -> String {
+        format!(
+            "{} {} of {} ({} triangles)",
+            self.shader, self.size, self.scene, self.triangles
+        )
+    }
+}
+
+/// The image, the cost image if asked for, and the pipeline's report.
+pub struct Rendered {
+    pub image: Vec<u8>,
+    pub cost_image: Option<Vec<u8>>,
+    pub report: RenderReport,
+}
+
+impl Rendered {
+    /// Writes every output at once (nothing is written until every output is encoded, so a
+    /// failure leaves no partial set of files), then prints the report as JSON or its summary.
+    pub fn write(self, outputs: &Outputs, json: bool) -> Result<(), CliError> {
+        let text = serde_json::to_string_pretty(&self.report)
+            .map_err(|e| CliError::Write(e.to_string()))?;
+        let text = format!("{text}\n");
+        outputs.commit(&[
+            ("out", &self.image),
+            ("cost-image", self.cost_image.as_deref().unwrap_or_default()),
+            ("report", text.as_bytes()),
+        ])?;
+        if json {
+            outputs.print_json(&self.report)
+        } else {
+            outputs.print(&self.report.summary())
+        }
+    }
+}
 
 /// The report of `cobalt render`.
 #[derive(Debug, Serialize)]
@@ -99,7 +160,7 @@ pub fn render(
     (run, devices): (&Run<'_>, &str),
     (mut store, workload): (Option<Store>, &str),
     (header, cost_image_wanted): (Header, bool),
-) -> Result<Rendered<RenderReport>, CliError> {
+) -> Result<Rendered, CliError> {
     let calibration = store.as_mut().map(|s| (s, workload));
     let (film, report) = run
         .render(scene, bvh, options, calibration)

@@ -11,7 +11,7 @@ use super::record::Record;
 use super::repeats;
 use crate::bvh::Bvh;
 use crate::cost::SampleRate;
-use crate::paths::{FrameStats, KeptDevices, Mode, Settings};
+use crate::paths::{FrameStats, Mode, PathRenderer, Settings};
 use crate::run::Store;
 use crate::scene::Scene;
 use crate::shade::Shader;
@@ -115,7 +115,7 @@ pub struct SceneMatrix<'a> {
     /// context, compiled kernels, buffers and measured launch overhead, so a cell's frame is
     /// not its first on the device, and a cell runs on every device or on the fastest class
     /// alone by what the cells before it measured.
-    pub path_devices: std::cell::RefCell<Option<KeptDevices<'a>>>,
+    pub path_devices: std::cell::RefCell<Option<PathRenderer<'a>>>,
     /// The MPI job whose other ranks render beside this rank's devices, every cell anew
     /// (`None`: this process alone).
     #[cfg(feature = "mpi")]

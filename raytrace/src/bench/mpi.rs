@@ -40,7 +40,7 @@ impl SceneMatrix<'_> {
         let comm_before = cluster.comm_seconds();
         let mut frames = Vec::with_capacity(self.cameras);
         for cam in 0..self.cameras {
-            let local = build_path_devices(self.scene, self.bvh, self.devices, &[]);
+            let local = build_path_devices(self.scene, self.bvh, self.devices, &[], &[]);
             // Also the start line: every rank begins the frame together.
             let devices = cluster.agree("opening this rank's devices", local)?;
             let options = self.options(w, cam);

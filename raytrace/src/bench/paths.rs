@@ -10,10 +10,8 @@ use super::replay::{Replayed, replay};
 use crate::camera::Camera;
 use crate::cost::SampleRate;
 use crate::paths::Settings;
-use crate::paths::{
-    Frame, FrameStats, InjectedPaths, PathRenderer, build_path_devices, walk_paths,
-};
-use crate::run::{CalibrationReport, workload};
+use crate::paths::{Frame, FrameStats, PathRenderer, build_path_devices, walk_paths};
+use crate::run::workload;
 use crate::shade::{RenderOptions, Shader};
 use crate::traverse::walk::Walk;
 
@@ -35,20 +33,14 @@ impl SceneMatrix<'_> {
         let mut renderer = match kept {
             Some(kept) => PathRenderer::from_kept(kept, settings)?,
             None => {
-                let devices = build_path_devices(self.scene, self.bvh, self.devices, &[])?;
-                PathRenderer::new(InjectedPaths::wrap(devices, &[], self.slow), settings)?
+                let devices =
+                    build_path_devices(self.scene, self.bvh, self.devices, &[], self.slow)?;
+                PathRenderer::new(devices, settings)?
             }
         };
         let workload = workload(self.scene_name, &w);
-        let recalled = self.calibration.map(|store| {
-            let mut store = store.borrow_mut();
-            let used = store.recall(&mut renderer, &workload);
-            CalibrationReport {
-                file: Some(store.file()),
-                loaded_entries: used,
-                written_entries: 0,
-            }
-        });
+        let recalled =
+            (self.calibration).map(|store| store.borrow_mut().recall(&mut renderer, &workload));
         let mut frames = Vec::with_capacity(self.cameras);
         let (mut estimated, mut full) = (Vec::new(), Vec::new());
         for cam in 0..self.cameras {

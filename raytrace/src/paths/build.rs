@@ -2,15 +2,16 @@
 //! [`CpuPaths`], numbered in list order; GPU entries become [`super::GpuPaths`], one per
 //! adapter (with the `gpu` feature).
 
-use super::{CpuPaths, FailAfter, InjectedPaths, PathDevice};
+use super::{CpuPaths, FailAfter, InjectedPaths, PathDevice, SlowBy};
 use crate::devices::{DeviceSpec, GpuSelect};
 use crate::{Bvh, Error, Result, Scene};
 
 /// A GPU entry's devices, or why it found no adapter (`Err(why)`: skippable).
 type GpuEntry<'a> = std::result::Result<Vec<Box<dyn PathDevice + 'a>>, String>;
 
-/// The devices of `specs` for `scene` (with its `bvh`), with `faults` injected (each device
-/// with a fault made an [`InjectedPaths`]); the error names the entry or fault at fault.
+/// The devices of `specs` for `scene` (with its `bvh`), with `faults` and `slow` injected
+/// (each device with a fault or a slowdown made one [`InjectedPaths`]); the error names the
+/// entry or fault at fault. The caller checks the indices of `slow`.
 ///
 /// GPU entries open adapters (see [`crate::gpu::context`]) and upload the scene to each.
 /// Where `gpu:all` finds no usable adapter but the list has other devices, a note says so
@@ -20,6 +21,7 @@ pub fn build_path_devices<'a>(
     bvh: &'a Bvh,
     specs: &[DeviceSpec],
     faults: &[FailAfter],
+    slow: &[SlowBy],
 ) -> Result<Vec<Box<dyn PathDevice + 'a>>> {
     let mut devices: Vec<Box<dyn PathDevice + 'a>> = Vec::new();
     let mut cpu_count = 0;
@@ -51,7 +53,7 @@ pub fn build_path_devices<'a>(
             why: format!("no device {} to fail (there are {m})", f.device),
         });
     }
-    Ok(InjectedPaths::wrap(devices, faults, &[]))
+    Ok(InjectedPaths::wrap(devices, faults, slow))
 }
 
 /// The GPU devices of one entry, one `GpuPaths` per adapter: `Ok(Err(why))` when `gpu:all`

@@ -25,47 +25,10 @@ pub(crate) fn choice_key(shader: &Shader, mode: Mode) -> ChoiceKey {
     (shader.name(), mode)
 }
 
-/// The shader named `name` in a calibration file, as a key's; `None` for another name.
-pub(crate) fn shader_named(name: &str) -> Option<&'static str> {
-    ["ao", "whitted"].into_iter().find(|&n| n == name)
-}
+/// The shaders' names ([`Shader::name`]), whose choices a calibration file may keep.
+pub(crate) const SHADERS: [&str; 2] = ["ao", "whitted"];
 
-impl SetTimes {
-    /// What a calibration file keeps of these times for frames of `shader`.
-    pub fn to_choice(&self, shader: &str) -> Choice {
-        Choice {
-            shader: shader.to_owned(),
-            all: self.all,
-            alone: self.alone,
-            fastest: self.fastest.clone(),
-        }
-    }
-
-    /// The times a calibration file kept.
-    pub fn from_choice(c: &Choice) -> Self {
-        Self {
-            all: c.all,
-            alone: c.alone,
-            fastest: c.fastest.clone(),
-        }
-    }
-}
-
-/// Seconds per path of the latest frame rendered each way, where one was, and the class that
-/// renders alone.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub(crate) struct SetTimes {
-    /// On every device.
-    pub all: Option<f64>,
-    /// On the devices of the fastest class alone.
-    pub alone: Option<f64>,
-    /// The fastest class, as the speeds known after the first frame measured said: kept, so
-    /// that a renderer that starts without speeds (a bench's next cell) leaves the same
-    /// devices idle.
-    pub fastest: Option<String>,
-}
-
-impl SetTimes {
+impl Choice {
     /// Whether the next frame runs on the fastest class alone. `known` says whether every
     /// class's speed is known (measured or recalled), and so which class is the fastest.
     ///
@@ -96,11 +59,11 @@ impl SetTimes {
 
 #[cfg(test)]
 mod tests {
-    use super::SetTimes;
+    use crate::calibration::Choice;
 
     #[test]
     fn each_way_is_tried_once_then_the_faster_is_kept_until_it_slows() {
-        let mut t = SetTimes::default();
+        let mut t = Choice::default();
         assert!(!t.alone_next(false), "speeds unknown: every device first");
         assert!(t.alone_next(true), "speeds known: the baseline first");
         t.record(false, 3.0);

@@ -132,11 +132,6 @@ impl CpuPaths {
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
-
-    /// Threads of the device.
-    pub fn threads(&self) -> usize {
-        self.threads
-    }
 }
 
 impl PathDevice for CpuPaths {

@@ -140,31 +140,29 @@ pub struct BoundPaths<'r, 'a> {
     pieces: bool,
 }
 
+/// A launch is rendered in about this many pieces (see [`BoundPaths::new`]).
+const PIECES: usize = 8;
+
 impl<'r, 'a> BoundPaths<'r, 'a> {
-    /// `device` rendering `frame`, planned at relative `speed`.
-    pub fn new(device: &'r mut (dyn PathDevice + 'a), frame: &'r Frame<'r>, speed: f64) -> Self {
+    /// `device` rendering `frame`, planned at relative `speed`. With `pieces`, a launch is
+    /// rendered in pieces where the device's launches are cheap ([`PathDevice::cheap_launches`]:
+    /// a CPU device; a GPU renders a launch whole): each piece's values are delivered as it
+    /// ends, so that the other devices see how far it has got and may run backup copies of the
+    /// rest, and tasks another device delivered first are skipped. The values do not change.
+    pub fn new(
+        device: &'r mut (dyn PathDevice + 'a),
+        frame: &'r Frame<'r>,
+        speed: f64,
+        pieces: bool,
+    ) -> Self {
         Self {
             device,
             frame,
             speed,
-            pieces: false,
+            pieces,
         }
     }
 
-    /// The same device rendering a launch in pieces where its launches are cheap
-    /// ([`PathDevice::cheap_launches`]: a CPU device; a GPU renders a launch whole): each piece's
-    /// values are delivered as it ends, so that the other devices see how far it has got and
-    /// may run backup copies of the rest, and tasks another device delivered first are
-    /// skipped. The values do not change.
-    pub fn in_pieces(self, on: bool) -> Self {
-        Self { pieces: on, ..self }
-    }
-}
-
-/// A launch is rendered in about this many pieces (see [`BoundPaths::in_pieces`]).
-const PIECES: usize = 8;
-
-impl BoundPaths<'_, '_> {
     /// One launch of the device, checked to give a value for every path.
     fn launch(
         &mut self,

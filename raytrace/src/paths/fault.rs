@@ -56,16 +56,6 @@ pub struct InjectedPaths<'a> {
 }
 
 impl<'a> InjectedPaths<'a> {
-    /// `inner`, failing after `after` tasks.
-    pub fn failing(inner: Box<dyn PathDevice + 'a>, after: u64) -> Self {
-        Self {
-            inner,
-            fail_after: Some(after),
-            done: 0,
-            factor: 1.0,
-        }
-    }
-
     /// Each device of `devices` with what `faults` and `slow` name for it: the earliest of its
     /// faults, the largest of its factors. The caller checks the indices.
     pub fn wrap(

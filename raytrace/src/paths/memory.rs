@@ -17,7 +17,7 @@ use super::Mode;
 use crate::calibration::{Calibration, ChoiceKey, Entry, Key, device_set};
 
 use super::PathRenderer;
-use super::choice::{SetTimes, shader_named};
+use super::choice::SHADERS;
 
 impl PathRenderer<'_> {
     /// Plans the next frame with what `calibration` holds for this renderer's device classes
@@ -44,31 +44,36 @@ impl PathRenderer<'_> {
             }
         }
         for (class, e) in &entries {
-            if let Some(m) = e.model {
+            if let Some(m) = e.model() {
                 self.models.insert(class.clone(), m);
             }
         }
         // What frames on these classes measured of leaving some idle; the renderer's own
         // measurements (a bench cell's devices kept from the cell before) are fresher.
         for mode in [Mode::Regular, Mode::Cost] {
-            let Some(c) = calibration.choice(&self.choice_key(host, workload, mode)) else {
-                continue;
-            };
-            if let Some(shader) = shader_named(&c.shader) {
-                self.choices
-                    .entry((shader, mode))
-                    .or_insert_with(|| SetTimes::from_choice(c));
+            for shader in SHADERS {
+                let key = self.choice_key(host, workload, mode, shader);
+                if let Some(c) = calibration.choice(&key) {
+                    self.choices
+                        .entry((shader, mode))
+                        .or_insert_with(|| c.clone());
+                }
             }
         }
         entries.len()
     }
 
-    /// Where the calibration keeps the choices of frames of `workload` in `mode` on this
-    /// renderer's device classes.
-    fn choice_key(&self, host: &str, workload: &str, mode: Mode) -> ChoiceKey {
+    /// Where the calibration keeps the choices of frames of `workload` in `mode` with
+    /// `shader` on this renderer's device classes.
+    fn choice_key(&self, host: &str, workload: &str, mode: Mode, shader: &str) -> ChoiceKey {
         let classes: Vec<String> = self.devices.iter().map(|d| d.class()).collect();
-        let set = device_set(classes.iter().map(String::as_str));
-        (Key::new(host, &set, workload), mode.name().to_owned())
+        ChoiceKey {
+            host: host.to_owned(),
+            devices: device_set(classes.iter().map(String::as_str)),
+            workload: workload.to_owned(),
+            mode: mode.name().to_owned(),
+            shader: shader.to_owned(),
+        }
     }
 
     /// Records in `calibration`, for `host` and `workload`, each device class's speed as the
@@ -87,26 +92,27 @@ impl PathRenderer<'_> {
             };
             let key = Key::new(host, class, workload);
             let old = calibration.get(&key).copied();
-            let entry = Entry {
+            let mut entry = Entry {
                 speed,
                 paths_per_second: h
                     .paths_per_second()
                     .or(old.and_then(|e| e.paths_per_second)),
-                model: h.model().or(old.and_then(|e| e.model)),
                 samples: old.map_or(0, |e| e.samples) + h.samples,
                 spikes: old.map_or(0, |e| e.spikes) + h.spikes,
+                ..Entry::default()
             };
+            entry.set_model(h.model().or(old.and_then(|e| e.model())));
             if calibration.insert(key, entry) {
                 written += 1;
             }
         }
         if let Some(shader) = self.last_shader {
             for mode in [Mode::Regular, Mode::Cost] {
-                let Some(times) = self.choices.get(&(shader, mode)) else {
+                let Some(choice) = self.choices.get(&(shader, mode)) else {
                     continue;
                 };
-                let key = self.choice_key(host, workload, mode);
-                if calibration.insert_choice(key, times.to_choice(shader)) {
+                let key = self.choice_key(host, workload, mode, shader);
+                if calibration.insert_choice(key, choice.clone()) {
                     written += 1;
                 }
             }
@@ -139,7 +145,7 @@ mod tests {
     /// A renderer over two classes: two `cpu/1` devices and one `cpu/2`.
     fn renderer<'a>(scene: &'a Scene, bvh: &'a Bvh) -> PathRenderer<'a> {
         let specs = parse_devices("cpu:2,cpu:1/2").unwrap();
-        let devices = build_path_devices(scene, bvh, &specs, &[]).unwrap();
+        let devices = build_path_devices(scene, bvh, &specs, &[], &[]).unwrap();
         // Without backups: a device whose every task a copy delivered first learns no speed.
         let settings = Settings {
             backups: false,
@@ -218,9 +224,8 @@ mod tests {
         let entry = |paths_per_second| Entry {
             speed: 1.0,
             paths_per_second,
-            model: None,
             samples: 4,
-            spikes: 0,
+            ..Entry::default()
         };
         let mut calibration = Calibration::new();
         calibration.insert(Key::new("h", "cpu/1", "w"), entry(Some(1000.0)));

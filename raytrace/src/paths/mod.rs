@@ -9,8 +9,8 @@
 //! The pieces:
 //! - [`PathDevice`]: a device that renders ranges of paths ([`CpuPaths`], and `GpuPaths`
 //!   with the `gpu` feature); [`BoundPaths`] makes one a [`sched::Executor`] for a frame;
-//! - [`build_path_devices`]: a `--devices` list (with injected faults, [`FailAfter`]) made
-//!   into devices;
+//! - [`build_path_devices`]: a `--devices` list (with injected faults, [`FailAfter`], and
+//!   slowdowns, [`SlowBy`]) made into devices;
 //! - [`Settings`] and [`Mode`]: policy, regular or cost-based, task size, sample rate;
 //! - [`sample_paths`]: a task's cost from a sample of its paths traced for real, or
 //!   ([`walk_paths`]) from their camera rays walked as the thesis does;
@@ -33,7 +33,7 @@
 //! let bvh = Bvh::build(&scene, BuildPreset::Medium)?;
 //! let options = RenderOptions::new(16, 16, Camera::orbit(&scene.bounds(), 0), shader);
 //!
-//! let devices = build_path_devices(&scene, &bvh, &parse_devices("cpu:2")?, &[])?;
+//! let devices = build_path_devices(&scene, &bvh, &parse_devices("cpu:2")?, &[], &[])?;
 //! let mut renderer = PathRenderer::new(devices, Settings::default())?;
 //! let frame = renderer.render(&scene, &bvh, &options)?;
 //! assert_eq!(frame.film, render(&scene, &mut CpuTracer::new(&bvh), &options).film);
@@ -50,7 +50,6 @@ mod fault;
 mod frame;
 #[cfg(feature = "gpu")]
 mod gpu;
-mod history;
 mod learn;
 mod memory;
 mod renderer;
@@ -66,6 +65,6 @@ pub use fault::{FailAfter, InjectedFault, InjectedPaths, SlowBy};
 pub use frame::Frame;
 #[cfg(feature = "gpu")]
 pub use gpu::GpuPaths;
-pub use renderer::{FrameRendering, KeptDevices, PathRenderer};
+pub use renderer::{FrameRendering, PathRenderer};
 pub use settings::{Mode, Settings};
 pub use stats::{FrameStats, PathDeviceStats, TaskStats};

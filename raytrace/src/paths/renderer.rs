@@ -10,25 +10,17 @@ use rayon::prelude::*;
 
 use sched::{Costs, Runtime, SchedError, Speeds, split_ranges};
 
-use super::choice::{ChoiceKey, SetTimes, choice_key};
-use super::history::History;
-use super::learn::{Learnt, launches, learn, relative_speeds};
+use super::choice::{ChoiceKey, choice_key};
+use super::learn::{History, Learnt, launches, learn, relative_speeds};
 use super::{
     BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, TaskValues, Traffic,
     walk_paths,
 };
 use super::{Mode, Settings, TaskStats};
+use crate::calibration::Choice;
 use crate::cost::{CostModel, Work};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene, Walk};
-
-/// A renderer's devices and what its frames measured of running them together and apart:
-/// see [`PathRenderer::into_kept`].
-pub struct KeptDevices<'a> {
-    devices: Vec<Box<dyn PathDevice + 'a>>,
-    choices: HashMap<ChoiceKey, SetTimes>,
-    rates: HashMap<(String, &'static str), f64>,
-}
 
 /// A rendered frame: the image and how it was made.
 #[derive(Clone, Debug)]
@@ -63,7 +55,7 @@ pub struct PathRenderer<'a> {
     idle: Vec<bool>,
     /// Per shader and mode, the seconds per path of frames on every device and on the fastest
     /// class alone (see `choice.rs`).
-    pub(super) choices: HashMap<ChoiceKey, SetTimes>,
+    pub(super) choices: HashMap<ChoiceKey, Choice>,
     /// The shader of the latest frame rendered, whose choices a calibration keeps.
     pub(super) last_shader: Option<&'static str>,
     log: Vec<FrameStats>,
@@ -102,22 +94,18 @@ impl<'a> PathRenderer<'a> {
         })
     }
 
-    /// The devices, with what the frames measured of running them together and apart, for
-    /// another renderer ([`PathRenderer::from_kept`]); `None` if a device failed.
-    pub fn into_kept(self) -> Option<KeptDevices<'a>> {
-        (!self.retired.contains(&true)).then_some(KeptDevices {
-            devices: self.devices,
-            choices: self.choices,
-            rates: self.rates,
-        })
+    /// This renderer, for another over its devices ([`PathRenderer::from_kept`]); `None` if a
+    /// device failed.
+    pub fn into_kept(self) -> Option<Self> {
+        (!self.retired.contains(&true)).then_some(self)
     }
 
-    /// A renderer over `kept` devices, as [`PathRenderer::new`] but choosing which devices run
-    /// a frame from what the renderer they come from measured.
+    /// A renderer over `kept`'s devices, as [`PathRenderer::new`] but choosing which devices
+    /// run a frame from what `kept` measured of running them together and apart.
     ///
     /// # Errors
     /// As [`PathRenderer::new`].
-    pub fn from_kept(kept: KeptDevices<'a>, settings: Settings) -> Result<Self, SchedError> {
+    pub fn from_kept(kept: Self, settings: Settings) -> Result<Self, SchedError> {
         let mut renderer = Self::new(kept.devices, settings)?;
         renderer.choices = kept.choices;
         renderer.rates = kept.rates;
@@ -132,11 +120,6 @@ impl<'a> PathRenderer<'a> {
     /// Every frame rendered so far, in order.
     pub fn stats(&self) -> &[FrameStats] {
         &self.log
-    }
-
-    /// The device names, in order.
-    pub fn device_names(&self) -> Vec<String> {
-        self.devices.iter().map(|d| d.name()).collect()
     }
 
     /// The relative speed the next frame plans device `d` with.
@@ -234,6 +217,15 @@ impl<'a> PathRenderer<'a> {
     /// Whether device `d` takes part in the frame being rendered.
     fn runs(&self, d: usize) -> bool {
         !self.retired[d] && !self.idle[d]
+    }
+
+    /// The devices taking part in the frame being rendered, in order.
+    fn running_mut(&mut self) -> Vec<&mut Box<dyn PathDevice + 'a>> {
+        let (retired, idle) = (&self.retired, &self.idle);
+        (self.devices.iter_mut().enumerate())
+            .filter(|(d, _)| !retired[*d] && !idle[*d])
+            .map(|(_, device)| device)
+            .collect()
     }
 
     /// Decides whether the next frame of `key` runs on the fastest class alone (see
@@ -349,20 +341,15 @@ impl<'a> PathRenderer<'a> {
         };
 
         let predicted_makespan = self.predict(frame, &active, tasks, &costs);
-        let runs: Vec<bool> = (0..self.devices.len()).map(|d| self.runs(d)).collect();
-        let mut bound: Vec<BoundPaths<'_, 'a>> = self
-            .devices
-            .iter_mut()
-            .enumerate()
-            .filter(|(d, _)| runs[*d])
-            .zip(&speeds)
-            .map(|((_, device), &speed)| {
-                BoundPaths::new(device.as_mut(), frame, speed).in_pieces(self.settings.backups)
-            })
+        let Settings {
+            policy, backups, ..
+        } = self.settings;
+        let mut bound: Vec<BoundPaths<'_, 'a>> = (self.running_mut().into_iter().zip(&speeds))
+            .map(|(device, &speed)| BoundPaths::new(device.as_mut(), frame, speed, backups))
             .collect();
         let running = Instant::now();
-        let result = Runtime::new(self.settings.policy)
-            .backups(self.settings.backups)
+        let result = Runtime::new(policy)
+            .backups(backups)
             .run(tasks, &costs, &mut bound);
         let run_seconds = running.elapsed().as_secs_f64();
         drop(bound);
@@ -505,14 +492,7 @@ impl<'a> PathRenderer<'a> {
             })
             .collect();
         let shares = shares(tasks.len(), &estimating);
-        let runs: Vec<bool> = (0..self.devices.len()).map(|d| self.runs(d)).collect();
-        let mine: Vec<&mut Box<dyn PathDevice + 'a>> = self
-            .devices
-            .iter_mut()
-            .enumerate()
-            .filter(|(d, _)| runs[*d])
-            .map(|(_, device)| device)
-            .collect();
+        let mine = self.running_mut();
         debug_assert_eq!(mine.len(), active.len());
         let estimates: Vec<Estimate> = std::thread::scope(|scope| {
             let running: Vec<_> = mine

@@ -72,7 +72,7 @@ pub struct Settings {
     pub walk: Walk,
     /// Whether a device left idle runs backup copies of what a slower one holds
     /// ([`sched::Runtime::backups`]); CPU devices then render their launches in pieces
-    /// ([`super::BoundPaths::in_pieces`]). Off, the plan runs as planned.
+    /// ([`super::BoundPaths::new`]). Off, the plan runs as planned.
     pub backups: bool,
 }
 

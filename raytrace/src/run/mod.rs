@@ -32,9 +32,7 @@ pub use store::{CalibrationReport, Store, workload};
 use sched::{DeviceFailure, SchedError};
 
 use crate::devices::DeviceSpec;
-use crate::paths::{
-    FailAfter, FrameRendering, InjectedPaths, PathRenderer, Settings, SlowBy, build_path_devices,
-};
+use crate::paths::{FailAfter, FrameRendering, PathRenderer, Settings, SlowBy, build_path_devices};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene};
 
@@ -101,8 +99,7 @@ impl<'a> Run<'a> {
         options: &RenderOptions,
         calibration: Option<(&mut Store, &str)>,
     ) -> Result<(Film, RunReport), RunError> {
-        let devices = build_path_devices(scene, bvh, self.specs, self.faults)?;
-        let devices = InjectedPaths::wrap(devices, &[], self.slow);
+        let devices = build_path_devices(scene, bvh, self.specs, self.faults, self.slow)?;
         let renderer = PathRenderer::new(devices, self.settings)?;
         self.render_on(renderer, scene, bvh, options, calibration)
     }
@@ -179,7 +176,7 @@ impl<'a> Run<'a> {
         }
         let threads = std::thread::available_parallelism().map_or(1, usize::from);
         let spec = [DeviceSpec::Cpu { count: 1, threads }];
-        let devices = build_path_devices(scene, bvh, &spec, &[])?;
+        let devices = build_path_devices(scene, bvh, &spec, &[], &[])?;
         Ok(PathRenderer::new(devices, self.settings)?)
     }
 }

@@ -66,21 +66,20 @@ impl Store {
     }
 
     /// Plans `renderer`'s first frame with the file's entries for its devices on `workload`;
-    /// returns how many were used.
-    pub fn recall(&mut self, renderer: &mut PathRenderer<'_>, workload: &str) -> usize {
+    /// says how many were used (and none written yet).
+    pub fn recall(&mut self, renderer: &mut PathRenderer<'_>, workload: &str) -> CalibrationReport {
         let used = renderer.recall(&self.read, &self.host, workload);
         self.loaded += used;
-        used
+        CalibrationReport {
+            file: Some(self.path.display().to_string()),
+            loaded_entries: used,
+            written_entries: 0,
+        }
     }
 
     /// Keeps what `renderer` learnt on `workload`, for [`Store::save`].
     pub fn remember(&mut self, renderer: &PathRenderer<'_>, workload: &str) {
         self.learnt += renderer.remember(&mut self.calibration, &self.host, workload);
-    }
-
-    /// The file, for reports.
-    pub fn file(&self) -> String {
-        self.path.display().to_string()
     }
 
     /// Merges what the run learnt into the file as it is now, under the file's lock, if the run
@@ -99,7 +98,7 @@ impl Store {
             }
         };
         CalibrationReport {
-            file: Some(self.file()),
+            file: Some(self.path.display().to_string()),
             loaded_entries: self.loaded,
             written_entries: written,
         }

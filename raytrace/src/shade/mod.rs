@@ -137,19 +137,39 @@ pub fn render<T: Tracer + ?Sized>(
     let start = Instant::now();
     let primary = options.camera.primary_rays(w, h);
     let mut film = Film::new(w, h);
-    let mut gens = Generations::new(tracer);
-    match options.shader {
-        Shader::Ao(s) => {
-            let distance = s.distance(scene);
-            ao::render(scene, &mut gens, primary, &mut film, (s, distance), None);
-        }
-        Shader::Whitted(s) => whitted::render(scene, &mut gens, primary, &mut film, s),
-    }
+    let distance = options.shader.ao_distance(scene);
+    let generations = shade(
+        scene,
+        tracer,
+        options.shader,
+        (primary, &mut film),
+        distance,
+        None,
+    );
     Rendering {
         film,
-        generations: gens.log,
+        generations,
         seconds: start.elapsed().as_secs_f64(),
     }
+}
+
+/// Shades `primary` into `film` with `shader` (AO probes `ao_distance` long), tracing through
+/// `tracer`; `ranks` are the paths' Morton ranks where `primary` holds paths, not the image.
+/// Returns every generation traced.
+fn shade<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &mut T,
+    shader: Shader,
+    (primary, film): (crate::PrimaryRays, &mut Film),
+    ao_distance: f32,
+    ranks: Option<&[u32]>,
+) -> Vec<Generation> {
+    let mut gens = Generations::new(tracer);
+    match shader {
+        Shader::Ao(s) => ao::render(scene, &mut gens, primary, film, (s, ao_distance), ranks),
+        Shader::Whitted(s) => whitted::render(scene, &mut gens, primary, film, s),
+    }
+    gens.log
 }
 
 /// What [`render_paths`] made: one value per path, and the generations it traced.
@@ -198,18 +218,19 @@ pub(crate) fn render_paths_at<T: Tracer + ?Sized>(
     // Shading writes each path's value at its place in `ranks`, into a film of one row.
     primary.pixels = (0..ranks.len() as u32).collect();
     let mut film = Film::new(ranks.len().max(1) as u32, 1);
-    let mut gens = Generations::new(tracer);
-    match options.shader {
-        Shader::Ao(s) => {
-            let settings = (s, ao_distance);
-            ao::render(scene, &mut gens, primary, &mut film, settings, Some(ranks));
-        }
-        Shader::Whitted(s) => whitted::render(scene, &mut gens, primary, &mut film, s),
-    }
+    let film_of = (primary, &mut film);
+    let generations = shade(
+        scene,
+        tracer,
+        options.shader,
+        film_of,
+        ao_distance,
+        Some(ranks),
+    );
     let mut values = film.pixels().to_vec();
     values.truncate(ranks.len());
     PathRendering {
         values,
-        generations: gens.log,
+        generations,
     }
 }

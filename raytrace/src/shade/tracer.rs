@@ -3,7 +3,7 @@
 //! tracer wraps it where an estimate renders a sample of paths (`crate::paths::sample_paths`).
 
 use crate::traverse::batch::{any_hits, closest_hits};
-use crate::{Bvh, HitBatch, RayBatch, RayKind, Result};
+use crate::{Bvh, HitBatch, RayBatch, RayKind};
 
 /// Traces generations of rays. There is one required method.
 ///
@@ -16,50 +16,26 @@ pub trait Tracer {
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch;
 }
 
-/// The CPU tracer: rayon over the batch functions of [`crate::traverse`], in its own pool of
-/// threads or in the caller's.
+/// The CPU tracer: rayon over the batch functions of [`crate::traverse`], in whatever rayon
+/// pool the caller runs in (the global one by default; a `--devices cpu:N` device installs
+/// its own).
 pub struct CpuTracer<'a> {
     bvh: &'a Bvh,
-    pool: Option<rayon::ThreadPool>,
 }
 
 impl<'a> CpuTracer<'a> {
-    /// Traces in whatever rayon pool the caller runs in (the global one by default).
+    /// Traces `bvh`.
     pub fn new(bvh: &'a Bvh) -> Self {
-        Self { bvh, pool: None }
-    }
-
-    /// Traces in a pool of its own with `threads` threads (the `--devices cpu:N` device).
-    pub fn with_threads(bvh: &'a Bvh, threads: usize) -> Result<Self> {
-        let pool = crate::pool::thread_pool(String::from("cobalt-cpu"), threads)?;
-        Ok(Self {
-            bvh,
-            pool: Some(pool),
-        })
-    }
-
-    /// Threads that trace.
-    pub fn threads(&self) -> usize {
-        self.pool
-            .as_ref()
-            .map_or_else(rayon::current_num_threads, |p| p.current_num_threads())
-    }
-
-    fn run<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
-        match &self.pool {
-            Some(pool) => pool.install(f),
-            None => f(),
-        }
+        Self { bvh }
     }
 }
 
 impl Tracer for CpuTracer<'_> {
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
-        let bvh = self.bvh;
         if kind.is_occlusion() {
-            self.run(|| any_hits(bvh, rays))
+            any_hits(self.bvh, rays)
         } else {
-            self.run(|| closest_hits(bvh, rays))
+            closest_hits(self.bvh, rays)
         }
     }
 }

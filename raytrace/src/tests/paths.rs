@@ -107,6 +107,12 @@ impl PathDevice for Delayed {
     }
 }
 
+/// `inner`, failing once it has completed `tasks` tasks (`--fail`).
+fn failing(inner: Box<dyn PathDevice>, tasks: u64) -> Box<dyn PathDevice> {
+    let fault = crate::paths::FailAfter { device: 0, tasks };
+    InjectedPaths::wrap(vec![inner], &[fault], &[]).remove(0)
+}
+
 /// `inner` as a device of its own class that waits 40 ms before each launch: every frame it
 /// takes part in is slower than one without it, whatever the plan.
 fn laggard(inner: Box<dyn PathDevice>) -> Box<dyn PathDevice> {
@@ -196,8 +202,8 @@ fn the_idle_devices_take_over_when_the_fastest_fail() {
     let lagging = devices.remove(1);
     // 30 tasks a frame: the fast device renders most of the first (the laggard holds its
     // launch 40 ms) and fails during the second, which it renders alone.
-    let fast = InjectedPaths::failing(devices.remove(0), 30);
-    let devices: Vec<Box<dyn PathDevice>> = vec![Box::new(fast), laggard(lagging)];
+    let fast = failing(devices.remove(0), 30);
+    let devices: Vec<Box<dyn PathDevice>> = vec![fast, laggard(lagging)];
     // As planned: with backups the fastest device would take over the laggard's tasks.
     let s = Settings {
         backups: false,
@@ -242,7 +248,7 @@ fn a_device_lost_mid_frame_changes_nothing() {
                 millis: 1,
                 class: None,
             }));
-            devices.push(Box::new(InjectedPaths::failing(failing, 2)));
+            devices.push(self::failing(failing, 2));
             let mut r = PathRenderer::new(devices, settings(policy, Mode::Cost, 64)).expect("r");
             let out = r.render(&scene, &bvh, &options).expect("frame");
             assert_eq!(bits(&out.film), reference, "{policy:?}");
@@ -261,10 +267,7 @@ fn a_frame_without_devices_left_is_an_error() {
     let shader = SHADERS[0];
     let (scene, bvh) = scene("builtin:cornell:0.2", &shader);
     let options = RenderOptions::new(16, 16, Camera::orbit(&scene.bounds(), 0), shader);
-    let devices: Vec<Box<dyn PathDevice>> = cpus(2)
-        .into_iter()
-        .map(|d| Box::new(InjectedPaths::failing(d, 0)) as Box<dyn PathDevice>)
-        .collect();
+    let devices: Vec<Box<dyn PathDevice>> = cpus(2).into_iter().map(|d| failing(d, 0)).collect();
     let mut r = PathRenderer::new(devices, Settings::default()).expect("r");
     let e = r
         .render(&scene, &bvh, &options)
@@ -281,7 +284,7 @@ fn bad_device_lists_and_faults_are_named() {
     let shader = SHADERS[0];
     let (scene, bvh) = scene("builtin:cornell:0.2", &shader);
     let specs = parse_devices("cpu:1,gpu:99").expect("a valid list");
-    let e = build_path_devices(&scene, &bvh, &specs, &[])
+    let e = build_path_devices(&scene, &bvh, &specs, &[], &[])
         .err()
         .expect("no adapter 99")
         .to_string();
@@ -298,7 +301,7 @@ fn bad_device_lists_and_faults_are_named() {
         tasks: 1,
     }];
     let specs = parse_devices("cpu:2").expect("a valid list");
-    let e = build_path_devices(&scene, &bvh, &specs, &fault)
+    let e = build_path_devices(&scene, &bvh, &specs, &fault, &[])
         .err()
         .expect("no device 2");
     assert!(e.to_string().contains("2@1"), "{e}");
@@ -488,9 +491,8 @@ fn the_fastest_devices_kind_estimates_the_frame() {
         let entry = Entry {
             speed: 1.0,
             paths_per_second: Some(rate),
-            model: None,
             samples: 8,
-            spikes: 0,
+            ..Entry::default()
         };
         calibration.insert(Key::new("host", class, "w"), entry);
     }

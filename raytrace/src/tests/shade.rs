@@ -52,11 +52,8 @@ fn renders_are_deterministic_whatever_the_thread_count() {
     ] {
         let options = RenderOptions::new(N, N, Camera::orbit(&scene.bounds(), 1), shader);
         let a = render(&scene, &mut CpuTracer::new(&bvh), &options);
-        let b = render(
-            &scene,
-            &mut CpuTracer::with_threads(&bvh, 3).unwrap(),
-            &options,
-        );
+        let pool = crate::pool::thread_pool(String::from("cobalt-test"), 3).unwrap();
+        let b = pool.install(|| render(&scene, &mut CpuTracer::new(&bvh), &options));
         assert_eq!(a.film, b.film, "{}", shader.name());
         assert!(a.film.pixels().iter().all(|p| p.is_finite()));
         let rays = |r: &Rendering| r.generations.iter().map(|g| g.rays).collect::<Vec<_>>();
