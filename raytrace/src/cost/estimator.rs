@@ -6,7 +6,7 @@
 use std::ops::Range;
 
 use super::refine::refine;
-use super::sample::{Compacted, Sample, Traced, check_tasks};
+use super::sample::{Sample, check_tasks};
 use super::{CostError, CostModel, SampleRate, SampleRun, Work};
 use crate::traverse::batch::{reduced_counts_at, traced_at};
 use crate::traverse::counts::Counts;
@@ -134,30 +134,14 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
 
     /// Every task's estimated work, the rays sampled, and with [`Walk::Trace`] their hits.
     pub fn try_sample(&self, tasks: &[Range<usize>]) -> Result<Sample, C::Error> {
-        // One pass over the whole compacted list (rayon chunks of it, or one launch), not one
-        // per task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
+        check_tasks(self.rays, tasks)?;
+        // Each pass over one list of every task's sampled rays (rayon chunks of it, or one
+        // launch), not one per task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to
+        // split.
         let trace = |index: &[usize]| self.counter.count_at(self.rays, self.walk, index);
         // A sample of every ray is asked for exactly; nothing is left to refine towards.
-        if let Some(target) = self.sample_error.filter(|_| self.rate < SampleRate::FULL) {
-            check_tasks(self.rays, tasks)?;
-            return refine(tasks, self.rate, self.run, target, trace);
-        }
-        let sample = Compacted::gather(self.rays, tasks, self.rate, self.run)?;
-        let (traced, counts) = trace(&sample.index)?;
-        let work = sample
-            .offsets
-            .windows(2)
-            .zip(&sample.lens)
-            .map(|(w, &len)| Work::sum(&counts[w[0]..w[1]]).scaled(len, w[1] - w[0]))
-            .collect();
-        Ok(Sample {
-            sampled: sample.index.len(),
-            work,
-            traced: traced.map(|hits| Traced {
-                index: sample.index,
-                hits,
-            }),
-        })
+        let target = self.sample_error.filter(|_| self.rate < SampleRate::FULL);
+        refine(tasks, self.rate, self.run, target, trace)
     }
 
     /// Estimated cost of every task, or why there is none.
@@ -310,9 +294,15 @@ pub(super) mod tests {
             let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS).with_walk(walk);
             let Sample { work, traced, .. } = e.try_sample(&tasks).unwrap();
             let traced = traced.expect("the sample's hits");
-            let sample =
-                Compacted::gather(&rays, &tasks, SampleRate::THESIS, SampleRun::DEFAULT).unwrap();
-            assert_eq!(traced.index, sample.index);
+            // Every task's runs, task after task: one list for one pass.
+            let sample: Vec<usize> = (tasks.iter())
+                .flat_map(|r| {
+                    let k = SampleRate::THESIS.samples(r.len());
+                    let runs = crate::cost::sample::sample_runs(k, r.len(), SampleRun::DEFAULT);
+                    runs.flatten().map(|i| r.start + i)
+                })
+                .collect();
+            assert_eq!(traced.index, sample);
             assert!(traced.index.windows(2).all(|w| w[0] < w[1]), "sorted");
             for (k, &i) in traced.index.iter().enumerate() {
                 let ray = rays.get(i);

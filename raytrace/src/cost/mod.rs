@@ -5,9 +5,9 @@
 //!
 //! A task is a `Range<usize>` of a [`RayBatch`](crate::RayBatch) (`sched` implements
 //! [`sched::Task`] for ranges). The pieces:
-//! - [`SampleRate`] and [`Compacted`]: a uniform stride sample of every task, compacted into one
-//!   contiguous list of ray indices (the thesis compacts the sample before the reduced trace;
-//!   the CPU reads the sampled rays in place through it);
+//! - [`SampleRate`] and [`SampleRun`]: a uniform stride sample of every task, compacted into
+//!   one contiguous list of ray indices (the thesis compacts the sample before the reduced
+//!   trace; the CPU reads the sampled rays in place through it), refined where asked;
 //! - [`ReducedTraversal`]: the estimator, a [`sched::CostEstimator`], written once over what
 //!   counts its sample ([`CountRays`]: the host's tree or a GPU); [`full_work`] is the same
 //!   count over *all* rays, the reference of the prediction error;
@@ -56,4 +56,4 @@ pub use measure::measure_seconds;
 pub use metrics::error_vs_time;
 pub use model::{CostModel, Work};
 pub use rounds::{Budget, Rounds, SlicedStep, SlicedTraces, WholeStep};
-pub use sample::{Compacted, Sample, SampleRate, SampleRun, Traced};
+pub use sample::{Sample, SampleRate, SampleRun, Traced};
