@@ -10,8 +10,7 @@ use super::error::BenchError;
 use super::matrix::SceneMatrix;
 use crate::cost::{Budget, CostError, ReducedTraversal, SampleRate, SampleRun};
 use crate::estimate::{
-    Device, EstimateError, Generations, Report, Settings, WalkChoice, WalkFigures, WalkTrade,
-    measure,
+    Device, EstimateError, Generations, Settings, WalkChoice, WalkFigures, measure,
 };
 use crate::ray::{RayBatch, RayKind};
 use crate::traverse::Walk;
@@ -153,47 +152,37 @@ fn points(
                     why: "the full costs sum to zero",
                 })
             })?;
-            out.push(point((r, f), prediction_error, ray_kind, thesis));
+            // Beside the thesis's figures where it has them (its own walk, at its rates).
+            let traced = walk == Walk::Trace { any: false };
+            let thesis_at = thesis
+                .filter(|_| !traced)
+                .and_then(|t| t.iter().find(|x| x.0 == r.sample_rate));
+            out.push(TradePoint {
+                source: "sampling_trade",
+                scene: r.scene.clone(),
+                ray_kind,
+                task_size: r.task_size,
+                rays: r.rays,
+                sample_rate: r.sampled_rays as f64 / r.rays.max(1) as f64,
+                sample_error: r.sample_error,
+                figures: WalkFigures {
+                    walk: if r.sample_error.is_some() {
+                        "trace-refined"
+                    } else {
+                        f.figures.walk
+                    },
+                    ..f.figures.clone()
+                },
+                error_vs_time_trace: r.error_vs_time_trace,
+                spearman_trace_vs_time: r.spearman_trace_vs_time,
+                thesis_prediction_error: thesis_at.map(|x| x.1),
+                thesis_overhead: thesis_at.map(|x| x.2),
+                meets_target: meets_target(ray_kind, prediction_error, f.figures.overhead),
+                lpt_balance: f.lpt_balance,
+            });
         }
     }
     Ok(out)
-}
-
-/// The point of walk `f` of report `r`, beside the thesis's `published` figures where it has
-/// them (its own walk, at its rates).
-fn point(
-    (r, f): (&Report, &WalkTrade),
-    prediction_error: f64,
-    ray_kind: &'static str,
-    published: Option<&[Published; 4]>,
-) -> TradePoint {
-    let traced = f.figures.walk == Walk::Trace { any: false }.name();
-    let thesis_at = published
-        .filter(|_| !traced)
-        .and_then(|t| t.iter().find(|x| x.0 == r.sample_rate));
-    TradePoint {
-        source: "sampling_trade",
-        scene: r.scene.clone(),
-        ray_kind,
-        task_size: r.task_size,
-        rays: r.rays,
-        sample_rate: r.sampled_rays as f64 / r.rays.max(1) as f64,
-        sample_error: r.sample_error,
-        figures: WalkFigures {
-            walk: if r.sample_error.is_some() {
-                "trace-refined"
-            } else {
-                f.figures.walk
-            },
-            ..f.figures.clone()
-        },
-        error_vs_time_trace: r.error_vs_time_trace,
-        spearman_trace_vs_time: r.spearman_trace_vs_time,
-        thesis_prediction_error: thesis_at.map(|x| x.1),
-        thesis_overhead: thesis_at.map(|x| x.2),
-        meets_target: meets_target(ray_kind, prediction_error, f.figures.overhead),
-        lpt_balance: f.lpt_balance,
-    }
 }
 
 /// The trade on orbit camera 0 at the matrix's size, for tasks of each of its task sizes, with

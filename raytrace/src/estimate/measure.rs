@@ -306,7 +306,37 @@ fn time_on_cpu(
             .zip(&known)
             .map(|((batch, kind), known)| (batch, kind.is_occlusion(), &known[..])),
     );
-    let timed = time_rounds(cut, s, &estimator, &candidates, &traces, &mut ests)?;
+    // The trace and the rest in slices, every candidate walk's estimate whole, each estimate
+    // and the rays its sample traced left in `ests` once the steps are done with.
+    let timed = {
+        let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CostError> + '_>> = ests
+            .iter_mut()
+            .zip(&candidates)
+            .map(|(slot, &p)| {
+                Box::new(move || -> Result<(), CostError> {
+                    *slot = cut.sample(&estimator, p)?;
+                    Ok(())
+                }) as Box<dyn FnMut() -> Result<(), CostError> + '_>
+            })
+            .collect();
+        let mut trace = |slice: usize| {
+            traces.run(slice, false);
+            Ok(())
+        };
+        let mut rest = |slice: usize| {
+            traces.run(slice, true);
+            Ok(())
+        };
+        let mut whole: Vec<&mut dyn FnMut() -> Result<(), CostError>> =
+            estimates.iter_mut().map(|e| e.as_mut() as _).collect();
+        Rounds::time(
+            s.budget,
+            s.clock,
+            traces.count(),
+            &mut [&mut trace, &mut rest],
+            &mut whole,
+        )?
+    };
     let best: Vec<f64> = (0..2 + candidates.len()).map(|i| timed.least(i)).collect();
     let model = CostModel::default();
     let figures: Vec<WalkTrade> = candidates
@@ -352,45 +382,6 @@ fn time_on_cpu(
         rounds: timed.len(),
         slices: Some(traces.count()),
     })
-}
-
-/// The rounds of [`time_on_cpu`]: the trace and the rest in slices, every candidate walk's
-/// estimate whole, each estimate and the rays its sample traced left in `ests`.
-fn time_rounds(
-    cut: &Cut<'_>,
-    s: &Settings<'_>,
-    estimator: &ReducedTraversal<'_>,
-    candidates: &[Walk],
-    traces: &SlicedTraces<'_>,
-    ests: &mut [(Vec<Work>, usize)],
-) -> Result<Rounds, CostError> {
-    let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CostError> + '_>> = ests
-        .iter_mut()
-        .zip(candidates)
-        .map(|(slot, &p)| {
-            Box::new(move || -> Result<(), CostError> {
-                *slot = cut.sample(estimator, p)?;
-                Ok(())
-            }) as Box<dyn FnMut() -> Result<(), CostError> + '_>
-        })
-        .collect();
-    let mut trace = |slice: usize| {
-        traces.run(slice, false);
-        Ok(())
-    };
-    let mut rest = |slice: usize| {
-        traces.run(slice, true);
-        Ok(())
-    };
-    let mut whole: Vec<&mut dyn FnMut() -> Result<(), CostError>> =
-        estimates.iter_mut().map(|e| e.as_mut() as _).collect();
-    Rounds::time(
-        s.budget,
-        s.clock,
-        traces.count(),
-        &mut [&mut trace, &mut rest],
-        &mut whole,
-    )
 }
 
 /// On the first usable GPU adapter: the best of `repeats` times of the estimate and of the
