@@ -18,7 +18,7 @@ use std::path::Path;
 
 use raytrace::cost::SampleRun;
 use raytrace::estimate::{Device, Generations, Settings, WalkChoice};
-use raytrace::{Bvh, Camera, SceneNeeds, Walk};
+use raytrace::{Bvh, Camera, RayKind, SceneNeeds, Walk};
 
 use crate::args::Size;
 use crate::error::CliError;
@@ -40,7 +40,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let camera = Camera::orbit(&scene.bounds(), args.camera);
     let Size { width, height } = args.size;
     let rays = match args.rays.as_str() {
-        "primary" => Generations::primary(&camera, width, height),
+        "primary" => Generations::of(camera.primary_rays(width, height).rays, RayKind::Primary),
         "ao" => Generations::ao(
             (&scene, &bvh),
             &camera,
