@@ -59,7 +59,7 @@ impl CountRays for Bvh {
 /// As a [`sched::CostEstimator`] it cannot return an error: a task that is empty or outside
 /// the batch gets a NaN cost, which [`sched::CostEstimator::estimate_timed`] rejects naming
 /// that task, and a counter that fails gives every task a NaN cost.
-/// [`ReducedTraversal::try_estimate`] says why.
+/// [`ReducedTraversal::try_work`] says why.
 #[derive(Debug)]
 pub struct ReducedTraversal<'a, C = Bvh> {
     counter: &'a C,
@@ -122,11 +122,6 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
         Self { walk, ..self }
     }
 
-    /// The reduced traversal the sample is traced with.
-    pub fn walk(&self) -> Walk {
-        self.walk
-    }
-
     /// Estimated `B` and `T` of every task: the sample's sums scaled by `len / sampled`.
     pub fn try_work(&self, tasks: &[Range<usize>]) -> Result<Vec<Work>, C::Error> {
         Ok(self.try_sample(tasks)?.work)
@@ -143,18 +138,13 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
         let target = self.sample_error.filter(|_| self.rate < SampleRate::FULL);
         refine(tasks, self.rate, self.run, target, trace)
     }
-
-    /// Estimated cost of every task, or why there is none.
-    pub fn try_estimate(&self, tasks: &[Range<usize>]) -> Result<Vec<f64>, C::Error> {
-        Ok(CostModel::default().costs(&self.try_work(tasks)?))
-    }
 }
 
 impl<C: CountRays> sched::CostEstimator<Range<usize>> for ReducedTraversal<'_, C> {
     fn estimate(&self, tasks: &[Range<usize>]) -> Vec<f64> {
         let checked = check_tasks(self.rays, tasks).map_err(Some);
-        match checked.and_then(|()| self.try_estimate(tasks).map_err(|_| None)) {
-            Ok(costs) => costs,
+        match checked.and_then(|()| self.try_work(tasks).map_err(|_| None)) {
+            Ok(work) => CostModel::default().costs(&work),
             Err(e) => {
                 // Mark the task at fault (or all, for a broken batch or a failed counter) so
                 // the caller's validation names it instead of scheduling on a made-up cost.
@@ -254,7 +244,7 @@ pub(super) mod tests {
         let full = m.costs(&full_work(&bvh, &rays, &tasks, Walk::Reduced).unwrap());
         let err = |r| {
             let e = ReducedTraversal::new(&bvh, &rays, SampleRate::new(r).unwrap());
-            prediction_error(&e.try_estimate(&tasks).unwrap(), &full).unwrap()
+            prediction_error(&m.costs(&e.try_work(&tasks).unwrap()), &full).unwrap()
         };
         let (e8, e2) = (err(0.125), err(0.5));
         assert!(e8 < 0.15 && e2 < 0.08 && e2 <= e8 + 0.01, "{e8} {e2}");
@@ -326,7 +316,7 @@ pub(super) mod tests {
                 .map(|r| Work::sum(&counted[r.clone()]))
                 .collect();
             assert_eq!(full.try_work(&tasks).unwrap(), want);
-            assert_eq!(full_work(&bvh, &rays, &tasks, e.walk()).unwrap(), want);
+            assert_eq!(full_work(&bvh, &rays, &tasks, walk).unwrap(), want);
         }
         let reduced = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS);
         assert_eq!(reduced.try_sample(&tasks).unwrap().traced, None);
@@ -337,7 +327,7 @@ pub(super) mod tests {
         let (bvh, rays) = forest();
         let n = rays.len();
         let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS);
-        let err = e.try_estimate(&[0..10, n..n + 1]).unwrap_err();
+        let err = e.try_work(&[0..10, n..n + 1]).unwrap_err();
         assert!(err.to_string().contains("task 1"), "{err}");
         let timed = e.estimate_timed(&[0..10, 10..10]).unwrap_err();
         assert!(

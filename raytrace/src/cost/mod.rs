@@ -21,7 +21,7 @@
 //!
 //! ```
 //! use raytrace::cost::{CostModel, ReducedTraversal, SampleRate, full_work};
-//! use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
+//! use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource, Walk};
 //! use sched::{CostEstimator, prediction_error};
 //!
 //! let scene = SceneSource::parse("builtin:cornell:0.2")?.load(SceneNeeds::AO)?;
@@ -31,7 +31,7 @@
 //!
 //! let estimator = ReducedTraversal::new(&bvh, &rays, SampleRate::new(0.125)?);
 //! let estimate = estimator.estimate_timed(&tasks)?; // costs and overhead
-//! let (est, full) = (estimator.try_work(&tasks)?, full_work(&bvh, &rays, &tasks, estimator.walk())?);
+//! let (est, full) = (estimator.try_work(&tasks)?, full_work(&bvh, &rays, &tasks, Walk::Reduced)?);
 //! let model = CostModel::default();
 //! let error = prediction_error(&model.costs(&est), &model.costs(&full)).ok_or("no full cost")?;
 //! assert!(estimate.costs.len() == 8 && error < 0.5);
@@ -43,7 +43,6 @@ mod error;
 mod estimator;
 pub mod judge;
 mod measure;
-mod metrics;
 mod model;
 mod refine;
 mod rounds;
@@ -52,8 +51,8 @@ mod sample;
 pub use calibrate::{Fit, FitForm, calibrate};
 pub use error::CostError;
 pub use estimator::{CountRays, ReducedTraversal, full_work};
+pub use judge::error_vs_time;
 pub use measure::measure_seconds;
-pub use metrics::error_vs_time;
 pub use model::{CostModel, Work};
 pub use rounds::{Budget, Rounds, SlicedStep, SlicedTraces, WholeStep};
 pub use sample::{Sample, SampleRate, SampleRun, Traced};
