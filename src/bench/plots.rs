@@ -219,18 +219,18 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
         // rays it saves): the axis starts below the least.
         let xmin = points
             .iter()
-            .map(|p| 100.0 * p.net_overhead)
+            .map(|p| 100.0 * p.figures.net_overhead)
             .fold(0.0, f64::min)
             * 1.15;
         let xmax = points
             .iter()
-            .map(|p| 100.0 * p.net_overhead)
+            .map(|p| 100.0 * p.figures.net_overhead)
             .fold(0.0, f64::max)
             * 1.15
             + 1e-9;
         let ymax = points
             .iter()
-            .filter_map(|p| p.error_vs_time)
+            .filter_map(|p| p.figures.error_vs_time)
             .map(|e| 100.0 * e)
             .fold(0.0, f64::max)
             * 1.25
@@ -255,7 +255,7 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
             .label_style(("sans-serif", 13))
             .draw()
             .map_err(draw_err)?;
-        let mut walks: Vec<&str> = points.iter().map(|p| p.walk).collect();
+        let mut walks: Vec<&str> = points.iter().map(|p| p.figures.walk).collect();
         walks.sort_unstable();
         walks.dedup();
         let lines = [
@@ -273,14 +273,18 @@ fn trade(path: &Path, points: &[TradePoint]) -> Result<(), CliError> {
             };
             let pts: Vec<(f64, f64, String)> = points
                 .iter()
-                .filter(|p| p.ray_kind == kind && p.walk == walk)
+                .filter(|p| p.ray_kind == kind && p.figures.walk == walk)
                 .filter_map(|p| {
                     let rate = format!("{:.1} %", 100.0 * p.sample_rate);
                     let label = match p.lpt_balance {
                         Some(b) => format!("{rate}, LPT {:.1} %", 100.0 * b),
                         None => rate,
                     };
-                    Some((100.0 * p.net_overhead, 100.0 * p.error_vs_time?, label))
+                    Some((
+                        100.0 * p.figures.net_overhead,
+                        100.0 * p.figures.error_vs_time?,
+                        label,
+                    ))
                 })
                 .collect();
             if pts.is_empty() {

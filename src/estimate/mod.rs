@@ -18,7 +18,7 @@ use std::path::Path;
 
 use raytrace::cost::SampleRun;
 use raytrace::estimate::{Device, Generations, Settings, WalkChoice};
-use raytrace::{Bvh, Camera, SceneNeeds, Walk};
+use raytrace::{Bvh, Camera, RayKind, SceneNeeds, Walk};
 
 use crate::args::Size;
 use crate::error::CliError;
@@ -40,7 +40,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let camera = Camera::orbit(&scene.bounds(), args.camera);
     let Size { width, height } = args.size;
     let rays = match args.rays.as_str() {
-        "primary" => Generations::primary(&camera, width, height),
+        "primary" => Generations::of(camera.primary_rays(width, height).rays, RayKind::Primary),
         "ao" => Generations::ao(
             (&scene, &bvh),
             &camera,
@@ -63,7 +63,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         });
     }
     let settings = checked(&args)?;
-    let report = raytrace::estimate::measure(&settings, &scene, &bvh, rays)?;
+    let sample = [(args.sample_rate, args.sample_error.0)];
+    let mut reports = raytrace::estimate::measure(&settings, (&scene, &bvh), &rays, &sample)?;
+    let report = reports.swap_remove(0);
     if args.json {
         crate::print::print_json(&report)
     } else {
@@ -108,9 +110,7 @@ fn checked(args: &Args) -> Result<Settings<'_>, CliError> {
     Ok(Settings {
         scene: &args.scene.scene,
         task_size: args.task_size,
-        sample_rate: args.sample_rate,
         sample_run: args.sample_run,
-        sample_error: args.sample_error.0,
         clock: args.clock,
         repeats: args.repeats,
         budget: raytrace::cost::Budget::estimate(args.repeats),

@@ -10,7 +10,7 @@ use super::error::BenchError;
 use super::matrix::SceneMatrix;
 use crate::cost::{Budget, CostError, ReducedTraversal, SampleRate, SampleRun};
 use crate::estimate::{
-    Device, EstimateError, Generations, Report, Settings, WalkChoice, WalkFigures, measure_samples,
+    Device, EstimateError, Generations, Settings, WalkChoice, WalkFigures, measure,
 };
 use crate::ray::{RayBatch, RayKind};
 use crate::traverse::Walk;
@@ -70,27 +70,16 @@ pub struct TradePoint {
     /// With walk `trace-refined`: the halves' disagreement its sample refined to, up to the
     /// thesis's rate (`ReducedTraversal::with_sample_error`).
     pub sample_error: Option<f64>,
-    /// How the sample was traced: `reduced`, `first-leaf`, `trace` (the real trace) or
-    /// `trace-refined` (the real trace of a sample refined only as far as it needs).
-    pub walk: &'static str,
-    /// The estimates, calibrated (`kB`, `kT`), against each task's measured single-thread
-    /// trace time: what a plan needs of them.
-    pub error_vs_time: Option<f64>,
-    /// Their rank correlation with the measured task times.
-    pub spearman_vs_time: Option<f64>,
+    /// The estimates judged by time, and what they cost a render. Their walk is `reduced`,
+    /// `first-leaf`, `trace` (the real trace) or `trace-refined` (the real trace of a sample
+    /// refined only as far as it needs); their prediction error is never `null` here.
+    #[serde(flatten)]
+    pub figures: WalkFigures,
     /// The same with each task's exact counts of the real trace: what no estimate of `B` and
     /// `T` can beat.
     pub error_vs_time_trace: Option<f64>,
     /// The real trace's counts' rank correlation with the times.
     pub spearman_trace_vs_time: Option<f64>,
-    /// The thesis's, against the walk's own full count (secondary: it does not see time).
-    pub prediction_error: f64,
-    /// Estimation time over the full trace's time, both on all cores: the median over pairs
-    /// of rounds of each pair's share (see [`Rounds`](crate::cost::Rounds)).
-    pub overhead: f64,
-    /// What estimating costs a render: the overhead less the sample's trace, where the walk
-    /// traced it for real and the render reuses its hits; else the overhead.
-    pub net_overhead: f64,
     /// The thesis's error and overhead at this rate and ray kind, where Table 4.1 has them.
     pub thesis_prediction_error: Option<f64>,
     /// The thesis's overhead at this rate and ray kind.
@@ -107,7 +96,7 @@ pub struct TradePoint {
 const TRACE_RATES: [f64; 4] = [0.03125, 0.0625, 0.125, 0.25];
 
 /// The trade's points of `rays` (`kind` rays, the table's `ray_kind`), for tasks of each of the
-/// matrix's sizes: `cobalt estimate`'s measurement ([`measure_samples`]) at every rate and at
+/// matrix's sizes: `cobalt estimate`'s measurement ([`measure`]) at every rate and at
 /// the thesis's rate refined as `cobalt estimate` refines it by default, every walk timed in
 /// the same rounds; of its walks, the thesis's reduced traversal at every rate, the trace walk
 /// at [`TRACE_RATES`] and refined.
@@ -134,9 +123,7 @@ fn points(
         let settings = Settings {
             scene: matrix.scene_name,
             task_size,
-            sample_rate: SampleRate::THESIS,
             sample_run: SampleRun::DEFAULT,
-            sample_error: None,
             clock: sched::Clock::Wall,
             repeats: 3,
             budget: Budget::trade(),
@@ -144,7 +131,7 @@ fn points(
             // The trace walk's sample is every report's `sampled_rays`.
             walk: WalkChoice::Fixed(Walk::Trace { any: false }),
         };
-        let reports = measure_samples(&settings, matrix.scene, matrix.bvh, &rays, &samples)?;
+        let reports = measure(&settings, (matrix.scene, matrix.bvh), &rays, &samples)?;
         // The bench's walk: the thesis's reduced traversal.
         let bench_walk = Walk::Reduced.for_kind(kind);
         let traced = reports
@@ -156,58 +143,46 @@ fn points(
             .chain(traced.map(|r| (r, Walk::Trace { any: false })));
         for (r, walk) in picked {
             // Every report has every walk's figures: the trace walk's and the reduced ones.
-            let Some(f) = r.walks.iter().find(|f| f.walk == walk.name()) else {
+            let Some(f) = r.walks.iter().find(|f| f.figures.walk == walk.name()) else {
                 continue;
             };
-            let prediction_error = f.prediction_error.ok_or_else(|| {
+            let prediction_error = f.figures.prediction_error.ok_or_else(|| {
                 cost(CostError::Degenerate {
                     what: "prediction error",
                     why: "the full costs sum to zero",
                 })
             })?;
-            out.push(point((r, f), prediction_error, ray_kind, thesis));
+            // Beside the thesis's figures where it has them (its own walk, at its rates).
+            let traced = walk == Walk::Trace { any: false };
+            let thesis_at = thesis
+                .filter(|_| !traced)
+                .and_then(|t| t.iter().find(|x| x.0 == r.sample_rate));
+            out.push(TradePoint {
+                source: "sampling_trade",
+                scene: r.scene.clone(),
+                ray_kind,
+                task_size: r.task_size,
+                rays: r.rays,
+                sample_rate: r.sampled_rays as f64 / r.rays.max(1) as f64,
+                sample_error: r.sample_error,
+                figures: WalkFigures {
+                    walk: if r.sample_error.is_some() {
+                        "trace-refined"
+                    } else {
+                        f.figures.walk
+                    },
+                    ..f.figures.clone()
+                },
+                error_vs_time_trace: r.error_vs_time_trace,
+                spearman_trace_vs_time: r.spearman_trace_vs_time,
+                thesis_prediction_error: thesis_at.map(|x| x.1),
+                thesis_overhead: thesis_at.map(|x| x.2),
+                meets_target: meets_target(ray_kind, prediction_error, f.figures.overhead),
+                lpt_balance: f.lpt_balance,
+            });
         }
     }
     Ok(out)
-}
-
-/// The point of walk `f` of report `r`, beside the thesis's `published` figures where it has
-/// them (its own walk, at its rates).
-fn point(
-    (r, f): (&Report, &WalkFigures),
-    prediction_error: f64,
-    ray_kind: &'static str,
-    published: Option<&[Published; 4]>,
-) -> TradePoint {
-    let traced = f.walk == Walk::Trace { any: false }.name();
-    let thesis_at = published
-        .filter(|_| !traced)
-        .and_then(|t| t.iter().find(|x| x.0 == r.sample_rate));
-    TradePoint {
-        source: "sampling_trade",
-        scene: r.scene.clone(),
-        ray_kind,
-        task_size: r.task_size,
-        rays: r.rays,
-        sample_rate: r.sampled_rays as f64 / r.rays.max(1) as f64,
-        sample_error: r.sample_error,
-        walk: if r.sample_error.is_some() {
-            "trace-refined"
-        } else {
-            f.walk
-        },
-        error_vs_time: f.error_vs_time,
-        spearman_vs_time: f.spearman_vs_time,
-        error_vs_time_trace: r.error_vs_time_trace,
-        spearman_trace_vs_time: r.spearman_trace_vs_time,
-        prediction_error,
-        overhead: f.overhead,
-        net_overhead: f.net_overhead,
-        thesis_prediction_error: thesis_at.map(|x| x.1),
-        thesis_overhead: thesis_at.map(|x| x.2),
-        meets_target: meets_target(ray_kind, prediction_error, f.overhead),
-        lpt_balance: f.lpt_balance,
-    }
 }
 
 /// The trade on orbit camera 0 at the matrix's size, for tasks of each of its task sizes, with

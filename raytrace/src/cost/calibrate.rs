@@ -25,16 +25,17 @@ pub struct FitForm {
 
 impl FitForm {
     /// The terms kept, for reports: e.g. `rays+nodes`, `nodes+triangles`, or `none`.
-    pub fn name(self) -> &'static str {
-        match (self.rays, self.nodes, self.tris) {
-            (true, true, true) => "rays+nodes+triangles",
-            (true, true, false) => "rays+nodes",
-            (true, false, true) => "rays+triangles",
-            (false, true, true) => "nodes+triangles",
-            (true, false, false) => "rays",
-            (false, true, false) => "nodes",
-            (false, false, true) => "triangles",
-            (false, false, false) => "none",
+    pub fn name(self) -> String {
+        let terms = [
+            (self.rays, "rays"),
+            (self.nodes, "nodes"),
+            (self.tris, "triangles"),
+        ];
+        let kept: Vec<&str> = terms.iter().filter(|t| t.0).map(|t| t.1).collect();
+        if kept.is_empty() {
+            "none".into()
+        } else {
+            kept.join("+")
         }
     }
 }
@@ -42,7 +43,7 @@ impl FitForm {
 /// Serialized as its [`FitForm::name`].
 impl serde::Serialize for FitForm {
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        serializer.serialize_str(self.name())
+        serializer.serialize_str(&self.name())
     }
 }
 

@@ -6,7 +6,7 @@
 use std::ops::Range;
 
 use super::refine::refine;
-use super::sample::{Compacted, Sample, Traced, check_tasks};
+use super::sample::{Sample, check_tasks};
 use super::{CostError, CostModel, SampleRate, SampleRun, Work};
 use crate::traverse::batch::{reduced_counts_at, traced_at};
 use crate::traverse::counts::Counts;
@@ -59,7 +59,7 @@ impl CountRays for Bvh {
 /// As a [`sched::CostEstimator`] it cannot return an error: a task that is empty or outside
 /// the batch gets a NaN cost, which [`sched::CostEstimator::estimate_timed`] rejects naming
 /// that task, and a counter that fails gives every task a NaN cost.
-/// [`ReducedTraversal::try_estimate`] says why.
+/// [`ReducedTraversal::try_work`] says why.
 #[derive(Debug)]
 pub struct ReducedTraversal<'a, C = Bvh> {
     counter: &'a C,
@@ -122,11 +122,6 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
         Self { walk, ..self }
     }
 
-    /// The reduced traversal the sample is traced with.
-    pub fn walk(&self) -> Walk {
-        self.walk
-    }
-
     /// Estimated `B` and `T` of every task: the sample's sums scaled by `len / sampled`.
     pub fn try_work(&self, tasks: &[Range<usize>]) -> Result<Vec<Work>, C::Error> {
         Ok(self.try_sample(tasks)?.work)
@@ -134,43 +129,22 @@ impl<'a, C: CountRays> ReducedTraversal<'a, C> {
 
     /// Every task's estimated work, the rays sampled, and with [`Walk::Trace`] their hits.
     pub fn try_sample(&self, tasks: &[Range<usize>]) -> Result<Sample, C::Error> {
-        // One pass over the whole compacted list (rayon chunks of it, or one launch), not one
-        // per task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to split.
+        check_tasks(self.rays, tasks)?;
+        // Each pass over one list of every task's sampled rays (rayon chunks of it, or one
+        // launch), not one per task: tasks of 512 rays sampled at 1/8 are 64 rays, too few to
+        // split.
         let trace = |index: &[usize]| self.counter.count_at(self.rays, self.walk, index);
         // A sample of every ray is asked for exactly; nothing is left to refine towards.
-        if let Some(target) = self.sample_error.filter(|_| self.rate < SampleRate::FULL) {
-            check_tasks(self.rays, tasks)?;
-            return refine(tasks, self.rate, self.run, target, trace);
-        }
-        let sample = Compacted::gather(self.rays, tasks, self.rate, self.run)?;
-        let (traced, counts) = trace(&sample.index)?;
-        let work = sample
-            .offsets
-            .windows(2)
-            .zip(&sample.lens)
-            .map(|(w, &len)| Work::sum(&counts[w[0]..w[1]]).scaled(len, w[1] - w[0]))
-            .collect();
-        Ok(Sample {
-            sampled: sample.index.len(),
-            work,
-            traced: traced.map(|hits| Traced {
-                index: sample.index,
-                hits,
-            }),
-        })
-    }
-
-    /// Estimated cost of every task, or why there is none.
-    pub fn try_estimate(&self, tasks: &[Range<usize>]) -> Result<Vec<f64>, C::Error> {
-        Ok(CostModel::default().costs(&self.try_work(tasks)?))
+        let target = self.sample_error.filter(|_| self.rate < SampleRate::FULL);
+        refine(tasks, self.rate, self.run, target, trace)
     }
 }
 
 impl<C: CountRays> sched::CostEstimator<Range<usize>> for ReducedTraversal<'_, C> {
     fn estimate(&self, tasks: &[Range<usize>]) -> Vec<f64> {
         let checked = check_tasks(self.rays, tasks).map_err(Some);
-        match checked.and_then(|()| self.try_estimate(tasks).map_err(|_| None)) {
-            Ok(costs) => costs,
+        match checked.and_then(|()| self.try_work(tasks).map_err(|_| None)) {
+            Ok(work) => CostModel::default().costs(&work),
             Err(e) => {
                 // Mark the task at fault (or all, for a broken batch or a failed counter) so
                 // the caller's validation names it instead of scheduling on a made-up cost.
@@ -270,7 +244,7 @@ pub(super) mod tests {
         let full = m.costs(&full_work(&bvh, &rays, &tasks, Walk::Reduced).unwrap());
         let err = |r| {
             let e = ReducedTraversal::new(&bvh, &rays, SampleRate::new(r).unwrap());
-            prediction_error(&e.try_estimate(&tasks).unwrap(), &full).unwrap()
+            prediction_error(&m.costs(&e.try_work(&tasks).unwrap()), &full).unwrap()
         };
         let (e8, e2) = (err(0.125), err(0.5));
         assert!(e8 < 0.15 && e2 < 0.08 && e2 <= e8 + 0.01, "{e8} {e2}");
@@ -310,9 +284,15 @@ pub(super) mod tests {
             let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS).with_walk(walk);
             let Sample { work, traced, .. } = e.try_sample(&tasks).unwrap();
             let traced = traced.expect("the sample's hits");
-            let sample =
-                Compacted::gather(&rays, &tasks, SampleRate::THESIS, SampleRun::DEFAULT).unwrap();
-            assert_eq!(traced.index, sample.index);
+            // Every task's runs, task after task: one list for one pass.
+            let sample: Vec<usize> = (tasks.iter())
+                .flat_map(|r| {
+                    let k = SampleRate::THESIS.samples(r.len());
+                    let runs = crate::cost::sample::sample_runs(k, r.len(), SampleRun::DEFAULT);
+                    runs.flatten().map(|i| r.start + i)
+                })
+                .collect();
+            assert_eq!(traced.index, sample);
             assert!(traced.index.windows(2).all(|w| w[0] < w[1]), "sorted");
             for (k, &i) in traced.index.iter().enumerate() {
                 let ray = rays.get(i);
@@ -336,7 +316,7 @@ pub(super) mod tests {
                 .map(|r| Work::sum(&counted[r.clone()]))
                 .collect();
             assert_eq!(full.try_work(&tasks).unwrap(), want);
-            assert_eq!(full_work(&bvh, &rays, &tasks, e.walk()).unwrap(), want);
+            assert_eq!(full_work(&bvh, &rays, &tasks, walk).unwrap(), want);
         }
         let reduced = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS);
         assert_eq!(reduced.try_sample(&tasks).unwrap().traced, None);
@@ -347,7 +327,7 @@ pub(super) mod tests {
         let (bvh, rays) = forest();
         let n = rays.len();
         let e = ReducedTraversal::new(&bvh, &rays, SampleRate::THESIS);
-        let err = e.try_estimate(&[0..10, n..n + 1]).unwrap_err();
+        let err = e.try_work(&[0..10, n..n + 1]).unwrap_err();
         assert!(err.to_string().contains("task 1"), "{err}");
         let timed = e.estimate_timed(&[0..10, 10..10]).unwrap_err();
         assert!(

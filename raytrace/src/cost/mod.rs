@@ -5,9 +5,9 @@
 //!
 //! A task is a `Range<usize>` of a [`RayBatch`](crate::RayBatch) (`sched` implements
 //! [`sched::Task`] for ranges). The pieces:
-//! - [`SampleRate`] and [`Compacted`]: a uniform stride sample of every task, compacted into one
-//!   contiguous list of ray indices (the thesis compacts the sample before the reduced trace;
-//!   the CPU reads the sampled rays in place through it);
+//! - [`SampleRate`] and [`SampleRun`]: a uniform stride sample of every task, compacted into
+//!   one contiguous list of ray indices (the thesis compacts the sample before the reduced
+//!   trace; the CPU reads the sampled rays in place through it), refined where asked;
 //! - [`ReducedTraversal`]: the estimator, a [`sched::CostEstimator`], written once over what
 //!   counts its sample ([`CountRays`]: the host's tree or a GPU); [`full_work`] is the same
 //!   count over *all* rays, the reference of the prediction error;
@@ -21,7 +21,7 @@
 //!
 //! ```
 //! use raytrace::cost::{CostModel, ReducedTraversal, SampleRate, full_work};
-//! use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource};
+//! use raytrace::{BuildPreset, Bvh, Camera, SceneNeeds, SceneSource, Walk};
 //! use sched::{CostEstimator, prediction_error};
 //!
 //! let scene = SceneSource::parse("builtin:cornell:0.2")?.load(SceneNeeds::AO)?;
@@ -31,7 +31,7 @@
 //!
 //! let estimator = ReducedTraversal::new(&bvh, &rays, SampleRate::new(0.125)?);
 //! let estimate = estimator.estimate_timed(&tasks)?; // costs and overhead
-//! let (est, full) = (estimator.try_work(&tasks)?, full_work(&bvh, &rays, &tasks, estimator.walk())?);
+//! let (est, full) = (estimator.try_work(&tasks)?, full_work(&bvh, &rays, &tasks, Walk::Reduced)?);
 //! let model = CostModel::default();
 //! let error = prediction_error(&model.costs(&est), &model.costs(&full)).ok_or("no full cost")?;
 //! assert!(estimate.costs.len() == 8 && error < 0.5);
@@ -43,7 +43,6 @@ mod error;
 mod estimator;
 pub mod judge;
 mod measure;
-mod metrics;
 mod model;
 mod refine;
 mod rounds;
@@ -52,8 +51,8 @@ mod sample;
 pub use calibrate::{Fit, FitForm, calibrate};
 pub use error::CostError;
 pub use estimator::{CountRays, ReducedTraversal, full_work};
+pub use judge::error_vs_time;
 pub use measure::measure_seconds;
-pub use metrics::error_vs_time;
 pub use model::{CostModel, Work};
 pub use rounds::{Budget, Rounds, SlicedStep, SlicedTraces, WholeStep};
-pub use sample::{Compacted, Sample, SampleRate, SampleRun, Traced};
+pub use sample::{Sample, SampleRate, SampleRun, Traced};

@@ -40,12 +40,15 @@ type Found = Option<(usize, usize, Work)>;
 /// The refined sample of `tasks` (checked non-empty and inside the batch): the full sample is
 /// `rate`'s in runs of `run`; `trace` walks a list of ray indices, all in one parallel pass;
 /// the default [`CostModel`] weighs the halves' counts; refinement stops once the halves
-/// disagree by at most `target`. An error of `trace` ends the refinement.
+/// disagree by at most `target`. Without a target the full sample is taken at once, in one
+/// pass over one contiguous list of every task's sampled rays (the thesis compacts the sample
+/// so; the host reads the rays in place through it, a GPU uploads the rays it lists). An
+/// error of `trace` ends the refinement.
 pub(super) fn refine<E>(
     tasks: &[Range<usize>],
     rate: SampleRate,
     run: SampleRun,
-    target: f64,
+    target: Option<f64>,
     mut trace: impl FnMut(&[usize]) -> Result<(Option<HitBatch>, Vec<Counts>), E>,
 ) -> Result<Sample, E> {
     // Every task's runs in one list, task `t`'s at `runs[from[t]..from[t + 1]]`: this
@@ -61,7 +64,11 @@ pub(super) fn refine<E>(
         );
     }
     from.push(runs.len());
-    let first = 1usize << LEVELS;
+    let first = if target.is_some() {
+        1usize << LEVELS
+    } else {
+        1
+    };
     let mut stride: Vec<usize> = from
         .windows(2)
         .map(|w| {
@@ -74,8 +81,8 @@ pub(super) fn refine<E>(
         .collect();
     // Per run: the pass that traced it and where in that pass, and its counts' sum.
     let mut found: Vec<Found> = vec![None; runs.len()];
-    // Each pass's hits, where the walk traced for real.
-    let mut passes: Vec<Option<HitBatch>> = Vec::new();
+    // Each pass's rays, and their hits where the walk traced for real.
+    let mut passes: Vec<(Vec<usize>, Option<HitBatch>)> = Vec::new();
     // Traces, in one pass, every task's runs `j0, j0 + step, …` for its `pick(t) = (j0, step)`.
     let mut take = |pick: &dyn Fn(usize) -> Option<(usize, usize)>, found: &mut [Found]| {
         let mut index = Vec::new();
@@ -92,7 +99,7 @@ pub(super) fn refine<E>(
             let len = runs[k].len();
             found[k] = Some((passes.len(), at, Work::sum(&counts[at..at + len])));
         }
-        passes.push(hits);
+        passes.push((index, hits));
         Ok(())
     };
     take(&|t| Some((0, stride[t])), &mut found)?;
@@ -109,6 +116,7 @@ pub(super) fn refine<E>(
             .collect();
         let total: f64 = by_gap.iter().map(|h| h.2).sum();
         let mut apart: f64 = by_gap.iter().map(|h| h.1).sum();
+        let target = target.unwrap_or(f64::INFINITY);
         if by_gap.is_empty() || apart <= target * total {
             break;
         }
@@ -130,7 +138,7 @@ pub(super) fn refine<E>(
             }
         }
     }
-    Ok(assemble(tasks, &from, &runs, &found, &passes))
+    Ok(assemble(tasks, &from, &runs, &found, passes))
 }
 
 /// A task's two halves at `stride` (see the module docs), from its runs' `found`: each half's
@@ -155,41 +163,40 @@ fn assemble(
     from: &[usize],
     runs: &[Range<usize>],
     found: &[Found],
-    passes: &[Option<HitBatch>],
+    mut passes: Vec<(Vec<usize>, Option<HitBatch>)>,
 ) -> Sample {
-    let traced = passes.iter().any(Option::is_some);
-    let rays: usize = runs
+    let work = tasks
         .iter()
-        .zip(found)
-        .filter(|(_, f)| f.is_some())
-        .map(|(r, _)| r.len())
-        .sum();
-    let mut index = Vec::with_capacity(rays);
-    let mut hits = HitBatch {
-        t: Vec::with_capacity(if traced { rays } else { 0 }),
-        prim: Vec::with_capacity(if traced { rays } else { 0 }),
-    };
-    let mut work = Vec::with_capacity(tasks.len());
-    for (t, task) in tasks.iter().enumerate() {
-        let mut sum = Work::default();
-        for k in from[t]..from[t + 1] {
-            let Some((pass, at, w)) = found[k] else {
-                continue;
-            };
-            let r = &runs[k];
+        .enumerate()
+        .map(|(t, task)| {
+            let own = found[from[t]..from[t + 1]].iter().flatten();
+            let sum = own.fold(Work::default(), |sum, &(_, _, w)| sum.plus(w));
+            sum.scaled(task.len(), sum.rays as usize)
+        })
+        .collect();
+    // A single pass traced every run it kept task by task, in order: its list is the sample.
+    let (index, hits) = if passes.len() == 1 {
+        passes.swap_remove(0)
+    } else {
+        let mut index = Vec::new();
+        let mut hits = passes[0].1.as_ref().map(|_| HitBatch::default());
+        for (r, &(pass, at, _)) in runs
+            .iter()
+            .zip(found)
+            .filter_map(|(r, f)| Some((r, f.as_ref()?)))
+        {
             index.extend(r.clone());
-            if let Some(h) = &passes[pass] {
-                hits.t.extend_from_slice(&h.t[at..at + r.len()]);
-                hits.prim.extend_from_slice(&h.prim[at..at + r.len()]);
+            if let (Some(all), Some(h)) = (&mut hits, &passes[pass].1) {
+                all.t.extend_from_slice(&h.t[at..at + r.len()]);
+                all.prim.extend_from_slice(&h.prim[at..at + r.len()]);
             }
-            sum = sum.plus(w);
         }
-        work.push(sum.scaled(task.len(), sum.rays as usize));
-    }
+        (index, hits)
+    };
     Sample {
         sampled: index.len(),
         work,
-        traced: traced.then_some(Traced { index, hits }),
+        traced: hits.map(|hits| Traced { index, hits }),
     }
 }
 
@@ -197,7 +204,7 @@ fn assemble(
 mod tests {
     use glam::Vec3;
 
-    use crate::cost::{Compacted, ReducedTraversal, SampleRate, SampleRun, Work};
+    use crate::cost::{ReducedTraversal, SampleRate, Work};
     use crate::{Bvh, Ray, RayBatch, Walk};
 
     /// Runs of 8 at a quarter: a task of 1024 rays has 32 runs, 8 at the first level.
@@ -260,19 +267,15 @@ mod tests {
         assert_eq!(s.sampled, 64 + 64 + 32);
         let traced = s.traced.expect("the trace walk's hits");
         assert_eq!(per_task(&traced.index, &tasks), vec![64, 64, 32]);
-        let full = Compacted::gather(
-            &rays,
-            &tasks,
-            SampleRate::new(RATE).unwrap(),
-            SampleRun::DEFAULT,
-        )
-        .unwrap();
-        let quarter: Vec<usize> = full.index[..512]
+        // The fixed rate's sample, in order.
+        let fixed = e.try_sample(&tasks).unwrap().traced;
+        let full = fixed.expect("the trace walk's hits").index;
+        let quarter: Vec<usize> = full[..512]
             .chunks(8)
             .step_by(4)
             .flatten()
             .copied()
-            .chain(full.index[512..].iter().copied())
+            .chain(full[512..].iter().copied())
             .collect();
         assert_eq!(traced.index, quarter);
         for (k, &i) in traced.index.iter().enumerate() {

@@ -1,6 +1,6 @@
-//! Uniform task sampling and compaction (thesis, figure 3.1 b and section 3.3): every task
-//! keeps rays at a fixed stride (runs of neighbours, see [`SampleRun`]), and the kept rays
-//! of all tasks are gathered into one contiguous batch, so the reduced trace streams through
+//! Uniform task sampling (thesis, figure 3.1 b and section 3.3): every task keeps rays at a
+//! fixed stride (runs of neighbours, see [`SampleRun`]), and the kept rays of all tasks are
+//! gathered into one contiguous list (`refine.rs`), so the reduced trace streams through
 //! memory and its parallel loop sees one flat array instead of many short strided ones. What
 //! a sample found is a [`Sample`], with the hits of a sample traced for real ([`Traced`]).
 
@@ -63,14 +63,8 @@ impl std::str::FromStr for SampleRun {
     }
 }
 
-/// Indices (within a task of `len` rays) of its `k` samples, `0 < k <= len`, in order: the
-/// rays of its [`sample_runs`].
-fn sample_indices(k: usize, len: usize, run: SampleRun) -> impl Iterator<Item = usize> {
-    sample_runs(k, len, run).flatten()
-}
-
 /// The runs (ranges within a task of `len` rays) that hold its `k` samples, `0 < k <= len`,
-/// in order: every ray alone when `k == len`, else runs of up to `run` adjacent rays near the
+/// in order: the whole task as one run when `k == len`, else runs of up to `run` adjacent rays near the
 /// middle of each of `ceil(k / run)` equal strata, starting on a multiple of `run` where the
 /// stratum has one before its middle. Where the strata would be narrower than the run (a
 /// sample of nearly the whole task), the run is shortened until each fits its stratum, so runs
@@ -85,9 +79,9 @@ pub(super) fn sample_runs(
         .rev()
         .find(|&r| len / k.div_ceil(r) >= r)
         .unwrap_or(1);
-    let runs = if k == len { len } else { k.div_ceil(run) };
+    let runs = if k == len { 1 } else { k.div_ceil(run) };
     (0..runs).map(move |j| {
-        let width = if k == len { 1 } else { run.min(k - run * j) };
+        let width = if k == len { len } else { run.min(k - run * j) };
         // Integer strata bounds, never past the task: `(j + 1)·len <= len²` does not overflow
         // for tasks below 2^32 rays.
         let (lo, hi) = (j * len / runs, (j + 1) * len / runs);
@@ -99,52 +93,6 @@ pub(super) fn sample_runs(
         let start = if aligned >= lo { aligned } else { middle };
         start..start + width
     })
-}
-
-/// The sampled rays of all tasks, compacted into one contiguous list of ray indices: task
-/// `t`'s samples are `index[offsets[t]..offsets[t + 1]]`, and together they stand for the
-/// task's `lens[t]` rays. The CPU's reduced traversal reads the sampled rays in place through
-/// the list; a GPU uploads the rays it lists.
-#[derive(Clone, Debug, Default)]
-pub struct Compacted {
-    /// Index in the batch of every sampled ray, task after task.
-    pub index: Vec<usize>,
-    /// Task `t`'s samples start at `offsets[t]`; one more entry than there are tasks.
-    pub offsets: Vec<usize>,
-    /// Rays in each task.
-    pub lens: Vec<usize>,
-}
-
-impl Compacted {
-    /// Samples every task of `rays` at `rate` in runs of `run` adjacent rays and gathers the
-    /// samples.
-    ///
-    /// Checks before reading: every task must be non-empty and inside the batch, and the
-    /// batch's columns must agree in length.
-    pub fn gather(
-        rays: &RayBatch,
-        tasks: &[Range<usize>],
-        rate: SampleRate,
-        run: SampleRun,
-    ) -> Result<Self, CostError> {
-        check_tasks(rays, tasks)?;
-        let mut offsets = Vec::with_capacity(tasks.len() + 1);
-        offsets.push(0);
-        for (task, r) in tasks.iter().enumerate() {
-            offsets.push(offsets[task] + rate.samples(r.len()));
-        }
-        let total = offsets[tasks.len()];
-        let mut index = Vec::with_capacity(total);
-        for r in tasks {
-            let (len, k) = (r.len(), rate.samples(r.len()));
-            index.extend(sample_indices(k, len, run).map(|i| r.start + i));
-        }
-        Ok(Self {
-            index,
-            offsets,
-            lens: tasks.iter().map(|r| r.len()).collect(),
-        })
-    }
 }
 
 /// What an estimate's sample found.
@@ -195,6 +143,25 @@ mod tests {
     use crate::Ray;
     use glam::Vec3;
 
+    /// Every task's sampled rays, task after task, as the estimator lists them for its one pass
+    /// (`refine.rs`, without a target), with each task's first entry in the list: for the tests
+    /// that compare a sample's rays.
+    fn gather(
+        rays: &RayBatch,
+        tasks: &[Range<usize>],
+        rate: SampleRate,
+        run: SampleRun,
+    ) -> Result<(Vec<usize>, Vec<usize>), CostError> {
+        check_tasks(rays, tasks)?;
+        let (mut index, mut offsets) = (Vec::new(), vec![0]);
+        for r in tasks {
+            let runs = sample_runs(rate.samples(r.len()), r.len(), run);
+            index.extend(runs.flatten().map(|i| r.start + i));
+            offsets.push(index.len());
+        }
+        Ok((index, offsets))
+    }
+
     fn batch(n: usize) -> RayBatch {
         (0..n)
             .map(|i| Ray::new(Vec3::new(i as f32, 0.0, 0.0), Vec3::X))
@@ -204,38 +171,31 @@ mod tests {
     #[test]
     fn every_task_keeps_at_least_one_ray_even_at_tiny_rates() {
         let rate = SampleRate::new(1e-9).unwrap();
-        let c = Compacted::gather(
-            &batch(1000),
-            &sched::split_ranges(1000, 7),
-            rate,
-            SampleRun::DEFAULT,
-        )
-        .unwrap();
-        assert_eq!(c.lens.len(), 143);
-        assert!(c.offsets.windows(2).all(|w| w[1] - w[0] == 1));
-        assert_eq!(c.index.len(), 143);
+        let tasks = sched::split_ranges(1000, 7);
+        let (index, offsets) = gather(&batch(1000), &tasks, rate, SampleRun::DEFAULT).unwrap();
+        assert_eq!(tasks.len(), 143);
+        assert!(offsets.windows(2).all(|w| w[1] - w[0] == 1));
+        assert_eq!(index.len(), 143);
         // The single sample of a 7-ray task is its middle ray, standing for all seven.
-        assert_eq!(c.index[0], 3);
-        assert_eq!((c.lens[0], c.lens[142]), (7, 6)); // the last task has 1000 - 142·7 rays
+        assert_eq!(index[0], 3);
+        assert_eq!(index[142], 142 * 7 + 2); // the last task has 1000 - 142·7 = 6 rays
     }
 
     #[test]
     fn samples_are_runs_at_a_uniform_stride_and_rate_one_keeps_everything() {
         let rays = batch(64);
         let pairs = SampleRun::new(2).unwrap();
-        let c = Compacted::gather(&rays, &[0..32, 32..64], SampleRate::THESIS, pairs).unwrap();
+        let (index, offsets) = gather(&rays, &[0..32, 32..64], SampleRate::THESIS, pairs).unwrap();
         // Each pair starts on the even ray just before its stratum's middle.
-        assert_eq!(c.index, vec![6, 7, 22, 23, 38, 39, 54, 55]);
-        assert_eq!(c.offsets, vec![0, 4, 8]);
-        let all = Compacted::gather(
-            &rays,
-            &[0..40, 40..64],
-            SampleRate::FULL,
-            SampleRun::DEFAULT,
-        )
-        .unwrap();
-        assert!(all.index.iter().copied().eq(0..64));
-        assert_eq!(all.offsets, vec![0, 40, 64]);
+        assert_eq!(index, vec![6, 7, 22, 23, 38, 39, 54, 55]);
+        assert_eq!(offsets, vec![0, 4, 8]);
+        let tasks = [0..40, 40..64];
+        let (all, offsets) = gather(&rays, &tasks, SampleRate::FULL, SampleRun::DEFAULT).unwrap();
+        assert!(all.iter().copied().eq(0..64));
+        assert_eq!(offsets, vec![0, 40, 64]);
+        // A task sampled whole is one run.
+        let whole: Vec<Range<usize>> = sample_runs(40, 40, SampleRun::DEFAULT).collect();
+        assert_eq!(whole, vec![0..40]);
         assert_eq!(SampleRate::THESIS.samples(4096), 512);
         assert_eq!(SampleRate::THESIS.samples(513), 65);
     }
@@ -246,7 +206,7 @@ mod tests {
             let run = SampleRun::new(run).unwrap();
             for len in 1..200 {
                 for k in 1..=len {
-                    let got: Vec<usize> = sample_indices(k, len, run).collect();
+                    let got: Vec<usize> = sample_runs(k, len, run).flatten().collect();
                     let case = format!("run {run:?} k {k} len {len}: {got:?}");
                     assert_eq!(got.len(), k, "{case}");
                     assert!(got.windows(2).all(|w| w[0] < w[1]), "{case}");
@@ -263,12 +223,12 @@ mod tests {
     fn a_long_run_keeps_neighbours_together_in_the_middle_of_each_stratum() {
         let rays = batch(256);
         let run = SampleRun::new(8).unwrap();
-        let c = Compacted::gather(&rays, &[0..128, 128..256], SampleRate::THESIS, run).unwrap();
+        let (index, _) = gather(&rays, &[0..128, 128..256], SampleRate::THESIS, run).unwrap();
         // 16 samples a task: two runs of 8, each in the middle of a stratum of 64, on the
         // multiple of 8 before it.
         let first: Vec<usize> = (24..32).chain(88..96).collect();
         let second: Vec<usize> = first.iter().map(|x| x + 128).collect();
-        assert_eq!(c.index, [first, second].concat());
+        assert_eq!(index, [first, second].concat());
         assert!("0".parse::<SampleRun>().is_err() && "x".parse::<SampleRun>().is_err());
         assert_eq!("16".parse::<SampleRun>(), Ok(SampleRun::new(16).unwrap()));
     }
@@ -277,10 +237,10 @@ mod tests {
     fn default_runs_fill_whole_groups_of_eight_in_tasks_of_a_multiple_of_eight() {
         let rays = batch(3 * 4096);
         let tasks = sched::split_ranges(rays.len(), 4096);
-        let c = Compacted::gather(&rays, &tasks, SampleRate::THESIS, SampleRun::DEFAULT).unwrap();
+        let (index, _) = gather(&rays, &tasks, SampleRate::THESIS, SampleRun::DEFAULT).unwrap();
         assert_eq!(SampleRun::DEFAULT.get(), 8);
-        assert_eq!(c.index.len(), 3 * 512);
-        for run in c.index.chunks(8) {
+        assert_eq!(index.len(), 3 * 512);
+        for run in index.chunks(8) {
             assert_eq!(run[0] % 8, 0, "{run:?}");
             assert!(run.windows(2).all(|w| w[1] == w[0] + 1), "{run:?}");
         }
@@ -289,11 +249,9 @@ mod tests {
     #[test]
     fn empty_and_out_of_range_tasks_are_errors_naming_the_task() {
         let rays = batch(10);
-        let empty = Compacted::gather(&rays, &[0..5, 5..5], SampleRate::FULL, SampleRun::DEFAULT)
-            .unwrap_err();
+        let empty = gather(&rays, &[0..5, 5..5], SampleRate::FULL, SampleRun::DEFAULT).unwrap_err();
         assert_eq!(empty, CostError::EmptyTask { task: 1 });
-        let out = Compacted::gather(&rays, &[0..5, 5..11], SampleRate::FULL, SampleRun::DEFAULT)
-            .unwrap_err();
+        let out = gather(&rays, &[0..5, 5..11], SampleRate::FULL, SampleRun::DEFAULT).unwrap_err();
         assert!(matches!(
             out,
             CostError::TaskOutOfRange {
@@ -305,8 +263,7 @@ mod tests {
         ));
         let mut broken = rays.clone();
         broken.tmax.pop();
-        let err = Compacted::gather(&broken, &[0..5, 5..9], SampleRate::FULL, SampleRun::DEFAULT)
-            .unwrap_err();
+        let err = gather(&broken, &[0..5, 5..9], SampleRate::FULL, SampleRun::DEFAULT).unwrap_err();
         assert_eq!(err, CostError::InconsistentBatch);
     }
 }

@@ -7,7 +7,7 @@ use std::ops::Range;
 
 use super::error::EstimateError;
 use super::rays::Generations;
-use super::report::{Calibration, Report, WalkFigures, WalkFit};
+use super::report::{Calibration, Report, WalkFigures, WalkFit, WalkTrade};
 use crate::bvh::Bvh;
 use crate::cost::judge::{self, Judged, judge};
 use crate::cost::{
@@ -55,12 +55,8 @@ pub struct Settings<'a> {
     pub scene: &'a str,
     /// Rays per task.
     pub task_size: NonZeroUsize,
-    /// The share of each task's rays the estimate samples (at most, where it refines).
-    pub sample_rate: SampleRate,
     /// Adjacent rays the sample keeps together (CPU only).
     pub sample_run: SampleRun,
-    /// How far the CPU's sample refines ([`ReducedTraversal::with_sample_error`]).
-    pub sample_error: Option<f64>,
     /// What times are taken on.
     pub clock: sched::Clock,
     /// Every timing's repeats: each task's measured time, and on the GPU the estimate's and
@@ -76,43 +72,27 @@ pub struct Settings<'a> {
     pub walk: WalkChoice,
 }
 
-/// Measures the estimates of `rays` (at least one ray) against their tasks' times.
+/// Measures the estimates of `rays` (at least one ray) against their tasks' times at each of
+/// `samples`: the share of each task's rays the estimate samples (at most, where it refines)
+/// and how far the CPU's sample refines ([`ReducedTraversal::with_sample_error`]). The tasks'
+/// times are measured once; one report a sample, in order (`cobalt estimate` takes one, the
+/// bench's sampling trade several).
 pub fn measure(
     s: &Settings<'_>,
-    scene: &Scene,
-    bvh: &Bvh,
-    rays: Generations,
-) -> Result<Report, EstimateError> {
-    let sample = [(s.sample_rate, s.sample_error)];
-    let mut reports = measure_samples(s, scene, bvh, &rays, &sample)?;
-    Ok(reports.swap_remove(0))
-}
-
-/// [`measure`] at each of `samples` (a sample rate, and how far the sample refines, in place
-/// of the settings' own), the tasks' times measured once: one report each, in order. The
-/// bench's sampling trade is these reports.
-pub fn measure_samples(
-    s: &Settings<'_>,
-    scene: &Scene,
-    bvh: &Bvh,
+    (scene, bvh): (&Scene, &Bvh),
     rays: &Generations,
     samples: &[(SampleRate, Option<f64>)],
 ) -> Result<Vec<Report>, EstimateError> {
     let cut = Cut::new(bvh, &rays.segments, s)?;
     samples
         .iter()
-        .map(|&(sample_rate, sample_error)| {
-            let s = &Settings {
-                sample_rate,
-                sample_error,
-                ..*s
-            };
+        .map(|&at| {
             let chosen = cut.choose(s.walk)?;
             let timed = match s.device {
-                Device::Cpu => time_on_cpu(&cut, s, chosen.walk, &chosen.full)?,
-                Device::Gpu => time_on_gpu(&cut, s, chosen.walk)?,
+                Device::Cpu => time_on_cpu(&cut, s, at, chosen.walk, &chosen.full)?,
+                Device::Gpu => time_on_gpu(&cut, s, at.0, chosen.walk)?,
             };
-            Ok(report(&cut, s, (scene, rays), chosen, timed))
+            Ok(report(&cut, (s, at), (scene, rays), chosen, timed))
         })
         .collect()
 }
@@ -273,7 +253,7 @@ struct Timed {
     /// The GPU's name.
     adapter: Option<String>,
     /// Every walk's figures (CPU).
-    walks: Vec<WalkFigures>,
+    walks: Vec<WalkTrade>,
     sampled_rays: usize,
     /// The overhead, net overhead and the net overhead's quartiles from the pairs of rounds
     /// (CPU); on the GPU they come from the least times.
@@ -303,6 +283,7 @@ fn shares(timed: &Rounds, i: usize, reused: bool) -> (f64, f64, [f64; 2]) {
 fn time_on_cpu(
     cut: &Cut<'_>,
     s: &Settings<'_>,
+    (rate, sample_error): (SampleRate, Option<f64>),
     walk: Walk,
     full: &[Work],
 ) -> Result<Timed, CostError> {
@@ -312,9 +293,9 @@ fn time_on_cpu(
         Walk::Reduced => 1,
         Walk::FirstLeaf => 2,
     };
-    let estimator = ReducedTraversal::new(cut.bvh, &cut.rays, s.sample_rate)
+    let estimator = ReducedTraversal::new(cut.bvh, &cut.rays, rate)
         .with_run(s.sample_run)
-        .with_sample_error(s.sample_error);
+        .with_sample_error(sample_error);
     let known = cut.known(&estimator)?;
     // Each walk's estimates and the rays its samples traced.
     let mut ests: Vec<(Vec<Work>, usize)> = vec![(Vec::new(), 0); candidates.len()];
@@ -325,10 +306,40 @@ fn time_on_cpu(
             .zip(&known)
             .map(|((batch, kind), known)| (batch, kind.is_occlusion(), &known[..])),
     );
-    let timed = time_rounds(cut, s, &estimator, &candidates, &traces, &mut ests)?;
+    // The trace and the rest in slices, every candidate walk's estimate whole, each estimate
+    // and the rays its sample traced left in `ests` once the steps are done with.
+    let timed = {
+        let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CostError> + '_>> = ests
+            .iter_mut()
+            .zip(&candidates)
+            .map(|(slot, &p)| {
+                Box::new(move || -> Result<(), CostError> {
+                    *slot = cut.sample(&estimator, p)?;
+                    Ok(())
+                }) as Box<dyn FnMut() -> Result<(), CostError> + '_>
+            })
+            .collect();
+        let mut trace = |slice: usize| {
+            traces.run(slice, false);
+            Ok(())
+        };
+        let mut rest = |slice: usize| {
+            traces.run(slice, true);
+            Ok(())
+        };
+        let mut whole: Vec<&mut dyn FnMut() -> Result<(), CostError>> =
+            estimates.iter_mut().map(|e| e.as_mut() as _).collect();
+        Rounds::time(
+            s.budget,
+            s.clock,
+            traces.count(),
+            &mut [&mut trace, &mut rest],
+            &mut whole,
+        )?
+    };
     let best: Vec<f64> = (0..2 + candidates.len()).map(|i| timed.least(i)).collect();
     let model = CostModel::default();
-    let figures: Vec<WalkFigures> = candidates
+    let figures: Vec<WalkTrade> = candidates
         .iter()
         .zip(&ests)
         .zip(&best[2..])
@@ -342,16 +353,18 @@ fn time_on_cpu(
             } else {
                 cut.full(p).ok()
             };
-            WalkFigures {
-                walk: p.name(),
-                lpt_balance: judged.lpt_balance,
-                error_vs_time: judged.error_vs_time,
-                spearman_vs_time: judged.spearman_vs_time,
-                prediction_error: full
-                    .and_then(|f| sched::prediction_error(&model.costs(est), &model.costs(&f))),
+            WalkTrade {
+                figures: WalkFigures {
+                    walk: p.name(),
+                    error_vs_time: judged.error_vs_time,
+                    spearman_vs_time: judged.spearman_vs_time,
+                    prediction_error: full
+                        .and_then(|f| sched::prediction_error(&model.costs(est), &model.costs(&f))),
+                    overhead,
+                    net_overhead,
+                },
                 estimate_seconds: seconds,
-                overhead,
-                net_overhead,
+                lpt_balance: judged.lpt_balance,
             }
         })
         .collect();
@@ -371,55 +384,21 @@ fn time_on_cpu(
     })
 }
 
-/// The rounds of [`time_on_cpu`]: the trace and the rest in slices, every candidate walk's
-/// estimate whole, each estimate and the rays its sample traced left in `ests`.
-fn time_rounds(
-    cut: &Cut<'_>,
-    s: &Settings<'_>,
-    estimator: &ReducedTraversal<'_>,
-    candidates: &[Walk],
-    traces: &SlicedTraces<'_>,
-    ests: &mut [(Vec<Work>, usize)],
-) -> Result<Rounds, CostError> {
-    let mut estimates: Vec<Box<dyn FnMut() -> Result<(), CostError> + '_>> = ests
-        .iter_mut()
-        .zip(candidates)
-        .map(|(slot, &p)| {
-            Box::new(move || -> Result<(), CostError> {
-                *slot = cut.sample(estimator, p)?;
-                Ok(())
-            }) as Box<dyn FnMut() -> Result<(), CostError> + '_>
-        })
-        .collect();
-    let mut trace = |slice: usize| {
-        traces.run(slice, false);
-        Ok(())
-    };
-    let mut rest = |slice: usize| {
-        traces.run(slice, true);
-        Ok(())
-    };
-    let mut whole: Vec<&mut dyn FnMut() -> Result<(), CostError>> =
-        estimates.iter_mut().map(|e| e.as_mut() as _).collect();
-    Rounds::time(
-        s.budget,
-        s.clock,
-        traces.count(),
-        &mut [&mut trace, &mut rest],
-        &mut whole,
-    )
-}
-
 /// On the first usable GPU adapter: the best of `repeats` times of the estimate and of the
 /// full trace.
 #[cfg(feature = "gpu")]
-fn time_on_gpu(cut: &Cut<'_>, s: &Settings<'_>, walk: Walk) -> Result<Timed, EstimateError> {
+fn time_on_gpu(
+    cut: &Cut<'_>,
+    s: &Settings<'_>,
+    rate: SampleRate,
+    walk: Walk,
+) -> Result<Timed, EstimateError> {
     use crate::devices::GpuSelect;
     use crate::gpu::{GpuContext, GpuDevice, GpuOptions};
     let ctx = GpuContext::open(GpuSelect::All, GpuOptions::from_env())?.swap_remove(0);
     let name = ctx.info.name.clone();
     let dev = GpuDevice::new(ctx, cut.bvh)?;
-    let estimator = ReducedTraversal::new(&dev, &cut.rays, s.sample_rate);
+    let estimator = ReducedTraversal::new(&dev, &cut.rays, rate);
     let (estimate_seconds, (est, sampled_rays)) =
         min_time(s.repeats, || cut.sample(&estimator, walk))?;
     let (trace_seconds, ()) = min_time(s.repeats, || {
@@ -445,7 +424,12 @@ fn time_on_gpu(cut: &Cut<'_>, s: &Settings<'_>, walk: Walk) -> Result<Timed, Est
 
 /// Without the `gpu` feature there is no GPU to time on.
 #[cfg(not(feature = "gpu"))]
-fn time_on_gpu(_: &Cut<'_>, _: &Settings<'_>, _: Walk) -> Result<Timed, EstimateError> {
+fn time_on_gpu(
+    _: &Cut<'_>,
+    _: &Settings<'_>,
+    _: SampleRate,
+    _: Walk,
+) -> Result<Timed, EstimateError> {
     Err(EstimateError::NoGpu)
 }
 
@@ -468,7 +452,7 @@ fn min_time<T, E>(repeats: usize, mut f: impl FnMut() -> Result<T, E>) -> Result
 /// The report of what was measured.
 fn report(
     cut: &Cut<'_>,
-    s: &Settings<'_>,
+    (s, (rate, sample_error)): (&Settings<'_>, (SampleRate, Option<f64>)),
     (scene, rays): (&Scene, &Generations),
     Chosen { walk, full, fits }: Chosen,
     t: Timed,
@@ -499,9 +483,9 @@ fn report(
         rays: cut.rays.len(),
         task_size: cut.task_size,
         tasks: cut.tasks.len(),
-        sample_rate: s.sample_rate.get(),
+        sample_rate: rate.get(),
         sample_run: s.sample_run.get(),
-        sample_error: s.sample_error.filter(|_| s.device == Device::Cpu),
+        sample_error: sample_error.filter(|_| s.device == Device::Cpu),
         walk: walk.name(),
         walk_fits: fits,
         walks: t.walks,

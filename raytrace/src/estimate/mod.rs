@@ -16,6 +16,6 @@ mod report;
 mod table;
 
 pub use error::EstimateError;
-pub use measure::{Device, Settings, WalkChoice, measure, measure_samples};
+pub use measure::{Device, Settings, WalkChoice, measure};
 pub use rays::Generations;
-pub use report::{Calibration, Report, WalkFigures, WalkFit};
+pub use report::{Calibration, Report, WalkFigures, WalkFit, WalkTrade};

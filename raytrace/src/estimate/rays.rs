@@ -23,11 +23,6 @@ pub struct Generations {
 }
 
 impl Generations {
-    /// The camera rays of a `width × height` image.
-    pub fn primary(camera: &Camera, width: u32, height: u32) -> Self {
-        Self::of(camera.primary_rays(width, height).rays, RayKind::Primary)
-    }
-
     /// `samples` AO rays per camera ray's hit, each `distance` × the scene's bounding-box
     /// diagonal long.
     pub fn ao(

@@ -18,24 +18,40 @@ pub struct WalkFit {
     pub spearman_vs_time: Option<f64>,
 }
 
-/// One estimator's trade on the CPU: what its sample predicts of the measured times, and what
-/// it costs a render.
-#[derive(Debug, Serialize)]
+/// One walk's estimates judged by the measured task times, and what they cost a render: every
+/// walk's in a [`Report`]'s `walks` ([`WalkTrade`]), and a point of the bench's sampling
+/// trade. Serialized flattened into each.
+#[derive(Clone, Debug, Serialize)]
 pub struct WalkFigures {
-    /// The walk: `trace`, `reduced` or `first-leaf`.
+    /// The walk: `trace`, `reduced` or `first-leaf` (applied to closest-hit generations
+    /// only).
     pub walk: &'static str,
-    /// Its sampled estimates, calibrated, against the measured task times.
+    /// Its sampled estimates, calibrated, against each task's measured single-thread trace
+    /// time.
     pub error_vs_time: Option<f64>,
     /// Their rank correlation with the measured task times.
     pub spearman_vs_time: Option<f64>,
-    /// The thesis's, against the walk's own full count.
+    /// The thesis's (secondary: it judges the sample against its own walk's full count, not
+    /// against time): Σ|est − full| / Σ full of `C` under the default model.
     pub prediction_error: Option<f64>,
+    /// Estimate over full trace; on the CPU, the median over the pairs of rounds of each
+    /// pair's own (see [`Rounds`](crate::cost::Rounds)).
+    pub overhead: f64,
+    /// `(estimate + rest − full trace) / full trace`, where `rest` is the full trace less
+    /// the sampled rays when the walk traces them for real (a render takes their hits from
+    /// the estimate), else the full trace: what estimating costs a render. On the CPU, the
+    /// median over the pairs of rounds of each pair's own.
+    pub net_overhead: f64,
+}
+
+/// One walk's trade on the CPU, timed in the same rounds as the others.
+#[derive(Clone, Debug, Serialize)]
+pub struct WalkTrade {
+    /// How its estimates fared.
+    #[serde(flatten)]
+    pub figures: WalkFigures,
     /// The estimate's least time over the rounds.
     pub estimate_seconds: f64,
-    /// Estimate over full trace: the median over the pairs of rounds.
-    pub overhead: f64,
-    /// Overhead less the sample's trace where the render reuses its hits (the trace walk).
-    pub net_overhead: f64,
     /// What the estimates buy a plan: the balance of an LPT plan by them on
     /// `balance_devices` equal devices, judged by the measured task times.
     pub lpt_balance: Option<f64>,
@@ -105,7 +121,7 @@ pub struct Report {
     pub walk_fits: Option<Vec<WalkFit>>,
     /// On the CPU: every walk's trade at this sample rate, timed in the same rounds.
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub walks: Vec<WalkFigures>,
+    pub walks: Vec<WalkTrade>,
     /// Equal devices each walk's `lpt_balance` plans for.
     pub balance_devices: usize,
     /// The balance of LPT by the measured times themselves (the best an estimate can buy),

@@ -193,12 +193,12 @@ impl Report {
             for f in &r.walks {
                 text += &format!(
                     "| {} | {} | {} | {} | {} | {} | {} |\n",
-                    f.walk,
-                    pct(f.error_vs_time),
-                    num(f.spearman_vs_time),
-                    pct(Some(f.net_overhead)),
-                    pct(Some(f.overhead)),
-                    pct(f.prediction_error),
+                    f.figures.walk,
+                    pct(f.figures.error_vs_time),
+                    num(f.figures.spearman_vs_time),
+                    pct(Some(f.figures.net_overhead)),
+                    pct(Some(f.figures.overhead)),
+                    pct(f.figures.prediction_error),
                     pct(f.lpt_balance)
                 );
             }

@@ -14,7 +14,7 @@ use super::buffers::{GpuRay, SceneBuffers};
 use super::staging::staged;
 use super::trace::{BATCHES, CLOSEST, MAX_WORKGROUPS, TraceDevice};
 use super::{GpuContext, GpuDevice, GpuError, GpuOptions, GpuRenderer};
-use crate::cost::{Compacted, CountRays, ReducedTraversal, SampleRate, SampleRun, full_work};
+use crate::cost::{CountRays, ReducedTraversal, SampleRate, full_work};
 use crate::devices::GpuSelect;
 use crate::shade::{AoSettings, CpuTracer, RenderOptions, Shader, WhittedSettings, render};
 use crate::{BuildPreset, Bvh, Camera, HitBatch, Ray, RayBatch, Rng, SceneNeeds, SceneSource};
@@ -355,13 +355,15 @@ fn check_estimates(name: &str) {
             for rate in [0.125, 0.25, 0.5, 1.0] {
                 let rate = SampleRate::new(rate).expect("rate");
                 let at = format!("{name} {what}, tasks of {size}, rate {}", rate.get());
-                let sample =
-                    Compacted::gather(rays, &tasks, rate, SampleRun::DEFAULT).expect("CPU sample");
+                // The CPU's sample: the rays its trace walk traced.
+                let trace = crate::Walk::Trace { any: false };
+                let cpu = ReducedTraversal::new(&bvh, rays, rate).with_walk(trace);
+                let sampled = cpu.try_sample(&tasks).expect("CPU sample").traced;
+                let sample = sampled.expect("the sample's hits").index;
                 let gpu = dev
-                    .count_at(rays, crate::Walk::Reduced, &sample.index)
+                    .count_at(rays, crate::Walk::Reduced, &sample)
                     .expect("GPU counts");
-                let cpu =
-                    traverse::reduced_counts_at(&bvh, rays, crate::Walk::Reduced, &sample.index);
+                let cpu = traverse::reduced_counts_at(&bvh, rays, crate::Walk::Reduced, &sample);
                 assert_eq!(gpu, (None, cpu), "{at}");
                 let cpu_work = ReducedTraversal::new(&bvh, rays, rate)
                     .try_work(&tasks)

@@ -182,37 +182,10 @@ pub(crate) struct TraceRound {
 }
 
 impl TraceRound {
-    /// Binds the first `n` rays of `rays` and their results in `out` for a trace in `mode`;
-    /// uploads the queue's two words and the parameters (counted).
-    pub(crate) fn new(
-        dev: &TraceDevice,
-        rays: &wgpu::Buffer,
-        out: &wgpu::Buffer,
-        n: u32,
-        mode: Walk,
-        traffic: &mut Traffic,
-    ) -> Self {
-        let device = &dev.ctx.device;
-        let queue = init(
-            device,
-            "cobalt ray queue",
-            bytemuck::cast_slice(&[0u32, 0]),
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        );
-        let params = init(
-            device,
-            "cobalt launch parameters",
-            bytemuck::cast_slice(&[n, 0, 0, 0]),
-            wgpu::BufferUsages::UNIFORM,
-        );
-        // The queue's two words and the parameters.
-        traffic.host_to_device_bytes += 8 + 16;
-        Self::bound(dev, rays, out, n, mode, queue, params, None)
-    }
-
-    /// As [`TraceRound::new`] with the queue (two words, zero) and the parameters (the ray
-    /// count first) already on the device: nothing is uploaded. `counts` holds the per-path
-    /// counts of a trace whose parameters ask for them.
+    /// Binds the first `n` rays of `rays` and their results in `out` for a trace in `mode`,
+    /// with the queue (two words, zero) and the parameters (the ray count first) already on
+    /// the device: nothing is uploaded. `counts` holds the per-path counts of a trace whose
+    /// parameters ask for them.
     #[allow(clippy::too_many_arguments)] // the buffers and the choice of a trace
     pub(crate) fn bound(
         dev: &TraceDevice,
@@ -352,7 +325,21 @@ pub(crate) fn trace_resident(
     }
     let device = &ctx.device;
     let name = ctx.info.name.as_str();
-    let round = TraceRound::new(dev, rays, out, n, mode, traffic);
+    let queue = init(
+        device,
+        "cobalt ray queue",
+        bytemuck::cast_slice(&[0u32, 0]),
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    );
+    let params = init(
+        device,
+        "cobalt launch parameters",
+        bytemuck::cast_slice(&[n, 0, 0, 0]),
+        wgpu::BufferUsages::UNIFORM,
+    );
+    // The queue's two words and the parameters.
+    traffic.host_to_device_bytes += 8 + 16;
+    let round = TraceRound::bound(dev, rays, out, n, mode, queue, params, None);
     let readback = readable(device, "cobalt queue state read-back", 8 + 16);
     let timing = timestamps(ctx);
     let mut gpu_seconds = 0.0;

@@ -48,26 +48,17 @@ impl GpuRenderer {
         rate: SampleRate,
         walk: Walk,
     ) -> Result<Estimate, GpuError> {
-        let (options, probe_scale) = match walk {
-            Walk::Trace { .. } => sampled_options(frame, rate),
-            _ => (*frame, 1.0),
+        // One launch of every `stride`-th path, one submission.
+        let reduced = !matches!(walk, Walk::Trace { .. });
+        let (frame, probe_scale) = if reduced {
+            (*frame, 1.0)
+        } else {
+            sampled_options(frame, rate)
         };
+        let frame = &frame;
         let stride = u32::try_from(rate.stride()).unwrap_or(u32::MAX);
-        let launch = (&options, tasks, stride, probe_scale);
-        self.sample_launch(launch, walk)?
-            .ok_or_else(|| loop_cut(&self.dev.ctx.info.name))
-    }
-
-    /// One launch of [`GpuRenderer::sample_paths`] of every `stride`-th path, one submission,
-    /// its probes' counts scaled by `probe_scale`; `None` when a queue was not drained.
-    fn sample_launch(
-        &self,
-        (frame, tasks, stride, probe_scale): (&RenderOptions, &[&Range<usize>], u32, f64),
-        walk: Walk,
-    ) -> Result<Option<Estimate>, GpuError> {
         let shader = &frame.shader;
         let mut traffic = Traffic::default();
-        let reduced = !matches!(walk, Walk::Trace { .. });
         let no_ao = AoSettings {
             samples: 0,
             ..AoSettings::default()
@@ -98,7 +89,7 @@ impl GpuRenderer {
         if self.dev.scene.empty {
             // Every ray misses the root: nothing is counted.
             let work = scaled(&vec![[0; 4]; tasks.len()]);
-            return Ok(Some(Estimate { work, traffic }));
+            return Ok(Estimate { work, traffic });
         }
         if stage.chunk < stage.n {
             return Err(GpuError::TooLarge {
@@ -158,7 +149,7 @@ impl GpuRenderer {
         let done = launch.finish(&sums, 16 * t, &mut traffic)?;
         traffic.device_to_host_bytes += 16 * t;
         if !done.drained {
-            return Ok(None);
+            return Err(loop_cut(&self.dev.ctx.info.name));
         }
         let words: Vec<[u32; 4]> = bytemuck::pod_collect_to_vec(&done.values);
         if let Some(task) = words.iter().position(|w| w.contains(&u32::MAX)) {
@@ -167,9 +158,9 @@ impl GpuRenderer {
                 task,
             });
         }
-        Ok(Some(Estimate {
+        Ok(Estimate {
             work: scaled(&words),
             traffic,
-        }))
+        })
     }
 }
