@@ -18,33 +18,44 @@
 use std::borrow::Borrow;
 use std::ops::Range;
 
-use rayon::prelude::*;
 use sched::SampleRate;
 
 use super::Frame;
 use crate::cost::Work;
-use crate::shade::{RenderOptions, Shader, Tracer, render_paths_at};
+use crate::shade::{PathRendering, RenderOptions, Shader, Tracer, render_paths_at};
 use crate::traverse::batch::{hits_counted_in, reduced_counts};
 use crate::traverse::layout::Layout;
 use crate::traverse::walk::Walk;
 use crate::{Bvh, HitBatch, RayBatch, RayKind};
 
-/// A tracer that traces for real and sums the counts of every ray ([`Work::sum`], exact in
-/// integers per generation), keeping AO probes apart (they are scaled by the probes left out).
+/// A tracer that traces for real and sums the counts of every ray by the path it belongs to
+/// (exact, in integers), keeping AO probes apart (they are scaled by the probes left out).
 struct Counting<'a> {
     bvh: &'a Bvh,
     layout: Layout,
-    paths: Work,
-    probes: Work,
+    /// Per sampled path: nodes, triangles and rays of its own rays, then of its kept probes.
+    sums: Vec<[[u64; 3]; 2]>,
 }
 
 impl Tracer for Counting<'_> {
+    /// The shaders always name each ray's path; a bare generation counts for the first.
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch {
+        self.trace_paths(kind, rays, &|_| 0)
+    }
+
+    fn trace_paths(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        path_of: &dyn Fn(usize) -> u32,
+    ) -> HitBatch {
         let (hits, counts) = hits_counted_in(self.bvh, rays, kind.is_occlusion(), self.layout);
-        let work = Work::sum(&counts);
-        match kind {
-            RayKind::Ao => self.probes = self.probes.plus(work),
-            _ => self.paths = self.paths.plus(work),
+        let part = usize::from(kind == RayKind::Ao);
+        for (i, c) in counts.iter().enumerate() {
+            let sum = &mut self.sums[path_of(i) as usize][part];
+            sum[0] += u64::from(c.nodes);
+            sum[1] += u64::from(c.tris);
+            sum[2] += 1;
         }
         hits
     }
@@ -141,8 +152,9 @@ pub struct SampledTask {
 
 /// The estimated work of each of `tasks` (ranges of `frame`'s paths), sampling at `rate`,
 /// and what each task's sample rendered ([`SampledTask`]): traced on the host on the tree
-/// `layout` names (the 8-wide one its hit queries walk; the binary one is the GPU's), tasks
-/// estimated in parallel in the caller's rayon pool.
+/// `layout` names (the 8-wide one its hit queries walk; the binary one is the GPU's), in the
+/// caller's rayon pool. Every task's sampled paths are rendered at once: a render per task
+/// cost more than its few paths where tasks are small.
 pub fn sample_paths<T>(
     frame: &Frame<'_>,
     tasks: &[T],
@@ -155,36 +167,47 @@ where
     let stride = rate.stride();
     let (options, probe_scale) = sampled_options(frame.options, rate);
     let ao_distance = options.shader.ao_distance(frame.scene);
+    let ranks: Vec<u32> = tasks
+        .iter()
+        .flat_map(|t| t.borrow().clone().step_by(stride).map(|r| r as u32))
+        .collect();
+    let mut tracer = Counting {
+        bvh: frame.bvh,
+        layout,
+        sums: vec![[[0; 3]; 2]; ranks.len()],
+    };
+    let rendered = if ranks.is_empty() {
+        PathRendering::default()
+    } else {
+        render_paths_at(frame.scene, &mut tracer, &options, &ranks, ao_distance)
+    };
+    let mut next = 0;
     tasks
-        .par_iter()
+        .iter()
         .map(|task| {
             let task: &Range<usize> = task.borrow();
-            let ranks: Vec<u32> = task.clone().step_by(stride).map(|r| r as u32).collect();
-            if ranks.is_empty() {
-                return SampledTask {
-                    task: task.clone(),
-                    ..SampledTask::default()
-                };
-            }
-            let mut tracer = Counting {
-                bvh: frame.bvh,
-                layout,
-                paths: Work::default(),
-                probes: Work::default(),
+            let sampled = next..next + task.clone().step_by(stride).len();
+            next = sampled.end;
+            let sum = |part: usize| {
+                let [b, t, r] = tracer.sums[sampled.clone()].iter().fold([0u64; 3], |a, s| {
+                    [a[0] + s[part][0], a[1] + s[part][1], a[2] + s[part][2]]
+                });
+                (
+                    Work {
+                        nodes: b as f64,
+                        tris: t as f64,
+                        rays: r as f64,
+                    },
+                    r,
+                )
             };
-            let rendered = render_paths_at(frame.scene, &mut tracer, &options, &ranks, ao_distance);
+            let ((paths, path_rays), (probes, probe_rays)) = (sum(0), sum(1));
             SampledTask {
                 task: task.clone(),
-                work: task_work(
-                    tracer.paths,
-                    tracer.probes,
-                    task.len(),
-                    ranks.len(),
-                    probe_scale,
-                ),
-                values: rendered.values,
-                rays: rendered.generations.iter().map(|g| g.rays).sum(),
-                ranks,
+                work: task_work(paths, probes, task.len(), sampled.len(), probe_scale),
+                ranks: ranks[sampled.clone()].to_vec(),
+                values: rendered.values[sampled].to_vec(),
+                rays: (path_rays + probe_rays) as usize,
             }
         })
         .collect()

@@ -60,7 +60,8 @@ pub(crate) fn render<T: Tracer + ?Sized>(
     (settings, distance): (AoSettings, f32),
     ranks: Option<&[u32]>,
 ) {
-    let hits = gens.trace(RayKind::Primary, 0, &primary.rays);
+    let pixels = &primary.pixels;
+    let hits = gens.trace(RayKind::Primary, 0, &primary.rays, &|i| pixels[i]);
     let probes = crate::ao::ao_rays_of_paths(
         scene,
         &primary.rays,
@@ -70,7 +71,10 @@ pub(crate) fn render<T: Tracer + ?Sized>(
         settings.seed,
         ranks,
     );
-    let blocked = gens.trace(RayKind::Ao, 1, &probes.rays);
+    let source = &probes.source;
+    let blocked = gens.trace(RayKind::Ao, 1, &probes.rays, &|k| {
+        pixels[source[k] as usize]
+    });
     let n = primary.rays.len();
     let (mut sent, mut open) = (vec![0u32; n], vec![0u32; n]);
     for (k, &src) in probes.source.iter().enumerate() {

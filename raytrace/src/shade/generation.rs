@@ -44,12 +44,19 @@ impl<'t, T: Tracer + ?Sized> Generations<'t, T> {
         }
     }
 
-    pub(crate) fn trace(&mut self, kind: RayKind, bounce: u32, rays: &RayBatch) -> HitBatch {
+    /// Traces `rays`, ray `i` of the path at `path_of(i)` (see [`Tracer::trace_paths`]).
+    pub(crate) fn trace(
+        &mut self,
+        kind: RayKind,
+        bounce: u32,
+        rays: &RayBatch,
+        path_of: &dyn Fn(usize) -> u32,
+    ) -> HitBatch {
         if rays.is_empty() {
             return HitBatch::default();
         }
         let start = Instant::now();
-        let hits = self.tracer.trace(kind, rays);
+        let hits = self.tracer.trace_paths(kind, rays, path_of);
         let seconds = start.elapsed().as_secs_f64();
         debug_assert_eq!(hits.len(), rays.len(), "a tracer broke its contract");
         self.log.push(Generation {

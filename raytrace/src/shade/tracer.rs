@@ -14,6 +14,18 @@ use crate::{Bvh, HitBatch, RayBatch, RayKind};
 pub trait Tracer {
     /// Traces one generation.
     fn trace(&mut self, kind: RayKind, rays: &RayBatch) -> HitBatch;
+
+    /// Traces one generation whose ray `i` belongs to the path at `path_of(i)` (its place in
+    /// the film the shaders write): what a tracer that keeps something per path overrides.
+    fn trace_paths(
+        &mut self,
+        kind: RayKind,
+        rays: &RayBatch,
+        path_of: &dyn Fn(usize) -> u32,
+    ) -> HitBatch {
+        let _ = path_of;
+        self.trace(kind, rays)
+    }
 }
 
 /// The CPU tracer: rayon over the batch functions of [`crate::traverse`], in whatever rayon

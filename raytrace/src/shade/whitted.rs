@@ -91,7 +91,7 @@ pub(crate) fn render<T: Tracer + ?Sized>(
         } else {
             RayKind::Reflection
         };
-        let hits = gens.trace(kind, bounce, &rays);
+        let hits = gens.trace(kind, bounce, &rays, &|i| paths[i].pixel);
         let reflect_more = bounce < settings.bounces;
         let parts: Vec<Shaded> = paths
             .par_chunks(CHUNK)
@@ -112,7 +112,9 @@ pub(crate) fn render<T: Tracer + ?Sized>(
         for &(pixel, value) in &all.adds {
             film.add(pixel as usize, value);
         }
-        let blocked = gens.trace(RayKind::Shadow, bounce, &all.shadow);
+        let blocked = gens.trace(RayKind::Shadow, bounce, &all.shadow, &|k| {
+            all.unblocked[k].0
+        });
         for (k, &(pixel, light)) in all.unblocked.iter().enumerate() {
             if blocked.get(k).is_none() {
                 film.add(pixel as usize, light);
