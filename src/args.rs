@@ -514,9 +514,10 @@ pub struct ScheduleArgs {
     /// finer.
     #[arg(long, default_value = "4096", value_parser = task_size)]
     pub task_size: NonZeroUsize,
-    /// Fraction of each task's paths the cost estimate samples, in (0, 1].
-    #[arg(long, default_value = "0.03125", value_parser = sample_rate)]
-    pub sample_rate: SampleRate,
+    /// Fraction of each task's paths the cost estimate samples, in (0, 1] (default: 1/64 for
+    /// `whitted`, 1/32 for `ao`).
+    #[arg(long, value_parser = sample_rate)]
+    pub sample_rate: Option<SampleRate>,
     /// How the estimate counts a sampled path, on the devices: `trace` (rendered for real,
     /// counted), or its camera ray walked by `reduced` (the thesis's reduced traversal) or
     /// `first-leaf` (up to the first leaf it reaches).

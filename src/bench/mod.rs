@@ -53,9 +53,10 @@ pub struct Args {
     /// Workloads, comma-separated: `whitted` (coherent rays), `ao` (diffuse rays).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "whitted,ao")]
     shaders: Vec<ShaderKind>,
-    /// Share of each task's paths sampled to estimate it (cost mode).
-    #[arg(long, default_value = "0.03125", value_parser = sample_rate)]
-    sample_rate: SampleRate,
+    /// Share of each task's paths sampled to estimate it (cost mode; default: 1/64 for
+    /// `whitted`, 1/32 for `ao`).
+    #[arg(long, value_parser = sample_rate)]
+    sample_rate: Option<SampleRate>,
     /// How the estimate counts a sampled path, as for `cobalt render`: `trace`, `reduced` or
     /// `first-leaf`.
     #[arg(long, default_value = "trace")]
@@ -367,6 +368,18 @@ fn measure_scene(
     Ok(())
 }
 
+/// The sample rate the heading names: the one given, else each workload's own.
+fn rate_text(given: Option<SampleRate>, workloads: &[Shader]) -> String {
+    match given {
+        Some(rate) => rate.get().to_string(),
+        None => workloads
+            .iter()
+            .map(|w| format!("{} ({})", w.sample_rate().get(), w.name()))
+            .collect::<Vec<_>>()
+            .join(", "),
+    }
+}
+
 /// The report's text before the charts: its heading, then the tables.
 fn summary(
     args: &Args,
@@ -382,7 +395,7 @@ fn summary(
         m.height,
         m.cameras,
         args.devices.as_str(),
-        args.sample_rate.get(),
+        rate_text(args.sample_rate, &m.workloads),
         if args.repeats > 1 {
             format!(
                 ", {} runs of every cell (medians; MRays/s and balance show the runs' range)",
@@ -476,7 +489,7 @@ fn run_mpi(args: &Args, mut m: Matrix, started: Instant) -> Result<(), CliError>
         m.scenes.join(", "),
         m.width,
         m.height,
-        args.sample_rate.get(),
+        rate_text(args.sample_rate, &m.workloads),
         bench.table(),
         bench.records.len(),
         bench.sims.len(),

@@ -235,7 +235,8 @@ fn mpi(
     let (Some(outputs), Some((film, report))) = (outputs, rendered) else {
         return Ok(());
     };
-    let report = paths::RenderReport::new(header, (&run, device_list), report, Default::default())
+    let whole = (&run, device_list, &options.shader);
+    let report = paths::RenderReport::new(header, whole, report, Default::default())
         .over_ranks(cluster.size());
     let rendered = paths::Rendered {
         image: film.png(raytrace::film::ToneMap::Srgb)?,

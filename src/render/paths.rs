@@ -4,7 +4,7 @@
 use raytrace::cost_image::primary_cost_image;
 use raytrace::film::ToneMap;
 use raytrace::run::{CalibrationReport, Run, RunReport, Store};
-use raytrace::shade::RenderOptions;
+use raytrace::shade::{RenderOptions, Shader};
 use raytrace::{Bvh, Scene};
 use sched::Policy;
 use serde::Serialize;
@@ -97,11 +97,11 @@ pub struct RenderReport {
 }
 
 impl RenderReport {
-    /// The report of `run` on `devices` (the `--devices` text): its header, settings and
-    /// figures, and the calibration it read and wrote.
+    /// The report of `run` of `shader` on `devices` (the `--devices` text): its header,
+    /// settings and figures, and the calibration it read and wrote.
     pub fn new(
         header: Header,
-        (run, devices): (&Run<'_>, &str),
+        (run, devices, shader): (&Run<'_>, &str, &Shader),
         report: RunReport,
         calibration: CalibrationReport,
     ) -> Self {
@@ -111,7 +111,7 @@ impl RenderReport {
             policy: run.settings.policy,
             mode: run.settings.mode.name(),
             requested_task_size: run.settings.task_size.get(),
-            sample_rate: run.settings.sample_rate.get(),
+            sample_rate: run.settings.rate_for(shader).get(),
             walk: run.settings.walk.name(),
             run: report,
             calibration,
@@ -174,7 +174,7 @@ pub fn render(
     } else {
         None
     };
-    let report = RenderReport::new(header, (run, devices), report, calibration);
+    let report = RenderReport::new(header, (run, devices, &options.shader), report, calibration);
     Ok(Rendered {
         image,
         cost_image,

@@ -37,6 +37,7 @@ impl Record {
             policy: settings.policy.name(),
             mode: settings.mode.name(),
             walk: settings.walk.name(),
+            sample_rate: settings.rate_for(&w).get(),
             backups: settings.backups,
             task_size: settings.task_size.get(),
             devices,
@@ -99,8 +100,8 @@ pub struct SceneMatrix<'a> {
     pub height: u32,
     /// AO probes per primary hit.
     pub ao_samples: u32,
-    /// The share of each task's paths cost mode samples.
-    pub sample_rate: SampleRate,
+    /// The share of each task's paths cost mode samples (`None`: each shader's own).
+    pub sample_rate: Option<SampleRate>,
     /// How cost mode counts a sampled path.
     pub walk: crate::traverse::Walk,
     /// Whether idle devices run backup copies (`--no-backups` turns them off).

@@ -21,6 +21,8 @@ pub struct Record {
     pub mode: &'static str,
     /// How cost mode counted a sampled path (`--walk`): `trace`, `reduced` or `first-leaf`.
     pub walk: &'static str,
+    /// The share of each task's paths cost mode sampled (`--sample-rate`, else the shader's).
+    pub sample_rate: f64,
     /// Whether idle devices ran backup copies of the tasks others held (false with
     /// `--no-backups`).
     pub backups: bool,

@@ -77,6 +77,7 @@ mod tests {
             policy: "static-lpt",
             mode: "cost",
             walk: "trace",
+            sample_rate: 0.03125,
             backups: true,
             task_size: 512,
             tasks: 1,

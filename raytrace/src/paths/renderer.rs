@@ -475,7 +475,10 @@ impl<'a> PathRenderer<'a> {
         speeds: &[f64],
         lead: usize,
     ) -> (Vec<Work>, Vec<Traffic>) {
-        let (rate, walk) = (self.settings.sample_rate, self.settings.walk);
+        let (rate, walk) = (
+            self.settings.rate_for(&frame.options.shader),
+            self.settings.walk,
+        );
         // The reduced walks count the same on every device; the trace walk's counts are of
         // `lead`'s kind.
         let traced = matches!(walk, Walk::Trace { .. });

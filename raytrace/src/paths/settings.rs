@@ -8,6 +8,7 @@ use sched::Policy;
 
 use crate::Walk;
 use crate::cost::SampleRate;
+use crate::shade::Shader;
 
 /// Where the task costs of a frame come from: `--mode` on the command
 /// line, and the `mode` of every report.
@@ -61,11 +62,11 @@ pub struct Settings {
     /// Paths per task (the thesis uses 16384, 4096 and 512 rays); smaller frames are cut
     /// finer ([`Self::task_size_for`]).
     pub task_size: NonZeroUsize,
-    /// Fraction of each task's paths the estimate samples (cost mode). The default, one in
-    /// 32 ([`SampleRate::ONE_IN_32`]), orders tasks by their measured times about as well as
-    /// the thesis's 12.5 % at a quarter of its cost, except small AO tasks, which a higher
-    /// rate orders better (`docs/results.md`, "What an estimate costs").
-    pub sample_rate: SampleRate,
+    /// Fraction of each task's paths the estimate samples (cost mode); `None`, the default,
+    /// takes the shader's ([`Shader::sample_rate`]), which orders tasks by their measured
+    /// times about as well as the thesis's 12.5 % at a fraction of its cost, except small AO
+    /// tasks, which a higher rate orders better (`docs/results.md`, "What an estimate costs").
+    pub sample_rate: Option<SampleRate>,
     /// How the estimate counts a sampled path (cost mode), on the devices: rendered for real
     /// ([`Walk::Trace`], the default), or its camera ray walked by the thesis's reduced
     /// traversal or the first-leaf walk; see [`super::walk_paths`].
@@ -79,6 +80,11 @@ pub struct Settings {
 impl Settings {
     /// 4096 paths per task, as in the middle of the thesis's range.
     pub const DEFAULT_TASK_SIZE: NonZeroUsize = NonZeroUsize::new(4096).expect("4096 > 0");
+
+    /// The share of each task's paths an estimate of `shader`'s frames samples.
+    pub fn rate_for(&self, shader: &Shader) -> SampleRate {
+        self.sample_rate.unwrap_or_else(|| shader.sample_rate())
+    }
 
     /// Tasks per device below which a frame counts as small at the wanted task size.
     pub const MIN_TASKS_PER_DEVICE: usize = 4;
@@ -119,7 +125,7 @@ impl Default for Settings {
             policy: Policy::StaticLpt,
             mode: Mode::Cost,
             task_size: Self::DEFAULT_TASK_SIZE,
-            sample_rate: SampleRate::ONE_IN_32,
+            sample_rate: None,
             walk: Walk::Trace { any: false },
             backups: true,
         }

@@ -29,6 +29,7 @@ pub use generation::Generation;
 pub use tracer::{CpuTracer, Recorder, Tracer};
 pub use whitted::{AMBIENT, SKY, WhittedSettings};
 
+use crate::cost::SampleRate;
 use crate::{Camera, Film, Scene, SceneNeeds};
 use generation::Generations;
 
@@ -42,6 +43,18 @@ pub enum Shader {
 }
 
 impl Shader {
+    /// The share of each task's paths an estimate samples unless told otherwise: one in 64
+    /// for Whitted's coherent paths, whose sample is rendered in full (every shadow ray and
+    /// bounce) and whose neighbours cost alike; one in 32 for ambient occlusion, whose sample
+    /// keeps only its share of each path's probes and so costs little, and whose tasks differ
+    /// more (`docs/results.md`, "What an estimate costs").
+    pub fn sample_rate(&self) -> SampleRate {
+        match self {
+            Self::Ao(_) => SampleRate::ONE_IN_32,
+            Self::Whitted(_) => SampleRate::ONE_IN_64,
+        }
+    }
+
     /// What the scene must keep for this shader.
     pub fn needs(&self) -> SceneNeeds {
         match self {
