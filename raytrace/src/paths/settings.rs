@@ -63,9 +63,8 @@ pub struct Settings {
     /// finer ([`Self::task_size_for`]).
     pub task_size: NonZeroUsize,
     /// Fraction of each task's paths the estimate samples (cost mode); `None`, the default,
-    /// takes the shader's ([`Shader::sample_rate`]), which orders tasks by their measured
-    /// times about as well as the thesis's 12.5 % at a fraction of its cost, except small AO
-    /// tasks, which a higher rate orders better (`docs/results.md`, "What an estimate costs").
+    /// takes the shader's ([`Shader::sample_rate`]; what each costs and predicts:
+    /// `docs/results.md`, "What an estimate costs").
     pub sample_rate: Option<SampleRate>,
     /// How the estimate counts a sampled path (cost mode), on the devices: rendered for real
     /// ([`Walk::Trace`], the default), or its camera ray walked by the thesis's reduced
