@@ -192,22 +192,19 @@ where
                 let [b, t, r] = tracer.sums[sampled.clone()].iter().fold([0u64; 3], |a, s| {
                     [a[0] + s[part][0], a[1] + s[part][1], a[2] + s[part][2]]
                 });
-                (
-                    Work {
-                        nodes: b as f64,
-                        tris: t as f64,
-                        rays: r as f64,
-                    },
-                    r,
-                )
+                Work {
+                    nodes: b as f64,
+                    tris: t as f64,
+                    rays: r as f64,
+                }
             };
-            let ((paths, path_rays), (probes, probe_rays)) = (sum(0), sum(1));
+            let (paths, probes) = (sum(0), sum(1));
             SampledTask {
                 task: task.clone(),
                 work: task_work(paths, probes, task.len(), sampled.len(), probe_scale),
                 ranks: ranks[sampled.clone()].to_vec(),
                 values: rendered.values[sampled].to_vec(),
-                rays: (path_rays + probe_rays) as usize,
+                rays: (paths.rays + probes.rays) as usize,
             }
         })
         .collect()

@@ -495,22 +495,24 @@ impl<'a> PathRenderer<'a> {
             })
             .collect();
         let shares = shares(tasks.len(), &estimating);
+        let held: Vec<Vec<&Range<usize>>> = (shares.iter())
+            .map(|share| share.iter().map(|&t| &tasks[t]).collect())
+            .collect();
         let mine = self.running_mut();
         debug_assert_eq!(mine.len(), active.len());
         let estimates: Vec<Estimate> = std::thread::scope(|scope| {
             let running: Vec<_> = mine
                 .into_iter()
-                .zip(&shares)
-                .map(|(device, share)| {
-                    let held: Vec<&Range<usize>> = share.iter().map(|&t| &tasks[t]).collect();
+                .zip(&held)
+                .map(|(device, held)| {
                     scope.spawn(move || {
                         if held.is_empty() {
                             return Estimate::default();
                         }
                         device
-                            .estimate(frame, &held, rate, walk)
+                            .estimate(frame, held, rate, walk)
                             .unwrap_or_else(|_| Estimate {
-                                work: walk_paths(frame, &held, rate, walk),
+                                work: walk_paths(frame, held, rate, walk),
                                 traffic: Traffic::default(),
                             })
                     })
@@ -523,13 +525,12 @@ impl<'a> PathRenderer<'a> {
         });
         let mut work = vec![Work::default(); tasks.len()];
         let mut traffic = Vec::with_capacity(estimates.len());
-        for (e, share) in estimates.into_iter().zip(&shares) {
+        for ((e, share), held) in estimates.into_iter().zip(&shares).zip(&held) {
             let estimated = if e.work.len() == share.len() {
                 e.work
             } else {
                 // A device that answered for other tasks than it was given (or panicked).
-                let held: Vec<&Range<usize>> = share.iter().map(|&t| &tasks[t]).collect();
-                walk_paths(frame, &held, rate, walk)
+                walk_paths(frame, held, rate, walk)
             };
             for (&t, w) in share.iter().zip(estimated) {
                 work[t] = w;
@@ -691,13 +692,10 @@ fn shares(n: usize, speeds: &[f64]) -> Vec<Vec<usize>> {
     }
     for task in 0..n {
         let load = |d: usize| (out[d].len() + 1) as f64 / weights[d];
-        let to =
-            (0..weights.len())
-                .filter(|&d| weights[d] > 0.0)
-                .fold(None, |b: Option<usize>, d| match b {
-                    Some(b) if load(b) <= load(d) => Some(b),
-                    _ => Some(d),
-                });
+        // `min_by` keeps the first of equals.
+        let to = (0..weights.len())
+            .filter(|&d| weights[d] > 0.0)
+            .min_by(|&a, &b| load(a).total_cmp(&load(b)));
         if let Some(d) = to {
             out[d].push(task);
         }

@@ -80,11 +80,6 @@ impl Settings {
     /// 4096 paths per task, as in the middle of the thesis's range.
     pub const DEFAULT_TASK_SIZE: NonZeroUsize = NonZeroUsize::new(4096).expect("4096 > 0");
 
-    /// The share of each task's paths an estimate of `shader`'s frames samples.
-    pub fn rate_for(&self, shader: &Shader) -> SampleRate {
-        self.sample_rate.unwrap_or_else(|| shader.sample_rate())
-    }
-
     /// Tasks per device below which a frame counts as small at the wanted task size.
     pub const MIN_TASKS_PER_DEVICE: usize = 4;
 
@@ -114,11 +109,16 @@ impl Settings {
         let share = rays.div_ceil(devices * Self::SMALL_TASKS_PER_DEVICE);
         wanted.min(share.max(Self::MIN_TASK_RAYS)).max(1)
     }
+
+    /// The share of each task's paths an estimate of `shader`'s frames samples.
+    pub fn rate_for(&self, shader: &Shader) -> SampleRate {
+        self.sample_rate.unwrap_or_else(|| shader.sample_rate())
+    }
 }
 
 impl Default for Settings {
-    /// Cost-based LPT on tasks of 4096 paths, one path in 32 sampled and rendered for real,
-    /// with backup copies.
+    /// Cost-based LPT on tasks of 4096 paths, each shader's share of them sampled and
+    /// rendered for real, with backup copies.
     fn default() -> Self {
         Self {
             policy: Policy::StaticLpt,
