@@ -7,7 +7,9 @@
 //! both ways and keeps the faster: per shader and mode (which decide what a frame costs on
 //! every device), it keeps the seconds per path of the latest frame rendered on every device
 //! and of the latest on the fastest class alone, and renders the next frame the way that was
-//! faster. The way in use is
+//! faster. A frame on every device is weighed only once it was planned at measured or recalled
+//! speeds: the first, at equal speeds, measures them, and a slow device's share of it says
+//! nothing of what a plan that knows its speed gives. The way in use is
 //! measured again on every frame, so when it slows down past the other's figure the other is
 //! tried again. The figures travel with the devices to the next renderer over them
 //! ([`crate::paths::PathRenderer::into_kept`]) and, through a calibration file, to the next

@@ -161,6 +161,10 @@ impl<'a> PathRenderer<'a> {
         let key = choice_key(&options.shader, self.settings.mode);
         self.last_shader = Some(key.0);
         let alone = self.choose(key);
+        // A frame on every device planned before each class's speed was known (the first,
+        // at equal speeds) says nothing of how such frames go once planned: its time is not
+        // the figure the choice compares.
+        let planned = alone == Some(true) || self.fastest_class().is_some();
         let active = (0..self.devices.len()).filter(|&d| self.runs(d)).count();
         let size = self.settings.task_size_for(paths, active.max(1));
         let tasks = split_ranges(paths, size);
@@ -187,7 +191,7 @@ impl<'a> PathRenderer<'a> {
         let pixels = ranks.par_iter().map(|&r| value(r)).collect();
         let film = Film::from_pixels(options.width, options.height, pixels);
         stats.seconds = start.elapsed().as_secs_f64();
-        if let Some(alone) = alone {
+        if let Some(alone) = alone.filter(|_| planned) {
             let per_path = stats.seconds / paths as f64;
             let fastest = self.fastest_class();
             let times = self.choices.entry(key).or_default();
