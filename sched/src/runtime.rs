@@ -148,6 +148,29 @@ impl Runtime {
         }
     }
 
+    /// Runs `jobs[d]` on the thread a run drives device `d` on: the first on the calling
+    /// thread, the others on the parked device threads, woken off the caller's CPU
+    /// (`placement.rs`), so that each starts at once; returns once every job has ended. For
+    /// what a caller does with each device outside a run, such as each device estimating its
+    /// share of a frame. A job's panic is the job's to catch: on a parked thread it is
+    /// swallowed, on the calling thread it unwinds.
+    ///
+    /// # Errors
+    /// [`SchedError::Threads`] when the operating system refuses a thread (no job has run).
+    pub fn on_device_threads<'s>(
+        jobs: Vec<Box<dyn FnOnce() + Send + 's>>,
+    ) -> Result<(), SchedError> {
+        let mut jobs = jobs.into_iter();
+        let Some(first) = jobs.next() else {
+            return Ok(());
+        };
+        let others: Vec<_> = jobs.collect();
+        let pool = workers::take(others.len())?;
+        pool.run(others, first);
+        workers::give_back(pool);
+        Ok(())
+    }
+
     /// Runs every task exactly once across `executors` and returns their outputs in task
     /// order. Speeds come from [`Executor::speed`]. A device that errors or panics is retired
     /// and its unfinished tasks go to the others; only if every device fails is the run an
@@ -578,6 +601,30 @@ mod tests {
             }
             Ok(())
         }
+    }
+
+    /// Each job runs once, all at the same time, the first on the calling thread.
+    #[test]
+    fn device_threads_run_each_job_once_side_by_side() {
+        let caller = std::thread::current().id();
+        let barrier = std::sync::Barrier::new(3);
+        let mut ran = vec![None; 3];
+        let jobs: Vec<Box<dyn FnOnce() + Send + '_>> = ran
+            .iter_mut()
+            .map(|out| {
+                let barrier = &barrier;
+                Box::new(move || {
+                    // Every job waits for the others: run one after another, none would end.
+                    barrier.wait();
+                    *out = Some(std::thread::current().id());
+                }) as Box<dyn FnOnce() + Send + '_>
+            })
+            .collect();
+        Runtime::on_device_threads(jobs).expect("threads");
+        let ran: Vec<_> = ran.into_iter().map(|t| t.expect("ran")).collect();
+        assert_eq!(ran[0], caller);
+        assert!(ran[1] != ran[2] && !ran[1..].contains(&caller));
+        Runtime::on_device_threads(Vec::new()).expect("nothing to run");
     }
 
     #[test]

@@ -3,6 +3,7 @@
 
 use std::collections::HashMap;
 use std::ops::Range;
+use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::time::Instant;
 
 use glam::Vec3;
@@ -504,29 +505,33 @@ impl<'a> PathRenderer<'a> {
             .collect();
         let mine = self.running_mut();
         debug_assert_eq!(mine.len(), active.len());
-        let estimates: Vec<Estimate> = std::thread::scope(|scope| {
-            let running: Vec<_> = mine
-                .into_iter()
-                .zip(&held)
-                .map(|(device, held)| {
-                    scope.spawn(move || {
-                        if held.is_empty() {
-                            return Estimate::default();
-                        }
-                        device
-                            .estimate(frame, held, rate, walk)
-                            .unwrap_or_else(|_| Estimate {
-                                work: walk_paths(frame, held, rate, walk),
-                                traffic: Traffic::default(),
-                            })
-                    })
-                })
-                .collect();
-            running
-                .into_iter()
-                .map(|h| h.join().unwrap_or_default())
-                .collect()
-        });
+        let mut estimates: Vec<Estimate> = vec![Estimate::default(); mine.len()];
+        // On the threads the run drives the devices on: new threads woken on a busy machine
+        // can start only once another share is done, doubling the estimate's time.
+        let jobs: Vec<Box<dyn FnOnce() + Send + '_>> = (mine.into_iter().zip(&held))
+            .zip(estimates.iter_mut())
+            .map(|((device, held), out)| {
+                Box::new(move || {
+                    if held.is_empty() {
+                        return;
+                    }
+                    // A panic leaves the default, which answers for no task: see below.
+                    let estimated = catch_unwind(AssertUnwindSafe(|| {
+                        device.estimate(frame, held, rate, walk)
+                    }));
+                    *out = match estimated {
+                        Ok(Ok(e)) => e,
+                        Ok(Err(_)) => Estimate {
+                            work: walk_paths(frame, held, rate, walk),
+                            traffic: Traffic::default(),
+                        },
+                        Err(_) => Estimate::default(),
+                    };
+                }) as Box<dyn FnOnce() + Send + '_>
+            })
+            .collect();
+        // Threads refused: every share is estimated on the host below.
+        let _ = Runtime::on_device_threads(jobs);
         let mut work = vec![Work::default(); tasks.len()];
         let mut traffic = Vec::with_capacity(estimates.len());
         for ((e, share), held) in estimates.into_iter().zip(&shares).zip(&held) {
