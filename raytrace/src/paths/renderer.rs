@@ -4,6 +4,7 @@
 use std::collections::HashMap;
 use std::ops::Range;
 use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use glam::Vec3;
@@ -22,6 +23,11 @@ use crate::calibration::Choice;
 use crate::cost::{CostModel, Work};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene, Walk};
+
+/// Parts of a frame's estimate per estimating device whose launches are cheap: enough that a
+/// device slowed for a while leaves parts to the others, few enough that each part's fixed
+/// work stays small beside its sample.
+const PARTS_PER_DEVICE: usize = 4;
 
 /// A rendered frame: the image and how it was made.
 #[derive(Clone, Debug)]
@@ -468,9 +474,11 @@ impl<'a> PathRenderer<'a> {
 
     /// Each task's estimated work, and what crossed to each of the `active` devices (planned
     /// at `speeds`) to estimate it. The devices of the estimate kind of `active[lead]` estimate
-    /// the frame (counts of different kinds are not comparable): the tasks are dealt out to
-    /// such devices in proportion to their speeds ([`shares`]), and each estimates its share
-    /// where it renders, all at once. A share whose device cannot estimate it is
+    /// the frame (counts of different kinds are not comparable), each where it renders. Where
+    /// their launches are cheap (CPU devices), the tasks are cut into a few parts per device
+    /// that each device takes in turn as it is free, so that a device slowed by the machine's
+    /// other work leaves its parts to the others; otherwise each is dealt its share at once,
+    /// in proportion to its speed ([`shares`]). A part whose device cannot estimate it is
     /// estimated on the host.
     fn estimate(
         &mut self,
@@ -499,52 +507,75 @@ impl<'a> PathRenderer<'a> {
                 }
             })
             .collect();
-        let shares = shares(tasks.len(), &estimating);
-        let held: Vec<Vec<&Range<usize>>> = (shares.iter())
-            .map(|share| share.iter().map(|&t| &tasks[t]).collect())
+        let estimators = (0..active.len()).filter(|&k| estimating[k] > 0.0);
+        let taken = estimators
+            .clone()
+            .all(|k| self.devices[active[k]].cheap_launches());
+        let parts: Vec<Vec<usize>> = if taken {
+            let count = (PARTS_PER_DEVICE * estimators.count()).clamp(1, tasks.len().max(1));
+            let size = tasks.len().div_ceil(count).max(1);
+            (split_ranges(tasks.len(), size).into_iter())
+                .map(Iterator::collect)
+                .collect()
+        } else {
+            shares(tasks.len(), &estimating)
+        };
+        let held: Vec<Vec<&Range<usize>>> = (parts.iter())
+            .map(|part| part.iter().map(|&t| &tasks[t]).collect())
             .collect();
+        let next = AtomicUsize::new(0);
+        // Device `k`'s next part: the next one not taken, or its own share once.
+        let take = |k: usize, first: bool| {
+            if taken {
+                Some(next.fetch_add(1, Ordering::Relaxed)).filter(|&p| p < parts.len())
+            } else {
+                first.then_some(k)
+            }
+        };
         let mine = self.running_mut();
         debug_assert_eq!(mine.len(), active.len());
-        let mut estimates: Vec<Estimate> = vec![Estimate::default(); mine.len()];
+        let mut done: Vec<Vec<(usize, Estimate)>> = vec![Vec::new(); mine.len()];
         // On the threads the run drives the devices on: new threads woken on a busy machine
-        // can start only once another share is done, doubling the estimate's time.
-        let jobs: Vec<Box<dyn FnOnce() + Send + '_>> = (mine.into_iter().zip(&held))
-            .zip(estimates.iter_mut())
-            .map(|((device, held), out)| {
+        // can start only once another part is done, doubling the estimate's time.
+        let jobs: Vec<Box<dyn FnOnce() + Send + '_>> = (mine.into_iter().enumerate())
+            .zip(done.iter_mut())
+            .filter(|((k, _), _)| estimating[*k] > 0.0)
+            .map(|((k, device), out)| {
+                let (held, take) = (&held, &take);
                 Box::new(move || {
-                    if held.is_empty() {
-                        return;
+                    let mut first = true;
+                    while let Some(p) = take(k, std::mem::take(&mut first)) {
+                        if held[p].is_empty() {
+                            continue;
+                        }
+                        // A panic or an error leaves the part to the host: see below.
+                        let estimated = catch_unwind(AssertUnwindSafe(|| {
+                            device.estimate(frame, &held[p], rate, walk)
+                        }));
+                        if let Ok(Ok(e)) = estimated {
+                            out.push((p, e));
+                        }
                     }
-                    // A panic leaves the default, which answers for no task: see below.
-                    let estimated = catch_unwind(AssertUnwindSafe(|| {
-                        device.estimate(frame, held, rate, walk)
-                    }));
-                    *out = match estimated {
-                        Ok(Ok(e)) => e,
-                        Ok(Err(_)) => Estimate {
-                            work: walk_paths(frame, held, rate, walk),
-                            traffic: Traffic::default(),
-                        },
-                        Err(_) => Estimate::default(),
-                    };
                 }) as Box<dyn FnOnce() + Send + '_>
             })
             .collect();
-        // Threads refused: every share is estimated on the host below.
+        // Threads refused: every part is estimated on the host below.
         let _ = Runtime::on_device_threads(jobs);
+        let mut by_part: Vec<Option<Vec<Work>>> = vec![None; parts.len()];
+        let mut traffic = vec![Traffic::default(); active.len()];
+        for (k, estimates) in done.into_iter().enumerate() {
+            for (p, e) in estimates {
+                traffic[k] += e.traffic;
+                // A device that answered for other tasks than it was given is not believed.
+                by_part[p] = Some(e.work).filter(|w| w.len() == parts[p].len());
+            }
+        }
         let mut work = vec![Work::default(); tasks.len()];
-        let mut traffic = Vec::with_capacity(estimates.len());
-        for ((e, share), held) in estimates.into_iter().zip(&shares).zip(&held) {
-            let estimated = if e.work.len() == share.len() {
-                e.work
-            } else {
-                // A device that answered for other tasks than it was given (or panicked).
-                walk_paths(frame, held, rate, walk)
-            };
-            for (&t, w) in share.iter().zip(estimated) {
+        for ((part, held), estimated) in parts.iter().zip(&held).zip(by_part) {
+            let estimated = estimated.unwrap_or_else(|| walk_paths(frame, held, rate, walk));
+            for (&t, w) in part.iter().zip(estimated) {
                 work[t] = w;
             }
-            traffic.push(e.traffic);
         }
         (work, traffic)
     }
