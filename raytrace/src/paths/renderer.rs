@@ -477,7 +477,8 @@ impl<'a> PathRenderer<'a> {
     /// the frame (counts of different kinds are not comparable), each where it renders. Where
     /// their launches are cheap (CPU devices), the tasks are cut into a few parts per device
     /// that each device takes in turn as it is free, so that a device slowed by the machine's
-    /// other work leaves its parts to the others; otherwise each is dealt its share at once,
+    /// other work leaves its parts to the others (a device too slow to end one part before
+    /// the others end them all takes none); otherwise each is dealt its share at once,
     /// in proportion to its speed ([`shares`]). A part whose device cannot estimate it is
     /// estimated on the host.
     fn estimate(
@@ -496,7 +497,7 @@ impl<'a> PathRenderer<'a> {
         // `lead`'s kind.
         let traced = matches!(walk, Walk::Trace { .. });
         let kind = self.devices[active[lead]].estimate_kind();
-        let estimating: Vec<f64> = active
+        let mut estimating: Vec<f64> = active
             .iter()
             .zip(speeds)
             .map(|(&d, &s)| {
@@ -512,7 +513,16 @@ impl<'a> PathRenderer<'a> {
             .clone()
             .all(|k| self.devices[active[k]].cheap_launches());
         let parts: Vec<Vec<usize>> = if taken {
-            let count = (PARTS_PER_DEVICE * estimators.count()).clamp(1, tasks.len().max(1));
+            // A device that would take longer over one part than all of them together over
+            // the whole estimate does not take one: the frame would wait for it.
+            let (total, count): (f64, usize) = (estimating.iter().sum(), estimators.count());
+            for s in &mut estimating {
+                if *s * ((PARTS_PER_DEVICE * count) as f64) < total {
+                    *s = 0.0;
+                }
+            }
+            let count = (0..active.len()).filter(|&k| estimating[k] > 0.0).count();
+            let count = (PARTS_PER_DEVICE * count).clamp(1, tasks.len().max(1));
             let size = tasks.len().div_ceil(count).max(1);
             (split_ranges(tasks.len(), size).into_iter())
                 .map(Iterator::collect)

@@ -107,9 +107,13 @@ impl PathDevice for Delayed {
     }
 }
 
-/// A [`Delayed`] device that also waits before each estimate, which it makes as its inner
-/// device would.
-struct SlowEstimates(Delayed);
+/// A device of its own class that renders at two thirds of its inner device's speed and waits
+/// `millis` before each estimate: its speed is measured on its renders, so no plan sees what
+/// its estimates cost.
+struct SlowEstimates {
+    inner: Box<dyn PathDevice>,
+    millis: u64,
+}
 
 impl PathDevice for SlowEstimates {
     fn render(
@@ -117,7 +121,11 @@ impl PathDevice for SlowEstimates {
         frame: &crate::paths::Frame<'_>,
         tasks: &[&std::ops::Range<usize>],
     ) -> Result<crate::paths::Launch, sched::DeviceError> {
-        self.0.render(frame, tasks)
+        // Half again as long, so that the other class is the fastest.
+        let started = std::time::Instant::now();
+        let launch = self.inner.render(frame, tasks);
+        std::thread::sleep(started.elapsed() / 2);
+        launch
     }
 
     fn estimate(
@@ -127,24 +135,24 @@ impl PathDevice for SlowEstimates {
         rate: sched::SampleRate,
         walk: Walk,
     ) -> Result<crate::paths::Estimate, sched::DeviceError> {
-        std::thread::sleep(std::time::Duration::from_millis(self.0.millis));
-        self.0.inner.estimate(frame, tasks, rate, walk)
+        std::thread::sleep(std::time::Duration::from_millis(self.millis));
+        self.inner.estimate(frame, tasks, rate, walk)
     }
 
     fn estimate_kind(&self) -> &'static str {
-        self.0.inner.estimate_kind()
+        self.inner.estimate_kind()
     }
 
     fn cheap_launches(&self) -> bool {
-        self.0.inner.cheap_launches()
+        self.inner.cheap_launches()
     }
 
     fn name(&self) -> String {
-        self.0.name()
+        self.inner.name()
     }
 
     fn class(&self) -> String {
-        self.0.class()
+        "laggard".to_owned()
     }
 }
 
@@ -182,17 +190,11 @@ fn a_device_that_slows_frames_is_left_idle() {
     let mut devices = cpus(2);
     let lagging = devices.remove(1);
     // Long beside a frame alone even when the tests beside this one share its cores.
-    devices.push(Box::new(SlowEstimates(Delayed {
+    devices.push(Box::new(SlowEstimates {
         inner: lagging,
         millis: 150,
-        class: Some("laggard"),
-    })));
-    // Without backups: a device whose every task a copy delivered first learns no speed.
-    let s = Settings {
-        backups: false,
-        ..settings(Policy::Hybrid, Mode::Cost, 64)
-    };
-    let mut r = PathRenderer::new(devices, s).unwrap();
+    }));
+    let mut r = PathRenderer::new(devices, settings(Policy::Hybrid, Mode::Cost, 64)).unwrap();
     let idle: Vec<Vec<String>> = (0..5)
         .map(|_| {
             let frame = r.render(&scene, &bvh, &options).expect("frame");
