@@ -389,7 +389,7 @@ pub struct SceneArgs {
     /// An OBJ file, or `builtin:forest|hairball|cornell[:detail]`.
     #[arg(long)]
     pub scene: String,
-    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
+    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow, sah.
     #[arg(long, default_value = "medium")]
     pub preset: BuildPreset,
 }
