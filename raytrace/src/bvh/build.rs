@@ -63,7 +63,6 @@ impl Bvh {
         max_depth: usize,
         start: Instant,
     ) -> Result<Self> {
-        let mut params = preset.params();
         // obvhs wants dense indices 0..n into the primitives it is given, so it gets only the
         // non-degenerate triangles and `ids` maps its indices back to primitive ids.
         let ids: Vec<u32> = (0..scene.len() as u32)
@@ -90,6 +89,14 @@ impl Bvh {
         let mut indices: Vec<u32> = (0..ids.len() as u32).collect();
         let mut aabbs: Vec<OAabb> = tris.iter().map(Triangle::aabb).collect();
 
+        let preset = match preset {
+            BuildPreset::Auto => {
+                let mut areas: Vec<f32> = aabbs.iter().map(OAabb::half_area).collect();
+                BuildPreset::for_areas(&mut areas)
+            }
+            p => p,
+        };
+        let mut params = preset.params();
         let mut report = BuildReport {
             preset,
             degenerate_skipped,

@@ -57,7 +57,7 @@ fn sah_trees_hit_what_ploc_trees_hit() {
         let sah = Bvh::build(&scene, BuildPreset::Sah).unwrap();
         let ploc = Bvh::build(&scene, BuildPreset::Medium).unwrap();
         validate(&sah, &scene).unwrap_or_else(|e| panic!("round {round}: {e}"));
-        assert_eq!(sah.report().spatial_splits, false);
+        assert!(!sah.report().spatial_splits);
         let rays = super::wide::rays(&scene, &mut rng, 3000);
         let mut hits = 0;
         for (i, r) in rays.iter().enumerate() {
@@ -108,4 +108,45 @@ fn sah_trees_are_cheap_and_deterministic() {
     let again = Bvh::build(&scene, BuildPreset::Sah).unwrap();
     assert_eq!(again.nodes(), sah.nodes());
     assert_eq!(again.triangles(), sah.triangles());
+}
+
+/// `auto` builds with PLOC only where a few triangles hold most of the area, and the tree
+/// names the build it got.
+#[test]
+fn auto_picks_by_where_the_area_is() {
+    let mut even = vec![1.0f32; 1000];
+    assert_eq!(BuildPreset::for_areas(&mut even), BuildPreset::Sah);
+    // 10 walls (1 %) of area 200 among 990 small triangles: 2000 of 2990.
+    let mut room: Vec<f32> = (0..1000)
+        .map(|k| if k % 100 == 7 { 200.0 } else { 1.0 })
+        .collect();
+    assert_eq!(BuildPreset::for_areas(&mut room), BuildPreset::Medium);
+    assert_eq!(BuildPreset::for_areas(&mut []), BuildPreset::Sah);
+    assert_eq!("auto".parse::<BuildPreset>(), Ok(BuildPreset::Auto));
+    assert_eq!(BuildPreset::default(), BuildPreset::Auto);
+
+    let mut rng = Rng::new(testkit::seed(33));
+    let scene = random_scene(&mut rng, 2000);
+    let auto = Bvh::build(&scene, BuildPreset::Auto).unwrap();
+    let sah = Bvh::build(&scene, BuildPreset::Sah).unwrap();
+    assert_eq!(auto.report().preset, BuildPreset::Sah);
+    assert_eq!(auto.nodes(), sah.nodes());
+    // One floor under everything, then a thousand specks: the floor is the largest 1 %.
+    let mut m = MeshBuilder::default();
+    m.quad(
+        [
+            Vec3::new(-1e3, 0.0, -1e3),
+            Vec3::new(1e3, 0.0, -1e3),
+            Vec3::new(1e3, 0.0, 1e3),
+            Vec3::new(-1e3, 0.0, 1e3),
+        ],
+        0,
+    );
+    for k in 0..1000 {
+        let c = Vec3::new(k as f32, 1.0, 0.0);
+        m.tri_points(c, c + Vec3::X * 0.1, c + Vec3::Y * 0.1, 0);
+    }
+    let room = testkit::scene_of("room", m).unwrap();
+    let auto = Bvh::build(&room, BuildPreset::Auto).unwrap();
+    assert_eq!(auto.report().preset, BuildPreset::Medium);
 }
