@@ -90,8 +90,9 @@ impl FromStr for BuildPreset {
 /// Above this share of the triangles' summed box area in their largest 1 %, [`BuildPreset::Auto`]
 /// builds with PLOC: a scene of a few huge triangles among many small ones (an interior's
 /// walls and floors around its furniture). On the scenes measured (`docs/results.md`) the
-/// share is 0.69 for Conference, where PLOC's tree traces 15-25 % faster than the SAH build's,
-/// and at most 0.31 for the others, where the SAH build's traces as fast or faster.
+/// share is 0.69 for Conference, where PLOC's tree traces 25-28 % faster than the SAH build's,
+/// and at most 0.31 for the others, where the SAH build's traces as fast or faster (forest:
+/// level within the noise of a shared machine).
 pub const CONCENTRATED_AREA: f32 = 0.5;
 
 impl BuildPreset {
