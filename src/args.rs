@@ -389,8 +389,9 @@ pub struct SceneArgs {
     /// An OBJ file, or `builtin:forest|hairball|cornell[:detail]`.
     #[arg(long)]
     pub scene: String,
-    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
-    #[arg(long, default_value = "medium")]
+    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow, sah, or auto
+    /// (sah, or medium for a scene whose largest 1% of triangles hold over half their area).
+    #[arg(long, default_value = "auto")]
     pub preset: BuildPreset,
 }
 

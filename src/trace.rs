@@ -116,7 +116,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let report = Report {
         scene: args.scene.scene.clone(),
         triangles: scene.len(),
-        preset: preset.name().to_string(),
+        preset: bvh.report().preset.name().to_string(),
         device: match args.device {
             Device::Cpu => "cpu",
             Device::Gpu => "gpu",

@@ -29,8 +29,8 @@ pub struct Args {
     /// Orbit camera of the AO images, 0..3.
     #[arg(long, default_value = "0", value_parser = camera_index)]
     camera: usize,
-    /// Presets to compare, comma-separated: fastest, very-fast, fast, medium, slow, very-slow
-    /// (default all six).
+    /// Presets to compare, comma-separated: fastest, very-fast, fast, medium, slow, very-slow,
+    /// sah (default all seven).
     #[arg(long, value_delimiter = ',', value_parser = preset)]
     presets: Option<Vec<BuildPreset>>,
     /// AO sample counts to compare with the reference, comma-separated, each 1..=4096.

@@ -5,5 +5,6 @@ mod bvh;
 mod obj;
 mod paths;
 mod robustness;
+mod sah;
 mod shade;
 mod wide;

@@ -73,7 +73,7 @@ pub fn presets(
             n as f64 / best / 1e6
         };
         records.push(PresetRecord {
-            preset: preset.name(),
+            preset: bvh.report().preset.name(),
             build_seconds: bvh.report().build_seconds,
             sah_cost: bvh.report().sah_cost,
             nodes: bvh.report().nodes,

@@ -173,7 +173,7 @@ fn load(
         camera: camera_index,
         eye: scene.to_source(view.eye).to_array(),
         at: scene.to_source(view.at).to_array(),
-        preset: args.scene.preset.name().to_string(),
+        preset: bvh.report().preset.name().to_string(),
         ao_samples: ao.map(|(samples, _)| samples),
         ao_distance: ao.map(|(_, distance)| distance),
         bounces: whitted,

@@ -1,11 +1,14 @@
-//! Building with obvhs (PLOC, reinsertion, leaf collapse, optional spatial pre-splits), then
-//! flattening depth-first into sibling pairs with triangles gathered in leaf order.
+//! Building with obvhs (PLOC, reinsertion, leaf collapse, optional spatial pre-splits) or by
+//! binned SAH (`sah.rs`), then flattening depth-first into sibling pairs with triangles
+//! gathered in leaf order.
 
 use std::time::Instant;
 
 use glam::Vec3A;
 use obvhs::{
+    BvhBuildParams,
     aabb::Aabb as OAabb,
+    bvh2::Bvh2,
     bvh2::leaf_collapser::collapse,
     bvh2::reinsertion::ReinsertionOptimizer,
     ploc::{PlocBuilder, PlocSearchDistance},
@@ -17,7 +20,7 @@ use super::node::{BvhTriangle, Node, leaf_triangle};
 use super::preset::BuildPreset;
 use super::report::BuildReport;
 use super::wide::WideBvh;
-use super::{Bvh, MAX_DEPTH, bound};
+use super::{Bvh, MAX_DEPTH, bound, sah};
 use crate::{Error, Result, Scene};
 
 /// How many times over the triangles' boxes may cover the scene's box (their summed areas
@@ -60,7 +63,6 @@ impl Bvh {
         max_depth: usize,
         start: Instant,
     ) -> Result<Self> {
-        let mut params = preset.params();
         // obvhs wants dense indices 0..n into the primitives it is given, so it gets only the
         // non-degenerate triangles and `ids` maps its indices back to primitive ids.
         let ids: Vec<u32> = (0..scene.len() as u32)
@@ -87,6 +89,14 @@ impl Bvh {
         let mut indices: Vec<u32> = (0..ids.len() as u32).collect();
         let mut aabbs: Vec<OAabb> = tris.iter().map(Triangle::aabb).collect();
 
+        let preset = match preset {
+            BuildPreset::Auto => {
+                let mut areas: Vec<f32> = aabbs.iter().map(OAabb::half_area).collect();
+                BuildPreset::for_areas(&mut areas)
+            }
+            p => p,
+        };
+        let mut params = preset.params();
         let mut report = BuildReport {
             preset,
             degenerate_skipped,
@@ -158,27 +168,11 @@ impl Bvh {
             let avg = sum / aabbs.len() as f32;
             split_aabbs_preset(&mut aabbs, &mut indices, &tris, avg, largest);
         }
-        let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
-            params.ploc_search_distance,
-            &aabbs,
-            indices,
-            params.sort_precision,
-            params.search_depth_threshold,
-        );
-        bvh2.uses_spatial_splits = params.pre_split;
-        let mut reinsertion = ReinsertionOptimizer::default();
-        reinsertion.run(&mut bvh2, params.reinsertion_batch_ratio, None);
-        collapse(
-            &mut bvh2,
-            params.max_prims_per_leaf.clamp(1, 255),
-            params.collapse_traversal_cost,
-        );
-        reinsertion.run(
-            &mut bvh2,
-            params.reinsertion_batch_ratio
-                * params.post_collapse_reinsertion_batch_ratio_multiplier,
-            None,
-        );
+        let bvh2 = if preset == BuildPreset::Sah {
+            sah::build(&aabbs, &indices)
+        } else {
+            Self::ploc(&aabbs, indices, &params)
+        };
         report.build_seconds = core.elapsed().as_secs_f64();
 
         // Flatten depth-first; each inner node's children are allocated as an adjacent pair,
@@ -251,5 +245,31 @@ impl Bvh {
             report,
             wide: Default::default(),
         })
+    }
+
+    /// obvhs's PLOC build over `aabbs`, then its reinsertion and leaf collapse.
+    fn ploc(aabbs: &[OAabb], indices: Vec<u32>, params: &BvhBuildParams) -> Bvh2 {
+        let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
+            params.ploc_search_distance,
+            aabbs,
+            indices,
+            params.sort_precision,
+            params.search_depth_threshold,
+        );
+        bvh2.uses_spatial_splits = params.pre_split;
+        let mut reinsertion = ReinsertionOptimizer::default();
+        reinsertion.run(&mut bvh2, params.reinsertion_batch_ratio, None);
+        collapse(
+            &mut bvh2,
+            params.max_prims_per_leaf.clamp(1, 255),
+            params.collapse_traversal_cost,
+        );
+        reinsertion.run(
+            &mut bvh2,
+            params.reinsertion_batch_ratio
+                * params.post_collapse_reinsertion_batch_ratio_multiplier,
+            None,
+        );
+        bvh2
     }
 }

@@ -1,6 +1,6 @@
-//! The bounding volume hierarchy: built by obvhs ([`build`], with a [`BuildPreset`], reported
-//! in a [`BuildReport`]), its depth bounded (`bound.rs` rebuilds deep subtrees),
-//! flattened into [`Node`]s and [`BvhTriangle`]s in leaf order ([`node`]), and checked
+//! The bounding volume hierarchy: built by obvhs's PLOC or by binned SAH (`sah.rs`)
+//! ([`build`], with a [`BuildPreset`], reported in a [`BuildReport`]), its depth bounded
+//! (`bound.rs` rebuilds deep subtrees), flattened into [`Node`]s and [`BvhTriangle`]s in leaf order ([`node`]), and checked
 //! ([`mod@validate`]).
 
 mod bound;
@@ -8,6 +8,7 @@ pub mod build;
 pub mod node;
 pub mod preset;
 pub mod report;
+pub(crate) mod sah;
 pub mod validate;
 pub mod wide;
 

@@ -26,6 +26,7 @@ fn every_preset_builds_a_valid_tree() {
     }
     // Better presets should not make clearly worse trees than the fastest one.
     assert!(sah[5] < sah[0], "{sah:?}");
+    assert!(sah[6] < sah[0], "{sah:?}");
 }
 
 #[test]

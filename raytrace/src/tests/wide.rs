@@ -19,7 +19,7 @@ fn load(name: &str, preset: BuildPreset) -> (Scene, Bvh) {
 
 /// Random rays through the scene, rays aimed exactly at vertices and edge midpoints, and
 /// grazing rays that start on a triangle and run nearly along it; some with a short range.
-fn rays(scene: &Scene, rng: &mut Rng, n: usize) -> Vec<Ray> {
+pub(super) fn rays(scene: &Scene, rng: &mut Rng, n: usize) -> Vec<Ray> {
     let b = scene.bounds();
     let (lo, hi) = (b.min, b.max);
     let ext = (hi - lo).max_element();
@@ -137,6 +137,7 @@ fn wide_equals_binary_on_forest() {
         BuildPreset::Medium,
         testkit::seed(21),
     );
+    differential("builtin:forest:0.05", BuildPreset::Sah, testkit::seed(21));
 }
 
 #[test]
@@ -155,6 +156,7 @@ fn wide_equals_binary_on_cornell() {
     // Spatial splits put a triangle in several leaves; the smallest build, one triangle each.
     differential("builtin:cornell:0.2", BuildPreset::Slow, seed);
     differential("builtin:cornell:0.2", BuildPreset::Fastest, seed);
+    differential("builtin:cornell:0.2", BuildPreset::Sah, seed);
 }
 
 /// The wide tree holds every leaf triangle of the binary tree once, plus repeats that only fill
