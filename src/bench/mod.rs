@@ -76,8 +76,9 @@ pub struct Args {
     /// tables and `--json` give the medians and every run's MRays/s and balance.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
     repeats: u32,
-    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow.
-    #[arg(long, default_value = "medium")]
+    /// BVH build preset: fastest, very-fast, fast, medium, slow, very-slow, sah, or auto
+    /// (sah, or medium for a scene whose largest 1% of triangles hold over half their area).
+    #[arg(long, default_value = "auto")]
     preset: BuildPreset,
     /// Also replay the measured tasks on simulated machines of these device counts
     /// (comma-separated, each 1..=65536), of mixed speeds, behind PCIe-like (10 µs) and
