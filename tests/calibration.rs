@@ -25,7 +25,7 @@ fn report(o: &std::process::Output) -> Value {
 }
 
 /// Two renders with one `--calibration` file: the first writes an entry per device class and
-/// what its frame measured of running on both, the second plans its first frame with them,
+/// what its frames measured of running on both, the second plans its first frame with them,
 /// and the image does not change (where a task runs never changes what its paths render).
 /// The user's cache is left alone.
 #[test]
@@ -37,7 +37,14 @@ fn a_second_render_plans_with_what_the_first_learnt() {
     let _ = std::fs::remove_dir_all(&cache);
     let flag = ["--calibration", file.to_str().expect("a UTF-8 temp path")];
 
-    let first = report(&render(&dir, "first", &cache, &flag));
+    // Three frames: every device at equal speeds (which measures them), the fastest class
+    // alone, then every device as planned, the figure the choice keeps.
+    let first = report(&render(
+        &dir,
+        "first",
+        &cache,
+        &[&flag[..], &["--repeats", "3"]].concat(),
+    ));
     let c = &first["calibration"];
     assert_eq!(c["file"].as_str(), file.to_str(), "{c}");
     assert_eq!(c["loaded_entries"], 0, "{c}");
