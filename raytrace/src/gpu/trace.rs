@@ -12,7 +12,7 @@
 use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, init, read_back, readable, storage};
 use super::program::{Program, READ, UNIFORM, WRITE};
 use super::{GpuContext, GpuError};
-use crate::{Bvh, Traffic, Walk};
+use crate::{Bvh, Layout, Traffic, Walk};
 
 /// Batches of 64 rays a workgroup takes per dispatch: few enough that one invocation stays far
 /// below lavapipe's ~65 535 loop iterations (a ray rarely needs more than a few hundred).
@@ -64,13 +64,39 @@ impl TraceKernels {
             });
         }
         // A traversal holds at most depth - 1 entries; round up so that few variants exist.
-        let stack = depth.max(1).next_multiple_of(32);
-        let source = [include_str!("ray.wgsl"), include_str!("traverse.wgsl")]
-            .concat()
-            .replace(
-                "const STACK: u32 = 64u;",
-                &format!("const STACK: u32 = {stack}u;"),
-            );
+        Ok(Self::compile(
+            device,
+            include_str!("traverse.wgsl"),
+            depth.max(1).next_multiple_of(32),
+        ))
+    }
+
+    /// Compiles the compressed wide tree's kernels (`traverse_wide.wgsl`) for a wide tree of
+    /// `depth` levels.
+    ///
+    /// # Errors
+    /// [`GpuError::TooDeep`] beyond 256 levels.
+    pub fn wide(device: &wgpu::Device, depth: usize) -> Result<Self, GpuError> {
+        if depth > MAX_STACK {
+            return Err(GpuError::TooDeep {
+                depth,
+                max: MAX_STACK,
+            });
+        }
+        // Each level leaves at most seven children on the stack.
+        let stack = (7 * depth + 1).next_multiple_of(32);
+        Ok(Self::compile(
+            device,
+            include_str!("traverse_wide.wgsl"),
+            stack,
+        ))
+    }
+
+    fn compile(device: &wgpu::Device, kernel: &str, stack: usize) -> Self {
+        let source = [include_str!("ray.wgsl"), kernel].concat().replace(
+            "const STACK: u32 = 64u;",
+            &format!("const STACK: u32 = {stack}u;"),
+        );
         let program = Program::new(
             device,
             "traverse",
@@ -94,7 +120,7 @@ impl TraceKernels {
                 },
             )
         };
-        Ok(Self {
+        Self {
             pipelines: [
                 make(0, "cobalt closest-hit pipeline"),
                 make(1, "cobalt any-hit pipeline"),
@@ -108,7 +134,7 @@ impl TraceKernels {
                 16,
                 wgpu::BufferUsages::empty(),
             ),
-        })
+        }
     }
 }
 
@@ -119,6 +145,8 @@ pub(crate) struct TraceDevice {
     pub(crate) ctx: GpuContext,
     pub(crate) kernels: TraceKernels,
     pub(crate) scene: SceneBuffers,
+    /// The tree uploaded.
+    pub(crate) layout: Layout,
 }
 
 impl TraceDevice {
@@ -128,9 +156,37 @@ impl TraceDevice {
     /// [`GpuError::TooLarge`] when the tree exceeds a binding limit, [`GpuError::TooDeep`]
     /// beyond the deepest supported tree.
     pub(crate) fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
+        Self::with_layout(ctx, bvh, Layout::Binary)
+    }
+
+    /// Uploads `bvh` as `layout` lays it out: the binary tree, or the compressed wide nodes
+    /// made from [`Bvh::wide`]; and compiles that layout's kernels.
+    ///
+    /// # Errors
+    /// Those of [`TraceDevice::new`], and [`GpuError::Compress`] for a wide tree with no
+    /// compressed form.
+    pub(crate) fn with_layout(
+        ctx: GpuContext,
+        bvh: &Bvh,
+        layout: Layout,
+    ) -> Result<Self, GpuError> {
+        let (kernels, scene) = match layout {
+            Layout::Binary => (
+                TraceKernels::new(&ctx.device, bvh.depth())?,
+                SceneBuffers::upload(&ctx, bvh)?,
+            ),
+            Layout::Wide => {
+                let tree = super::wide::CompressedTree::new(bvh.wide())?;
+                (
+                    TraceKernels::wide(&ctx.device, bvh.wide().depth())?,
+                    SceneBuffers::upload_wide(&ctx, &tree)?,
+                )
+            }
+        };
         Ok(Self {
-            kernels: TraceKernels::new(&ctx.device, bvh.depth())?,
-            scene: SceneBuffers::upload(&ctx, bvh)?,
+            kernels,
+            scene,
+            layout,
             ctx,
         })
     }
