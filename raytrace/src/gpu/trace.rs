@@ -1,7 +1,9 @@
 //! The kernels of `traverse.wgsl` and the host loop that runs them.
 //!
-//! One shader, four compute pipelines (the `MODE` override): closest hit, any hit, and the two reduced
-//! traversals (the thesis's and the first-leaf one, see [`crate::Walk`]).
+//! One shader per tree layout (`traverse.wgsl` for the binary tree, `traverse_wide.wgsl` for the
+//! compressed 8-wide nodes of [`super::wide`]), four compute pipelines each (the `MODE`
+//! override): closest hit, any hit, and the two reduced traversals (the thesis's and the
+//! first-leaf one, see [`crate::Walk`]; the wide layout's host refuses the first-leaf walk).
 //! A launch uploads its rays, resets the queue head, and records enough dispatches of
 //! persistent workgroups to drain the queue: each workgroup takes [`BATCHES`] batches of 64
 //! rays per dispatch, so `ceil(rays / (64 · BATCHES · workgroups))` dispatches suffice when
