@@ -36,8 +36,8 @@ pub struct Args {
     /// The device that traces.
     #[arg(long, value_enum, default_value = "cpu")]
     device: Device,
-    /// The CPU's tree: `wide` (8-wide, the default) or `binary` (the tree the GPU walks).
-    /// Both give the same closest hits.
+    /// The tree walked: `wide` (the default: 8-wide on the CPU, the compressed 8-wide nodes on
+    /// the GPU) or `binary`. Both give the same closest hits.
     #[arg(long, default_value = "wide")]
     layout: Layout,
     /// Trace the rays this many times and report the fastest (the first pays for starting
@@ -59,8 +59,14 @@ struct Report {
     #[serde(skip_serializing_if = "Option::is_none")]
     adapter: Option<String>,
     any_hit: bool,
-    /// The CPU's tree (`wide` or `binary`).
+    /// The tree walked (`wide` or `binary`).
     layout: &'static str,
+    /// With `--device gpu`: nodes the reduced walk fetches per ray on `layout`'s tree.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    nodes_per_ray: Option<f64>,
+    /// With `--device gpu`: `nodes_per_ray` times the bytes one node fetch reads.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    node_bytes_per_ray: Option<f64>,
     rays: usize,
     hits: usize,
     /// Traversal only.
@@ -98,7 +104,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     scene.rays_to_scene(&mut rays);
     let bvh = Bvh::build(&scene, preset)?;
 
-    let (hits, seconds, adapter) = match args.device {
+    let (hits, seconds, adapter, nodes) = match args.device {
         Device::Cpu => {
             let mut best = f64::INFINITY;
             let mut hits = HitBatch::misses(0);
@@ -107,9 +113,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 hits = traverse::hits_in(&bvh, &rays, args.any_hit, layout);
                 best = best.min(tracing.elapsed().as_secs_f64());
             }
-            (hits, best, None)
+            (hits, best, None, None)
         }
-        Device::Gpu => gpu_trace(&bvh, &rays, args.any_hit)?,
+        Device::Gpu => gpu_trace(&bvh, &rays, args.any_hit, layout)?,
     };
     outputs.commit(&[("out", &hits.to_records())])?;
 
@@ -124,6 +130,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
         adapter,
         any_hit: args.any_hit,
         layout: layout.name(),
+        nodes_per_ray: nodes.map(|(n, _)| n),
+        node_bytes_per_ray: nodes.map(|(n, bytes)| n * bytes),
         rays: rays.len(),
         hits: hits.prim.iter().filter(|&&p| p != u32::MAX).count(),
         seconds,
@@ -152,13 +160,16 @@ pub fn run(args: Args) -> Result<(), CliError> {
 }
 
 /// Traces on the first usable GPU adapter: hits, seconds (upload, kernels and read-back of
-/// the rays; the BVH upload and kernel compilation excluded) and the adapter's name.
+/// the rays; the BVH upload and kernel compilation excluded), the adapter's name, and the
+/// nodes the reduced walk fetches per ray on `layout`'s tree with the bytes of one fetch.
 #[cfg(feature = "gpu")]
 fn gpu_trace(
     bvh: &Bvh,
     rays: &RayBatch,
     any_hit: bool,
-) -> Result<(HitBatch, f64, Option<String>), CliError> {
+    layout: Layout,
+) -> Result<GpuTrace, CliError> {
+    use raytrace::cost::CountRays;
     use raytrace::devices::GpuSelect;
     use raytrace::gpu::{GpuContext, GpuDevice, GpuOptions};
     // The first GPU found, with the `COBALT_GPU_*` options from the environment.
@@ -166,17 +177,32 @@ fn gpu_trace(
         .map_err(CliError::gpu)?
         .swap_remove(0);
     let name = ctx.info.name.clone();
-    let dev = GpuDevice::new(ctx, bvh).map_err(CliError::gpu)?;
+    let dev = GpuDevice::with_layout(ctx, bvh, layout).map_err(CliError::gpu)?;
     let tracing = Instant::now();
     let hits = dev
         .hits(any_hit, rays, &[&(0..rays.len())])
         .map_err(CliError::gpu)?;
-    Ok((hits, tracing.elapsed().as_secs_f64(), Some(name)))
+    let seconds = tracing.elapsed().as_secs_f64();
+    let index: Vec<usize> = (0..rays.len()).collect();
+    let (_, counts) = dev
+        .count_at(rays, raytrace::Walk::Reduced, &index)
+        .map_err(CliError::gpu)?;
+    let nodes: u64 = counts.iter().map(|c| u64::from(c.nodes)).sum();
+    let per_ray = nodes as f64 / rays.len().max(1) as f64;
+    Ok((
+        hits,
+        seconds,
+        Some(name),
+        Some((per_ray, dev.node_bytes() as f64)),
+    ))
 }
+
+/// Hits, seconds, the adapter's name, and nodes per ray with the bytes of a node fetch.
+type GpuTrace = (HitBatch, f64, Option<String>, Option<(f64, f64)>);
 
 /// Without the `gpu` feature, `--device gpu` is refused.
 #[cfg(not(feature = "gpu"))]
-fn gpu_trace(_: &Bvh, _: &RayBatch, _: bool) -> Result<(HitBatch, f64, Option<String>), CliError> {
+fn gpu_trace(_: &Bvh, _: &RayBatch, _: bool, _: Layout) -> Result<GpuTrace, CliError> {
     Err(CliError::gpu(crate::error::NO_GPU))
 }
 

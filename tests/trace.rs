@@ -389,3 +389,59 @@ fn trace_on_the_gpu_writes_the_cpu_hits() {
         assert!(ties * 1000 <= n, "{ties} id mismatches");
     }
 }
+
+/// `--layout` picks the GPU's tree: both write the same closest hits, byte for byte, and the
+/// compressed wide nodes read at most 0.6 times the binary tree's node bytes per ray.
+#[test]
+fn gpu_layouts_write_the_same_hits_and_report_node_bytes() {
+    let mut rng = Rng::from_env(29);
+    let dir = crate::testkit::temp_dir("trace-gpu-layouts");
+    let mut bytes = Vec::new();
+    for _ in 0..3000 {
+        let o = [0.0, rng.range(0.5, 1.5), 3.0];
+        let d = [rng.range(-0.6, 0.6), rng.range(-0.8, 0.2), -1.0];
+        for x in o
+            .iter()
+            .chain(&d)
+            .map(|&x| x as f32)
+            .chain([0.0, f32::INFINITY])
+        {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    let rays = dir.join("rays.bin");
+    std::fs::write(&rays, &bytes).unwrap();
+    let mut reports = Vec::new();
+    for layout in ["binary", "wide"] {
+        let out = dir.join(format!("hits-{layout}.bin"));
+        let o = crate::testkit::command()
+            .args(["trace", "--scene", "builtin:forest:0.05", "--device", "gpu"])
+            .args(["--rays", rays.to_str().unwrap()])
+            .args(["--out", out.to_str().unwrap(), "--layout", layout, "--json"])
+            .env("COBALT_GPU_SOFTWARE", "1")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        if !o.status.success() && err.contains("no GPU adapter") {
+            assert!(std::env::var_os("CI").is_none(), "CI is set but: {err}");
+            eprintln!("note: no GPU adapter; GPU layout test skipped");
+            return;
+        }
+        assert!(o.status.success(), "{err}");
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(report["layout"], layout);
+        reports.push((report, std::fs::read(out).unwrap()));
+    }
+    let ((binary, b_hits), (wide, w_hits)) = (&reports[0], &reports[1]);
+    assert_eq!(b_hits, w_hits);
+    let bytes = |r: &serde_json::Value| r["node_bytes_per_ray"].as_f64().unwrap();
+    let nodes = |r: &serde_json::Value| r["nodes_per_ray"].as_f64().unwrap();
+    assert_eq!(bytes(binary), nodes(binary) * 64.0);
+    assert_eq!(bytes(wide), nodes(wide) * 80.0);
+    assert!(
+        bytes(wide) <= 0.6 * bytes(binary),
+        "{} against {}",
+        bytes(wide),
+        bytes(binary)
+    );
+}

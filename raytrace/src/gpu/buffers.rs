@@ -95,13 +95,37 @@ impl SceneBuffers {
     /// # Errors
     /// [`GpuError::TooLarge`] when the node or triangle array exceeds a binding limit.
     pub fn upload(ctx: &GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
-        let nodes: &[u8] = bytemuck::cast_slice(bvh.nodes());
-        let empty = bvh.triangles().is_empty();
+        Self::upload_arrays(ctx, bytemuck::cast_slice(bvh.nodes()), bvh.triangles())
+    }
+
+    /// Uploads a compressed wide tree (`--layout wide`) to `ctx`'s device.
+    ///
+    /// # Errors
+    /// [`GpuError::TooLarge`] when the node or triangle array exceeds a binding limit.
+    pub fn upload_wide(
+        ctx: &GpuContext,
+        tree: &super::wide::CompressedTree,
+    ) -> Result<Self, GpuError> {
+        let dummy = [super::wide::CompressedNode::default()];
+        let nodes = if tree.nodes.is_empty() {
+            &dummy[..]
+        } else {
+            &tree.nodes[..]
+        };
+        Self::upload_arrays(ctx, bytemuck::cast_slice(nodes), &tree.tris)
+    }
+
+    fn upload_arrays(
+        ctx: &GpuContext,
+        nodes: &[u8],
+        triangles: &[BvhTriangle],
+    ) -> Result<Self, GpuError> {
+        let empty = triangles.is_empty();
         let dummy = [BvhTriangle::default()];
         let tris: &[u8] = if empty {
             bytemuck::cast_slice(&dummy)
         } else {
-            bytemuck::cast_slice(bvh.triangles())
+            bytemuck::cast_slice(triangles)
         };
         check_size(ctx, "BVH nodes", nodes.len() as u64)?;
         check_size(ctx, "BVH triangles", tris.len() as u64)?;

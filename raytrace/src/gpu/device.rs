@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crate::Traffic;
 use crate::cost::CountRays;
 use crate::traverse::counts::Counts;
-use crate::{Bvh, HitBatch, RayBatch, Walk};
+use crate::{Bvh, HitBatch, Layout, RayBatch, Walk};
 
 use super::staging::{Staging, staged};
 use super::trace::TraceDevice;
@@ -33,8 +33,20 @@ impl GpuDevice {
     /// [`GpuError::TooLarge`] when the tree exceeds a binding limit, [`GpuError::TooDeep`]
     /// beyond the deepest supported tree.
     pub fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
+        Self::with_layout(ctx, bvh, Layout::Binary)
+    }
+
+    /// Uploads `bvh` as `layout` lays it out (the binary tree, or the compressed 8-wide nodes
+    /// of [`super::wide`]) and compiles that layout's kernels. Both find the same hits; the
+    /// counts of the reduced walk are the nodes of the layout walked, and the wide layout does
+    /// not run the first-leaf walk.
+    ///
+    /// # Errors
+    /// Those of [`GpuDevice::new`], and [`GpuError::Compress`] for a wide tree with no
+    /// compressed form.
+    pub fn with_layout(ctx: GpuContext, bvh: &Bvh, layout: Layout) -> Result<Self, GpuError> {
         Ok(Self {
-            dev: TraceDevice::new(ctx, bvh)?,
+            dev: TraceDevice::with_layout(ctx, bvh, layout)?,
             last_seconds: AtomicU64::new(f64::NAN.to_bits()),
             staging: Mutex::new(None),
         })
@@ -44,6 +56,21 @@ impl GpuDevice {
     /// the device has none (or before the first launch).
     pub fn last_gpu_seconds(&self) -> Option<f64> {
         Some(f64::from_bits(self.last_seconds.load(Ordering::Relaxed))).filter(|s| !s.is_nan())
+    }
+
+    /// The tree the kernels walk.
+    pub fn layout(&self) -> Layout {
+        self.dev.layout
+    }
+
+    /// Bytes one node visit of the reduced walk reads: an 80-byte compressed wide node, or for
+    /// the binary tree the 64-byte pair of siblings that holds the node entered (its parent
+    /// read the pair to test both boxes; the node's own 32 bytes come from that line).
+    pub fn node_bytes(&self) -> usize {
+        match self.dev.layout {
+            Layout::Binary => 2 * size_of::<crate::Node>(),
+            Layout::Wide => super::wide::CompressedTree::NODE_BYTES,
+        }
     }
 
     /// The opened adapter.
@@ -117,6 +144,12 @@ impl CountRays for GpuDevice {
     ) -> Result<(Option<HitBatch>, Vec<Counts>), GpuError> {
         if let Walk::Trace { .. } = walk {
             return Err(GpuError::WalkUnsupported { walk: walk.name() });
+        }
+        if walk == Walk::FirstLeaf && self.dev.layout == Layout::Wide {
+            return Err(GpuError::LayoutUnsupported {
+                layout: self.dev.layout.name(),
+                walk: walk.name(),
+            });
         }
         // The samples come in runs of neighbours: one range a run.
         let mut runs: Vec<Range<usize>> = Vec::new();

@@ -5,7 +5,9 @@
 //! - [`context`]: which adapters exist and which are used (hardware only, unless software
 //!   adapters such as Mesa's lavapipe are asked for), each opened with its own limits;
 //! - [`buffers`]: the scene and ray buffers, checked against the binding-size limits;
-//! - [`trace`]: the trace kernels (`traverse.wgsl`) and the host loop that re-dispatches the
+//! - [`wide`]: the compressed 8-wide nodes that `traverse_wide.wgsl` walks (`--layout wide`),
+//!   made from the CPU's wide tree;
+//! - [`trace`]: the trace kernels (`traverse.wgsl`, `traverse_wide.wgsl`) and the host loop that re-dispatches the
 //!   persistent threads until the ray queue is drained;
 //! - `program`: a shader module with its bind group's layout, and the pipelines and dispatches
 //!   every kernel family shares;
@@ -37,6 +39,7 @@ mod staging;
 #[cfg(test)]
 pub(crate) mod tests;
 pub mod trace;
+pub mod wide;
 
 pub use context::{GpuContext, GpuOptions, adapters_available};
 pub use device::GpuDevice;
@@ -151,6 +154,17 @@ pub enum GpuError {
         adapter: String,
         /// The task's index in the launch.
         task: usize,
+    },
+    /// The wide tree has no compressed form for the GPU.
+    #[error("the compressed wide layout: {0}")]
+    Compress(#[from] wide::CompressError),
+    /// A walk the chosen GPU layout does not run.
+    #[error("the GPU's {layout} layout does not run the `{walk}` walk")]
+    LayoutUnsupported {
+        /// The layout's name.
+        layout: &'static str,
+        /// The walk's name.
+        walk: &'static str,
     },
     /// The implementation cut a traversal loop short (lavapipe's loop limit), so some results
     /// would be wrong.

@@ -242,6 +242,87 @@ fn forest_hits_and_counts_equal_cpu() {
     check_scene("builtin:forest:0.05", 12);
 }
 
+/// The compressed wide layout finds every ray's hit as the binary layout does, bit for bit
+/// (both kernels decide in f32 by the same rules), and the CPU's within `assert_same_hits`;
+/// its any hits agree on hit or miss; its reduced walk counts wide nodes, no more than the
+/// binary tree's; and it refuses the first-leaf walk.
+fn check_wide(name: &str, bvh: &Bvh, rays: &RayBatch) {
+    let (Some(a), Some(b)) = (gpu(), gpu()) else {
+        return;
+    };
+    let n = rays.len();
+    let all = 0..n;
+    let binary = GpuDevice::with_layout(a, bvh, crate::Layout::Binary).expect("upload");
+    let wide = GpuDevice::with_layout(b, bvh, crate::Layout::Wide).expect("upload");
+    assert_eq!(wide.layout(), crate::Layout::Wide);
+    let want = binary
+        .hits(false, rays, &[&all])
+        .expect("binary closest hits");
+    let got = wide.hits(false, rays, &[&all]).expect("wide closest hits");
+    for i in 0..n {
+        assert_eq!(
+            (want.t[i].to_bits(), want.prim[i]),
+            (got.t[i].to_bits(), got.prim[i]),
+            "{name}: ray {i}: binary against wide closest hit"
+        );
+    }
+    assert_same_hits(
+        &format!("{name} wide closest"),
+        &traverse::closest_hits(bvh, rays),
+        &got,
+    );
+    let cpu_any = traverse::hits_in(bvh, rays, true, traverse::Layout::Wide);
+    let any = wide.hits(true, rays, &[&all]).expect("wide any hits");
+    for i in 0..n {
+        assert_eq!(
+            cpu_any.prim[i] == HitBatch::MISS,
+            any.prim[i] == HitBatch::MISS,
+            "{name}: ray {i}: any hit or miss"
+        );
+    }
+    let index: Vec<usize> = all.clone().collect();
+    let count = |dev: &GpuDevice| -> u64 {
+        let c = dev
+            .count_at(rays, crate::Walk::Reduced, &index)
+            .expect("GPU counts")
+            .1;
+        c.iter().map(|c| u64::from(c.nodes)).sum()
+    };
+    let (nb, nw) = (count(&binary), count(&wide));
+    assert!(
+        nw > 0 && nw <= nb,
+        "{name}: {nw} wide nodes against {nb} binary"
+    );
+    assert!(matches!(
+        wide.count_at(rays, crate::Walk::FirstLeaf, &index),
+        Err(GpuError::LayoutUnsupported { .. })
+    ));
+}
+
+#[test]
+fn wide_layout_hits_equal_binary_and_cpu() {
+    for (name, seed) in [
+        ("builtin:cornell:0.2", 21),
+        ("builtin:forest:0.05", 22),
+        ("builtin:hairball:0.02", 23),
+    ] {
+        let bvh = scene_bvh(name);
+        check_wide(name, &bvh, &rays_for(name, seed));
+    }
+}
+
+#[test]
+fn wide_layout_hits_equal_binary_on_random_scenes() {
+    let mut rng = Rng::new(testkit::seed(24));
+    for n in [1, 5, 64, 2000] {
+        let scene = testkit::random_triangles(&mut rng, n, 10.0, 1.0);
+        let bvh = Bvh::build(&scene, BuildPreset::Medium).expect("BVH");
+        let mut rays = workload::orbit_primary(&scene, 16, 16, 0..2);
+        rays.extend(&workload::orbit_ao(&scene, &bvh, 8, 8, 0, 4).rays);
+        check_wide(&format!("{n} random triangles"), &bvh, &rays);
+    }
+}
+
 /// A launch larger than the (lowered) binding limit is split into several, with the same
 /// results; a scene beyond it is refused with the limit's name; ranges are concatenated.
 #[test]

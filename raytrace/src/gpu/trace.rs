@@ -1,7 +1,9 @@
 //! The kernels of `traverse.wgsl` and the host loop that runs them.
 //!
-//! One shader, four compute pipelines (the `MODE` override): closest hit, any hit, and the two reduced
-//! traversals (the thesis's and the first-leaf one, see [`crate::Walk`]).
+//! One shader per tree layout (`traverse.wgsl` for the binary tree, `traverse_wide.wgsl` for the
+//! compressed 8-wide nodes of [`super::wide`]), four compute pipelines each (the `MODE`
+//! override): closest hit, any hit, and the two reduced traversals (the thesis's and the
+//! first-leaf one, see [`crate::Walk`]; the wide layout's host refuses the first-leaf walk).
 //! A launch uploads its rays, resets the queue head, and records enough dispatches of
 //! persistent workgroups to drain the queue: each workgroup takes [`BATCHES`] batches of 64
 //! rays per dispatch, so `ceil(rays / (64 · BATCHES · workgroups))` dispatches suffice when
@@ -12,7 +14,7 @@
 use super::buffers::{GpuRay, RESULT_BYTES, SceneBuffers, init, read_back, readable, storage};
 use super::program::{Program, READ, UNIFORM, WRITE};
 use super::{GpuContext, GpuError};
-use crate::{Bvh, Traffic, Walk};
+use crate::{Bvh, Layout, Traffic, Walk};
 
 /// Batches of 64 rays a workgroup takes per dispatch: few enough that one invocation stays far
 /// below lavapipe's ~65 535 loop iterations (a ray rarely needs more than a few hundred).
@@ -64,13 +66,39 @@ impl TraceKernels {
             });
         }
         // A traversal holds at most depth - 1 entries; round up so that few variants exist.
-        let stack = depth.max(1).next_multiple_of(32);
-        let source = [include_str!("ray.wgsl"), include_str!("traverse.wgsl")]
-            .concat()
-            .replace(
-                "const STACK: u32 = 64u;",
-                &format!("const STACK: u32 = {stack}u;"),
-            );
+        Ok(Self::compile(
+            device,
+            include_str!("traverse.wgsl"),
+            depth.max(1).next_multiple_of(32),
+        ))
+    }
+
+    /// Compiles the compressed wide tree's kernels (`traverse_wide.wgsl`) for a wide tree of
+    /// `depth` levels.
+    ///
+    /// # Errors
+    /// [`GpuError::TooDeep`] beyond 256 levels.
+    pub fn wide(device: &wgpu::Device, depth: usize) -> Result<Self, GpuError> {
+        if depth > MAX_STACK {
+            return Err(GpuError::TooDeep {
+                depth,
+                max: MAX_STACK,
+            });
+        }
+        // Each level leaves at most seven children on the stack.
+        let stack = (7 * depth + 1).next_multiple_of(32);
+        Ok(Self::compile(
+            device,
+            include_str!("traverse_wide.wgsl"),
+            stack,
+        ))
+    }
+
+    fn compile(device: &wgpu::Device, kernel: &str, stack: usize) -> Self {
+        let source = [include_str!("ray.wgsl"), kernel].concat().replace(
+            "const STACK: u32 = 64u;",
+            &format!("const STACK: u32 = {stack}u;"),
+        );
         let program = Program::new(
             device,
             "traverse",
@@ -94,7 +122,7 @@ impl TraceKernels {
                 },
             )
         };
-        Ok(Self {
+        Self {
             pipelines: [
                 make(0, "cobalt closest-hit pipeline"),
                 make(1, "cobalt any-hit pipeline"),
@@ -108,7 +136,7 @@ impl TraceKernels {
                 16,
                 wgpu::BufferUsages::empty(),
             ),
-        })
+        }
     }
 }
 
@@ -119,6 +147,8 @@ pub(crate) struct TraceDevice {
     pub(crate) ctx: GpuContext,
     pub(crate) kernels: TraceKernels,
     pub(crate) scene: SceneBuffers,
+    /// The tree uploaded.
+    pub(crate) layout: Layout,
 }
 
 impl TraceDevice {
@@ -128,9 +158,37 @@ impl TraceDevice {
     /// [`GpuError::TooLarge`] when the tree exceeds a binding limit, [`GpuError::TooDeep`]
     /// beyond the deepest supported tree.
     pub(crate) fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
+        Self::with_layout(ctx, bvh, Layout::Binary)
+    }
+
+    /// Uploads `bvh` as `layout` lays it out: the binary tree, or the compressed wide nodes
+    /// made from [`Bvh::wide`]; and compiles that layout's kernels.
+    ///
+    /// # Errors
+    /// Those of [`TraceDevice::new`], and [`GpuError::Compress`] for a wide tree with no
+    /// compressed form.
+    pub(crate) fn with_layout(
+        ctx: GpuContext,
+        bvh: &Bvh,
+        layout: Layout,
+    ) -> Result<Self, GpuError> {
+        let (kernels, scene) = match layout {
+            Layout::Binary => (
+                TraceKernels::new(&ctx.device, bvh.depth())?,
+                SceneBuffers::upload(&ctx, bvh)?,
+            ),
+            Layout::Wide => {
+                let tree = super::wide::CompressedTree::new(bvh.wide())?;
+                (
+                    TraceKernels::wide(&ctx.device, bvh.wide().depth())?,
+                    SceneBuffers::upload_wide(&ctx, &tree)?,
+                )
+            }
+        };
         Ok(Self {
-            kernels: TraceKernels::new(&ctx.device, bvh.depth())?,
-            scene: SceneBuffers::upload(&ctx, bvh)?,
+            kernels,
+            scene,
+            layout,
             ctx,
         })
     }

@@ -1,0 +1,254 @@
+// Closest-hit, any-hit and reduced traversal of the compressed 8-wide tree (`wide.rs`), with
+// the binary kernel's rules (`traverse.wgsl`): the same conservative slab test and watertight
+// triangle test, the same `better` hit and `cull_bound`, so the hits do not depend on the tree
+// walked. A node is one 80-byte fetch: each used slot's box is decoded as `origin + q * scale`
+// in f32, which the host made contain the child's true box, so every box a ray enters in the
+// binary tree is entered here too. A leaf slot's triangles are tested when its box is entered;
+// the inner children entered go on the stack nearest last, so they are popped nearest first.
+//
+// Persistent threads as in `traverse.wgsl`; MODE 3 (the first-leaf walk) is not offered on this
+// tree (the host refuses it) and runs as MODE 2.
+
+override MODE: u32 = 0u;
+override BATCHES: u32 = 8u;
+override FAR_SCALE: f32 = 1.0;
+override CULL: f32 = 0.0;
+
+// Traversal stack entries; the host replaces this line with the tree's need.
+const STACK: u32 = 64u;
+const LANES: u32 = 64u;
+
+// `CompressedNode` in `wide.rs`.
+struct CNode {
+    origin: vec3<f32>,
+    exp: u32,
+    child: u32,
+    tri: u32,
+    kinds: vec2<u32>,
+    lo: array<u32, 6>,
+    hi: array<u32, 6>,
+}
+
+struct Tri {
+    v0: vec3<f32>,
+    prim: u32,
+    v1: vec3<f32>,
+    pad1: u32,
+    v2: vec3<f32>,
+    pad2: u32,
+}
+
+struct Params {
+    count: u32,
+    per_path: u32,
+    counted: u32,
+    pad: u32,
+}
+
+@group(0) @binding(0) var<storage, read> nodes: array<CNode>;
+@group(0) @binding(1) var<storage, read> tris: array<Tri>;
+@group(0) @binding(2) var<storage, read> rays: array<GpuRay>;
+@group(0) @binding(3) var<storage, read_write> out: array<vec2<u32>>;
+@group(0) @binding(4) var<storage, read_write> queue: array<atomic<u32>, 2>;
+@group(0) @binding(5) var<uniform> params: Params;
+@group(0) @binding(6) var<storage, read_write> path_counts: array<atomic<u32>>;
+
+var<workgroup> wg_base: u32;
+
+fn inf() -> f32 {
+    return bitcast<f32>(0x7f800000u);
+}
+
+fn is_finite3(v: vec3<f32>) -> bool {
+    let e = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
+    return all(e != vec3<u32>(0x7f800000u));
+}
+
+// `max` that keeps `acc` when `x` is NaN (slab.rs `max_keep`).
+fn max_keep(acc: f32, x: f32) -> f32 {
+    return select(acc, x, x > acc);
+}
+
+fn min_keep(acc: f32, x: f32) -> f32 {
+    return select(acc, x, x < acc);
+}
+
+struct BoxRay {
+    org: vec3<f32>,
+    inv: vec3<f32>,
+    // True where the direction's sign bit is set (the near plane is the box's max).
+    neg: vec3<bool>,
+}
+
+// Entry distance in `.x`, and `.y > 0` when the ray meets the box within [tmin, tmax].
+// How far past the nearest hit so far nodes are still entered (traverse.rs `cull_bound`).
+fn cull_bound(t: f32) -> f32 {
+    return t + abs(t) * CULL;
+}
+
+fn box_hit(b: BoxRay, lo: vec3<f32>, hi: vec3<f32>, tmin: f32, tmax: f32) -> vec2<f32> {
+    let near = select(lo, hi, b.neg);
+    let t_near = (near - b.org) * b.inv;
+    let t0 = max_keep(max_keep(max_keep(tmin, t_near.x), t_near.y), t_near.z);
+    let t1 = box_exit(b, lo, hi, tmax);
+    return vec2<f32>(t0, select(0.0, 1.0, t0 <= t1));
+}
+
+// Where the ray leaves the box, clipped to `tmax` (slab.rs `BoxRay::exit`).
+fn box_exit(b: BoxRay, lo: vec3<f32>, hi: vec3<f32>, tmax: f32) -> f32 {
+    let far = select(hi, lo, b.neg);
+    let t_far = (far - b.org) * b.inv;
+    let t1 = min_keep(min_keep(min_keep(inf(), t_far.x), t_far.y), t_far.z) * FAR_SCALE;
+    return select(tmax, t1, t1 < tmax);
+}
+
+// Byte `k` of the planes `w` (three axes of eight bytes) on axis `a`, as a float.
+fn plane_q(w: array<u32, 6>, a: u32, k: u32) -> f32 {
+    return f32((w[2u * a + k / 4u] >> (8u * (k % 4u))) & 0xffu);
+}
+
+// Traces ray `r` and writes its result: (t bits, prim) for hits, (B, T) for MODE 2; B counts
+// the wide nodes fetched, T the triangles tested.
+fn trace(r: u32) {
+    let ray = rays[r];
+    let o = ray.org.xyz;
+    let d = ray.dir.xyz;
+    let tmin = ray.org.w;
+    let tmax = ray.dir.w;
+    var best_t = select(cull_bound(tmax), tmax, MODE >= 2u);
+    var hit_t = tmax;
+    var best_prim = MISS;
+    var count_b = 0u;
+    var count_t = 0u;
+    var done = true;
+
+    let sh = shear(d);
+    let valid = is_finite3(o) && is_finite3(d) && d[sh.k.z] != 0.0 && tmin <= tmax;
+    let bray = BoxRay(o, vec3<f32>(1.0) / d, (bitcast<vec3<u32>>(d) & vec3<u32>(0x80000000u)) != vec3<u32>(0u));
+
+    if valid {
+        var stack_node: array<u32, STACK>;
+        var stack_t: array<f32, STACK>;
+        var sp = 0u;
+        var i = 0u;
+        done = false;
+        loop {
+            let node = nodes[i];
+            count_b += 1u;
+            let scale = vec3<f32>(
+                bitcast<f32>((node.exp & 0xffu) << 23u),
+                bitcast<f32>(((node.exp >> 8u) & 0xffu) << 23u),
+                bitcast<f32>(((node.exp >> 16u) & 0xffu) << 23u),
+            );
+            var inner = node.child;
+            var first = node.tri;
+            let base = sp;
+            var found = false;
+            for (var k = 0u; k < 8u; k++) {
+                let m = (node.kinds[k / 4u] >> (8u * (k % 4u))) & 0xffu;
+                if m == 0u {
+                    continue;
+                }
+                let lo = node.origin + vec3<f32>(plane_q(node.lo, 0u, k), plane_q(node.lo, 1u, k), plane_q(node.lo, 2u, k)) * scale;
+                let hi = node.origin + vec3<f32>(plane_q(node.hi, 0u, k), plane_q(node.hi, 1u, k), plane_q(node.hi, 2u, k)) * scale;
+                let h = box_hit(bray, lo, hi, tmin, best_t);
+                if m == 0xffu {
+                    if h.y > 0.0 {
+                        // Insert by entry distance, farthest lowest.
+                        var j = sp;
+                        while j > base && stack_t[j - 1u] < h.x {
+                            stack_node[j] = stack_node[j - 1u];
+                            stack_t[j] = stack_t[j - 1u];
+                            j -= 1u;
+                        }
+                        stack_node[j] = inner;
+                        stack_t[j] = h.x;
+                        sp += 1u;
+                    }
+                    inner += 1u;
+                    continue;
+                }
+                if h.y > 0.0 {
+                    if MODE >= 2u {
+                        count_t += m;
+                    } else {
+                        for (var t = first; t < first + m; t++) {
+                            count_t += 1u;
+                            let tri = tris[t];
+                            let q = watertight(sh, o, tri.v0, tri.v1, tri.v2, tmin, tmax);
+                            let nearer = q.x < hit_t || (q.x == hit_t && tri.prim < best_prim);
+                            if q.w > 0.0 && (best_prim == MISS || nearer) {
+                                hit_t = q.x;
+                                best_t = cull_bound(q.x);
+                                best_prim = tri.prim;
+                                if MODE == 1u {
+                                    found = true;
+                                    break;
+                                }
+                            }
+                        }
+                        if found {
+                            break;
+                        }
+                    }
+                }
+                first += m;
+            }
+            if found {
+                done = true;
+                break;
+            }
+            // Pop the nearest node left, skipping those now beyond the nearest hit.
+            var popped = false;
+            loop {
+                if sp == 0u {
+                    break;
+                }
+                sp -= 1u;
+                if stack_t[sp] <= best_t {
+                    i = stack_node[sp];
+                    popped = true;
+                    break;
+                }
+            }
+            if !popped {
+                done = true;
+                break;
+            }
+        }
+    }
+    if !done {
+        atomicOr(&queue[1], 1u);
+    }
+    if params.counted != 0u {
+        let p = 2u * (r / params.per_path);
+        atomicAdd(&path_counts[p], count_b);
+        atomicAdd(&path_counts[p + 1u], count_t);
+    }
+    if MODE >= 2u {
+        out[r] = vec2<u32>(count_b, count_t);
+    } else if best_prim == MISS {
+        out[r] = vec2<u32>(bitcast<u32>(inf()), MISS);
+    } else {
+        out[r] = vec2<u32>(bitcast<u32>(hit_t), best_prim);
+    }
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(local_invocation_index) lid: u32) {
+    for (var batch = 0u; batch < BATCHES; batch++) {
+        if lid == 0u {
+            wg_base = atomicAdd(&queue[0], LANES);
+        }
+        let base = workgroupUniformLoad(&wg_base);
+        if base >= params.count {
+            break;
+        }
+        let r = base + lid;
+        if r < params.count {
+            trace(r);
+        }
+        // Nobody may still read `wg_base` when invocation 0 overwrites it.
+        workgroupBarrier();
+    }
+}
