@@ -7,7 +7,8 @@
 //! - [`buffers`]: the scene and ray buffers, checked against the binding-size limits;
 //! - [`wide`]: the compressed 8-wide nodes that `traverse_wide.wgsl` walks (`--layout wide`),
 //!   made from the CPU's wide tree;
-//! - [`trace`]: the trace kernels (`traverse.wgsl`, `traverse_wide.wgsl`) and the host loop that re-dispatches the
+//! - [`trace`]: the trace kernels (`traverse.wgsl`, `traverse_wide.wgsl`, both behind
+//!   `traverse_common.wgsl`) and the host loop that re-dispatches the
 //!   persistent threads until the ray queue is drained;
 //! - `program`: a shader module with its bind group's layout, and the pipelines and dispatches
 //!   every kernel family shares;

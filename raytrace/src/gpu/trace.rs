@@ -95,7 +95,13 @@ impl TraceKernels {
     }
 
     fn compile(device: &wgpu::Device, kernel: &str, stack: usize) -> Self {
-        let source = [include_str!("ray.wgsl"), kernel].concat().replace(
+        let source = [
+            include_str!("ray.wgsl"),
+            include_str!("traverse_common.wgsl"),
+            kernel,
+        ]
+        .concat()
+        .replace(
             "const STACK: u32 = 64u;",
             &format!("const STACK: u32 = {stack}u;"),
         );

@@ -6,32 +6,17 @@
 // - Ize's conservative slab test: far distance times `FAR_SCALE` (1 + 2 gamma(3), from the
 //   host so it is the CPU's float bit for bit), NaN slabs ignored;
 // - the watertight test of Woop, Benthin and Wald in f32 only (`ray.wgsl`, which the host puts
-//   in front of this file): where the CPU re-evaluates an edge function that is exactly 0 in
-//   f64, this kernel keeps the f32 value, so rays through a shared edge or vertex may pick the
-//   other triangle of the pair (same distance);
+//   in front of this file with `traverse_common.wgsl`): where the CPU re-evaluates an edge
+//   function that is exactly 0 in f64, this kernel keeps the f32 value, so rays through a
+//   shared edge or vertex may pick the other triangle of the pair (same distance);
 // - the hit queries test triangles against the ray's own range and keep the nearer hit, the
 //   smaller primitive id on a tie (`better`), and enter nodes up to `cull_bound` of it, so
 //   that the hit and the counts do not depend on the walk's order.
 //
-// Persistent threads (`main`): each workgroup of 64 invocations takes batches of 64 rays from a
-// global queue head (`atomicAdd`), at most `BATCHES` per dispatch; the host re-dispatches until
-// the queue is drained (Debian 12's lavapipe silently ends loops after ~65 535 iterations of one
-// invocation, so no invocation may loop for long).
-
-// 0: closest hit, 1: any hit, 2: reduced traversal (counts B and T), 3: the first-leaf
-// reduced traversal (`Walk::FirstLeaf`: counts B and T, each ray ending at the exit of the
-// first leaf it reaches, children in `near_child_first` order).
-override MODE: u32 = 0u;
-// Batches of 64 rays a workgroup takes per dispatch.
-override BATCHES: u32 = 8u;
-// Ize's far-distance scale, passed by the host.
-override FAR_SCALE: f32 = 1.0;
-// `cull_bound`'s factor, 16 gamma(3), passed by the host.
-override CULL: f32 = 0.0;
-
-// Traversal stack entries; the host replaces this line with the tree's need (>= depth - 1).
-const STACK: u32 = 64u;
-const LANES: u32 = 64u;
+// Persistent threads (`main`, in `traverse_common.wgsl`): each workgroup of 64 invocations
+// takes batches of 64 rays from a global queue head (`atomicAdd`), at most `BATCHES` per
+// dispatch; the host re-dispatches until the queue is drained (Debian 12's lavapipe silently
+// ends loops after ~65 535 iterations of one invocation, so no invocation may loop for long).
 
 struct Node {
     min: vec3<f32>,
@@ -40,84 +25,7 @@ struct Node {
     count: u32,
 }
 
-struct Tri {
-    v0: vec3<f32>,
-    prim: u32,
-    v1: vec3<f32>,
-    pad1: u32,
-    v2: vec3<f32>,
-    pad2: u32,
-}
-
-struct Params {
-    // Rays in this launch.
-    count: u32,
-    // With `counted`: rays per path (ray `r` belongs to path `r / per_path`).
-    per_path: u32,
-    // Nonzero: add each ray's counts B and T (closest and any hit included) to its path's
-    // entry of `path_counts`.
-    counted: u32,
-    pad: u32,
-}
-
-// `queue[0]`: the queue head; `queue[1]`: nonzero when a traversal loop was cut short.
 @group(0) @binding(0) var<storage, read> nodes: array<Node>;
-@group(0) @binding(1) var<storage, read> tris: array<Tri>;
-@group(0) @binding(2) var<storage, read> rays: array<GpuRay>;
-@group(0) @binding(3) var<storage, read_write> out: array<vec2<u32>>;
-@group(0) @binding(4) var<storage, read_write> queue: array<atomic<u32>, 2>;
-@group(0) @binding(5) var<uniform> params: Params;
-// Per path: B and T summed over its rays (with `params.counted`).
-@group(0) @binding(6) var<storage, read_write> path_counts: array<atomic<u32>>;
-
-var<workgroup> wg_base: u32;
-
-fn inf() -> f32 {
-    return bitcast<f32>(0x7f800000u);
-}
-
-fn is_finite3(v: vec3<f32>) -> bool {
-    let e = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
-    return all(e != vec3<u32>(0x7f800000u));
-}
-
-// `max` that keeps `acc` when `x` is NaN (slab.rs `max_keep`).
-fn max_keep(acc: f32, x: f32) -> f32 {
-    return select(acc, x, x > acc);
-}
-
-fn min_keep(acc: f32, x: f32) -> f32 {
-    return select(acc, x, x < acc);
-}
-
-struct BoxRay {
-    org: vec3<f32>,
-    inv: vec3<f32>,
-    // True where the direction's sign bit is set (the near plane is the box's max).
-    neg: vec3<bool>,
-}
-
-// Entry distance in `.x`, and `.y > 0` when the ray meets the box within [tmin, tmax].
-// How far past the nearest hit so far nodes are still entered (traverse.rs `cull_bound`).
-fn cull_bound(t: f32) -> f32 {
-    return t + abs(t) * CULL;
-}
-
-fn box_hit(b: BoxRay, n: Node, tmin: f32, tmax: f32) -> vec2<f32> {
-    let near = select(n.min, n.max, b.neg);
-    let t_near = (near - b.org) * b.inv;
-    let t0 = max_keep(max_keep(max_keep(tmin, t_near.x), t_near.y), t_near.z);
-    let t1 = box_exit(b, n, tmax);
-    return vec2<f32>(t0, select(0.0, 1.0, t0 <= t1));
-}
-
-// Where the ray leaves the box, clipped to `tmax` (slab.rs `BoxRay::exit`).
-fn box_exit(b: BoxRay, n: Node, tmax: f32) -> f32 {
-    let far = select(n.max, n.min, b.neg);
-    let t_far = (far - b.org) * b.inv;
-    let t1 = min_keep(min_keep(min_keep(inf(), t_far.x), t_far.y), t_far.z) * FAR_SCALE;
-    return select(tmax, t1, t1 < tmax);
-}
 
 // traverse.rs `near_child_first`: true when the first-leaf walk enters the left child first.
 fn near_child_first(l: Node, r: Node, neg: vec3<bool>) -> bool {
@@ -158,7 +66,7 @@ fn trace(r: u32) {
     let valid = is_finite3(o) && is_finite3(d) && d[sh.k.z] != 0.0 && tmin <= tmax;
     let bray = BoxRay(o, vec3<f32>(1.0) / d, (bitcast<vec3<u32>>(d) & vec3<u32>(0x80000000u)) != vec3<u32>(0u));
 
-    if valid && box_hit(bray, nodes[0], tmin, best_t).y > 0.0 {
+    if valid && box_hit(bray, nodes[0].min, nodes[0].max, tmin, best_t).y > 0.0 {
         var stack_node: array<u32, STACK>;
         var stack_t: array<f32, STACK>;
         var sp = 0u;
@@ -172,7 +80,7 @@ fn trace(r: u32) {
                 if MODE >= 2u {
                     count_t += node.count;
                     if MODE == 3u {
-                        best_t = box_exit(bray, node, best_t);
+                        best_t = box_exit(bray, node.min, node.max, best_t);
                     }
                 } else {
                     var found = false;
@@ -198,8 +106,8 @@ fn trace(r: u32) {
                 }
             } else {
                 let l = node.index;
-                let a = box_hit(bray, nodes[l], tmin, best_t);
-                let b = box_hit(bray, nodes[l + 1u], tmin, best_t);
+                let a = box_hit(bray, nodes[l].min, nodes[l].max, tmin, best_t);
+                let b = box_hit(bray, nodes[l + 1u].min, nodes[l + 1u].max, tmin, best_t);
                 if a.y > 0.0 && b.y > 0.0 {
                     var left = a.x <= b.x;
                     if MODE == 3u {
@@ -260,24 +168,5 @@ fn trace(r: u32) {
         out[r] = vec2<u32>(bitcast<u32>(inf()), MISS);
     } else {
         out[r] = vec2<u32>(bitcast<u32>(hit_t), best_prim);
-    }
-}
-
-@compute @workgroup_size(64)
-fn main(@builtin(local_invocation_index) lid: u32) {
-    for (var batch = 0u; batch < BATCHES; batch++) {
-        if lid == 0u {
-            wg_base = atomicAdd(&queue[0], LANES);
-        }
-        let base = workgroupUniformLoad(&wg_base);
-        if base >= params.count {
-            break;
-        }
-        let r = base + lid;
-        if r < params.count {
-            trace(r);
-        }
-        // Nobody may still read `wg_base` when invocation 0 overwrites it.
-        workgroupBarrier();
     }
 }

@@ -6,17 +6,8 @@
 // binary tree is entered here too. A leaf slot's triangles are tested when its box is entered;
 // the inner children entered go on the stack nearest last, so they are popped nearest first.
 //
-// Persistent threads as in `traverse.wgsl`; MODE 3 (the first-leaf walk) is not offered on this
-// tree (the host refuses it) and runs as MODE 2.
-
-override MODE: u32 = 0u;
-override BATCHES: u32 = 8u;
-override FAR_SCALE: f32 = 1.0;
-override CULL: f32 = 0.0;
-
-// Traversal stack entries; the host replaces this line with the tree's need.
-const STACK: u32 = 64u;
-const LANES: u32 = 64u;
+// Persistent threads as in `traverse.wgsl` (`traverse_common.wgsl`); MODE 3 (the first-leaf
+// walk) is not offered on this tree (the host refuses it) and runs as MODE 2.
 
 // `CompressedNode` in `wide.rs`.
 struct CNode {
@@ -29,78 +20,7 @@ struct CNode {
     hi: array<u32, 6>,
 }
 
-struct Tri {
-    v0: vec3<f32>,
-    prim: u32,
-    v1: vec3<f32>,
-    pad1: u32,
-    v2: vec3<f32>,
-    pad2: u32,
-}
-
-struct Params {
-    count: u32,
-    per_path: u32,
-    counted: u32,
-    pad: u32,
-}
-
 @group(0) @binding(0) var<storage, read> nodes: array<CNode>;
-@group(0) @binding(1) var<storage, read> tris: array<Tri>;
-@group(0) @binding(2) var<storage, read> rays: array<GpuRay>;
-@group(0) @binding(3) var<storage, read_write> out: array<vec2<u32>>;
-@group(0) @binding(4) var<storage, read_write> queue: array<atomic<u32>, 2>;
-@group(0) @binding(5) var<uniform> params: Params;
-@group(0) @binding(6) var<storage, read_write> path_counts: array<atomic<u32>>;
-
-var<workgroup> wg_base: u32;
-
-fn inf() -> f32 {
-    return bitcast<f32>(0x7f800000u);
-}
-
-fn is_finite3(v: vec3<f32>) -> bool {
-    let e = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
-    return all(e != vec3<u32>(0x7f800000u));
-}
-
-// `max` that keeps `acc` when `x` is NaN (slab.rs `max_keep`).
-fn max_keep(acc: f32, x: f32) -> f32 {
-    return select(acc, x, x > acc);
-}
-
-fn min_keep(acc: f32, x: f32) -> f32 {
-    return select(acc, x, x < acc);
-}
-
-struct BoxRay {
-    org: vec3<f32>,
-    inv: vec3<f32>,
-    // True where the direction's sign bit is set (the near plane is the box's max).
-    neg: vec3<bool>,
-}
-
-// Entry distance in `.x`, and `.y > 0` when the ray meets the box within [tmin, tmax].
-// How far past the nearest hit so far nodes are still entered (traverse.rs `cull_bound`).
-fn cull_bound(t: f32) -> f32 {
-    return t + abs(t) * CULL;
-}
-
-fn box_hit(b: BoxRay, lo: vec3<f32>, hi: vec3<f32>, tmin: f32, tmax: f32) -> vec2<f32> {
-    let near = select(lo, hi, b.neg);
-    let t_near = (near - b.org) * b.inv;
-    let t0 = max_keep(max_keep(max_keep(tmin, t_near.x), t_near.y), t_near.z);
-    let t1 = box_exit(b, lo, hi, tmax);
-    return vec2<f32>(t0, select(0.0, 1.0, t0 <= t1));
-}
-
-// Where the ray leaves the box, clipped to `tmax` (slab.rs `BoxRay::exit`).
-fn box_exit(b: BoxRay, lo: vec3<f32>, hi: vec3<f32>, tmax: f32) -> f32 {
-    let far = select(hi, lo, b.neg);
-    let t_far = (far - b.org) * b.inv;
-    let t1 = min_keep(min_keep(min_keep(inf(), t_far.x), t_far.y), t_far.z) * FAR_SCALE;
-    return select(tmax, t1, t1 < tmax);
-}
 
 // Byte `k` of the planes `w` (three axes of eight bytes) on axis `a`, as a float.
 fn plane_q(w: array<u32, 6>, a: u32, k: u32) -> f32 {
@@ -231,24 +151,5 @@ fn trace(r: u32) {
         out[r] = vec2<u32>(bitcast<u32>(inf()), MISS);
     } else {
         out[r] = vec2<u32>(bitcast<u32>(hit_t), best_prim);
-    }
-}
-
-@compute @workgroup_size(64)
-fn main(@builtin(local_invocation_index) lid: u32) {
-    for (var batch = 0u; batch < BATCHES; batch++) {
-        if lid == 0u {
-            wg_base = atomicAdd(&queue[0], LANES);
-        }
-        let base = workgroupUniformLoad(&wg_base);
-        if base >= params.count {
-            break;
-        }
-        let r = base + lid;
-        if r < params.count {
-            trace(r);
-        }
-        // Nobody may still read `wg_base` when invocation 0 overwrites it.
-        workgroupBarrier();
     }
 }
