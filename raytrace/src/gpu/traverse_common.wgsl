@@ -98,6 +98,27 @@ fn box_exit(b: BoxRay, lo: vec3<f32>, hi: vec3<f32>, tmax: f32) -> f32 {
     return select(tmax, t1, t1 < tmax);
 }
 
+// Writes ray `r`'s result: (t bits, prim) for hits, (B, T) for the counting modes, and adds
+// its counts to its path's with `params.counted`; `done` false flags a walk cut short.
+fn finish(r: u32, done: bool, count_b: u32, count_t: u32, best_prim: u32, hit_t: f32) {
+    if !done {
+        // Only reachable when the implementation cut the loop short (see `traverse.wgsl`).
+        atomicOr(&queue[1], 1u);
+    }
+    if params.counted != 0u {
+        let p = 2u * (r / params.per_path);
+        atomicAdd(&path_counts[p], count_b);
+        atomicAdd(&path_counts[p + 1u], count_t);
+    }
+    if MODE >= 2u {
+        out[r] = vec2<u32>(count_b, count_t);
+    } else if best_prim == MISS {
+        out[r] = vec2<u32>(bitcast<u32>(inf()), MISS);
+    } else {
+        out[r] = vec2<u32>(bitcast<u32>(hit_t), best_prim);
+    }
+}
+
 @compute @workgroup_size(64)
 fn main(@builtin(local_invocation_index) lid: u32) {
     for (var batch = 0u; batch < BATCHES; batch++) {

@@ -137,19 +137,5 @@ fn trace(r: u32) {
             }
         }
     }
-    if !done {
-        atomicOr(&queue[1], 1u);
-    }
-    if params.counted != 0u {
-        let p = 2u * (r / params.per_path);
-        atomicAdd(&path_counts[p], count_b);
-        atomicAdd(&path_counts[p + 1u], count_t);
-    }
-    if MODE >= 2u {
-        out[r] = vec2<u32>(count_b, count_t);
-    } else if best_prim == MISS {
-        out[r] = vec2<u32>(bitcast<u32>(inf()), MISS);
-    } else {
-        out[r] = vec2<u32>(bitcast<u32>(hit_t), best_prim);
-    }
+    finish(r, done, count_b, count_t, best_prim, hit_t);
 }
