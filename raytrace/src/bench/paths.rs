@@ -118,6 +118,7 @@ impl SceneMatrix<'_> {
             r.balance_efficiency = sum(&|f| f.devices.iter().map(|d| d.busy).sum()) / capacity;
         }
         r.estimate_seconds = sum(&|f| f.estimate_seconds);
+        r.estimates_reused = frames.iter().filter(|f| f.estimate_reused).count();
         r.plan_seconds = sum(&|f| f.plan_seconds);
         r.launches = frames.iter().map(FrameStats::launches).sum();
         r.reruns = frames.iter().map(|f| f.reruns).sum();

@@ -53,6 +53,9 @@ pub struct Record {
     pub balance_efficiency: f64,
     /// Seconds spent estimating the tasks (cost mode).
     pub estimate_seconds: f64,
+    /// Frames of the run whose estimate was the previous frame's, taken at no cost (the same
+    /// scene, camera, tasks and sampling).
+    pub estimates_reused: usize,
     /// Seconds spent planning.
     pub plan_seconds: f64,
     /// Σ|estimated − full| / Σ full (cost mode; the estimates do not depend on the policy).

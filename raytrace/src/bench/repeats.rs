@@ -92,6 +92,7 @@ mod tests {
             mrays_per_s: 2.0 / seconds,
             balance_efficiency: balance,
             estimate_seconds: 0.1 * seconds,
+            estimates_reused: 0,
             plan_seconds: 0.001,
             prediction_error: Some(0.02),
             launches,

@@ -40,7 +40,7 @@ pub fn runs(records: &[Record]) -> String {
     );
     for r in records {
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.4} | {:.5} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.5} | {} | {} | {} |\n",
             r.scene,
             r.shader,
             r.task_size,
@@ -65,7 +65,10 @@ pub fn runs(records: &[Record]) -> String {
                 ),
                 None => "–".into(),
             },
-            r.estimate_seconds,
+            match r.estimates_reused {
+                0 => format!("{:.4}", r.estimate_seconds),
+                n => format!("{:.4} ({n} reused)", r.estimate_seconds),
+            },
             r.plan_seconds,
             r.prediction_error.map_or_else(|| "–".into(), pct),
             r.launches,

@@ -15,12 +15,13 @@ use std::sync::{Arc, Mutex};
 
 use sched::{DeviceError, SampleRate};
 
+use super::frame::FrameKey;
 use super::{
     Estimate, Frame, Launch, PathDevice, SampledTask, Traffic, sample_paths, sampled_options,
     walk_paths,
 };
 use crate::Result;
-use crate::shade::{CpuTracer, RenderOptions, render_paths};
+use crate::shade::{CpuTracer, render_paths};
 use crate::traverse::layout::Layout;
 use crate::traverse::walk::Walk;
 
@@ -70,24 +71,6 @@ impl Kept {
     fn clear(&mut self) {
         self.tasks.clear();
         self.frame = None;
-    }
-}
-
-/// What tells one frame's paths from another's: its scene and tree (by address) and options.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct FrameKey {
-    scene: usize,
-    bvh: usize,
-    options: RenderOptions,
-}
-
-impl FrameKey {
-    fn of(frame: &Frame<'_>) -> Self {
-        Self {
-            scene: std::ptr::from_ref(frame.scene).addr(),
-            bvh: std::ptr::from_ref(frame.bvh).addr(),
-            options: *frame.options,
-        }
     }
 }
 
@@ -253,7 +236,7 @@ mod tests {
     use super::*;
 
     const TRACE: Walk = Walk::Trace { any: false };
-    use crate::shade::{AoSettings, Shader, WhittedSettings};
+    use crate::shade::{AoSettings, RenderOptions, Shader, WhittedSettings};
     use crate::{BuildPreset, Bvh, Camera, Scene, SceneSource};
 
     fn forest(shader: &Shader) -> (Scene, Bvh) {

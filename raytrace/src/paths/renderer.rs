@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use sched::{Costs, Runtime, SchedError, Speeds, split_ranges};
 
 use super::choice::{ChoiceKey, choice_key};
+use super::frame::FrameKey;
 use super::learn::{History, Learnt, launches, learn, relative_speeds};
 use super::{
     BoundPaths, Estimate, Frame, FrameStats, PathDevice, PathDeviceStats, TaskValues, Traffic,
@@ -23,6 +24,7 @@ use crate::calibration::Choice;
 use crate::cost::{CostModel, Work};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene, Walk};
+use sched::SampleRate;
 
 /// Parts of a frame's estimate per estimating device whose launches are cheap: enough that a
 /// device slowed for a while leaves parts to the others, few enough that each part's fixed
@@ -65,6 +67,8 @@ pub struct PathRenderer<'a> {
     pub(super) choices: HashMap<ChoiceKey, Choice>,
     /// The shader of the latest frame rendered, whose choices a calibration keeps.
     pub(super) last_shader: Option<&'static str>,
+    /// The latest estimate and what it estimated: a frame of the same tasks takes its work.
+    last_estimate: Option<(EstimateKey, Vec<Work>)>,
     log: Vec<FrameStats>,
     /// [`PathRenderer::ranks`]' last image: its size and each pixel's path.
     ranks: Option<(u32, u32, Vec<u32>)>,
@@ -96,6 +100,7 @@ impl<'a> PathRenderer<'a> {
             idle: vec![false; m],
             choices: HashMap::new(),
             last_shader: None,
+            last_estimate: None,
             log: Vec::new(),
             ranks: None,
         })
@@ -116,6 +121,7 @@ impl<'a> PathRenderer<'a> {
         let mut renderer = Self::new(kept.devices, settings)?;
         renderer.choices = kept.choices;
         renderer.rates = kept.rates;
+        renderer.last_estimate = kept.last_estimate;
         Ok(renderer)
     }
 
@@ -148,6 +154,13 @@ impl<'a> PathRenderer<'a> {
     /// on the latest frame of each (each is tried once first), so that adding a device
     /// never makes frames slower for long; `FrameStats::left_idle` names the devices left
     /// out.
+    ///
+    /// In cost mode, a frame of the same scene and tree (by address, size and bounds),
+    /// options, tasks and sampling as the last frame estimated takes that estimate's work at
+    /// no cost (`FrameStats::estimate_reused`): the bench's repeats and an unchanged
+    /// interactive view pay for one estimate. Geometry moved in place without a new tree of
+    /// other bounds or size is not seen; its plans then use the old work (the image does not
+    /// depend on the plan).
     ///
     /// # Errors
     /// [`SchedError::AllDevicesFailed`] (naming each failure) when no device is left to
@@ -332,8 +345,21 @@ impl<'a> PathRenderer<'a> {
         // Costs need one unit for all devices: the model of the class that estimates.
         let lead = fastest(&speeds);
         let model = self.cost_model(active[lead]);
+        let estimate_key = EstimateKey {
+            frame: FrameKey::of(frame),
+            tasks: tasks.to_vec(),
+            rate: self.settings.rate_for(&frame.options.shader),
+            walk: self.settings.walk,
+            kind: self.devices[active[lead]].estimate_kind(),
+        };
+        let reused =
+            estimated && (self.last_estimate.as_ref()).is_some_and(|(key, _)| *key == estimate_key);
         let (costs, work, estimate_traffic) = if estimated {
-            let (work, traffic) = self.estimate(frame, tasks, &active, &speeds, lead);
+            let (work, traffic) = match self.last_estimate.take() {
+                Some((_, work)) if reused => (work, vec![Traffic::default(); active.len()]),
+                _ => self.estimate(frame, tasks, &active, &speeds, lead),
+            };
+            self.last_estimate = Some((estimate_key, work.clone()));
             // Counts are finite and non-negative, so only an empty frame could fail.
             let costs =
                 Costs::new(model.costs(&work)).unwrap_or_else(|_| Costs::uniform(tasks.len()));
@@ -439,6 +465,7 @@ impl<'a> PathRenderer<'a> {
             policy: self.settings.policy,
             mode: self.settings.mode,
             estimated,
+            estimate_reused: reused,
             rays: devices.iter().map(|d| d.rays).sum(),
             estimate_seconds,
             plan_seconds: report.plan_seconds,
@@ -771,4 +798,15 @@ mod tests {
         assert_eq!(shares(7, &[]), Vec::<Vec<usize>>::new());
         assert_eq!(shares(2, &[0.0, 0.0]), vec![Vec::<usize>::new(); 2]);
     }
+}
+
+/// What an estimate depends on: the frame, its tasks, the sampling and the kind of device
+/// that counts the walks. A frame with the same key would be estimated to the same work.
+#[derive(Clone, Debug, PartialEq)]
+struct EstimateKey {
+    frame: FrameKey,
+    tasks: Vec<Range<usize>>,
+    rate: SampleRate,
+    walk: Walk,
+    kind: &'static str,
 }

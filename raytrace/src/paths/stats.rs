@@ -74,6 +74,9 @@ pub struct FrameStats {
     /// Whether the tasks were estimated: in cost mode, unless one device rendered the frame
     /// (any plan then takes as long, so the tasks cost alike).
     pub estimated: bool,
+    /// Whether the estimate was the previous one's, taken at no cost: the frame had the same
+    /// scene, tree, options, tasks and sampling as the last frame estimated.
+    pub estimate_reused: bool,
     /// Seconds spent estimating the tasks' costs (0 when not estimated).
     pub estimate_seconds: f64,
     /// Seconds the policy spent planning.

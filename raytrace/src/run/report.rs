@@ -30,6 +30,9 @@ pub struct RunReport {
     pub estimated: bool,
     /// Wall time of the estimate (0 when there was none).
     pub estimate_seconds: f64,
+    /// Whether the estimate was the previous frame's, taken at no cost (the same scene,
+    /// camera, tasks and sampling).
+    pub estimate_reused: bool,
     /// Wall time the policy took to plan.
     pub plan_seconds: f64,
     /// Σ busy time over (makespan × devices).
@@ -123,6 +126,7 @@ impl RunReport {
             task_size: s.task_size,
             estimated: s.estimated,
             estimate_seconds: s.estimate_seconds,
+            estimate_reused: s.estimate_reused,
             plan_seconds: s.plan_seconds,
             balance_efficiency: s.balance_efficiency,
             launches: s.launches(),

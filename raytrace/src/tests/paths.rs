@@ -143,8 +143,10 @@ impl PathDevice for SlowEstimates {
         self.inner.estimate_kind()
     }
 
+    /// Dealt its share of an estimate at once, as a GPU is, so that its lag holds every
+    /// estimate it takes part in.
     fn cheap_launches(&self) -> bool {
-        self.inner.cheap_launches()
+        false
     }
 
     fn name(&self) -> String {
@@ -182,11 +184,18 @@ fn small_forest(shader: Shader) -> (Scene, Bvh, RenderOptions, Vec<[u32; 3]>) {
 }
 
 /// A device whose presence slows frames whatever the plan (here, its estimates lag: a plan
-/// cannot see that) is left idle once both ways were measured, in this renderer and in one
-/// that takes over its devices (a bench's next cell), and the image does not change.
+/// cannot see that; each frame has its own camera, so that no frame takes the last one's
+/// estimate) is left idle once both ways were measured, in this renderer and in one that
+/// takes over its devices (a bench's next cell), and the image does not change.
 #[test]
 fn a_device_that_slows_frames_is_left_idle() {
     let (scene, bvh, options, reference) = small_forest(SHADERS[0]);
+    let turned = |camera: usize| {
+        let options =
+            RenderOptions::new(48, 40, Camera::orbit(&scene.bounds(), camera), SHADERS[0]);
+        let image = render(&scene, &mut CpuTracer::new(&bvh), &options).film;
+        (options, bits(&image))
+    };
     let mut devices = cpus(2);
     let lagging = devices.remove(1);
     // Long beside a frame alone even when the tests beside this one share its cores.
@@ -196,7 +205,8 @@ fn a_device_that_slows_frames_is_left_idle() {
     }));
     let mut r = PathRenderer::new(devices, settings(Policy::Hybrid, Mode::Cost, 64)).unwrap();
     let idle: Vec<Vec<String>> = (0..5)
-        .map(|_| {
+        .map(|camera| {
+            let (options, reference) = turned(camera);
             let frame = r.render(&scene, &bvh, &options).expect("frame");
             assert_eq!(bits(&frame.film), reference);
             frame.stats.left_idle
@@ -565,4 +575,62 @@ fn the_fastest_devices_kind_estimates_the_frame() {
         "the slower kind estimated"
     );
     assert!(counts[1].load(Ordering::SeqCst) > 0);
+}
+
+/// A frame of the same scene, camera, tasks and sampling as the last one estimated takes that
+/// estimate at no cost, in this renderer and in one that takes over its devices (a bench's
+/// next cell); another camera or other tasks are estimated anew, and the image never changes.
+#[test]
+fn an_unchanged_frame_reuses_the_last_estimate() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    let (scene, bvh, options, reference) = small_forest(SHADERS[1]);
+    let count = Arc::new(AtomicUsize::new(0));
+    let devices: Vec<Box<dyn PathDevice>> = (cpus(2).into_iter())
+        .map(|inner| {
+            Box::new(Kinded {
+                inner,
+                kind: "host",
+                estimates: Arc::clone(&count),
+            }) as Box<dyn PathDevice>
+        })
+        .collect();
+    let lpt = settings(Policy::StaticLpt, Mode::Cost, 64);
+    let mut r = PathRenderer::new(devices, lpt).expect("renderer");
+    let frame = |r: &mut PathRenderer<'_>, options: &RenderOptions| {
+        let before = count.load(Ordering::SeqCst);
+        let out = r.render(&scene, &bvh, options).expect("frame");
+        let asked = count.load(Ordering::SeqCst) - before;
+        let stats = out.stats;
+        assert!(stats.estimated);
+        assert_eq!(stats.estimate_reused, asked == 0, "{asked} estimates asked");
+        (bits(&out.film), stats)
+    };
+    let (image, first) = frame(&mut r, &options);
+    assert_eq!(image, reference);
+    assert!(!first.estimate_reused);
+    let (image, second) = frame(&mut r, &options);
+    assert_eq!(image, reference);
+    assert!(second.estimate_reused);
+    let costs = |s: &crate::paths::FrameStats| -> Vec<u64> {
+        s.task_stats.iter().map(|t| t.cost.to_bits()).collect()
+    };
+    assert_eq!(
+        costs(&second),
+        costs(&first),
+        "the same work, in the same model"
+    );
+    let moved = RenderOptions::new(48, 40, Camera::orbit(&scene.bounds(), 1), SHADERS[1]);
+    assert!(!frame(&mut r, &moved).1.estimate_reused);
+    assert!(frame(&mut r, &moved).1.estimate_reused);
+    // The next cell: the same frame and tasks under another policy reuse; other tasks do not.
+    let kept = r.into_kept().expect("no device failed");
+    let sorted = settings(Policy::QueueSorted, Mode::Cost, 64);
+    let mut next = PathRenderer::from_kept(kept, sorted).expect("renderer");
+    assert!(frame(&mut next, &moved).1.estimate_reused);
+    let kept = next.into_kept().expect("no device failed");
+    let smaller = settings(Policy::QueueSorted, Mode::Cost, 32);
+    let mut next = PathRenderer::from_kept(kept, smaller).expect("renderer");
+    assert!(!frame(&mut next, &moved).1.estimate_reused);
 }
