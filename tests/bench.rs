@@ -81,6 +81,22 @@ fn bench_writes_one_record_per_run_and_the_charts() {
             assert!(r["prediction_error"].is_null(), "{r}");
         }
     }
+    // Per shader, the first cost-mode frame is estimated and the other three (the next
+    // policy, and both policies' second runs: the same camera and tasks) take its work; the
+    // untimed warm-up frame before the cells is Whitted's first, cut as these are.
+    for (shader, reused_cost) in [("whitted", 4), ("ao", 3)] {
+        let reused = |mode: &str| -> u64 {
+            (measured.iter())
+                .filter(|r| r["shader"] == shader && r["mode"] == mode)
+                .map(|r| r["estimates_reused"].as_u64().expect("a count"))
+                .sum()
+        };
+        assert_eq!(
+            (reused("cost"), reused("regular")),
+            (reused_cost, 0),
+            "{shader}"
+        );
+    }
     let simulated = runs.iter().filter(|r| r["source"] == "simulated").count();
     // 2 shaders × 1 size × 2 device counts × 2 links × 5 policies × 2 modes.
     assert_eq!(simulated, 80);

@@ -53,8 +53,8 @@ pub struct Record {
     pub balance_efficiency: f64,
     /// Seconds spent estimating the tasks (cost mode).
     pub estimate_seconds: f64,
-    /// Frames of the run whose estimate was the previous frame's, taken at no cost (the same
-    /// scene, camera, tasks and sampling).
+    /// Frames whose estimate was the previous frame's, taken at no cost (the same scene,
+    /// camera, tasks and sampling), over the cell's runs.
     pub estimates_reused: usize,
     /// Seconds spent planning.
     pub plan_seconds: f64,

@@ -31,8 +31,8 @@ pub fn median_run(runs: &[Record]) -> Option<usize> {
 
 /// One record of a cell's runs (all of one scene, shader, task size, policy and mode): the
 /// median seconds (and MRays/s over them), balance, estimation and planning time; the
-/// launches of the median run; reruns summed; every run's MRays/s and balance in run order.
-/// `None` when there are no runs.
+/// launches of the median run; reruns and reused estimates summed; every run's MRays/s and
+/// balance in run order. `None` when there are no runs.
 pub fn combine(runs: &[Record]) -> Option<Record> {
     let mid = median_run(runs)?;
     let of =
@@ -44,6 +44,7 @@ pub fn combine(runs: &[Record]) -> Option<Record> {
     out.estimate_seconds = of(|r| r.estimate_seconds)?;
     out.plan_seconds = of(|r| r.plan_seconds)?;
     out.reruns = runs.iter().map(|r| r.reruns).sum();
+    out.estimates_reused = runs.iter().map(|r| r.estimates_reused).sum();
     out.repeats = runs.len();
     out.run_mrays_per_s = runs.iter().map(|r| r.mrays_per_s).collect();
     out.run_balance_efficiency = runs.iter().map(|r| r.balance_efficiency).collect();

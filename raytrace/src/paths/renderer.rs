@@ -1,7 +1,7 @@
 //! The path renderer: a frame's paths cut into tasks, costed, planned by a [`sched::Policy`]
 //! and run on path-resident devices by `sched`'s runtime; the devices' values make the film.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::ops::Range;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -30,6 +30,11 @@ use sched::SampleRate;
 /// device slowed for a while leaves parts to the others, few enough that each part's fixed
 /// work stays small beside its sample.
 const PARTS_PER_DEVICE: usize = 4;
+
+/// Estimates a renderer keeps for frames that come again: enough for a bench's round of
+/// shaders and task sizes (its repeats come round after round), few enough that looking one
+/// up stays free beside a frame.
+const ESTIMATES_KEPT: usize = 16;
 
 /// A rendered frame: the image and how it was made.
 #[derive(Clone, Debug)]
@@ -67,8 +72,9 @@ pub struct PathRenderer<'a> {
     pub(super) choices: HashMap<ChoiceKey, Choice>,
     /// The shader of the latest frame rendered, whose choices a calibration keeps.
     pub(super) last_shader: Option<&'static str>,
-    /// The latest estimate and what it estimated: a frame of the same tasks takes its work.
-    last_estimate: Option<(EstimateKey, Vec<Work>)>,
+    /// The latest estimates (at most [`ESTIMATES_KEPT`], the oldest used first out) and what
+    /// each estimated: a frame of the same key takes its work.
+    estimates: VecDeque<(EstimateKey, Vec<Work>)>,
     log: Vec<FrameStats>,
     /// [`PathRenderer::ranks`]' last image: its size and each pixel's path.
     ranks: Option<(u32, u32, Vec<u32>)>,
@@ -100,7 +106,7 @@ impl<'a> PathRenderer<'a> {
             idle: vec![false; m],
             choices: HashMap::new(),
             last_shader: None,
-            last_estimate: None,
+            estimates: VecDeque::new(),
             log: Vec::new(),
             ranks: None,
         })
@@ -121,7 +127,7 @@ impl<'a> PathRenderer<'a> {
         let mut renderer = Self::new(kept.devices, settings)?;
         renderer.choices = kept.choices;
         renderer.rates = kept.rates;
-        renderer.last_estimate = kept.last_estimate;
+        renderer.estimates = kept.estimates;
         Ok(renderer)
     }
 
@@ -156,8 +162,8 @@ impl<'a> PathRenderer<'a> {
     /// out.
     ///
     /// In cost mode, a frame of the same scene and tree (by address, size and bounds),
-    /// options, tasks and sampling as the last frame estimated takes that estimate's work at
-    /// no cost (`FrameStats::estimate_reused`): the bench's repeats and an unchanged
+    /// options, tasks and sampling as one of the latest frames estimated takes that estimate's
+    /// work at no cost (`FrameStats::estimate_reused`): the bench's repeats and an unchanged
     /// interactive view pay for one estimate. Geometry moved in place without a new tree of
     /// other bounds or size is not seen; its plans then use the old work (the image does not
     /// depend on the plan).
@@ -352,14 +358,17 @@ impl<'a> PathRenderer<'a> {
             walk: self.settings.walk,
             kind: self.devices[active[lead]].estimate_kind(),
         };
-        let reused =
-            estimated && (self.last_estimate.as_ref()).is_some_and(|(key, _)| *key == estimate_key);
+        let known = (self.estimates.iter()).position(|(key, _)| *key == estimate_key);
+        let reused = estimated && known.is_some();
         let (costs, work, estimate_traffic) = if estimated {
-            let (work, traffic) = match self.last_estimate.take() {
-                Some((_, work)) if reused => (work, vec![Traffic::default(); active.len()]),
-                _ => self.estimate(frame, tasks, &active, &speeds, lead),
+            let (work, traffic) = match known.and_then(|k| self.estimates.remove(k)) {
+                Some((_, work)) => (work, vec![Traffic::default(); active.len()]),
+                None => self.estimate(frame, tasks, &active, &speeds, lead),
             };
-            self.last_estimate = Some((estimate_key, work.clone()));
+            if self.estimates.len() == ESTIMATES_KEPT {
+                self.estimates.pop_front();
+            }
+            self.estimates.push_back((estimate_key, work.clone()));
             // Counts are finite and non-negative, so only an empty frame could fail.
             let costs =
                 Costs::new(model.costs(&work)).unwrap_or_else(|_| Costs::uniform(tasks.len()));
