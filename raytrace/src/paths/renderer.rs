@@ -36,6 +36,11 @@ const PARTS_PER_DEVICE: usize = 4;
 /// up stays free beside a frame.
 const ESTIMATES_KEPT: usize = 16;
 
+/// The most of a frame's expected time one task may take on the slowest device rendering it,
+/// where devices of several classes do: its last task then never holds the faster devices
+/// for long, and they still launch many tasks at once.
+const MAX_TASK_SHARE: f64 = 0.02;
+
 /// A rendered frame: the image and how it was made.
 #[derive(Clone, Debug)]
 pub struct FrameRendering {
@@ -193,6 +198,7 @@ impl<'a> PathRenderer<'a> {
         let planned = alone == Some(true) || self.fastest_class().is_some();
         let active = (0..self.devices.len()).filter(|&d| self.runs(d)).count();
         let size = self.settings.task_size_for(paths, active.max(1));
+        let size = (self.largest_task(paths, key.0)).map_or(size, |most| size.min(most));
         let tasks = split_ranges(paths, size);
         let mut ran = self.run_tasks(&frame, &tasks);
         self.idle.fill(false);
@@ -242,6 +248,27 @@ impl<'a> PathRenderer<'a> {
             }
         }
         best.map(|(class, _)| class)
+    }
+
+    /// The largest task, in paths, that the slowest device taking part renders within
+    /// [`MAX_TASK_SHARE`] of the frame's expected time (its `paths` over the devices' summed
+    /// paths per second), at least [`Settings::MIN_TASK_RAYS`]; `None` where the devices are
+    /// of one class (the task size is the experiment's) or a class has no rate for `shader`
+    /// yet.
+    fn largest_task(&self, paths: usize, shader: &'static str) -> Option<usize> {
+        let classes: Vec<String> = (0..self.devices.len())
+            .filter(|&d| self.runs(d))
+            .map(|d| self.devices[d].class())
+            .collect();
+        if classes.iter().all(|c| *c == classes[0]) {
+            return None;
+        }
+        let rates: Vec<f64> = (classes.into_iter())
+            .map(|c| self.rates.get(&(c, shader)).copied())
+            .collect::<Option<_>>()?;
+        let slowest = rates.iter().copied().fold(f64::INFINITY, f64::min);
+        let most = MAX_TASK_SHARE * paths as f64 * slowest / rates.iter().sum::<f64>();
+        Some((most.ceil() as usize).max(Settings::MIN_TASK_RAYS))
     }
 
     /// Whether device `d` takes part in the frame being rendered.
@@ -427,6 +454,7 @@ impl<'a> PathRenderer<'a> {
                 name: self.devices[d].name(),
                 speed,
                 tasks: 0,
+                paths: 0,
                 launches: report.launches.get(k).copied().unwrap_or(0),
                 busy: report.metrics.busy.get(k).copied().unwrap_or(0.0),
                 rays: 0,
@@ -447,6 +475,7 @@ impl<'a> PathRenderer<'a> {
         for span in &report.timeline.spans {
             let (k, t) = (span.device as usize, span.task as usize);
             devices[k].tasks += 1;
+            devices[k].paths += tasks[t].len();
             task_stats[t] = TaskStats {
                 cost: costs.as_slice()[t],
                 start: span.start,
@@ -466,6 +495,7 @@ impl<'a> PathRenderer<'a> {
         }
         self.measure_rates(frame, &devices, &task_stats, tasks);
         let spikes = self.learn(&active, lead, &report, tasks, costs.as_slice(), &work);
+        self.bound_unmeasured(frame, &devices, tasks, report.metrics.makespan);
 
         let stats = FrameStats {
             paths,
@@ -659,6 +689,48 @@ impl<'a> PathRenderer<'a> {
             .device_latencies(overheads);
         let report = simulation.run(&Costs::new(work).ok()?).ok()?;
         Some(report.metrics.makespan)
+    }
+
+    /// Holds down the rate and speed of a class whose devices launched tasks but delivered
+    /// none (a faster device's copies came first, or none was done by the frame's end): it
+    /// rendered fewer paths than the frame's smallest task in the frame's makespan. Without
+    /// this, a device too slow to finish a task before the others copy it would keep its old
+    /// speed, and its share, frame after frame. The speed is scaled from the rate as the
+    /// speed of the class that delivered most on this frame is; a class this bounds wrongly
+    /// (a device that woke too late to take a task) is measured again on its next frame.
+    fn bound_unmeasured(
+        &mut self,
+        frame: &Frame<'_>,
+        devices: &[PathDeviceStats],
+        tasks: &[Range<usize>],
+        makespan: f64,
+    ) {
+        let smallest = tasks.iter().map(ExactSizeIterator::len).min().unwrap_or(0);
+        let Some(best) = (devices.iter())
+            .filter(|d| d.busy > 0.0)
+            .max_by_key(|d| d.paths)
+            .filter(|d| d.paths > 0 && smallest > 0 && makespan > 0.0)
+        else {
+            return;
+        };
+        let speed_per_rate = self.speed(best.index) * best.busy / best.paths as f64;
+        let bound = smallest as f64 / makespan;
+        let shader = frame.options.shader.name();
+        let class = |d: &PathDeviceStats| self.devices[d.index].class();
+        let delivered: Vec<String> = (devices.iter().filter(|d| d.paths > 0))
+            .map(class)
+            .collect();
+        let silent: Vec<String> = (devices.iter())
+            .filter(|d| d.launches > 0 && !self.retired[d.index])
+            .map(class)
+            .filter(|c| !delivered.contains(c))
+            .collect();
+        for c in silent {
+            let rate = self.rates.entry((c.clone(), shader)).or_insert(bound);
+            *rate = rate.min(bound);
+            let speed = self.speeds.entry(c).or_insert(bound * speed_per_rate);
+            *speed = speed.min(bound * speed_per_rate);
+        }
     }
 
     /// Keeps each device class's paths per busy second on this frame, for predictions.

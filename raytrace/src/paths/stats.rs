@@ -36,6 +36,8 @@ pub struct PathDeviceStats {
     pub speed: f64,
     /// Tasks it delivered.
     pub tasks: usize,
+    /// Paths of the tasks it delivered: over its launches, what it takes at once.
+    pub paths: usize,
     /// Launches it ran.
     pub launches: u64,
     /// Seconds busy (wall time of its launches).

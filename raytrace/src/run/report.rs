@@ -24,7 +24,8 @@ pub struct RunReport {
     /// Tasks the frame was cut into.
     pub tasks: usize,
     /// Paths of the largest task the frame was cut into: `--task-size`, or fewer where the
-    /// frame is too small to give every device four tasks of it.
+    /// frame is too small to give every device four tasks of it, or where a task would take
+    /// the slowest of devices of several classes over 2 % of the frame's expected time.
     pub task_size: usize,
     /// False in regular mode, and in cost mode on one device (its plan needs no costs).
     pub estimated: bool,

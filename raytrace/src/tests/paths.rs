@@ -632,3 +632,75 @@ fn an_unchanged_frame_reuses_the_last_estimate() {
     let mut next = PathRenderer::from_kept(kept, smaller).expect("renderer");
     assert!(!frame(&mut next, &moved).1.estimate_reused);
 }
+
+/// Beside a device five times slower, once both classes' speeds are measured, a frame on
+/// both is cut into tasks the slow one renders within 2 % of the frame's expected time (at
+/// most 2 % of the paths over two): its last task cannot hold the frame. The image does not
+/// change; the devices' paths add up to the frame's.
+#[test]
+fn tasks_are_cut_small_for_the_slowest_device() {
+    let shader = SHADERS[0];
+    let (scene, bvh) = scene("builtin:forest:0.05", &shader);
+    let options = RenderOptions::new(256, 192, Camera::orbit(&scene.bounds(), 0), shader);
+    let reference = bits(&render(&scene, &mut CpuTracer::new(&bvh), &options).film);
+    let slow = crate::paths::SlowBy {
+        device: 1,
+        factor: 5.0,
+    };
+    let devices = InjectedPaths::wrap(cpus(2), &[], &[slow]);
+    let lpt = settings(Policy::StaticLpt, Mode::Cost, 4096);
+    let mut r = PathRenderer::new(devices, lpt).expect("renderer");
+    let frames: Vec<_> = (0..6)
+        .map(|_| {
+            let frame = r.render(&scene, &bvh, &options).expect("frame");
+            assert_eq!(bits(&frame.film), reference);
+            frame.stats
+        })
+        .collect();
+    let paths = 256 * 192;
+    for f in &frames {
+        let rendered: usize = f.devices.iter().map(|d| d.paths).sum();
+        assert_eq!(rendered, paths);
+    }
+    // Speeds unknown: the size asked for.
+    assert_eq!(frames[0].task_size, 4096);
+    // Every frame on both devices after one that measured both (the choice weighs one at
+    // least, against a frame on the faster alone).
+    let measured = (frames.iter())
+        .position(|f| f.devices.len() == 2 && f.devices.iter().all(|d| d.paths > 0))
+        .expect("a frame measured both devices");
+    let most = (paths / 100).max(crate::paths::Settings::MIN_TASK_RAYS);
+    let planned: Vec<usize> = (frames[measured + 1..].iter())
+        .filter(|f| f.left_idle.is_empty())
+        .map(|f| f.task_size)
+        .collect();
+    assert!(!planned.is_empty(), "{frames:?}");
+    assert!(
+        planned.iter().all(|&size| size <= most),
+        "{planned:?} paths"
+    );
+}
+
+/// A device two hundred times slower, whose every task a faster device's copy beats, delivers
+/// nothing, yet is not planned at its old speed again: the renderer holds its speed to what
+/// it could have rendered (less than a task in the frame). The image does not change.
+#[test]
+fn a_device_that_never_delivers_is_planned_slower() {
+    let shader = SHADERS[0];
+    let (scene, bvh, options, reference) = small_forest(shader);
+    let slow = crate::paths::SlowBy {
+        device: 1,
+        factor: 200.0,
+    };
+    let devices = InjectedPaths::wrap(cpus(2), &[], &[slow]);
+    let lpt = settings(Policy::StaticLpt, Mode::Cost, 64);
+    let mut r = PathRenderer::new(devices, lpt).expect("renderer");
+    let frame = r.render(&scene, &bvh, &options).expect("frame");
+    assert_eq!(bits(&frame.film), reference);
+    assert!(
+        r.speed(1) < 0.2 * r.speed(0),
+        "{} {}",
+        r.speed(0),
+        r.speed(1)
+    );
+}
