@@ -118,20 +118,8 @@ fn trace(r: u32) {
                 done = true;
                 break;
             }
-            // Pop the nearest node left, skipping those now beyond the nearest hit.
-            var popped = false;
-            loop {
-                if sp == 0u {
-                    break;
-                }
-                sp -= 1u;
-                if stack_t[sp] <= best_t {
-                    i = stack_node[sp];
-                    popped = true;
-                    break;
-                }
-            }
-            if !popped {
+            i = pop(&stack_node, &stack_t, &sp, best_t);
+            if i == MISS {
                 done = true;
                 break;
             }
