@@ -417,6 +417,67 @@ fn throughput() {
     }
 }
 
+/// What the path kernels read per ray on each tree, and how long a launch takes:
+/// `cargo test -p raytrace --features gpu --lib gpu::tests::path_node_bytes -- --ignored
+/// --nocapture` (`COBALT_MEASURE_SCENE` adds a scene, e.g. a path to an OBJ file). Every
+/// path of a 256 × 256 frame is counted (an estimate at rate 1 by the trace walk: `B` nodes
+/// fetched, `T` triangles tested, by the closest- and any-hit walks the render runs), and the
+/// bytes are `B` times a fetch's (64 for the binary tree's sibling pair, 80 for a compressed
+/// wide node); rays are the render's. Wall time is the best of three renders of the frame.
+#[test]
+#[ignore = "a measurement, not a check"]
+fn path_node_bytes() {
+    let Some(ctx) = gpu() else { return };
+    let mut names = vec![
+        "builtin:cornell".to_string(),
+        "builtin:forest:0.2".to_string(),
+    ];
+    names.extend(std::env::var("COBALT_MEASURE_SCENE").ok());
+    for name in names {
+        let (scene, bvh) = testkit::builtin_with_bvh(&name).expect("scene");
+        let camera = Camera::orbit(&scene.bounds(), 0);
+        let ao = Shader::Ao(AoSettings {
+            samples: 8,
+            ..AoSettings::default()
+        });
+        for shader in [ao, Shader::Whitted(WhittedSettings::default())] {
+            let options = RenderOptions::new(256, 256, camera, shader);
+            let all = 0..256 * 256;
+            for layout in [crate::Layout::Binary, crate::Layout::Wide] {
+                let r =
+                    GpuRenderer::with_layout(ctx.clone(), &scene, &bvh, layout).expect("renderer");
+                let trace = crate::Walk::Trace { any: false };
+                let work = r
+                    .sample_paths(&options, &[&all], SampleRate::FULL, trace)
+                    .expect("estimate")
+                    .work[0];
+                let mut wall = f64::INFINITY;
+                let mut rays = 0;
+                for _ in 0..3 {
+                    let t = std::time::Instant::now();
+                    rays = r.render(&options, &[&all]).expect("render").rays;
+                    wall = wall.min(t.elapsed().as_secs_f64());
+                }
+                let bytes = match layout {
+                    crate::Layout::Binary => 64.0,
+                    crate::Layout::Wide => 80.0,
+                };
+                let per_ray = |x: f64| x / rays as f64;
+                eprintln!(
+                    "{name} {} {}: {rays} rays, {:.1} nodes/ray, {:.0} node bytes/ray, \
+                     {:.1} tris/ray, {:.0} ms",
+                    shader.name(),
+                    layout.name(),
+                    per_ray(work.nodes),
+                    per_ray(work.nodes * bytes),
+                    per_ray(work.tris),
+                    wall * 1e3,
+                );
+            }
+        }
+    }
+}
+
 /// The estimator counted on the GPU counts the CPU's sample exactly: every sampled ray's
 /// counts equal the CPU's, and so does the scaled work, bit for bit, for primary and AO rays,
 /// several task sizes (a last task shorter than the rest, tasks of one ray) and every thesis
