@@ -79,7 +79,7 @@ pub fn check_size(ctx: &GpuContext, what: &'static str, bytes: u64) -> Result<()
 }
 
 /// A BVH on one device: its node and triangle arrays, as the CPU lays them out.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct SceneBuffers {
     /// The node array (`Bvh::nodes`).
     pub nodes: wgpu::Buffer,

@@ -58,6 +58,8 @@ struct Recorded {
 /// The commands of one launch, recorded until [`Recorder::finish`] submits them.
 pub(super) struct Recorder<'a> {
     dev: &'a TraceDevice,
+    /// Where the thesis's walks run, when not on `dev` (see [`Recorder::walk_on`]).
+    walks: Option<&'a TraceDevice>,
     verdict: &'a Kernel,
     encoder: wgpu::CommandEncoder,
     traces: Vec<Recorded>,
@@ -100,6 +102,7 @@ impl<'a> Recorder<'a> {
         let ctx = &dev.ctx;
         Self {
             dev,
+            walks: None,
             verdict,
             encoder: encoder(ctx),
             traces: Vec::new(),
@@ -110,6 +113,12 @@ impl<'a> Recorder<'a> {
             #[cfg(test)]
             starved: false,
         }
+    }
+
+    /// Runs the reduced walks' traces on `walks` (the binary tree beside a wide one, on the
+    /// same device) instead of the launch's tree.
+    pub(super) fn walk_on(&mut self, walks: &'a TraceDevice) {
+        self.walks = Some(walks);
     }
 
     /// Records a copy of `bytes` bytes on the device, from `from` at `from_at` to `to` at
@@ -192,11 +201,15 @@ impl<'a> Recorder<'a> {
         if n == 0 {
             return Ok(());
         }
+        let dev = match (mode, self.walks) {
+            (Walk::Trace { .. }, _) | (_, None) => self.dev,
+            (_, Some(walks)) => walks,
+        };
         if self.checked {
             // What was recorded runs first; the trace then waits on the device.
             let before = std::mem::replace(&mut self.encoder, encoder(&self.dev.ctx));
             self.dev.ctx.queue.submit([before.finish()]);
-            let seconds = trace_resident(self.dev, rays, out, n, mode, traffic)?;
+            let seconds = trace_resident(dev, rays, out, n, mode, traffic)?;
             self.checked_seconds += seconds.unwrap_or(0.0);
             return Ok(());
         }
@@ -229,7 +242,7 @@ impl<'a> Recorder<'a> {
                 (upload([n, per_path.max(1), 1, 0]), Some(counts))
             }
         };
-        let round = TraceRound::bound(self.dev, rays, out, n, mode, queue, params.clone(), counts);
+        let round = TraceRound::bound(dev, rays, out, n, mode, queue, params.clone(), counts);
         // A launch that starts with a trace starts its time there.
         let timing = self.timing.as_ref().filter(|_| self.passes == 0);
         #[cfg(test)]
@@ -237,7 +250,7 @@ impl<'a> Recorder<'a> {
         #[cfg(not(test))]
         let dispatches = round.dispatches;
         round.record(
-            &self.dev.kernels,
+            &dev.kernels,
             &mut self.encoder,
             dispatches,
             timing.map(|(set, _)| set),

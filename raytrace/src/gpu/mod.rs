@@ -1,6 +1,6 @@
 //! The GPU devices: wgpu compute kernels in WGSL for closest-hit, any-hit and the
-//! thesis's reduced traversal, over the same node and triangle arrays the CPU traverses,
-//! uploaded unchanged.
+//! thesis's reduced traversal, over the binary tree's node and triangle arrays as the CPU
+//! lays them out, or over compressed 8-wide nodes made from the CPU's wide tree.
 //!
 //! - [`context`]: which adapters exist and which are used (hardware only, unless software
 //!   adapters such as Mesa's lavapipe are asked for), each opened with its own limits;
@@ -18,8 +18,9 @@
 //!   estimate's sample (`cobalt estimate`) under the host's estimator,
 //!   [`crate::cost::ReducedTraversal`], equal to the CPU's counts;
 //! - `paths/`, the path kernels: [`GpuRenderer`], ambient occlusion and Whitted shading
-//!   rendered entirely on the device (ray generation in Morton order, traces, AO probes or
-//!   shadow and mirror rays, image), and an estimate's sample of its paths counted there.
+//!   rendered entirely on the device (ray generation in Morton order, traces on the compressed
+//!   wide tree, AO probes or shadow and mirror rays, image), and an estimate's sample of its
+//!   paths counted there.
 //!
 //! The path kernels import the rest of `gpu/`, never the other way.
 //!

@@ -62,7 +62,8 @@ fn scene_bvh(name: &str) -> Bvh {
 /// of `rays_for(name, seed)`.
 fn launch_kit(ctx: &GpuContext, name: &str, seed: u64) -> (TraceDevice, RayBatch) {
     let bvh = scene_bvh(name);
-    let dev = TraceDevice::new(ctx.clone(), &bvh).expect("kernels and upload");
+    let dev = TraceDevice::with_layout(ctx.clone(), &bvh, crate::Layout::Binary)
+        .expect("kernels and upload");
     (dev, rays_for(name, seed))
 }
 
@@ -413,6 +414,67 @@ fn throughput() {
             mrays(wall),
             mrays(kernel),
         );
+    }
+}
+
+/// What the path kernels read per ray on each tree, and how long a launch takes:
+/// `cargo test -p raytrace --features gpu --lib gpu::tests::path_node_bytes -- --ignored
+/// --nocapture` (`COBALT_MEASURE_SCENE` adds a scene, e.g. a path to an OBJ file). Every
+/// path of a 256 × 256 frame is counted (an estimate at rate 1 by the trace walk: `B` nodes
+/// fetched, `T` triangles tested, by the closest- and any-hit walks the render runs), and the
+/// bytes are `B` times a fetch's (64 for the binary tree's sibling pair, 80 for a compressed
+/// wide node); rays are the render's. Wall time is the best of three renders of the frame.
+#[test]
+#[ignore = "a measurement, not a check"]
+fn path_node_bytes() {
+    let Some(ctx) = gpu() else { return };
+    let mut names = vec![
+        "builtin:cornell".to_string(),
+        "builtin:forest:0.2".to_string(),
+    ];
+    names.extend(std::env::var("COBALT_MEASURE_SCENE").ok());
+    for name in names {
+        let (scene, bvh) = testkit::builtin_with_bvh(&name).expect("scene");
+        let camera = Camera::orbit(&scene.bounds(), 0);
+        let ao = Shader::Ao(AoSettings {
+            samples: 8,
+            ..AoSettings::default()
+        });
+        for shader in [ao, Shader::Whitted(WhittedSettings::default())] {
+            let options = RenderOptions::new(256, 256, camera, shader);
+            let all = 0..256 * 256;
+            for layout in [crate::Layout::Binary, crate::Layout::Wide] {
+                let r =
+                    GpuRenderer::with_layout(ctx.clone(), &scene, &bvh, layout).expect("renderer");
+                let trace = crate::Walk::Trace { any: false };
+                let work = r
+                    .sample_paths(&options, &[&all], SampleRate::FULL, trace)
+                    .expect("estimate")
+                    .work[0];
+                let mut wall = f64::INFINITY;
+                let mut rays = 0;
+                for _ in 0..3 {
+                    let t = std::time::Instant::now();
+                    rays = r.render(&options, &[&all]).expect("render").rays;
+                    wall = wall.min(t.elapsed().as_secs_f64());
+                }
+                let bytes = match layout {
+                    crate::Layout::Binary => 64.0,
+                    crate::Layout::Wide => 80.0,
+                };
+                let per_ray = |x: f64| x / rays as f64;
+                eprintln!(
+                    "{name} {} {}: {rays} rays, {:.1} nodes/ray, {:.0} node bytes/ray, \
+                     {:.1} tris/ray, {:.0} ms",
+                    shader.name(),
+                    layout.name(),
+                    per_ray(work.nodes),
+                    per_ray(work.nodes * bytes),
+                    per_ray(work.tris),
+                    wall * 1e3,
+                );
+            }
+        }
     }
 }
 
@@ -1215,11 +1277,12 @@ fn an_undrained_launch_is_run_again_checked() {
 }
 
 /// A GPU estimates the tasks it holds with its own kernels: every sampled path made, traced
-/// and shaded there, its rays' counts summed per task on the device. The work equals the
-/// host's estimate of the same sample on the binary tree bit for bit (the kernels walk it as
-/// the CPU does and find the CPU's hits), for both
-/// shaders, several rates and tasks of every size, and only the task lists and the sums
-/// cross: 24 bytes a task beyond a launch's fixed bytes.
+/// and shaded there, its rays' counts summed per task on the device. On the binary tree the
+/// work equals the host's estimate of the same sample on it bit for bit (the kernels walk it
+/// as the CPU does and find the CPU's hits), for both shaders, several rates and tasks of
+/// every size, and only the task lists and the sums cross: 24 bytes a task beyond a launch's
+/// fixed bytes. A path device's renderer traces the compressed wide tree: the same sample
+/// there fetches fewer nodes and crosses the same bytes.
 #[test]
 fn a_gpu_estimates_its_paths_as_the_host_does() {
     use crate::paths::{GpuPaths, PathDevice, sample_paths};
@@ -1227,6 +1290,8 @@ fn a_gpu_estimates_its_paths_as_the_host_does() {
     for name in ["builtin:cornell:0.2", "builtin:forest:0.05"] {
         let (scene, bvh) = testkit::builtin_with_bvh(name).expect("scene");
         let mut device = GpuPaths::new(ctx.clone(), &scene, &bvh).expect("device");
+        let binary = GpuRenderer::with_layout(ctx.clone(), &scene, &bvh, crate::Layout::Binary)
+            .expect("renderer");
         let camera = Camera::orbit(&scene.bounds(), 1);
         let shaders = [
             Shader::Ao(AoSettings {
@@ -1246,19 +1311,33 @@ fn a_gpu_estimates_its_paths_as_the_host_does() {
             let refs: Vec<&std::ops::Range<usize>> = tasks.iter().collect();
             for rate in [1.0, 0.125, 0.01] {
                 let rate = sched::SampleRate::new(rate).expect("rate");
-                let on_gpu = device
-                    .estimate(&frame, &refs, rate, crate::Walk::Trace { any: false })
+                let trace = crate::Walk::Trace { any: false };
+                let on_gpu = binary
+                    .sample_paths(&options, &refs, rate, trace)
                     .expect("estimate");
                 let on_host = sample_paths(&frame, &tasks, rate, crate::Layout::Binary);
                 let on_host: Vec<_> = on_host.into_iter().map(|s| s.work).collect();
-                assert_eq!(on_gpu.work, on_host, "{name} {} {rate:?}", shader.name());
-                assert!(on_gpu.work[2].nodes > 0.0, "{name}: {:?}", on_gpu.work);
-                let t = &on_gpu.traffic;
-                assert_eq!(t.host_waits, 1, "{t:?}");
-                // A task list and the sums; then the fixed part: the number of tasks, the
-                // verdict, timestamps, the traces' parameters, and the first time the
-                // frame's blocks.
-                assert!(t.bytes() <= 24 * tasks.len() as u64 + 400, "{t:?}");
+                let at = format!("{name} {} {rate:?}", shader.name());
+                assert_eq!(on_gpu.work, on_host, "{at}");
+                assert!(on_gpu.work[2].nodes > 0.0, "{at}: {:?}", on_gpu.work);
+                let wide = device
+                    .estimate(&frame, &refs, rate, trace)
+                    .expect("wide estimate");
+                for (w, b) in wide.work.iter().zip(&on_gpu.work) {
+                    assert!(w.nodes <= b.nodes, "{at}: wide {w:?}, binary {b:?}");
+                    assert_eq!(
+                        w.nodes == 0.0,
+                        b.nodes == 0.0,
+                        "{at}: wide {w:?}, binary {b:?}"
+                    );
+                }
+                for t in [&on_gpu.traffic, &wide.traffic] {
+                    assert_eq!(t.host_waits, 1, "{t:?}");
+                    // A task list and the sums; then the fixed part: the number of tasks, the
+                    // verdict, timestamps, the traces' parameters, and the first time the
+                    // frame's blocks.
+                    assert!(t.bytes() <= 24 * tasks.len() as u64 + 400, "{t:?}");
+                }
             }
         }
     }

@@ -158,20 +158,12 @@ pub(crate) struct TraceDevice {
 }
 
 impl TraceDevice {
-    /// Uploads `bvh` to `ctx`'s device and compiles the kernels for it.
-    ///
-    /// # Errors
-    /// [`GpuError::TooLarge`] when the tree exceeds a binding limit, [`GpuError::TooDeep`]
-    /// beyond the deepest supported tree.
-    pub(crate) fn new(ctx: GpuContext, bvh: &Bvh) -> Result<Self, GpuError> {
-        Self::with_layout(ctx, bvh, Layout::Binary)
-    }
-
     /// Uploads `bvh` as `layout` lays it out: the binary tree, or the compressed wide nodes
     /// made from [`Bvh::wide`]; and compiles that layout's kernels.
     ///
     /// # Errors
-    /// Those of [`TraceDevice::new`], and [`GpuError::Compress`] for a wide tree with no
+    /// [`GpuError::TooLarge`] when the tree exceeds a binding limit, [`GpuError::TooDeep`]
+    /// beyond the deepest supported tree, [`GpuError::Compress`] for a wide tree with no
     /// compressed form.
     pub(crate) fn with_layout(
         ctx: GpuContext,
@@ -197,6 +189,49 @@ impl TraceDevice {
             layout,
             ctx,
         })
+    }
+}
+
+/// The binary tree uploaded beside a renderer's compressed wide one, for the thesis's walks
+/// ([`Walk::Reduced`], [`Walk::FirstLeaf`]): they count the binary tree's nodes, as the host's
+/// packets do, so that every device of a frame estimates its share alike (the wide kernel has
+/// no first-leaf walk). Its kernels are compiled at the first such walk; renders never use it.
+#[derive(Debug)]
+pub(crate) struct BinaryWalks {
+    ctx: GpuContext,
+    depth: usize,
+    /// The upload, or why it failed (told by the first walk that needs it).
+    scene: Result<SceneBuffers, GpuError>,
+    dev: std::sync::OnceLock<Result<TraceDevice, GpuError>>,
+}
+
+impl BinaryWalks {
+    /// Uploads `bvh`'s binary tree to `ctx`'s device.
+    pub(crate) fn new(ctx: &GpuContext, bvh: &Bvh) -> Self {
+        Self {
+            ctx: ctx.clone(),
+            depth: bvh.depth(),
+            scene: SceneBuffers::upload(ctx, bvh),
+            dev: std::sync::OnceLock::new(),
+        }
+    }
+
+    /// The binary tree with its kernels, compiled on the first call.
+    ///
+    /// # Errors
+    /// [`GpuError::TooLarge`] when the binary tree exceeds a binding limit,
+    /// [`GpuError::TooDeep`] beyond the deepest supported tree.
+    pub(crate) fn device(&self) -> Result<&TraceDevice, GpuError> {
+        let dev = self.dev.get_or_init(|| {
+            let scene = self.scene.clone()?;
+            Ok(TraceDevice {
+                kernels: TraceKernels::new(&self.ctx.device, self.depth)?,
+                scene,
+                layout: Layout::Binary,
+                ctx: self.ctx.clone(),
+            })
+        });
+        dev.as_ref().map_err(Clone::clone)
     }
 }
 

@@ -133,20 +133,8 @@ fn trace(r: u32) {
                 }
             }
             if !descend {
-                // Pop the next node, skipping those now beyond the nearest hit.
-                var popped = false;
-                loop {
-                    if sp == 0u {
-                        break;
-                    }
-                    sp -= 1u;
-                    if stack_t[sp] <= best_t {
-                        i = stack_node[sp];
-                        popped = true;
-                        break;
-                    }
-                }
-                if !popped {
+                i = pop(&stack_node, &stack_t, &sp, best_t);
+                if i == MISS {
                     done = true;
                     break;
                 }

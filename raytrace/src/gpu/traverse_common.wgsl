@@ -1,7 +1,7 @@
 // What both trace kernels (`traverse.wgsl` on the binary tree, `traverse_wide.wgsl` on the
 // compressed 8-wide one) share, put by the host between `ray.wgsl` and the kernel: their
-// constants, bindings (but the tree's nodes), the conservative slab test and the persistent
-// threads that take batches of rays from the queue.
+// constants, bindings (but the tree's nodes), the conservative slab test, the stack's pop and
+// the persistent threads that take batches of rays from the queue.
 
 // 0: closest hit, 1: any hit, 2: reduced traversal (counts B and T), 3: the first-leaf
 // reduced traversal (`Walk::FirstLeaf`: counts B and T, each ray ending at the exit of the
@@ -96,6 +96,29 @@ fn box_exit(b: BoxRay, lo: vec3<f32>, hi: vec3<f32>, tmax: f32) -> f32 {
     let t_far = (far - b.org) * b.inv;
     let t1 = min_keep(min_keep(min_keep(inf(), t_far.x), t_far.y), t_far.z) * FAR_SCALE;
     return select(tmax, t1, t1 < tmax);
+}
+
+// Pops the nearest node left on the stack (`sp` entries of node and entry distance), skipping
+// those whose entry is beyond `best_t` (a nearer hit was found since they were pushed); MISS
+// when none is left.
+fn pop(
+    stack_node: ptr<function, array<u32, STACK>>,
+    stack_t: ptr<function, array<f32, STACK>>,
+    sp: ptr<function, u32>,
+    best_t: f32,
+) -> u32 {
+    var next = MISS;
+    loop {
+        if *sp == 0u {
+            break;
+        }
+        *sp -= 1u;
+        if (*stack_t)[*sp] <= best_t {
+            next = (*stack_node)[*sp];
+            break;
+        }
+    }
+    return next;
 }
 
 // Writes ray `r`'s result: (t bits, prim) for hits, (B, T) for the counting modes, and adds

@@ -22,9 +22,9 @@ struct CNode {
 
 @group(0) @binding(0) var<storage, read> nodes: array<CNode>;
 
-// Byte `k` of the planes `w` (three axes of eight bytes) on axis `a`, as a float.
-fn plane_q(w: array<u32, 6>, a: u32, k: u32) -> f32 {
-    return f32((w[2u * a + k / 4u] >> (8u * (k % 4u))) & 0xffu);
+// The bytes of four slots as floats.
+fn bytes4(w: u32) -> vec4<f32> {
+    return vec4<f32>(unpack4xU8(w));
 }
 
 // Traces ray `r` and writes its result: (t bits, prim) for hits, (B, T) for MODE 2; B counts
@@ -60,17 +60,32 @@ fn trace(r: u32) {
                 bitcast<f32>(((node.exp >> 8u) & 0xffu) << 23u),
                 bitcast<f32>(((node.exp >> 16u) & 0xffu) << 23u),
             );
+            // Every slot's kind and planes unpacked once (constant indices: an array indexed by
+            // a variable would be copied at each use).
+            let kinds = array<vec4<u32>, 2>(unpack4xU8(node.kinds.x), unpack4xU8(node.kinds.y));
+            let lo_q = array<vec4<f32>, 6>(
+                bytes4(node.lo[0]), bytes4(node.lo[1]), bytes4(node.lo[2]),
+                bytes4(node.lo[3]), bytes4(node.lo[4]), bytes4(node.lo[5]),
+            );
+            let hi_q = array<vec4<f32>, 6>(
+                bytes4(node.hi[0]), bytes4(node.hi[1]), bytes4(node.hi[2]),
+                bytes4(node.hi[3]), bytes4(node.hi[4]), bytes4(node.hi[5]),
+            );
             var inner = node.child;
             var first = node.tri;
             let base = sp;
             var found = false;
             for (var k = 0u; k < 8u; k++) {
-                let m = (node.kinds[k / 4u] >> (8u * (k % 4u))) & 0xffu;
+                let upper = k >= 4u;
+                let j = k % 4u;
+                let m = select(kinds[0], kinds[1], upper)[j];
                 if m == 0u {
                     continue;
                 }
-                let lo = node.origin + vec3<f32>(plane_q(node.lo, 0u, k), plane_q(node.lo, 1u, k), plane_q(node.lo, 2u, k)) * scale;
-                let hi = node.origin + vec3<f32>(plane_q(node.hi, 0u, k), plane_q(node.hi, 1u, k), plane_q(node.hi, 2u, k)) * scale;
+                let lq = vec3<f32>(select(lo_q[0], lo_q[1], upper)[j], select(lo_q[2], lo_q[3], upper)[j], select(lo_q[4], lo_q[5], upper)[j]);
+                let hq = vec3<f32>(select(hi_q[0], hi_q[1], upper)[j], select(hi_q[2], hi_q[3], upper)[j], select(hi_q[4], hi_q[5], upper)[j]);
+                let lo = node.origin + lq * scale;
+                let hi = node.origin + hq * scale;
                 let h = box_hit(bray, lo, hi, tmin, best_t);
                 if m == 0xffu {
                     if h.y > 0.0 {
@@ -118,20 +133,8 @@ fn trace(r: u32) {
                 done = true;
                 break;
             }
-            // Pop the nearest node left, skipping those now beyond the nearest hit.
-            var popped = false;
-            loop {
-                if sp == 0u {
-                    break;
-                }
-                sp -= 1u;
-                if stack_t[sp] <= best_t {
-                    i = stack_node[sp];
-                    popped = true;
-                    break;
-                }
-            }
-            if !popped {
+            i = pop(&stack_node, &stack_t, &sp, best_t);
+            if i == MISS {
                 done = true;
                 break;
             }

@@ -1,10 +1,11 @@
 //! A GPU device's launch of whole paths: for a list of tasks (ranges of paths in the image's
 //! Morton order), primary rays made on the device, closest hits, ambient-occlusion probes
 //! with the CPU's Halton points, any hits, and each path's value, every stage a kernel over
-//! device buffers (`render.wgsl`, with the traces of `traverse.wgsl`; Whitted shading is
-//! `whitted.rs`). A launch is one submission (see `launch.rs`): what crosses the bus is the
-//! task list and the launch's parameters on the way in, and on the way out, in the launch's
-//! single read-back, the paths' values with each trace's queue state.
+//! device buffers (`render.wgsl`, with the traces of the trace kernels on the compressed wide
+//! tree, `traverse_wide.wgsl`; Whitted shading is `whitted.rs`). A launch is one submission
+//! (see `launch.rs`): what crosses the bus is the task list and the launch's parameters on the
+//! way in, and on the way out, in the launch's single read-back, the paths' values with each
+//! trace's queue state.
 //!
 //! The values equal [`crate::shade::render`]'s up to the differences `render.wgsl` lists
 //! (`cos`/`sin` rounding, exact-edge ties): a pixel is a fraction of probes, so a probe that
@@ -27,11 +28,12 @@ use crate::gpu::header::{self, Header, Setup, task_list};
 use crate::gpu::launch::{Count, Recorder, verdict_kernel};
 use crate::gpu::program::{Kernel, Program, READ, UNIFORM, WRITE};
 use crate::gpu::resident::Resident;
-use crate::gpu::trace::{ANY, CLOSEST, TraceDevice, loop_cut};
+use crate::gpu::trace::{ANY, BinaryWalks, CLOSEST, TraceDevice, loop_cut};
 use crate::paths::Launch;
 use crate::scene::Scene;
 use crate::shade::{AoSettings, RenderOptions};
 use crate::traffic::Traffic;
+use crate::traverse::layout::Layout;
 use crate::traverse::walk::Walk;
 
 /// The uniform block of `render.wgsl` (`struct Params`).
@@ -89,7 +91,10 @@ struct SceneTri {
 /// device.
 #[derive(Debug)]
 pub struct GpuRenderer {
+    /// The tree every trace of a render walks: the compressed wide one unless asked otherwise.
     pub(in crate::gpu) dev: TraceDevice,
+    /// The binary tree the thesis's walks count, when `dev` holds a wide one.
+    pub(in crate::gpu) walks: Option<BinaryWalks>,
     pub(in crate::gpu) tris: wgpu::Buffer,
     pub(super) whitted: WhittedKernels,
     program: Program,
@@ -115,13 +120,34 @@ pub struct GpuRenderer {
 
 impl GpuRenderer {
     /// Uploads `scene` (its triangles by primitive id, for shading) and `bvh` (built from it)
-    /// and compiles the kernels.
+    /// and compiles the kernels. The traces walk the compressed 8-wide tree (a wide tree
+    /// with no compressed form, the binary one); an estimate by the thesis's walks counts the
+    /// binary tree, uploaded beside it.
     ///
     /// # Errors
     /// [`GpuError::TooLarge`] when a scene buffer exceeds a binding limit,
     /// [`GpuError::TooDeep`] beyond the deepest supported tree.
     pub fn new(ctx: GpuContext, scene: &Scene, bvh: &Bvh) -> Result<Self, GpuError> {
-        let dev = TraceDevice::new(ctx, bvh)?;
+        match Self::with_layout(ctx.clone(), scene, bvh, Layout::Wide) {
+            Err(GpuError::Compress(_)) => Self::with_layout(ctx, scene, bvh, Layout::Binary),
+            made => made,
+        }
+    }
+
+    /// [`GpuRenderer::new`] with every trace walking `layout`'s tree (the path kernels are
+    /// the same for both).
+    ///
+    /// # Errors
+    /// Those of [`GpuRenderer::new`], and [`GpuError::Compress`] for a wide tree with no
+    /// compressed form.
+    pub fn with_layout(
+        ctx: GpuContext,
+        scene: &Scene,
+        bvh: &Bvh,
+        layout: Layout,
+    ) -> Result<Self, GpuError> {
+        let dev = TraceDevice::with_layout(ctx, bvh, layout)?;
+        let walks = (layout == Layout::Wide).then(|| BinaryWalks::new(&dev.ctx, bvh));
         let ctx = &dev.ctx;
         let mut tris: Vec<SceneTri> = (0..scene.len())
             .map(|prim| SceneTri {
@@ -153,6 +179,7 @@ impl GpuRenderer {
         let path_sums = sums_kernel(device);
         let header = header::header_kernel(device);
         Ok(Self {
+            walks,
             whitted,
             raygen: make("raygen", "cobalt raygen pipeline"),
             shade_ao: make("shade_ao", "cobalt AO shading pipeline"),
@@ -174,6 +201,11 @@ impl GpuRenderer {
     /// The opened adapter.
     pub fn context(&self) -> &GpuContext {
         &self.dev.ctx
+    }
+
+    /// The tree the traces of a render walk.
+    pub fn layout(&self) -> Layout {
+        self.dev.layout
     }
 
     /// Checks the image and the launch, uploads its task list and number of tasks (`secondary`

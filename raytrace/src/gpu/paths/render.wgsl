@@ -1,17 +1,17 @@
 // The kernels of a GPU device's launch of ambient-occlusion paths: primary rays made on the
 // device for the launch's tasks (ranges of paths in the image's Morton order), AO probes
 // with the CPU's Halton points and per-path scrambling, and each path's value, every stage
-// a kernel over buffers that stay on the device (the traces between them are
-// `traverse.wgsl`'s). A launch's paths sit in slots, task after task. The host puts
-// `shading.wgsl` in front. Every function mirrors its CPU counterpart operation for
-// operation, in f32:
+// a kernel over buffers that stay on the device (the traces between them are the trace
+// kernels', `traverse_wide.wgsl` on the compressed wide tree). A launch's paths sit in slots,
+// task after task. The host puts `shading.wgsl` in front. Every function mirrors its CPU
+// counterpart operation for operation, in f32:
 // - `raygen`: `Camera::primary_rays_of` and `camera::morton_pixel`;
 // - `shade_ao`: `ao::ao_rays` (re-intersection, `Scene::surface_point`, `spawn.rs`'s offset,
 //   `Rng`'s SplitMix64 in pairs of u32, `cosine_hemisphere`, glam's `any_orthonormal_pair`);
 // - `accumulate`: `shade::ao::render`'s fraction of open probes.
 // Where results may differ from the CPU: `cos`/`sin` (WGSL does not require correct
 // rounding; Rust calls the C library's), and an edge function that is exactly 0, which the
-// CPU re-evaluates in f64 (as in `traverse.wgsl`).
+// CPU re-evaluates in f64 (as in the trace kernels).
 
 struct Params {
     // Camera: eye, and the frame `Camera::ray` builds (forward, right, up), `.w` unused.

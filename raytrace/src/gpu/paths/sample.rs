@@ -4,11 +4,14 @@
 //! path's entry, and `sums.wgsl` adds each task's paths. Only the task list goes in and one
 //! pair of 32-bit sums per task and kind comes back (8 and 16 bytes a task): no ray crosses.
 //!
-//! The traces are the render's, counting as the CPU's counted traces count, so the sums equal
-//! [`crate::paths::sample_paths`]'s sample bit for bit wherever the kernels find the CPU's
-//! hits (on lavapipe, always). With the thesis's walks ([`Walk::Reduced`], [`Walk::FirstLeaf`])
-//! only the sampled paths' camera rays are made and walked, by the trace kernels' counting
-//! modes, as [`crate::paths::walk_paths`] walks them on the host. A sum that would not fit 32
+//! The traces are the render's, on the renderer's tree (the compressed wide one: `B` counts
+//! the wide nodes fetched, `T` the triangles tested); on the binary tree they count as the
+//! CPU's counted traces of it count, so the sums equal [`crate::paths::sample_paths`]'s sample
+//! on [`crate::Layout::Binary`] bit for bit wherever the kernels find the CPU's hits (on
+//! lavapipe, always). With the thesis's walks ([`Walk::Reduced`], [`Walk::FirstLeaf`]) only
+//! the sampled paths' camera rays are made and walked, by the trace kernels' counting modes on
+//! the binary tree (uploaded beside the wide one), as [`crate::paths::walk_paths`] walks them
+//! on the host. A sum that would not fit 32
 //! bits (billions of node visits in one task's sample) saturates, and the launch fails with
 //! [`GpuError::CountOverflow`]: the caller estimates on the host.
 
@@ -113,6 +116,9 @@ impl GpuRenderer {
             primary: walk.for_kind(RayKind::Primary),
         };
         let mut launch = self.recorder(&stage, false);
+        if let (true, Some(walks)) = (reduced, &self.walks) {
+            launch.walk_on(walks.device()?);
+        }
         if let (Shader::Whitted(s), false) = (shader, reduced) {
             self.record_whitted(&mut launch, &stage, &first, s, Some(&tally), &mut traffic)?;
         } else {
