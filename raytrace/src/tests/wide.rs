@@ -161,6 +161,79 @@ fn wide_equals_binary_on_cornell() {
 
 /// The wide tree holds every leaf triangle of the binary tree once, plus repeats that only fill
 /// groups, and does less work per ray.
+/// Four AO rays from each hit of a camera's rays, with a short range, in runs by hit point.
+fn ao_rays(scene: &Scene, bvh: &Bvh, rng: &mut Rng) -> Vec<Ray> {
+    let ext = scene.bounds().extent().max_element();
+    let camera = crate::Camera::orbit(&scene.bounds(), 1).primary_rays(48, 40);
+    let mut out = Vec::new();
+    for i in 0..camera.rays.len() {
+        let r = camera.rays.get(i);
+        let Some(h) = bvh.closest_hit(&r) else {
+            continue;
+        };
+        let p = r.origin + r.dir * h.t;
+        for _ in 0..4 {
+            let d = Vec3::from(rng.unit_vector());
+            out.push(Ray::with_range(
+                p,
+                d,
+                1e-4 * ext,
+                rng.range(0.02, 0.3) * ext,
+            ));
+        }
+    }
+    out
+}
+
+#[test]
+fn shuffled_ao_rays_answer_as_their_single_walks() {
+    // Shuffled, the batch is walked in its origins' order and scattered back; in runs, as it
+    // comes. Either way each ray's answer is its single walk's, and a hit a real one.
+    let seed = testkit::seed(24);
+    for (name, preset) in [
+        ("builtin:forest:0.05", BuildPreset::Sah),
+        ("builtin:cornell:0.2", BuildPreset::Medium),
+        ("builtin:hairball:0.1", BuildPreset::Sah),
+    ] {
+        let (scene, bvh) = load(name, preset);
+        let mut rng = Rng::new(seed);
+        let mut rays = ao_rays(&scene, &bvh, &mut rng);
+        assert!(rays.len() > 1000, "{name}: {} AO rays", rays.len());
+        for shuffled in [false, true] {
+            if shuffled {
+                for i in (1..rays.len()).rev() {
+                    rays.swap(i, rng.below(i as u32 + 1) as usize);
+                }
+            }
+            let batch: crate::RayBatch = rays.iter().copied().collect();
+            let got = crate::traverse::any_hits(&bvh, &batch);
+            let mut hits = 0;
+            for (i, r) in rays.iter().enumerate() {
+                let at =
+                    || format!("{name} shuffled {shuffled} ray {i} {r:?} (COBALT_SEED={seed})");
+                let one = bvh.any_hit(r);
+                assert_eq!(got.get(i).is_some(), one.is_some(), "{}", at());
+                let Some((t, prim)) = got.get(i) else {
+                    continue;
+                };
+                hits += 1;
+                let [a, b, c] = scene.vertices(prim as usize);
+                let shear = crate::RayShear::new(r.origin, r.dir).unwrap();
+                let again = intersect_watertight(
+                    &shear,
+                    &a.to_array(),
+                    &b.to_array(),
+                    &c.to_array(),
+                    r.tmin,
+                    r.tmax,
+                );
+                assert_eq!(again.map(|x| x.0.to_bits()), Some(t.to_bits()), "{}", at());
+            }
+            assert!(hits > 100 && hits < rays.len(), "{name}: {hits} hits");
+        }
+    }
+}
+
 #[test]
 fn wide_tree_holds_the_binary_leaves() {
     let (scene, bvh) = load("builtin:hairball:0.1", BuildPreset::Medium);
