@@ -97,8 +97,8 @@ pub trait PathDevice: Send {
 
     /// What [`PathDevice::estimate`]'s counts of the trace walk are counted on: devices of
     /// one kind give the same work for the same tasks, devices of different kinds do not (the
-    /// host's traces walk the 8-wide tree, the GPU kernels the binary one), so a frame's tasks
-    /// are all estimated by devices of one kind. The reduced walks count on the binary tree
+    /// host's traces walk its 8-wide tree, the GPU kernels a compressed one whose quantized
+    /// boxes let more rays in), so a frame's tasks are all estimated by devices of one kind. The reduced walks count on the binary tree
     /// everywhere. `"host"` by default.
     fn estimate_kind(&self) -> &'static str {
         "host"

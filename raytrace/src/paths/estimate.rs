@@ -152,7 +152,7 @@ pub struct SampledTask {
 
 /// The estimated work of each of `tasks` (ranges of `frame`'s paths), sampling at `rate`,
 /// and what each task's sample rendered ([`SampledTask`]): traced on the host on the tree
-/// `layout` names (the 8-wide one its hit queries walk; the binary one is the GPU's), in the
+/// `layout` names (the 8-wide one its hit queries walk, or the binary one), in the
 /// caller's rayon pool. Every task's sampled paths are rendered at once: a render per task
 /// cost more than its few paths where tasks are small.
 pub fn sample_paths<T>(

@@ -74,7 +74,7 @@ impl PathDevice for GpuPaths {
             .sample_paths(frame.options, tasks, rate, walk)?)
     }
 
-    /// The kernels count on the binary tree.
+    /// The kernels' trace walk counts on the compressed wide tree, not on the host's.
     fn estimate_kind(&self) -> &'static str {
         "gpu"
     }
