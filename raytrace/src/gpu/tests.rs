@@ -999,7 +999,8 @@ fn a_lost_gpu_has_its_paths_rendered_elsewhere() {
 
 /// One GPU device keeps its launch buffers across launches and frames: launches of one task
 /// each (a queue policy), frames of different sizes and shaders one after another, the
-/// small after the large, each equal to the kernels' image of that frame alone.
+/// small after the large, each equal to the kernels' image of that frame alone and read back
+/// at 4 B a path (AO) or 12 (Whitted).
 #[test]
 fn launches_and_frames_of_every_size_share_one_device() {
     use crate::paths::{GpuPaths, PathDevice, PathRenderer};
@@ -1033,6 +1034,9 @@ fn launches_and_frames_of_every_size_share_one_device() {
         let options = RenderOptions::new(w, h, camera, shader);
         let frame = r.render(&scene, &bvh, &options).expect("frame");
         assert!(frame.stats.launches() > 1, "{w}x{h}: one task a launch");
+        // A path's value comes back as one word of grey (AO) or three of colour (Whitted).
+        let words = if shader.name() == "ao" { 1 } else { 3 };
+        assert_eq!(frame.stats.film_bytes(), u64::from(w * h) * 4 * words);
         let alone = GpuRenderer::new(ctx.clone(), &scene, &bvh).expect("renderer");
         let (kernels, _) = gpu_film(&alone, &options).expect("kernels");
         assert_eq!(frame.film, kernels, "{w}x{h} {}", shader.name());
@@ -1206,9 +1210,12 @@ fn estimating_gpus_move_at_most_64_bytes_a_task() {
             },
         )
         .expect("renderer");
-        // The first frame uploads the frame's blocks; the second shows what a frame costs.
-        r.render(&scene, &bvh, &options).expect("frame");
+        // The first frame (from another camera, so that the next one estimates afresh)
+        // uploads the frame's blocks; the second shows what a frame costs.
+        let turned = RenderOptions::new(64, 48, Camera::orbit(&scene.bounds(), 1), shader);
+        r.render(&scene, &bvh, &turned).expect("frame");
         let frame = r.render(&scene, &bvh, &options).expect("frame");
+        assert!(!frame.stats.estimate_reused);
         let stats = &frame.stats;
         let traffic = stats.traffic();
         eprintln!(
@@ -1232,6 +1239,10 @@ fn estimating_gpus_move_at_most_64_bytes_a_task() {
         .expect("kernels");
         assert_eq!(frame.film, kernels, "{}", shader.name());
         seen.push(traffic.bytes());
+        // The same frame again takes the estimate at no cost: a wait a launch alone.
+        let again = r.render(&scene, &bvh, &options).expect("frame").stats;
+        assert!(again.estimate_reused);
+        assert_eq!(again.traffic().host_waits, again.launches());
     }
     assert_eq!(seen[0], seen[1], "traffic does not grow with the probes");
 }

@@ -24,6 +24,9 @@ use crate::paths::Launch;
 use crate::shade::{AMBIENT, AoSettings, RenderOptions, SKY, Shader, WhittedSettings};
 use crate::traffic::Traffic;
 
+/// Bytes of a path's value in `whitted.wgsl`'s film, read back: red, green and blue words.
+const FILM_BYTES: u64 = 12;
+
 /// `whitted.wgsl`'s `struct Params`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -81,13 +84,10 @@ impl GpuRenderer {
             samples: 0,
             ..AoSettings::default()
         };
-        let rgb: fn(&[u8]) -> Vec3 = |c| {
-            let v: [f32; 4] = bytemuck::pod_read_unaligned(c);
-            Vec3::new(v[0], v[1], v[2])
-        };
+        let rgb: fn(&[u8]) -> Vec3 = |c| Vec3::from_array(bytemuck::pod_read_unaligned(c));
         let lights = self.whitted.light_count;
         self.drained(|checked| {
-            let values = (SKY, 16, rgb);
+            let values = (SKY, FILM_BYTES, rgb);
             self.launch(
                 frame,
                 tasks,
@@ -128,7 +128,7 @@ impl GpuRenderer {
         let paths = storage("cobalt Whitted paths", u64::from(n) * 16, none);
         let film = storage(
             "cobalt Whitted path values",
-            u64::from(n) * 16,
+            u64::from(n) * FILM_BYTES,
             wgpu::BufferUsages::COPY_SRC,
         );
         let shadow_rays = storage("cobalt shadow rays", slots * ray_bytes, none);

@@ -51,7 +51,8 @@ struct Light {
 // Per slot: its path's rank (unused here: a path's value stays in its slot).
 @group(0) @binding(7) var<storage, read> ranks: array<u32>;
 // Per path: linear RGB (`.w` unused).
-@group(0) @binding(8) var<storage, read_write> film: array<vec4<f32>>;
+// Three words a path, red, green and blue: 12 B read back, not a padded 16.
+@group(0) @binding(8) var<storage, read_write> film: array<f32>;
 @group(0) @binding(9) var<storage, read_write> shadow_rays: array<GpuRay>;
 // Per shadow slot: the light it adds if unblocked, `.w` 1 when the ray was spawned.
 @group(0) @binding(10) var<storage, read_write> shadow_light: array<vec4<f32>>;
@@ -59,7 +60,10 @@ struct Light {
 @group(0) @binding(12) var<storage, read_write> next_rays: array<GpuRay>;
 
 fn add(pixel: u32, value: vec3<f32>) {
-    film[pixel] = vec4<f32>(film[pixel].xyz + value, 0.0);
+    let at = 3u * pixel;
+    film[at] += value.x;
+    film[at + 1u] += value.y;
+    film[at + 2u] += value.z;
 }
 
 // `d` mirrored about the plane with unit normal `n` (`whitted.rs`'s `reflect`).
@@ -169,7 +173,9 @@ fn start(inv: Invocation) {
         return;
     }
     paths[k] = vec4<f32>(1.0);
-    film[k] = vec4<f32>(0.0);
+    film[3u * k] = 0.0;
+    film[3u * k + 1u] = 0.0;
+    film[3u * k + 2u] = 0.0;
 }
 
 @compute @workgroup_size(64)
