@@ -10,7 +10,7 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use sched::{Costs, Runtime, SchedError, Speeds, split_ranges};
+use sched::{Costs, Runtime, SampleRate, SchedError, Speeds, split_ranges};
 
 use super::choice::{ChoiceKey, choice_key};
 use super::frame::FrameKey;
@@ -24,7 +24,6 @@ use crate::calibration::Choice;
 use crate::cost::{CostModel, Work};
 use crate::shade::RenderOptions;
 use crate::{Bvh, Film, Scene, Walk};
-use sched::SampleRate;
 
 /// Parts of a frame's estimate per estimating device whose launches are cheap: enough that a
 /// device slowed for a while leaves parts to the others, few enough that each part's fixed
@@ -40,6 +39,17 @@ const ESTIMATES_KEPT: usize = 16;
 /// where devices of several classes do: its last task then never holds the faster devices
 /// for long, and they still launch many tasks at once.
 const MAX_TASK_SHARE: f64 = 0.02;
+
+/// What an estimate depends on: the frame, its tasks, the sampling and the kind of device
+/// that counts the walks. A frame with the same key would be estimated to the same work.
+#[derive(Clone, Debug, PartialEq)]
+struct EstimateKey {
+    frame: FrameKey,
+    tasks: Vec<Range<usize>>,
+    rate: SampleRate,
+    walk: Walk,
+    kind: &'static str,
+}
 
 /// A rendered frame: the image and how it was made.
 #[derive(Clone, Debug)]
@@ -378,16 +388,17 @@ impl<'a> PathRenderer<'a> {
         // Costs need one unit for all devices: the model of the class that estimates.
         let lead = fastest(&speeds);
         let model = self.cost_model(active[lead]);
-        let estimate_key = EstimateKey {
-            frame: FrameKey::of(frame),
-            tasks: tasks.to_vec(),
-            rate: self.settings.rate_for(&frame.options.shader),
-            walk: self.settings.walk,
-            kind: self.devices[active[lead]].estimate_kind(),
-        };
-        let known = (self.estimates.iter()).position(|(key, _)| *key == estimate_key);
-        let reused = estimated && known.is_some();
+        let mut reused = false;
         let (costs, work, estimate_traffic) = if estimated {
+            let estimate_key = EstimateKey {
+                frame: FrameKey::of(frame),
+                tasks: tasks.to_vec(),
+                rate: self.settings.rate_for(&frame.options.shader),
+                walk: self.settings.walk,
+                kind: self.devices[active[lead]].estimate_kind(),
+            };
+            let known = (self.estimates.iter()).position(|(key, _)| *key == estimate_key);
+            reused = known.is_some();
             let (work, traffic) = match known.and_then(|k| self.estimates.remove(k)) {
                 Some((_, work)) => (work, vec![Traffic::default(); active.len()]),
                 None => self.estimate(frame, tasks, &active, &speeds, lead),
@@ -493,7 +504,7 @@ impl<'a> PathRenderer<'a> {
                 }
             }
         }
-        self.measure_rates(frame, &devices, &task_stats, tasks);
+        self.measure_rates(frame, &devices);
         let spikes = self.learn(&active, lead, &report, tasks, costs.as_slice(), &work);
         self.bound_unmeasured(frame, &devices, tasks, report.metrics.makespan);
 
@@ -734,21 +745,11 @@ impl<'a> PathRenderer<'a> {
     }
 
     /// Keeps each device class's paths per busy second on this frame, for predictions.
-    fn measure_rates(
-        &mut self,
-        frame: &Frame<'_>,
-        devices: &[PathDeviceStats],
-        task_stats: &[TaskStats],
-        tasks: &[Range<usize>],
-    ) {
+    fn measure_rates(&mut self, frame: &Frame<'_>, devices: &[PathDeviceStats]) {
         let mut by_class: HashMap<String, (f64, f64)> = HashMap::new();
         for d in devices.iter().filter(|d| !self.retired[d.index]) {
-            let paths: usize = (task_stats.iter().zip(tasks))
-                .filter(|(t, _)| t.device == d.index)
-                .map(|(_, task)| task.len())
-                .sum();
             let entry = by_class.entry(self.devices[d.index].class()).or_default();
-            *entry = (entry.0 + paths as f64, entry.1 + d.busy);
+            *entry = (entry.0 + d.paths as f64, entry.1 + d.busy);
         }
         let shader = frame.options.shader.name();
         for (class, (paths, busy)) in by_class {
@@ -879,15 +880,4 @@ mod tests {
         assert_eq!(shares(7, &[]), Vec::<Vec<usize>>::new());
         assert_eq!(shares(2, &[0.0, 0.0]), vec![Vec::<usize>::new(); 2]);
     }
-}
-
-/// What an estimate depends on: the frame, its tasks, the sampling and the kind of device
-/// that counts the walks. A frame with the same key would be estimated to the same work.
-#[derive(Clone, Debug, PartialEq)]
-struct EstimateKey {
-    frame: FrameKey,
-    tasks: Vec<Range<usize>>,
-    rate: SampleRate,
-    walk: Walk,
-    kind: &'static str,
 }
