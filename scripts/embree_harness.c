@@ -12,6 +12,9 @@
  * occluded and 0 for free (any hit); `mismatches` counts the rays on which a packet call
  * answered otherwise.
  *
+ * With `sah`, it also builds Embree's binary tree through rtcBuildBVH and prints its SAH cost
+ * (`sah_cost`, see embree_sah below).
+ *
  * No Embree header is needed: the few declarations below follow Embree 4's public rtcore.h.
  * Build: cc -O2 -pthread embree_harness.c LIBEMBREE4 -Wl,-rpath,LIBDIR -o embree_harness
  */
@@ -87,6 +90,221 @@ PACKET(8, 32)
 PACKET(16, 64)
 void rtcIntersect1(RTCScene scene, struct RTCRayHit *rayhit, void *args);
 void rtcOccluded1(RTCScene scene, struct RTCRay *ray, void *args);
+
+/* ---- Embree 4 declarations (rtcore_builder.h) ---- */
+typedef struct RTCBVHTy *RTCBVH;
+typedef struct RTCThreadLocalAllocatorTy *RTCThreadLocalAllocator;
+struct __attribute__((aligned(16))) RTCBounds {
+    float lower_x, lower_y, lower_z, align0;
+    float upper_x, upper_y, upper_z, align1;
+};
+struct __attribute__((aligned(32))) RTCBuildPrimitive {
+    float lower_x, lower_y, lower_z;
+    unsigned int geomID;
+    float upper_x, upper_y, upper_z;
+    unsigned int primID;
+};
+typedef void *(*RTCCreateNodeFunction)(RTCThreadLocalAllocator, unsigned int, void *);
+typedef void (*RTCSetNodeChildrenFunction)(void *, void **, unsigned int, void *);
+typedef void (*RTCSetNodeBoundsFunction)(void *, const struct RTCBounds **, unsigned int,
+                                         void *);
+typedef void *(*RTCCreateLeafFunction)(RTCThreadLocalAllocator,
+                                       const struct RTCBuildPrimitive *, size_t, void *);
+typedef void (*RTCSplitPrimitiveFunction)(const struct RTCBuildPrimitive *, unsigned int, float,
+                                          struct RTCBounds *, struct RTCBounds *, void *);
+typedef _Bool (*RTCProgressMonitorFunction)(void *, double);
+struct RTCBuildArguments {
+    size_t byteSize;
+    int buildQuality, buildFlags;
+    unsigned int maxBranchingFactor, maxDepth, sahBlockSize, minLeafSize, maxLeafSize;
+    float traversalCost, intersectionCost;
+    RTCBVH bvh;
+    struct RTCBuildPrimitive *primitives;
+    size_t primitiveCount, primitiveArrayCapacity;
+    RTCCreateNodeFunction createNode;
+    RTCSetNodeChildrenFunction setNodeChildren;
+    RTCSetNodeBoundsFunction setNodeBounds;
+    RTCCreateLeafFunction createLeaf;
+    RTCSplitPrimitiveFunction splitPrimitive;
+    RTCProgressMonitorFunction buildProgress;
+    void *userPtr;
+};
+RTCBVH rtcNewBVH(RTCDevice device);
+void *rtcBuildBVH(const struct RTCBuildArguments *args);
+void *rtcThreadLocalAlloc(RTCThreadLocalAllocator allocator, size_t bytes, size_t align);
+void rtcReleaseBVH(RTCBVH bvh);
+
+/* ---- Embree's tree, for its SAH cost ----
+ * rtcBuildBVH is the builder behind rtcCommitScene, exposed with callbacks: here at
+ * RTC_BUILD_QUALITY_HIGH with spatial splits, a binary tree with cobalt's build costs (a box
+ * step 3 triangle tests, at most 8 triangles a leaf), so that its cost and cobalt's are the
+ * same formula over trees built for the same costs. */
+struct BNode {
+    int leaf;
+    unsigned int count;
+    struct BNode *kid[2];
+    struct RTCBounds box[2];
+};
+static const float *sah_vertices;
+static const uint32_t *sah_triangles;
+
+static void *sah_node(RTCThreadLocalAllocator a, unsigned int n, void *user) {
+    (void)user;
+    struct BNode *b = rtcThreadLocalAlloc(a, sizeof *b, 16);
+    b->leaf = 0, b->count = n;
+    b->kid[0] = b->kid[1] = NULL;
+    return b;
+}
+static void sah_children(void *node, void **kids, unsigned int n, void *user) {
+    (void)user;
+    for (unsigned int i = 0; i < n && i < 2; i++)
+        ((struct BNode *)node)->kid[i] = kids[i];
+}
+static void sah_bounds(void *node, const struct RTCBounds **b, unsigned int n, void *user) {
+    (void)user;
+    for (unsigned int i = 0; i < n && i < 2; i++)
+        ((struct BNode *)node)->box[i] = *b[i];
+}
+static void *sah_leaf(RTCThreadLocalAllocator a, const struct RTCBuildPrimitive *p, size_t n,
+                      void *user) {
+    (void)p, (void)user;
+    struct BNode *b = rtcThreadLocalAlloc(a, sizeof *b, 16);
+    b->leaf = 1, b->count = (unsigned int)n;
+    return b;
+}
+/* The triangle's part on each side of the plane, within the primitive's current box. */
+static void sah_split(const struct RTCBuildPrimitive *p, unsigned int dim, float pos,
+                      struct RTCBounds *l, struct RTCBounds *r, void *user) {
+    (void)user;
+    float lo[2][3], hi[2][3];
+    for (int s = 0; s < 2; s++)
+        for (int a = 0; a < 3; a++)
+            lo[s][a] = INFINITY, hi[s][a] = -INFINITY;
+    const uint32_t *t = sah_triangles + 3 * p->primID;
+#define GROW(S, P)                                                                          \
+    for (int a = 0; a < 3; a++)                                                             \
+        lo[S][a] = fminf(lo[S][a], (P)[a]), hi[S][a] = fmaxf(hi[S][a], (P)[a]);
+    for (int e = 0; e < 3; e++) {
+        const float *v = sah_vertices + 3 * t[e], *w = sah_vertices + 3 * t[(e + 1) % 3];
+        if (v[dim] <= pos)
+            GROW(0, v)
+        if (v[dim] >= pos)
+            GROW(1, v)
+        if ((v[dim] < pos && w[dim] > pos) || (v[dim] > pos && w[dim] < pos)) {
+            float f = (pos - v[dim]) / (w[dim] - v[dim]), x[3];
+            for (int a = 0; a < 3; a++)
+                x[a] = v[a] + f * (w[a] - v[a]);
+            x[dim] = pos;
+            GROW(0, x)
+            GROW(1, x)
+        }
+    }
+#undef GROW
+    const float plo[3] = {p->lower_x, p->lower_y, p->lower_z};
+    const float phi[3] = {p->upper_x, p->upper_y, p->upper_z};
+    for (int s = 0; s < 2; s++)
+        for (int a = 0; a < 3; a++) {
+            lo[s][a] = fmaxf(lo[s][a], plo[a]);
+            hi[s][a] = fminf(hi[s][a], phi[a]);
+        }
+    hi[0][dim] = fminf(hi[0][dim], pos);
+    lo[1][dim] = fmaxf(lo[1][dim], pos);
+    *l = (struct RTCBounds){lo[0][0], lo[0][1], lo[0][2], 0, hi[0][0], hi[0][1], hi[0][2], 0};
+    *r = (struct RTCBounds){lo[1][0], lo[1][1], lo[1][2], 0, hi[1][0], hi[1][1], hi[1][2], 0};
+}
+static double half_area(const struct RTCBounds *b) {
+    double x = (double)b->upper_x - b->lower_x, y = (double)b->upper_y - b->lower_y,
+           z = (double)b->upper_z - b->lower_z;
+    return x * y + y * z + z * x;
+}
+/* cobalt's `sah_cost` sum below a node: each child's box, times its triangles for a leaf. */
+static double sah_below(const struct BNode *n) {
+    double sum = 0;
+    for (int i = 0; i < 2; i++) {
+        const struct BNode *k = n->kid[i];
+        if (!k)
+            continue;
+        sum += half_area(&n->box[i]) * (k->leaf ? k->count : 1);
+        if (!k->leaf)
+            sum += sah_below(k);
+    }
+    return sum;
+}
+/* The SAH cost of Embree's tree over the non-degenerate triangles, in cobalt's formula:
+ * (inner boxes' half areas + leaves' half areas times their triangles) / the root's. */
+static double embree_sah(RTCDevice device, const float *vertices, const uint32_t *triangles,
+                         size_t ntri) {
+    sah_vertices = vertices, sah_triangles = triangles;
+    size_t cap = 4 * ntri + 16, n = 0;
+    struct RTCBuildPrimitive *prims = aligned_alloc(32, cap * sizeof *prims);
+    if (!prims) {
+        fprintf(stderr, "embree_harness: out of memory\n");
+        exit(2);
+    }
+    struct RTCBounds root = {INFINITY, INFINITY, INFINITY, 0, -INFINITY, -INFINITY, -INFINITY, 0};
+    for (size_t i = 0; i < ntri; i++) {
+        const float *v[3];
+        for (int c = 0; c < 3; c++)
+            v[c] = vertices + 3 * triangles[3 * i + c];
+        float e1[3], e2[3];
+        for (int a = 0; a < 3; a++)
+            e1[a] = v[1][a] - v[0][a], e2[a] = v[2][a] - v[0][a];
+        float cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
+              cz = e1[0] * e2[1] - e1[1] * e2[0];
+        if (cx == 0 && cy == 0 && cz == 0)
+            continue; /* degenerate: cobalt leaves it out too */
+        struct RTCBuildPrimitive p = {INFINITY, INFINITY, INFINITY, 0,
+                                      -INFINITY, -INFINITY, -INFINITY, (unsigned int)i};
+        for (int c = 0; c < 3; c++) {
+            p.lower_x = fminf(p.lower_x, v[c][0]), p.upper_x = fmaxf(p.upper_x, v[c][0]);
+            p.lower_y = fminf(p.lower_y, v[c][1]), p.upper_y = fmaxf(p.upper_y, v[c][1]);
+            p.lower_z = fminf(p.lower_z, v[c][2]), p.upper_z = fmaxf(p.upper_z, v[c][2]);
+        }
+        root.lower_x = fminf(root.lower_x, p.lower_x), root.upper_x = fmaxf(root.upper_x, p.upper_x);
+        root.lower_y = fminf(root.lower_y, p.lower_y), root.upper_y = fmaxf(root.upper_y, p.upper_y);
+        root.lower_z = fminf(root.lower_z, p.lower_z), root.upper_z = fmaxf(root.upper_z, p.upper_z);
+        prims[n++] = p;
+    }
+    if (n == 0) {
+        free(prims);
+        return 1.0;
+    }
+    RTCBVH bvh = rtcNewBVH(device);
+    struct RTCBuildArguments args = {
+        .byteSize = sizeof args,
+        .buildQuality = RTC_BUILD_QUALITY_HIGH,
+        .maxBranchingFactor = 2,
+        .maxDepth = 64,
+        .sahBlockSize = 1,
+        .minLeafSize = 1,
+        .maxLeafSize = 8,
+        .traversalCost = 3.0f,
+        .intersectionCost = 1.0f,
+        .bvh = bvh,
+        .primitives = prims,
+        .primitiveCount = n,
+        .primitiveArrayCapacity = cap,
+        .createNode = sah_node,
+        .setNodeChildren = sah_children,
+        .setNodeBounds = sah_bounds,
+        .createLeaf = sah_leaf,
+        .splitPrimitive = sah_split,
+    };
+    const struct BNode *top = rtcBuildBVH(&args);
+    int err = rtcGetDeviceError(device);
+    if (!top || err) {
+        fprintf(stderr, "embree_harness: rtcBuildBVH failed (Embree error %d)\n", err);
+        exit(2);
+    }
+    double area = half_area(&root), cost;
+    if (top->leaf)
+        cost = top->count;
+    else
+        cost = (area + sah_below(top)) / (area > 0 ? area : 1e-300);
+    rtcReleaseBVH(bvh);
+    free(prims);
+    return cost;
+}
 
 /* ---- the harness ---- */
 #define CHUNK 1024 /* rays a thread takes at a time: a multiple of 16 */
@@ -203,9 +421,9 @@ static double timed_pass(int threads) {
 }
 
 int main(int argc, char **argv) {
-    if (argc != 8) {
+    if (argc != 8 && !(argc == 9 && !strcmp(argv[8], "sah"))) {
         fprintf(stderr, "usage: embree_harness VERTICES TRIANGLES RAYS HITS ANY_HIT THREADS "
-                        "PASSES\n");
+                        "PASSES [sah]\n");
         return 2;
     }
     size_t nvert, ntri;
@@ -268,7 +486,10 @@ int main(int argc, char **argv) {
     static void (*const calls[])(size_t, size_t) = {trace1, trace8, trace16};
     static const char *const names[2][3] = {{"rtcIntersect1", "rtcIntersect8", "rtcIntersect16"},
                                             {"rtcOccluded1", "rtcOccluded8", "rtcOccluded16"}};
-    printf("{\"build_seconds\": %.6f, \"rays\": %zu, \"calls\": {", build, nrays);
+    printf("{\"build_seconds\": %.6f, \"rays\": %zu, ", build, nrays);
+    if (argc == 9)
+        printf("\"sah_cost\": %.6f, ", embree_sah(device, vertices, triangles, ntri));
+    printf("\"calls\": {");
     for (int c = 0; c < 3; c++) {
         trace = calls[c];
         double best = INFINITY;
