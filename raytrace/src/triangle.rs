@@ -52,6 +52,24 @@ impl RayShear {
         })
     }
 
+    /// The shear [`RayShear::parts`] took apart.
+    #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+    pub(crate) fn from_parts(
+        org: [f32; 3],
+        [kx, ky, kz]: [usize; 3],
+        [sx, sy, sz]: [f32; 3],
+    ) -> Self {
+        Self {
+            org,
+            kx,
+            ky,
+            kz,
+            sx,
+            sy,
+            sz,
+        }
+    }
+
     /// The origin, the axes `kx, ky, kz` and the shear `sx, sy, sz`, for the four-lane test.
     #[inline(always)]
     pub(crate) fn parts(&self) -> ([f32; 3], [usize; 3], [f32; 3]) {

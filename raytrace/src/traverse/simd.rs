@@ -206,12 +206,11 @@ pub(crate) fn nearest_scalar(mask: u32, near: &[f32; WIDTH]) -> usize {
 pub(crate) struct Shear4 {
     /// Origin along `kx`, `ky`, `kz`.
     org: [f32; 3],
-    /// `kx`, `ky`, `kz`.
-    axis: [usize; 3],
+    /// `kx`, `ky`, `kz`; bytes, so that a packet's eight set-ups stay small.
+    axis: [u8; 3],
     sx: f32,
     sy: f32,
     sz: f32,
-    shear: RayShear,
 }
 
 /// Hits of `N` triangles: a bit per lane that hits, and what [`TriHits::hit`] needs to give the
@@ -256,11 +255,10 @@ impl Shear4 {
         let (org, [kx, ky, kz], [sx, sy, sz]) = s.parts();
         Self {
             org: [org[kx], org[ky], org[kz]],
-            axis: [kx, ky, kz],
+            axis: [kx, ky, kz].map(|k| k as u8),
             sx,
             sy,
             sz,
-            shear: s,
         }
     }
 
@@ -293,10 +291,16 @@ impl Shear4 {
     #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
     pub(crate) fn intersect4_scalar(&self, g: &Tri4, tmin: f32, tmax: f32) -> TriHits<4> {
         let mut h = TriHits::MISS;
+        let axis = self.axis.map(usize::from);
+        let mut org = [0f32; 3];
+        for (j, &k) in axis.iter().enumerate() {
+            org[k] = self.org[j];
+        }
+        let shear = RayShear::from_parts(org, axis, [self.sx, self.sy, self.sz]);
         let vert = |i: usize, k: usize| [g.v[i][0][k], g.v[i][1][k], g.v[i][2][k]];
         for k in 0..4 {
             let (a, b, c) = (vert(0, k), vert(1, k), vert(2, k));
-            if let Some(p) = crate::triangle::intersect_parts(&self.shear, &a, &b, &c, tmin, tmax) {
+            if let Some(p) = crate::triangle::intersect_parts(&shear, &a, &b, &c, tmin, tmax) {
                 h.mask |= 1 << k;
                 (h.t_scaled[k], h.det[k], h.v[k], h.w[k]) = p;
             }
@@ -737,7 +741,7 @@ mod x86 {
         ($l:ident, $s:expr, ($($g:expr),+), $tmin:expr, $tmax:expr) => {{
             use $l as l;
             let s: &Shear4 = $s;
-            let [kx, ky, kz] = s.axis.map(|k| k % 3);
+            let [kx, ky, kz] = s.axis.map(|k| usize::from(k) % 3);
             let o = [l::splat(s.org[0]), l::splat(s.org[1]), l::splat(s.org[2])];
             let (sx, sy, sz) = (l::splat(s.sx), l::splat(s.sy), l::splat(s.sz));
             // Vertex minus origin along kx, ky, kz, then sheared, as the scalar test does. No
