@@ -6,7 +6,7 @@
 
 use obvhs::{aabb::Aabb as OAabb, bvh2::Bvh2, triangle::Triangle};
 
-use super::node::{BvhTriangle, Node, leaf_triangle};
+use super::node::Node;
 
 /// Most triangles in a leaf of a median subtree.
 const LEAF: usize = 4;
@@ -104,19 +104,14 @@ pub(super) fn gather(bvh2: &Bvh2, s: usize) -> Vec<u32> {
 /// Where a median subtree is written: the flattened nodes and triangles of the whole tree.
 pub(super) struct Out<'a> {
     pub nodes: &'a mut Vec<Node>,
-    pub tris: &'a mut Vec<BvhTriangle>,
+    /// The leaves' triangles, as indices into the builder's primitives.
+    pub refs: &'a mut Vec<u32>,
 }
 
 /// Writes an object-median tree over `prims` with its root at `nodes[d]`; returns its depth.
 /// Boxes are the triangles' own, so a triangle that the builder split keeps a box around all
 /// of it.
-pub(super) fn median(
-    prims: &mut [u32],
-    d: usize,
-    tris: &[Triangle],
-    ids: &[u32],
-    out: &mut Out<'_>,
-) -> usize {
+pub(super) fn median(prims: &mut [u32], d: usize, tris: &[Triangle], out: &mut Out<'_>) -> usize {
     let bounds = prims
         .iter()
         .fold(OAabb::INVALID, |b, &p| b.union(&tris[p as usize].aabb()));
@@ -127,11 +122,8 @@ pub(super) fn median(
         count,
     };
     if prims.len() <= LEAF {
-        let first = out.tris.len() as u32;
-        for &p in prims.iter() {
-            out.tris
-                .push(leaf_triangle(&tris[p as usize], ids[p as usize]));
-        }
+        let first = out.refs.len() as u32;
+        out.refs.extend_from_slice(prims);
         out.nodes[d] = node(first, prims.len() as u32);
         return 1;
     }
@@ -151,7 +143,7 @@ pub(super) fn median(
     out.nodes.push(Node::default());
     out.nodes[d] = node(l as u32, 0);
     let (left, right) = prims.split_at_mut(mid);
-    let a = median(left, l, tris, ids, out);
-    let b = median(right, l + 1, tris, ids, out);
+    let a = median(left, l, tris, out);
+    let b = median(right, l + 1, tris, out);
     1 + a.max(b)
 }

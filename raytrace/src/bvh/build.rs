@@ -15,6 +15,7 @@ use obvhs::{
     splits::split_aabbs_preset,
     triangle::Triangle,
 };
+use rayon::prelude::*;
 
 use super::node::{BvhTriangle, Node, leaf_triangle};
 use super::preset::BuildPreset;
@@ -66,6 +67,7 @@ impl Bvh {
         // obvhs wants dense indices 0..n into the primitives it is given, so it gets only the
         // non-degenerate triangles and `ids` maps its indices back to primitive ids.
         let ids: Vec<u32> = (0..scene.len() as u32)
+            .into_par_iter()
             .filter(|&i| !scene.is_degenerate(i as usize))
             .collect();
         let degenerate_skipped = scene.len() - ids.len();
@@ -75,8 +77,10 @@ impl Bvh {
                 triangles: scene.len(),
             });
         }
+        // In parallel, as the steps below that touch every triangle: their time, and that of
+        // mapping their fresh pages, is shared by the threads.
         let tris: Vec<Triangle> = ids
-            .iter()
+            .par_iter()
             .map(|&i| {
                 let [a, b, c] = scene.vertices(i as usize);
                 Triangle {
@@ -86,8 +90,8 @@ impl Bvh {
                 }
             })
             .collect();
-        let mut indices: Vec<u32> = (0..ids.len() as u32).collect();
-        let mut aabbs: Vec<OAabb> = tris.iter().map(Triangle::aabb).collect();
+        let mut indices: Vec<u32> = (0..ids.len() as u32).into_par_iter().collect();
+        let mut aabbs: Vec<OAabb> = tris.par_iter().map(Triangle::aabb).collect();
 
         let preset = match preset {
             BuildPreset::Auto => {
@@ -185,7 +189,9 @@ impl Bvh {
             count,
         };
         let mut nodes: Vec<Node> = Vec::with_capacity(src.len());
-        let mut out_tris: Vec<BvhTriangle> = Vec::with_capacity(aabbs.len());
+        // The leaves' triangles by reference (indices into `tris`) first: gathered in
+        // parallel after the walk, which then does not wait on their scattered loads.
+        let mut refs: Vec<u32> = Vec::with_capacity(aabbs.len());
         nodes.push(Node::default());
         nodes.push(Node::PAD);
         let shape = bound::Shape::of(&bvh2);
@@ -198,17 +204,14 @@ impl Bvh {
                 let mut prims = bound::gather(&bvh2, s);
                 let mut out = bound::Out {
                     nodes: &mut nodes,
-                    tris: &mut out_tris,
+                    refs: &mut refs,
                 };
-                let below = bound::median(&mut prims, d, &tris, &ids, &mut out);
+                let below = bound::median(&mut prims, d, &tris, &mut out);
                 depth = depth.max(level + below - 1);
             } else if n.is_leaf() {
-                let first = out_tris.len() as u32;
-                for k in n.first_index..n.first_index + n.prim_count {
-                    let local = bvh2.primitive_indices[k as usize] as usize;
-                    let (t, prim) = (&tris[local], ids[local]);
-                    out_tris.push(leaf_triangle(t, prim));
-                }
+                let first = refs.len() as u32;
+                let range = n.first_index as usize..(n.first_index + n.prim_count) as usize;
+                refs.extend_from_slice(&bvh2.primitive_indices[range]);
                 nodes[d] = to_node(n, first, n.prim_count);
             } else {
                 let l = nodes.len();
@@ -236,6 +239,10 @@ impl Bvh {
         }
         report.sah_cost = sah / root_area;
         report.nodes = nodes.len() - 1;
+        let out_tris: Vec<BvhTriangle> = refs
+            .par_iter()
+            .map(|&p| leaf_triangle(&tris[p as usize], ids[p as usize]))
+            .collect();
         report.leaf_triangles = out_tris.len();
         report.total_seconds = start.elapsed().as_secs_f64();
         Ok(Self {
