@@ -75,19 +75,38 @@ impl std::fmt::Display for Clock {
 
 #[cfg(target_os = "linux")]
 fn process_cpu_seconds() -> Option<f64> {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid, writable timespec for the call's duration, and
-    // CLOCK_PROCESS_CPUTIME_ID is a clock every Linux kernel since 2.6.12 provides.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
-    (rc == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+    cpu_clock(libc::CLOCK_PROCESS_CPUTIME_ID)
 }
 
 #[cfg(not(target_os = "linux"))]
 fn process_cpu_seconds() -> Option<f64> {
     None
+}
+
+/// The CPU time the calling thread has used, in seconds (Linux only; `None` elsewhere): what
+/// a device's own thread spends of a core, where its wall time also counts its waits (a GPU's
+/// host thread waits on the GPU for most of a launch).
+#[cfg(target_os = "linux")]
+pub fn thread_cpu_seconds() -> Option<f64> {
+    cpu_clock(libc::CLOCK_THREAD_CPUTIME_ID)
+}
+
+/// The CPU time the calling thread has used (Linux only; `None` here).
+#[cfg(not(target_os = "linux"))]
+pub fn thread_cpu_seconds() -> Option<f64> {
+    None
+}
+
+#[cfg(target_os = "linux")]
+fn cpu_clock(clock: libc::clockid_t) -> Option<f64> {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec for the call's duration, and the process and
+    // thread CPU clocks are clocks every Linux kernel since 2.6.12 provides.
+    let rc = unsafe { libc::clock_gettime(clock, &mut ts) };
+    (rc == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
 }
 
 #[cfg(test)]

@@ -95,7 +95,7 @@ pub mod study;
 mod task;
 mod timeline;
 
-pub use clock::Clock;
+pub use clock::{Clock, thread_cpu_seconds};
 pub use cost::{
     ByItems, CostEstimator, Costs, Estimate, Uniform, prediction_error, rank_correlation,
 };

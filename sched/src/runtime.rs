@@ -52,6 +52,12 @@ pub struct RunReport<O> {
     pub dispatch_seconds: Vec<f64>,
     /// Launches per device.
     pub launches: Vec<u64>,
+    /// Per device: CPU time its thread spent in its launches ([`crate::thread_cpu_seconds`];
+    /// `None` where the platform has no such clock). Beside the busy (wall) time it shows
+    /// what driving the device takes of that thread's core: a task's whole work where the
+    /// executor computes on the thread, only the hand-off, submission and read-back where it
+    /// passes the work to a GPU or to threads of its own, and waits.
+    pub cpu_seconds: Vec<Option<f64>>,
     /// Devices that failed; their unfinished tasks were re-run by the others.
     pub failures: Vec<DeviceFailure>,
     /// Task runs lost to failures and run again.
@@ -228,18 +234,18 @@ impl Runtime {
             done: (0..tasks.len()).map(|_| AtomicBool::new(false)).collect(),
             backups,
         };
-        let mut per_device = vec![(0.0, 0u64); m];
+        let mut per_device = vec![Totals::default(); m];
         let pool = workers::take(m.saturating_sub(1))?;
         {
             let shared = &shared;
             let names = &names;
             // Executors' panics are caught inside the loop; this catches a bug of the loop
             // itself, so that it neither kills a parked thread nor escapes the run.
-            let run = move |d: usize, exec: &mut E, out: &mut (f64, u64)| {
+            let run = move |d: usize, exec: &mut E, out: &mut Totals| {
                 *out = catch_unwind(AssertUnwindSafe(|| {
                     device_loop(d, &names[d], exec, tasks, shared)
                 }))
-                .unwrap_or((0.0, 0));
+                .unwrap_or_default();
             };
             let mut devices = executors.iter_mut().zip(per_device.iter_mut()).enumerate();
             let first = devices.next();
@@ -276,8 +282,9 @@ impl Runtime {
             metrics: timeline.metrics(),
             timeline,
             plan_seconds,
-            dispatch_seconds: per_device.iter().map(|p| p.0).collect(),
-            launches: per_device.iter().map(|p| p.1).collect(),
+            dispatch_seconds: per_device.iter().map(|p| p.dispatch_seconds).collect(),
+            launches: per_device.iter().map(|p| p.launches).collect(),
+            cpu_seconds: per_device.iter().map(|p| p.cpu_seconds).collect(),
             failures: state.failures,
             reruns: state.reruns,
             copies: state.copies,
@@ -413,26 +420,44 @@ mod workers {
     }
 }
 
+/// What one device's thread did: its time asking for work, its launches and the CPU time
+/// they took of its thread.
+#[derive(Clone, Copy, Default)]
+struct Totals {
+    dispatch_seconds: f64,
+    launches: u64,
+    cpu_seconds: Option<f64>,
+}
+
 /// One device's thread. The order it looks for work in is the policy's (see `Dispatch`),
 /// then, with backups, copies of what others hold (`backup.rs`); here it only waits when
 /// there is neither, runs launches unlocked and delivers their outputs.
-/// Returns its dispatch time and launch count.
 fn device_loop<T: Task, E: Executor<T>>(
     device: usize,
     name: &str,
     exec: &mut E,
     tasks: &[T],
     shared: &Shared<'_, E::Output>,
-) -> (f64, u64) {
+) -> Totals {
     let mut launch = Vec::new();
     let mut dispatch_seconds = 0.0;
     let mut launches = 0;
+    let mut cpu_seconds = crate::thread_cpu_seconds().map(|_| 0.0);
+    let totals = |dispatch_seconds, launches, cpu_seconds| Totals {
+        dispatch_seconds,
+        launches,
+        cpu_seconds,
+    };
     loop {
         let asked = Instant::now();
         let mut state = shared.lock();
         let copy = loop {
             if state.delivered == tasks.len() {
-                return (dispatch_seconds + asked.elapsed().as_secs_f64(), launches);
+                return totals(
+                    dispatch_seconds + asked.elapsed().as_secs_f64(),
+                    launches,
+                    cpu_seconds,
+                );
             }
             launch.clear();
             let now = shared.seconds(Instant::now());
@@ -502,7 +527,15 @@ fn device_loop<T: Task, E: Executor<T>>(
         let batch: Vec<&T> = launch.iter().map(|&t| &tasks[t as usize]).collect();
         let mut sink = Sink::watched(watch);
         let started = Instant::now();
+        let cpu_before = crate::thread_cpu_seconds();
         let result = catch_unwind(AssertUnwindSafe(|| exec.run_batch(&batch, &mut sink)));
+        if let (Some(total), Some(a), Some(b)) = (
+            cpu_seconds.as_mut(),
+            cpu_before,
+            crate::thread_cpu_seconds(),
+        ) {
+            *total += (b - a).max(0.0);
+        }
         let failure = match result {
             Ok(Ok(())) if sink.len() == batch.len() => None,
             Ok(Ok(())) => Some(DeviceError::msg(format!(
@@ -561,7 +594,7 @@ fn device_loop<T: Task, E: Executor<T>>(
                 orphaned: undone.len(),
             });
             shared.changed.notify_all();
-            return (dispatch_seconds, launches);
+            return totals(dispatch_seconds, launches, cpu_seconds);
         }
         if state.delivered == tasks.len() || shared.backups.is_some() {
             shared.changed.notify_all();

@@ -468,6 +468,7 @@ impl<'a> PathRenderer<'a> {
                 paths: 0,
                 launches: report.launches.get(k).copied().unwrap_or(0),
                 busy: report.metrics.busy.get(k).copied().unwrap_or(0.0),
+                host_cpu: report.cpu_seconds.get(k).copied().flatten(),
                 rays: 0,
                 traffic: estimate_traffic[k],
                 film_bytes: 0,

@@ -43,6 +43,13 @@ pub struct PathDeviceStats {
     /// Seconds busy (wall time of its launches).
     #[serde(rename = "busy_seconds")]
     pub busy: f64,
+    /// CPU time its host thread (the scheduler's, which drives it) spent in its launches,
+    /// where the platform can tell: for a GPU, the submission, read-back and gather, the
+    /// thread waiting on the GPU for the rest; for a CPU device, whose own worker threads
+    /// trace, the hand-off alone. What a GPU's host side takes of a core the CPU devices also
+    /// want.
+    #[serde(rename = "host_cpu_seconds", skip_serializing_if = "Option::is_none")]
+    pub host_cpu: Option<f64>,
     /// Rays it traced.
     pub rays: usize,
     /// What crossed between the host and it, the paths' values excepted.
