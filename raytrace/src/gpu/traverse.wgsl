@@ -46,11 +46,12 @@ fn near_child_first(l: Node, r: Node, neg: vec3<bool>) -> bool {
 // B counts the nodes entered, T the triangles tested (up to the first hit for any hit), as
 // `traverse.rs` counts them.
 fn trace(r: u32) {
-    let ray = rays[r];
-    let o = ray.org.xyz;
-    let d = ray.dir.xyz;
-    let tmin = ray.org.w;
-    let tmax = ray.dir.w;
+    let w = walk_of(r);
+    let o = w.o;
+    let tmin = w.tmin;
+    let tmax = w.tmax;
+    let sh = w.sh;
+    let bray = w.bray;
     // Boxes are entered up to `best_t`: the range's end for the reduced traversals, and
     // `cull_bound` of the nearest hit so far (`hit_t`) for the hit queries.
     var best_t = select(cull_bound(tmax), tmax, MODE >= 2u);
@@ -60,13 +61,9 @@ fn trace(r: u32) {
     var count_t = 0u;
     var done = true;
 
-    // The same early outs as the CPU: a ray that cannot hit anything, an empty or NaN range,
-    // a missed root (the host never launches on a tree without triangles).
-    let sh = shear(d);
-    let valid = is_finite3(o) && is_finite3(d) && d[sh.k.z] != 0.0 && tmin <= tmax;
-    let bray = BoxRay(o, vec3<f32>(1.0) / d, (bitcast<vec3<u32>>(d) & vec3<u32>(0x80000000u)) != vec3<u32>(0u));
-
-    if valid && box_hit(bray, nodes[0].min, nodes[0].max, tmin, best_t).y > 0.0 {
+    // The same early outs as the CPU (`walk_of`), and a missed root (the host never launches
+    // on a tree without triangles).
+    if w.valid && box_hit(bray, nodes[0].min, nodes[0].max, tmin, best_t).y > 0.0 {
         var stack_node: array<u32, STACK>;
         var stack_t: array<f32, STACK>;
         var sp = 0u;

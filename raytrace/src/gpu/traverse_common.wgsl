@@ -75,6 +75,30 @@ struct BoxRay {
     neg: vec3<bool>,
 }
 
+// Ray `r` as both kernels start its walk: its origin and range, its shear and box test, and
+// whether it can hit anything at all (the CPU's early outs: a zero or non-finite direction, a
+// non-finite origin, an empty or NaN range).
+struct Walk {
+    o: vec3<f32>,
+    tmin: f32,
+    tmax: f32,
+    sh: Shear,
+    bray: BoxRay,
+    valid: bool,
+}
+
+fn walk_of(r: u32) -> Walk {
+    let ray = rays[r];
+    let o = ray.org.xyz;
+    let d = ray.dir.xyz;
+    let tmin = ray.org.w;
+    let tmax = ray.dir.w;
+    let sh = shear(d);
+    let valid = is_finite3(o) && is_finite3(d) && d[sh.k.z] != 0.0 && tmin <= tmax;
+    let neg = (bitcast<vec3<u32>>(d) & vec3<u32>(0x80000000u)) != vec3<u32>(0u);
+    return Walk(o, tmin, tmax, sh, BoxRay(o, vec3<f32>(1.0) / d, neg), valid);
+}
+
 // How far past the nearest hit so far nodes are still entered (traverse.rs `cull_bound`).
 fn cull_bound(t: f32) -> f32 {
     return t + abs(t) * CULL;

@@ -30,11 +30,12 @@ fn bytes4(w: u32) -> vec4<f32> {
 // Traces ray `r` and writes its result: (t bits, prim) for hits, (B, T) for MODE 2; B counts
 // the wide nodes fetched, T the triangles tested.
 fn trace(r: u32) {
-    let ray = rays[r];
-    let o = ray.org.xyz;
-    let d = ray.dir.xyz;
-    let tmin = ray.org.w;
-    let tmax = ray.dir.w;
+    let w = walk_of(r);
+    let o = w.o;
+    let tmin = w.tmin;
+    let tmax = w.tmax;
+    let sh = w.sh;
+    let bray = w.bray;
     var best_t = select(cull_bound(tmax), tmax, MODE >= 2u);
     var hit_t = tmax;
     var best_prim = MISS;
@@ -42,11 +43,7 @@ fn trace(r: u32) {
     var count_t = 0u;
     var done = true;
 
-    let sh = shear(d);
-    let valid = is_finite3(o) && is_finite3(d) && d[sh.k.z] != 0.0 && tmin <= tmax;
-    let bray = BoxRay(o, vec3<f32>(1.0) / d, (bitcast<vec3<u32>>(d) & vec3<u32>(0x80000000u)) != vec3<u32>(0u));
-
-    if valid {
+    if w.valid {
         var stack_node: array<u32, STACK>;
         var stack_t: array<f32, STACK>;
         var sp = 0u;
