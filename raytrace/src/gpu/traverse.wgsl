@@ -47,15 +47,10 @@ fn near_child_first(l: Node, r: Node, neg: vec3<bool>) -> bool {
 // `traverse.rs` counts them.
 fn trace(r: u32) {
     let w = walk_of(r);
-    let o = w.o;
-    let tmin = w.tmin;
-    let tmax = w.tmax;
-    let sh = w.sh;
-    let bray = w.bray;
     // Boxes are entered up to `best_t`: the range's end for the reduced traversals, and
     // `cull_bound` of the nearest hit so far (`hit_t`) for the hit queries.
-    var best_t = select(cull_bound(tmax), tmax, MODE >= 2u);
-    var hit_t = tmax;
+    var best_t = select(cull_bound(w.tmax), w.tmax, MODE >= 2u);
+    var hit_t = w.tmax;
     var best_prim = MISS;
     var count_b = 0u;
     var count_t = 0u;
@@ -63,7 +58,7 @@ fn trace(r: u32) {
 
     // The same early outs as the CPU (`walk_of`), and a missed root (the host never launches
     // on a tree without triangles).
-    if w.valid && box_hit(bray, nodes[0].min, nodes[0].max, tmin, best_t).y > 0.0 {
+    if w.valid && box_hit(w.bray, nodes[0].min, nodes[0].max, w.tmin, best_t).y > 0.0 {
         var stack_node: array<u32, STACK>;
         var stack_t: array<f32, STACK>;
         var sp = 0u;
@@ -77,14 +72,14 @@ fn trace(r: u32) {
                 if MODE >= 2u {
                     count_t += node.count;
                     if MODE == 3u {
-                        best_t = box_exit(bray, node.min, node.max, best_t);
+                        best_t = box_exit(w.bray, node.min, node.max, best_t);
                     }
                 } else {
                     var found = false;
                     for (var k = node.index; k < node.index + node.count; k++) {
                         count_t += 1u;
                         let tri = tris[k];
-                        let h = watertight(sh, o, tri.v0, tri.v1, tri.v2, tmin, tmax);
+                        let h = watertight(w.sh, w.o, tri.v0, tri.v1, tri.v2, w.tmin, w.tmax);
                         let nearer = h.x < hit_t || (h.x == hit_t && tri.prim < best_prim);
                         if h.w > 0.0 && (best_prim == MISS || nearer) {
                             hit_t = h.x;
@@ -103,12 +98,12 @@ fn trace(r: u32) {
                 }
             } else {
                 let l = node.index;
-                let a = box_hit(bray, nodes[l].min, nodes[l].max, tmin, best_t);
-                let b = box_hit(bray, nodes[l + 1u].min, nodes[l + 1u].max, tmin, best_t);
+                let a = box_hit(w.bray, nodes[l].min, nodes[l].max, w.tmin, best_t);
+                let b = box_hit(w.bray, nodes[l + 1u].min, nodes[l + 1u].max, w.tmin, best_t);
                 if a.y > 0.0 && b.y > 0.0 {
                     var left = a.x <= b.x;
                     if MODE == 3u {
-                        left = near_child_first(nodes[l], nodes[l + 1u], bray.neg);
+                        left = near_child_first(nodes[l], nodes[l + 1u], w.bray.neg);
                     }
                     if left {
                         stack_node[sp] = l + 1u;

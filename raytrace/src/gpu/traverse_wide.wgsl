@@ -31,13 +31,8 @@ fn bytes4(w: u32) -> vec4<f32> {
 // the wide nodes fetched, T the triangles tested.
 fn trace(r: u32) {
     let w = walk_of(r);
-    let o = w.o;
-    let tmin = w.tmin;
-    let tmax = w.tmax;
-    let sh = w.sh;
-    let bray = w.bray;
-    var best_t = select(cull_bound(tmax), tmax, MODE >= 2u);
-    var hit_t = tmax;
+    var best_t = select(cull_bound(w.tmax), w.tmax, MODE >= 2u);
+    var hit_t = w.tmax;
     var best_prim = MISS;
     var count_b = 0u;
     var count_t = 0u;
@@ -83,7 +78,7 @@ fn trace(r: u32) {
                 let hq = vec3<f32>(select(hi_q[0], hi_q[1], upper)[j], select(hi_q[2], hi_q[3], upper)[j], select(hi_q[4], hi_q[5], upper)[j]);
                 let lo = node.origin + lq * scale;
                 let hi = node.origin + hq * scale;
-                let h = box_hit(bray, lo, hi, tmin, best_t);
+                let h = box_hit(w.bray, lo, hi, w.tmin, best_t);
                 if m == 0xffu {
                     if h.y > 0.0 {
                         // Insert by entry distance, farthest lowest.
@@ -107,7 +102,7 @@ fn trace(r: u32) {
                         for (var t = first; t < first + m; t++) {
                             count_t += 1u;
                             let tri = tris[t];
-                            let q = watertight(sh, o, tri.v0, tri.v1, tri.v2, tmin, tmax);
+                            let q = watertight(w.sh, w.o, tri.v0, tri.v1, tri.v2, w.tmin, w.tmax);
                             let nearer = q.x < hit_t || (q.x == hit_t && tri.prim < best_prim);
                             if q.w > 0.0 && (best_prim == MISS || nearer) {
                                 hit_t = q.x;
