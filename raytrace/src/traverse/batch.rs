@@ -32,9 +32,8 @@ fn check(rays: &RayBatch) {
     );
 }
 
-/// [`HitBatch::misses`], written in parallel: a fresh batch's pages are first touched
-/// there, and a million rays' take about a millisecond to map, which one thread alone would
-/// spend while the others wait.
+/// [`HitBatch::misses`], written in parallel: a fresh batch's pages are first touched there,
+/// and mapping them is work one thread alone would otherwise do while the others wait.
 fn misses(n: usize) -> HitBatch {
     let mut out = HitBatch {
         t: Vec::with_capacity(n),
