@@ -63,6 +63,23 @@ pub fn transformed(scene: &Scene, scale: f64, offset: DVec3) -> Scene {
     s
 }
 
+/// The distance at which `ray` meets triangle `prim` of `scene` by the watertight test alone
+/// (`None` where it does not): what any traversal that reports a hit on `prim` must report.
+pub fn retest(scene: &Scene, prim: u32, ray: &Ray) -> Option<f32> {
+    let [a, b, c] = scene.vertices(prim as usize);
+    crate::RayShear::new(ray.origin, ray.dir).and_then(|s| {
+        crate::intersect_watertight(
+            &s,
+            &a.to_array(),
+            &b.to_array(),
+            &c.to_array(),
+            ray.tmin,
+            ray.tmax,
+        )
+        .map(|(t, _, _)| t)
+    })
+}
+
 /// The f64 reference's answer for one ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Reference {

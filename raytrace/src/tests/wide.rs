@@ -7,7 +7,7 @@ use glam::Vec3;
 
 use crate::testkit;
 use crate::traverse::Layout;
-use crate::{BuildPreset, Bvh, Ray, Rng, Scene, SceneNeeds, SceneSource, intersect_watertight};
+use crate::{BuildPreset, Bvh, Ray, Rng, Scene, SceneNeeds, SceneSource};
 
 fn load(name: &str, preset: BuildPreset) -> (Scene, Bvh) {
     let scene = SceneSource::parse(name)
@@ -107,22 +107,8 @@ fn differential(name: &str, preset: BuildPreset, seed: u64) {
         assert_eq!(any.is_some(), wide.is_some(), "any vs closest: {}", at());
         if let Some(h) = any {
             // A real hit of that triangle, at that distance.
-            let [a, b, c] = scene.vertices(h.prim as usize);
-            let shear = crate::RayShear::new(r.origin, r.dir).unwrap();
-            let again = intersect_watertight(
-                &shear,
-                &a.to_array(),
-                &b.to_array(),
-                &c.to_array(),
-                r.tmin,
-                r.tmax,
-            );
-            assert_eq!(
-                again.map(|x| x.0.to_bits()),
-                Some(h.t.to_bits()),
-                "{}",
-                at()
-            );
+            let again = testkit::retest(&scene, h.prim, r);
+            assert_eq!(again.map(f32::to_bits), Some(h.t.to_bits()), "{}", at());
         }
         let (counted_any, _) = bvh.counted_in(r, true, Layout::Wide);
         assert_eq!(bits(counted_any), bits(any), "counted any: {}", at());
@@ -217,17 +203,8 @@ fn shuffled_ao_rays_answer_as_their_single_walks() {
                     continue;
                 };
                 hits += 1;
-                let [a, b, c] = scene.vertices(prim as usize);
-                let shear = crate::RayShear::new(r.origin, r.dir).unwrap();
-                let again = intersect_watertight(
-                    &shear,
-                    &a.to_array(),
-                    &b.to_array(),
-                    &c.to_array(),
-                    r.tmin,
-                    r.tmax,
-                );
-                assert_eq!(again.map(|x| x.0.to_bits()), Some(t.to_bits()), "{}", at());
+                let again = testkit::retest(&scene, prim, r);
+                assert_eq!(again.map(f32::to_bits), Some(t.to_bits()), "{}", at());
             }
             assert!(hits > 100 && hits < rays.len(), "{name}: {hits} hits");
         }

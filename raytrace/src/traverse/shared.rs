@@ -293,7 +293,7 @@ mod tests {
 
     use super::*;
     use crate::traverse::{Layout, any_hits, closest_hits};
-    use crate::{RayBatch, intersect_watertight, testkit, workload};
+    use crate::{RayBatch, testkit, workload};
 
     /// AO rays (eight from each hit point, so runs that share an origin) and runs with one
     /// origin mixing ranges, a zero direction and an empty range: the packets give each ray
@@ -327,17 +327,8 @@ mod tests {
             assert_eq!(any.get(i).is_some(), alone.is_some(), "ray {i} {r:?}");
             if let Some((t, prim)) = any.get(i) {
                 hits += 1;
-                let [a, b, c] = scene.vertices(prim as usize);
-                let shear = RayShear::new(r.origin, r.dir).unwrap();
-                let again = intersect_watertight(
-                    &shear,
-                    &a.to_array(),
-                    &b.to_array(),
-                    &c.to_array(),
-                    r.tmin,
-                    r.tmax,
-                );
-                assert_eq!(again.map(|h| h.0.to_bits()), Some(t.to_bits()), "ray {i}");
+                let again = testkit::retest(&scene, prim, &r);
+                assert_eq!(again.map(f32::to_bits), Some(t.to_bits()), "ray {i}");
             }
         }
         assert!(
