@@ -1,10 +1,9 @@
 //! The batch queries: hits, counted hits and reduced counts of a [`RayBatch`], in parallel
 //! (rayon, in chunks of rays), and the trace left once a sample's rays are known.
 //!
-//! Hit batches walk the wide tree a chunk of rays per call ([`Bvh::wide_each`]), so that rays
-//! sharing an origin walk together where AVX2 runs; an any-hit batch that does not come in runs
-//! of one origin (shuffled AO rays) is walked in its origins' order along a Morton curve, which
-//! makes the runs and keeps nearby rays together. Reduced counts walk in AVX2 packets
+//! Hit batches walk the wide tree a chunk of rays per call ([`Bvh::wide_each`]), so that
+//! neighbouring rays walk together where AVX2 runs: any-hit rays eight at a time whatever
+//! their origins, closest-hit rays in runs of one origin. Reduced counts walk in AVX2 packets
 //! (`packet.rs`).
 
 use rayon::prelude::*;
@@ -82,132 +81,6 @@ fn wide_hits_of<const MODE: u8>(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
     out
 }
 
-/// Any hits of all rays. A batch that mostly comes in runs of rays from one point (the AO rays
-/// of each hit in turn) is walked as it is ([`wide_hits_of`]); any other is walked in the
-/// order of its origins along a Morton curve ([`origin_order`]) and its answers scattered back:
-/// rays from nearby points enter the same nodes, which the cache then holds, and rays from one
-/// point, wherever the batch put them, become one run, walked together ([`Bvh::wide_each`]).
-/// The sort is part of the call's time. Each ray's answer, hit or miss, is its own walk's;
-/// which triangle an occluded ray reports may differ with the order, as any-hit queries allow.
-fn wide_any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
-    check(rays);
-    if in_runs(rays) {
-        return wide_hits_of::<ANY>(bvh, rays);
-    }
-    let n = rays.len();
-    let order = origin_order(rays);
-    let mut t = vec![f32::INFINITY; n];
-    let mut prim = vec![u32::MAX; n];
-    t.par_chunks_mut(CHUNK)
-        .zip(prim.par_chunks_mut(CHUNK))
-        .enumerate()
-        .for_each(|(c, (ts, ps))| {
-            let first = c * CHUNK;
-            let at = |k: usize| {
-                // The rays lie scattered in the batch now, where the hardware prefetchers,
-                // which follow streams, do not fetch them.
-                if let Some(&ahead) = order.get(first + k + SAMPLE_AHEAD) {
-                    rays.prefetch(ahead as usize);
-                }
-                Some(order[first + k] as usize)
-            };
-            bvh.wide_each::<ANY>(rays, ts.len(), at, |k, hit, _| {
-                if let Some(h) = hit {
-                    (ts[k], ps[k]) = (h.t, h.prim);
-                }
-            });
-        });
-    let mut out = misses(n);
-    for (k, &i) in order.iter().enumerate() {
-        (out.t[i as usize], out.prim[i as usize]) = (t[k], prim[k]);
-    }
-    out
-}
-
-/// Whether at least half of the rays start where the ray before them does, bit for bit.
-fn in_runs(rays: &RayBatch) -> bool {
-    let same = |i: usize| {
-        rays.ox[i].to_bits() == rays.ox[i - 1].to_bits()
-            && rays.oy[i].to_bits() == rays.oy[i - 1].to_bits()
-            && rays.oz[i].to_bits() == rays.oz[i - 1].to_bits()
-    };
-    2 * (1..rays.len()).into_par_iter().filter(|&i| same(i)).count() >= rays.len()
-}
-
-/// Bits of a Morton key per axis: 1024 cells along each side of the origins' box, finer than
-/// the spacing of a frame's hit points on the scenes measured, so rays of different points
-/// seldom share a key.
-const KEY_BITS: u32 = 10;
-
-/// The rays' indices sorted by their origins' cells on a Morton curve through the origins'
-/// bounding box (a stable radix sort: rays of one cell keep their order). Rays with a
-/// non-finite origin trace nothing and take the first cell's key.
-fn origin_order(rays: &RayBatch) -> Vec<u32> {
-    let n = rays.len();
-    let axes = [&rays.ox, &rays.oy, &rays.oz];
-    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    for (a, column) in axes.iter().enumerate() {
-        for &x in column.iter().filter(|x| x.is_finite()) {
-            lo[a] = lo[a].min(x);
-            hi[a] = hi[a].max(x);
-        }
-    }
-    let cells = ((1u32 << KEY_BITS) - 1) as f32;
-    let scale = [0, 1, 2].map(|a| {
-        let extent = hi[a] - lo[a];
-        if extent > 0.0 && extent.is_finite() {
-            cells / extent
-        } else {
-            0.0
-        }
-    });
-    // The key above the index, so that sorting the words by their upper half keeps the
-    // indices of equal keys in order.
-    let mut words: Vec<u64> = (0..n)
-        .map(|i| {
-            let p = [rays.ox[i], rays.oy[i], rays.oz[i]];
-            let key = if p.iter().all(|x| x.is_finite()) {
-                // `as` saturates, and turns a NaN (an infinite extent times zero) into 0.
-                let q = [0, 1, 2].map(|a| ((p[a] - lo[a]) * scale[a]).min(cells) as u32);
-                spread(q[0]) | spread(q[1]) << 1 | spread(q[2]) << 2
-            } else {
-                0
-            };
-            u64::from(key) << 32 | i as u64
-        })
-        .collect();
-    let mut sorted = vec![0u64; n];
-    let digit =
-        |w: u64, pass: u32| ((w >> (32 + KEY_BITS * pass)) & ((1 << KEY_BITS) - 1)) as usize;
-    for pass in 0..3 {
-        let mut start = vec![0usize; 1 << KEY_BITS];
-        for &w in &words {
-            start[digit(w, pass)] += 1;
-        }
-        let mut sum = 0;
-        for s in start.iter_mut() {
-            (*s, sum) = (sum, sum + *s);
-        }
-        for &w in &words {
-            let d = digit(w, pass);
-            sorted[start[d]] = w;
-            start[d] += 1;
-        }
-        std::mem::swap(&mut words, &mut sorted);
-    }
-    words.into_iter().map(|w| w as u32).collect()
-}
-
-/// The low [`KEY_BITS`] bits of `x`, two zero bits after each: one axis of a Morton key.
-fn spread(x: u32) -> u32 {
-    let mut v = x & 0x3ff;
-    v = (v | v << 16) & 0x0300_00ff;
-    v = (v | v << 8) & 0x0300_f00f;
-    v = (v | v << 4) & 0x030c_30c3;
-    v = (v | v << 2) & 0x0924_9249;
-    v
-}
-
 /// Closest hits of all rays, in parallel.
 ///
 /// # Panics
@@ -216,12 +89,17 @@ pub fn closest_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
     wide_hits_of::<CLOSEST>(bvh, rays)
 }
 
-/// Any hits of all rays, in parallel (`t` is the distance of the hit found).
+/// Any hits of all rays, in parallel (`t` is the distance of the hit found), walked eight
+/// consecutive rays at a time whatever their origins ([`Bvh::wide_each`]). Each ray's answer,
+/// hit or miss, is its own walk's; which triangle an occluded ray reports may differ with its
+/// neighbours, as any-hit queries allow. A shuffled batch is walked as it comes: sorting it by
+/// origin first made its packets more coherent but cost more than that gained (two threads;
+/// the sort held one of them).
 ///
 /// # Panics
 /// Panics if the batch's columns have different lengths.
 pub fn any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
-    wide_any_hits(bvh, rays)
+    wide_hits_of::<ANY>(bvh, rays)
 }
 
 /// [`closest_hits`] or, with `any`, [`any_hits`], on the tree `layout` names: for comparing
@@ -232,7 +110,7 @@ pub fn any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
 pub fn hits_in(bvh: &Bvh, rays: &RayBatch, any: bool, layout: Layout) -> HitBatch {
     if layout == Layout::Wide {
         return if any {
-            wide_any_hits(bvh, rays)
+            wide_hits_of::<ANY>(bvh, rays)
         } else {
             wide_hits_of::<CLOSEST>(bvh, rays)
         };
@@ -514,58 +392,4 @@ pub fn reduced_counts_at(bvh: &Bvh, rays: &RayBatch, walk: Walk, index: &[usize]
             packet::reduced_lanes(bvh, rays, walk, |j| part[j], cs);
         });
     counts
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::Rng;
-
-    #[test]
-    fn origin_order_sorts_by_cell_and_keeps_ties_in_order() {
-        let mut rng = Rng::new(crate::testkit::seed(5));
-        let mut rays = RayBatch::default();
-        let dir = glam::Vec3::X;
-        // Runs of one origin, interleaved, and a few origins that trace nothing.
-        let points: Vec<glam::Vec3> = (0..300)
-            .map(|_| glam::Vec3::new(rng.f32(), rng.f32() * 4.0, rng.f32() - 2.0))
-            .collect();
-        for k in 0..2000 {
-            let p = if k % 97 == 5 {
-                glam::Vec3::new(f32::NAN, 0.0, f32::INFINITY)
-            } else {
-                points[rng.below(points.len() as u32) as usize]
-            };
-            rays.push(&Ray::new(p, dir));
-        }
-        assert!(!in_runs(&rays));
-        let order = origin_order(&rays);
-        let mut seen = vec![false; rays.len()];
-        for &i in &order {
-            assert!(!std::mem::replace(&mut seen[i as usize], true), "{i} twice");
-        }
-        assert!(seen.iter().all(|&s| s), "a permutation");
-        let origin = |i: u32| rays.get(i as usize).origin;
-        let finite = |i: u32| origin(i).is_finite();
-        // Non-finite origins first, then every origin's rays in one run, each in order.
-        let first_finite = order.iter().position(|&i| finite(i)).unwrap();
-        assert!(order[first_finite..].iter().all(|&i| finite(i)));
-        let mut done = std::collections::HashSet::new();
-        for run in order[first_finite..].chunk_by(|&a, &b| origin(a) == origin(b)) {
-            assert!(run.windows(2).all(|w| w[0] < w[1]), "a run keeps its order");
-            let key = origin(run[0]).to_array().map(f32::to_bits);
-            assert!(done.insert(key), "{:?} in two runs", origin(run[0]));
-        }
-        assert_eq!(done.len(), points.len());
-    }
-
-    #[test]
-    fn spread_interleaves_ten_bits() {
-        assert_eq!(spread(0), 0);
-        assert_eq!(spread(0x3ff), 0x0924_9249);
-        for b in 0..10 {
-            assert_eq!(spread(1 << b), 1 << (3 * b));
-        }
-        assert_eq!(spread(0x400), 0, "bits above ten are dropped");
-    }
 }

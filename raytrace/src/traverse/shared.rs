@@ -1,7 +1,6 @@
-//! Rays that share an origin, walked through the wide tree together ([`Bvh::walk_shared`]): any
-//! hits, such as the AO rays of one hit point or any run of occlusion rays from one place, and
-//! closest hits, such as a pinhole camera's primary rays taken a few neighbours (in Morton
-//! order) at a time.
+//! Rays walked through the wide tree together ([`Bvh::walk_shared`]): any hits, such as the AO
+//! rays of one hit point or neighbouring occlusion rays of any origins, and closest hits, such
+//! as a pinhole camera's primary rays taken a few neighbours (in Morton order) at a time.
 //!
 //! Rays of one origin wait on the same nodes near it: short AO rays that mostly miss spend
 //! their time proving that nothing is there, one node after another, and a primary ray finds
