@@ -24,8 +24,9 @@ fn bits(film: &Film) -> Vec<[u32; 3]> {
         .collect()
 }
 
-/// Held by every test here: their outcomes depend on device speeds measured on the wall
-/// clock, which two of them rendering at once on the same cores would each distort.
+/// Held by every test here: most of their outcomes depend on device speeds measured on the
+/// wall clock, which two of them rendering at once on the same cores would each distort (one
+/// lock for the file, rather than a list of the tests that need it to keep up to date).
 fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
     static CORES: std::sync::Mutex<()> = std::sync::Mutex::new(());
     CORES

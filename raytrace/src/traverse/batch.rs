@@ -120,12 +120,13 @@ fn wide_any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
                 }
             });
         });
-    let mut out = misses(n);
-    out.t
-        .par_iter_mut()
-        .zip(out.prim.par_iter_mut())
-        .zip(&rank)
-        .for_each(|((ot, op), &k)| (*ot, *op) = (t[k as usize], prim[k as usize]));
+    let mut out = HitBatch {
+        t: Vec::with_capacity(n),
+        prim: Vec::with_capacity(n),
+    };
+    rank.par_iter()
+        .map(|&k| (t[k as usize], prim[k as usize]))
+        .unzip_into_vecs(&mut out.t, &mut out.prim);
     out
 }
 
@@ -199,10 +200,10 @@ fn cell_keys(bounds: &Aabb, rays: &RayBatch) -> Vec<u16> {
         }
     });
     // One axis of a key, from a table of the five bits spread apart.
-    let spread: [u16; 1 << CELL_BITS] = std::array::from_fn(|x| spread(x as u32) as u16);
+    let spread_of: [u16; 1 << CELL_BITS] = std::array::from_fn(|x| spread(x as u32) as u16);
     // `min` takes a NaN (a non-finite origin, or an infinite extent times zero) to the last
     // cell, and `as` saturates what lies outside.
-    let axis = |x: f32, a: usize| spread[((x - lo[a]) * scale[a]).min(cells) as usize];
+    let axis = |x: f32, a: usize| spread_of[((x - lo[a]) * scale[a]).min(cells) as usize];
     (rays.ox.par_iter().zip(&rays.oy).zip(&rays.oz))
         .map(|((&x, &y), &z)| axis(x, 0) | axis(y, 1) << 1 | axis(z, 2) << 2)
         .collect()
