@@ -22,6 +22,8 @@ pub(crate) mod batch;
 mod binary;
 mod closest;
 pub(crate) mod counts;
+#[cfg(target_arch = "x86_64")]
+mod lanes;
 pub(crate) mod layout;
 mod mode;
 mod packet;

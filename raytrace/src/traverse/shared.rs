@@ -28,19 +28,19 @@ use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
 use crate::bvh::wide::WIDTH;
-use crate::ray::{Hit, Ray};
+use crate::ray::Hit;
 use crate::traverse::closest::cull_bound;
 use crate::traverse::counts::Counts;
+use crate::traverse::lanes::{Lanes, Setup};
 use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
-use crate::traverse::simd::{self, Box8Ray, Shear4, leaf_hits};
-use crate::triangle::RayShear;
+use crate::traverse::simd::{self, leaf_hits};
 
 /// Rays walked together at most: one bit each in a byte of a node's masks.
 pub(super) const PACKET: usize = 8;
 
 impl Bvh {
-    /// The hits `MODE` asks for (closest or any, counted or not) of `rays` (one to [`PACKET`]
-    /// of them, which should share an origin for the walk to pay) into `out[..rays.len()]`,
+    /// The hits `MODE` asks for (closest or any, counted or not) of the first `n` rays of
+    /// `lanes` (one to [`PACKET`]) into `out[..n]`,
     /// each `None` on a miss, and, where `MODE` counts, each ray's counts added to `counts`
     /// as the single walk keeps them: every node a ray enters, the root only if one of its
     /// children's boxes is hit, and the triangles it tests (for any hit, until its hit).
@@ -53,39 +53,24 @@ impl Bvh {
     #[inline(always)]
     pub(crate) unsafe fn walk_shared<const MODE: u8, const STACK: usize>(
         &self,
-        rays: &[Ray],
+        lanes: &Lanes,
+        n: usize,
         out: &mut [Option<Hit>; PACKET],
         counts: &mut [Counts; PACKET],
     ) {
         let any = MODE == ANY || MODE == ANY_COUNTED;
         let counting = MODE == COUNTED || MODE == ANY_COUNTED;
-        let n = rays.len().min(PACKET);
+        let n = n.min(PACKET);
         let wide = &self.wide;
         if wide.nodes.is_empty() || n == 0 {
             return;
         }
-        // Rays past `n` repeat the first one and are never live. Loops, not `array::from_fn`:
-        // its closures are not compiled for AVX2, and were called once per ray.
-        let first = &rays[0];
-        let mut boxes = [Box8Ray::new(first); PACKET];
-        let mut shears: [Option<Shear4>; PACKET] = [None; PACKET];
-        let mut tmin = [first.tmin; PACKET];
-        let mut tmax = [first.tmax; PACKET];
-        let mut live = 0u32;
-        for (r, q) in rays.iter().enumerate().take(n) {
-            boxes[r] = Box8Ray::new(q);
-            (tmin[r], tmax[r]) = (q.tmin, q.tmax);
-            // NaN-safe: a NaN or empty range traces nothing, as in the single walk.
-            if q.tmin.partial_cmp(&q.tmax).is_some_and(|o| o.is_le()) {
-                shears[r] = RayShear::new(q.origin, q.dir).map(Shear4::new);
-            }
-            live |= u32::from(shears[r].is_some()) << r;
-        }
+        // SAFETY: the CPU has AVX2 (see `# Safety`).
+        let setup = unsafe { Setup::new(lanes, n) };
+        let mut live = setup.valid;
+        let (tmin, tmax) = (lanes.tmin, lanes.tmax);
         // Rays of one origin, bit for bit, share the first step of every box test.
-        let origin = first.origin.to_array();
-        let one_origin = rays[..n]
-            .iter()
-            .all(|q| q.origin.to_array().map(f32::to_bits) == origin.map(f32::to_bits));
+        let (origin, one_origin) = lanes.one_origin(n);
         let mut best: [Option<Hit>; PACKET] = [None; PACKET];
         let mut cull = tmax.map(cull_bound);
         let nodes = &wide.nodes[..];
@@ -101,14 +86,14 @@ impl Bvh {
                 // One ray left in this subtree: its own walk (from its nearest hit so far, for
                 // a closest hit) is cheaper than the packet's bookkeeping for one.
                 let r = m.trailing_zeros() as usize;
-                if let Some(s) = &shears[r] {
+                {
                     let seed = if any { None } else { best[r] };
                     // SAFETY: the CPU has AVX2 (see `# Safety`), and `(child, count)` is the
                     // root or a child reference read from the tree.
                     let (hit, c) = unsafe {
                         self.walk_from::<MODE, true, STACK>(
-                            &boxes[r],
-                            s,
+                            &setup.boxes(r),
+                            &setup.shear(r),
                             tmin[r],
                             tmax[r],
                             seed,
@@ -144,8 +129,8 @@ impl Bvh {
                     // ray's origin.
                     let (hit, t) = unsafe {
                         match &rel {
-                            Some(rel) => boxes[r].hit8_from(rel, tmin[r], cull[r]),
-                            None => boxes[r].hit8::<true>(node, tmin[r], cull[r]),
+                            Some(rel) => setup.boxes(r).hit8_from(rel, tmin[r], cull[r]),
+                            None => setup.boxes(r).hit8::<true>(node, tmin[r], cull[r]),
                         }
                     };
                     rows |= u64::from(hit) << (8 * r);
@@ -219,10 +204,10 @@ impl Bvh {
                 while each != 0 {
                     let r = each.trailing_zeros() as usize;
                     each &= each - 1;
-                    let Some(s) = &shears[r] else { continue };
+                    let s = setup.shear(r);
                     // SAFETY: the CPU has AVX2 (see `# Safety`).
                     let (changed, tested) = unsafe {
-                        leaf_hits::<true>(any, s, leaf, tmin[r], tmax[r], count, &mut best[r])
+                        leaf_hits::<true>(any, &s, leaf, tmin[r], tmax[r], count, &mut best[r])
                     };
                     if counting {
                         counts[r].nodes += 1;
@@ -292,7 +277,7 @@ mod tests {
 
     use super::*;
     use crate::traverse::{Layout, any_hits, closest_hits};
-    use crate::{RayBatch, testkit, workload};
+    use crate::{Ray, RayBatch, testkit, workload};
 
     /// AO rays (eight from each hit point, so runs that share an origin) and runs with one
     /// origin mixing ranges, a zero direction and an empty range: the packets give each ray

@@ -63,6 +63,27 @@ impl Box8Ray {
         }
     }
 
+    /// The set-up [`Box8Ray::new`] makes, from its parts: the origin, `1 / dir`, and each
+    /// axis's near and far plane row (`crate::traverse::lanes` makes them eight at a time).
+    #[inline(always)]
+    pub(crate) fn from_parts(org: [f32; 3], inv: [f32; 3], near: [u32; 3], far: [u32; 3]) -> Self {
+        Self {
+            org,
+            inv,
+            near: near.map(|r| r as usize),
+            far: far.map(|r| r as usize),
+            scale: far_scale(),
+        }
+    }
+
+    /// Every field's bits, for tests that compare set-ups.
+    #[cfg(test)]
+    pub(crate) fn bits(&self) -> Vec<u32> {
+        let f = self.org.iter().chain(&self.inv).chain([&self.scale]);
+        let rows = self.near.iter().chain(&self.far).map(|&r| r as u32);
+        f.map(|x| x.to_bits()).chain(rows).collect()
+    }
+
     /// The children whose boxes the ray meets within `[tmin, tmax]`. `AVX2` picks the AVX2
     /// kernel, which the caller must have detected ([`avx2`]) and must run in a function
     /// compiled with `#[target_feature(enable = "avx2")]` for the kernel to be inlined.
@@ -260,6 +281,27 @@ impl Shear4 {
             sy,
             sz,
         }
+    }
+
+    /// The set-up [`Shear4::new`] makes, from its parts: the origin along `kx`, `ky`, `kz`,
+    /// those axes, and `sx`, `sy`, `sz`.
+    #[inline(always)]
+    pub(crate) fn from_parts(org: [f32; 3], axis: [u32; 3], [sx, sy, sz]: [f32; 3]) -> Self {
+        Self {
+            org,
+            axis: axis.map(|k| k as u8),
+            sx,
+            sy,
+            sz,
+        }
+    }
+
+    /// Every field's bits, for tests that compare set-ups.
+    #[cfg(test)]
+    pub(crate) fn bits(&self) -> Vec<u32> {
+        let f = self.org.iter().chain([&self.sx, &self.sy, &self.sz]);
+        let axes = self.axis.iter().map(|&k| u32::from(k));
+        f.map(|x| x.to_bits()).chain(axes).collect()
     }
 
     /// [`crate::intersect_watertight`] of the four triangles of `g`, lane by lane.

@@ -41,6 +41,8 @@ use crate::bvh::wide::WIDTH;
 use crate::ray::{Hit, Ray, RayBatch};
 use crate::traverse::closest::cull_bound;
 use crate::traverse::counts::Counts;
+#[cfg(target_arch = "x86_64")]
+use crate::traverse::lanes::Lanes;
 use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
 #[cfg(target_arch = "x86_64")]
 use crate::traverse::shared::PACKET;
@@ -143,8 +145,8 @@ impl Bvh {
         mut put: impl FnMut(usize, Option<Hit>, Counts),
     ) {
         let any = MODE == ANY || MODE == ANY_COUNTED;
-        // The run so far: its rays and the queries they answer.
-        let mut run = [Ray::new(glam::Vec3::ZERO, glam::Vec3::ZERO); PACKET];
+        // The run so far: its rays, by lane, and the queries they answer.
+        let mut run = Lanes::ZERO;
         let mut slot = [0usize; PACKET];
         let mut len = 0usize;
         // A macro, not a closure: a closure is not compiled for AVX2, so the kernels would
@@ -154,7 +156,7 @@ impl Bvh {
                 if len == 1 {
                     // SAFETY: as the caller states (see `# Safety`).
                     let (hit, counts) = unsafe {
-                        self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&run[0])
+                        self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&run.ray(0))
                     };
                     put(slot[0], hit, counts);
                 } else {
@@ -164,7 +166,8 @@ impl Bvh {
                     // and a closest-hit run's rays have `tmin`s with the sign bit clear.
                     unsafe {
                         self.walk_shared::<MODE, { stack_for(SHALLOW) }>(
-                            &run[..len],
+                            &run,
+                            len,
                             &mut out,
                             &mut counts,
                         )
@@ -177,29 +180,35 @@ impl Bvh {
         }
         for k in 0..n {
             let Some(i) = at(k) else { continue };
-            let ray = rays.get(i);
-            // A closest-hit packet culls the nodes it leaves waiting by the entry distances'
-            // bits, which order as the floats only where they are not negative: a ray that
-            // starts behind its origin (or at -0) walks alone.
-            if !any && ray.tmin.is_sign_negative() {
-                if len > 0 {
+            if !any {
+                // A closest-hit packet culls the nodes it leaves waiting by the entry
+                // distances' bits, which order as the floats only where they are not
+                // negative: a ray that starts behind its origin (or at -0) walks alone.
+                if rays.tmin[i].is_sign_negative() {
+                    if len > 0 {
+                        flush!();
+                        len = 0;
+                    }
+                    // SAFETY: as the caller states (see `# Safety`).
+                    let (hit, counts) = unsafe {
+                        self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&rays.get(i))
+                    };
+                    put(k, hit, counts);
+                    continue;
+                }
+                // Closest-hit runs keep to one origin (a camera's), whose shared box planes
+                // and nearest-first order pay there; any-hit rays of other origins still
+                // share the upper nodes, fetched once for the packet.
+                if len > 0 && !run.starts_with(rays, i) {
                     flush!();
                     len = 0;
                 }
-                // SAFETY: as the caller states (see `# Safety`).
-                let (hit, counts) =
-                    unsafe { self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&ray) };
-                put(k, hit, counts);
-                continue;
             }
-            // Any-hit rays of other origins still share the upper nodes, fetched once for
-            // the packet; closest-hit runs keep to one origin (a camera's), whose shared box
-            // planes and nearest-first order pay there.
-            if len == PACKET || (len > 0 && !any && !same_origin(&run[0], &ray)) {
+            if len == PACKET {
                 flush!();
                 len = 0;
             }
-            run[len] = ray;
+            run.set(len, rays, i);
             slot[len] = k;
             len += 1;
         }
@@ -361,12 +370,6 @@ impl Bvh {
             }
         }
     }
-}
-
-/// Whether two rays start at the same point, bit for bit.
-#[inline(always)]
-fn same_origin(a: &Ray, b: &Ray) -> bool {
-    a.origin.to_array().map(f32::to_bits) == b.origin.to_array().map(f32::to_bits)
 }
 
 /// `put(k, query(at(k)))` for every `k < n` whose `at(k)` is a ray, inlined into the caller
