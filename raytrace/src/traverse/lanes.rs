@@ -129,13 +129,13 @@ impl Setup {
             valid: 0,
         };
         // The box test: `1 / d`, and the near plane the max row where `d`'s sign bit is set.
-        for a in 0..3 {
+        for (a, &da) in d.iter().enumerate() {
             let neg = _mm256_and_si256(
-                _mm256_srai_epi32::<31>(_mm256_castps_si256(d[a])),
+                _mm256_srai_epi32::<31>(_mm256_castps_si256(da)),
                 _mm256_set1_epi32(3),
             );
             let row = _mm256_set1_epi32(a as i32);
-            store(&mut s.inv[a], _mm256_div_ps(one, d[a]));
+            store(&mut s.inv[a], _mm256_div_ps(one, da));
             store_i(&mut s.near[a], _mm256_add_epi32(row, neg));
             let far = _mm256_sub_epi32(_mm256_add_epi32(row, _mm256_set1_epi32(3)), neg);
             store_i(&mut s.far[a], far);
