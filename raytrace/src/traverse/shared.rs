@@ -68,6 +68,12 @@ impl Bvh {
         // SAFETY: the CPU has AVX2 (see `# Safety`).
         let setup = unsafe { Setup::new(lanes, n) };
         let mut live = setup.valid;
+        // Each ray's part of the box test, laid out as the test reads it: it is read at every
+        // node the ray enters.
+        let mut boxes = [setup.boxes(0); PACKET];
+        for (r, b) in boxes.iter_mut().enumerate().skip(1) {
+            *b = setup.boxes(r);
+        }
         let (tmin, tmax) = (lanes.tmin, lanes.tmax);
         // Rays of one origin, bit for bit, share the first step of every box test.
         let (origin, one_origin) = lanes.one_origin(n);
@@ -92,7 +98,7 @@ impl Bvh {
                     // root or a child reference read from the tree.
                     let (hit, c) = unsafe {
                         self.walk_from::<MODE, true, STACK>(
-                            &setup.boxes(r),
+                            &boxes[r],
                             &setup.shear(r),
                             tmin[r],
                             tmax[r],
@@ -129,8 +135,8 @@ impl Bvh {
                     // ray's origin.
                     let (hit, t) = unsafe {
                         match &rel {
-                            Some(rel) => setup.boxes(r).hit8_from(rel, tmin[r], cull[r]),
-                            None => setup.boxes(r).hit8::<true>(node, tmin[r], cull[r]),
+                            Some(rel) => boxes[r].hit8_from(rel, tmin[r], cull[r]),
+                            None => boxes[r].hit8::<true>(node, tmin[r], cull[r]),
                         }
                     };
                     rows |= u64::from(hit) << (8 * r);
