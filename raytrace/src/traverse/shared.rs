@@ -77,6 +77,8 @@ impl Bvh {
             *b = setup.boxes(r);
         }
         let (tmin, tmax) = (lanes.tmin, lanes.tmax);
+        // Only rays that trace at all (`setup.valid`) are ever in a node's set, so every ray
+        // met below has a meaningful set-up.
         // Rays of one origin, bit for bit, share the first step of every box test.
         let (origin, one_origin) = lanes.one_origin(n);
         let mut best: [Option<Hit>; PACKET] = [None; PACKET];
@@ -94,30 +96,28 @@ impl Bvh {
                 // One ray left in this subtree: its own walk (from its nearest hit so far, for
                 // a closest hit) is cheaper than the packet's bookkeeping for one.
                 let r = m.trailing_zeros() as usize;
-                {
-                    let seed = if any { None } else { best[r] };
-                    // SAFETY: the CPU has AVX2 (see `# Safety`), and `(child, count)` is the
-                    // root or a child reference read from the tree.
-                    let (hit, c) = unsafe {
-                        self.walk_from::<MODE, true, STACK>(
-                            &boxes[r],
-                            &setup.shear(r),
-                            tmin[r],
-                            tmax[r],
-                            seed,
-                            (child, count),
-                        )
-                    };
-                    if counting {
-                        counts[r].nodes += c.nodes;
-                        counts[r].tris += c.tris;
-                    }
-                    if let Some(h) = hit {
-                        best[r] = Some(h);
-                        cull[r] = cull_bound(h.t);
-                        if any {
-                            live &= !(1 << r);
-                        }
+                let seed = if any { None } else { best[r] };
+                // SAFETY: the CPU has AVX2 (see `# Safety`), and `(child, count)` is the
+                // root or a child reference read from the tree.
+                let (hit, c) = unsafe {
+                    self.walk_from::<MODE, true, STACK>(
+                        &boxes[r],
+                        &setup.shear(r),
+                        tmin[r],
+                        tmax[r],
+                        seed,
+                        (child, count),
+                    )
+                };
+                if counting {
+                    counts[r].nodes += c.nodes;
+                    counts[r].tris += c.tris;
+                }
+                if let Some(h) = hit {
+                    best[r] = Some(h);
+                    cull[r] = cull_bound(h.t);
+                    if any {
+                        live &= !(1 << r);
                     }
                 }
             } else if count == 0 {
