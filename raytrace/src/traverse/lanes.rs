@@ -20,8 +20,11 @@ use std::arch::x86_64::{
 };
 
 use crate::ray::{Ray, RayBatch};
-use crate::traverse::shared::PACKET;
 use crate::traverse::simd::{Box8Ray, Shear4};
+
+/// Rays walked together at most: one bit each in a byte of a node's masks
+/// ([`crate::traverse::shared`]), one lane each of an AVX2 register here.
+pub(crate) const PACKET: usize = 8;
 
 /// Up to [`PACKET`] rays, each field a row of lanes.
 #[derive(Clone, Copy)]

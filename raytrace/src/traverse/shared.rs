@@ -33,12 +33,9 @@ use crate::bvh::wide::WIDTH;
 use crate::ray::Hit;
 use crate::traverse::closest::cull_bound;
 use crate::traverse::counts::Counts;
-use crate::traverse::lanes::{Lanes, Setup};
+use crate::traverse::lanes::{Lanes, PACKET, Setup};
 use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
 use crate::traverse::simd::{self, leaf_hits};
-
-/// Rays walked together at most: one bit each in a byte of a node's masks.
-pub(super) const PACKET: usize = 8;
 
 impl Bvh {
     /// The hits `MODE` asks for (closest or any, counted or not) of the first `n` rays of

@@ -42,10 +42,8 @@ use crate::ray::{Hit, Ray, RayBatch};
 use crate::traverse::closest::cull_bound;
 use crate::traverse::counts::Counts;
 #[cfg(target_arch = "x86_64")]
-use crate::traverse::lanes::Lanes;
+use crate::traverse::lanes::{Lanes, PACKET};
 use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
-#[cfg(target_arch = "x86_64")]
-use crate::traverse::shared::PACKET;
 use crate::traverse::simd::{self, Box8Ray, Shear4, leaf_hits};
 use crate::triangle::RayShear;
 
