@@ -1,9 +1,8 @@
 //! A packet's rays by lane ([`Lanes`]), gathered from a batch's columns, and the per-ray parts
 //! of their box and triangle tests set up for all of them at once ([`Setup`]).
 //!
-//! Set up one ray at a time, a packet's rays cost six scalar divisions each, and a branch on
-//! the dominant axis of the direction that incoherent rays mispredict; for short AO rays that
-//! was a quarter of the whole trace. Here every step is one AVX2 operation for the eight
+//! Set up one ray at a time, a packet's rays cost six scalar divisions each, and the choice
+//! of each ray's shear axes; for short AO rays that was a quarter of the whole trace. Here every step is one AVX2 operation for the eight
 //! lanes, the same IEEE operation as the scalar set-up's ([`Box8Ray::new`],
 //! [`RayShear::new`]), so every lane's values equal the scalar ones bit for bit (a test below
 //! checks it).
