@@ -14,8 +14,8 @@ use std::arch::x86_64::{
     __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ, _mm256_add_epi32,
     _mm256_and_ps, _mm256_and_si256, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps_si256,
     _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_div_ps, _mm256_loadu_ps, _mm256_movemask_ps,
-    _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_srai_epi32, _mm256_storeu_ps,
-    _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps,
+    _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_srai_epi32,
+    _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps,
 };
 
 use crate::ray::{Ray, RayBatch};
@@ -181,16 +181,7 @@ impl Setup {
             &mut s.axis[2],
             _mm256_castps_si256(k.of(axes[0], axes[1], axes[2])),
         );
-        // The lanes traced: finite origin and direction (`x - x == 0` is false on NaN and
-        // infinities), `d[kz] != 0` (a direction that is not zero), and `tmin <= tmax`
-        // (false on NaN).
-        let mut ok = _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_NEQ_OQ>(dz, zero),
-            _mm256_cmp_ps::<_CMP_LE_OQ>(load(&l.tmin), load(&l.tmax)),
-        );
-        for v in o.into_iter().chain(d) {
-            ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_EQ_OQ>(_mm256_sub_ps(v, v), zero));
-        }
+        let ok = traced(&o, &d, load(&l.tmin), load(&l.tmax));
         s.valid = _mm256_movemask_ps(ok) as u32 & ((1u32 << n.min(PACKET)) - 1);
         s
     }
@@ -221,6 +212,25 @@ impl Setup {
             [self.shear[0][r], self.shear[1][r], self.shear[2][r]],
         )
     }
+}
+
+/// All ones in the lanes whose ray the single walk traces at all (those `RayShear::new`
+/// accepts, with a range that is not empty or NaN): finite origin and direction (`x - x == 0`
+/// is false for NaN and infinities), a direction that is not zero, and `tmin <= tmax` (false
+/// on NaN).
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(crate) fn traced(o: &[__m256; 3], d: &[__m256; 3], tmin: __m256, tmax: __m256) -> __m256 {
+    let zero = _mm256_setzero_ps();
+    let mut nonzero = zero;
+    let mut ok = _mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax);
+    for a in 0..3 {
+        nonzero = _mm256_or_ps(nonzero, _mm256_cmp_ps::<_CMP_NEQ_OQ>(d[a], zero));
+        for v in [o[a], d[a]] {
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_EQ_OQ>(_mm256_sub_ps(v, v), zero));
+        }
+    }
+    _mm256_and_ps(ok, nonzero)
 }
 
 /// Lane-wise choice among three rows by the dominant axis.

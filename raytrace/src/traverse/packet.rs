@@ -61,12 +61,12 @@ pub(crate) fn reduced_lanes(
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::{
-        __m256, __m256i, _CMP_EQ_OQ, _CMP_LE_OQ, _CMP_NEQ_OQ, _mm256_add_epi32, _mm256_and_ps,
-        _mm256_and_si256, _mm256_blendv_ps, _mm256_castps_si256, _mm256_castsi256_ps,
-        _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps,
-        _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set1_epi32,
-        _mm256_set1_ps, _mm256_setr_epi32, _mm256_setzero_ps, _mm256_setzero_si256,
-        _mm256_srai_epi32, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps, _mm256_xor_ps,
+        __m256, __m256i, _CMP_LE_OQ, _mm256_add_epi32, _mm256_and_ps, _mm256_and_si256,
+        _mm256_blendv_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
+        _mm256_cmpeq_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps,
+        _mm256_movemask_ps, _mm256_mul_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32,
+        _mm256_setzero_si256, _mm256_srai_epi32, _mm256_storeu_si256, _mm256_sub_epi32,
+        _mm256_sub_ps, _mm256_xor_ps,
     };
 
     use std::mem::MaybeUninit;
@@ -76,6 +76,7 @@ mod avx2 {
     use crate::ray::RayBatch;
     use crate::slab::far_scale;
     use crate::traverse::counts::Counts;
+    use crate::traverse::lanes::traced;
     use crate::traverse::walk::{Walk, near_child_first};
 
     /// Eight rays in lanes.
@@ -221,27 +222,7 @@ mod avx2 {
             tmax: load(&col(&rays.tmax)),
             scale: _mm256_set1_ps(far_scale()),
         };
-        // The rays the scalar walk traces at all (those `RayShear::new` accepts, with a
-        // range that is not empty or NaN), lane-wise: finite origin and direction (`x - x ==
-        // 0` is false for NaN and infinities), a direction that is not zero, and `tmin <=
-        // tmax` (false on NaN).
-        let finite =
-            |v: __m256| _mm256_cmp_ps::<_CMP_EQ_OQ>(_mm256_sub_ps(v, v), _mm256_setzero_ps());
-        let nonzero = |v: __m256| _mm256_cmp_ps::<_CMP_NEQ_OQ>(v, _mm256_setzero_ps());
-        let ok = [
-            finite(lanes.org[0]),
-            finite(lanes.org[1]),
-            finite(lanes.org[2]),
-            finite(d[0]),
-            finite(d[1]),
-            finite(d[2]),
-            _mm256_or_ps(_mm256_or_ps(nonzero(d[0]), nonzero(d[1])), nonzero(d[2])),
-            _mm256_cmp_ps::<_CMP_LE_OQ>(lanes.tmin, lanes.tmax),
-        ]
-        .into_iter()
-        .fold(_mm256_castsi256_ps(_mm256_set1_epi32(-1)), |a, b| {
-            _mm256_and_ps(a, b)
-        });
+        let ok = traced(&lanes.org, &d, lanes.tmin, lanes.tmax);
         let valid = _mm256_movemask_ps(ok) & ((1i32 << n) - 1);
         // Per axis, the traced lanes whose direction has its sign bit set: none or all of
         // them on every axis makes the packet uniform.
