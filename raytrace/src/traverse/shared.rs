@@ -120,35 +120,49 @@ impl Bvh {
             } else if count == 0 {
                 // SAFETY: `child` is 0 or an inner child index written by `WideBvh::collapse`.
                 let node = unsafe { nodes.get_unchecked(child as usize) };
-                let mut rows = 0u64;
-                // Closest hits: each child's nearest entry over the rays that hit it, the order
-                // key and the bound a waiting child is culled by. Any hits take neither.
-                let mut near = [f32::from_bits(u32::MAX); WIDTH];
-                // SAFETY: the CPU has AVX2 (see `# Safety`).
-                let rel = one_origin.then(|| unsafe { simd::relative(node, &origin) });
-                let mut each = m;
-                while each != 0 {
-                    let r = each.trailing_zeros() as usize;
-                    each &= each - 1;
-                    // SAFETY: the CPU has AVX2 (see `# Safety`), and `rel` is taken from every
-                    // ray's origin.
-                    let (hit, t) = unsafe {
-                        match &rel {
-                            Some(rel) => boxes[r].hit8_from(rel, tmin[r], cull[r]),
-                            None => boxes[r].hit8::<true>(node, tmin[r], cull[r]),
-                        }
-                    };
-                    rows |= u64::from(hit) << (8 * r);
-                    if counting && (child != 0 || hit != 0) {
-                        counts[r].nodes += 1;
+                // SAFETY: the CPU has AVX2 (see `# Safety`); `relative` is taken from every
+                // ray's origin.
+                let h = unsafe {
+                    macro_rules! test {
+                        ($near:literal) => {
+                            if one_origin {
+                                let rel = simd::relative(node, &origin);
+                                simd::packet_node::<false, $near>(
+                                    &boxes,
+                                    m,
+                                    rel.rows(),
+                                    &tmin,
+                                    &cull,
+                                )
+                            } else {
+                                simd::packet_node::<true, $near>(
+                                    &boxes,
+                                    m,
+                                    &node.planes,
+                                    &tmin,
+                                    &cull,
+                                )
+                            }
+                        };
                     }
-                    if !any {
-                        // SAFETY: the CPU has AVX2 (see `# Safety`).
-                        unsafe { simd::min_entry(&mut near, hit, &t) };
+                    // Closest hits: each child's nearest entry over the rays that hit it, the
+                    // order key and the bound a waiting child is culled by. Any hits take
+                    // neither.
+                    if any { test!(false) } else { test!(true) }
+                };
+                if counting {
+                    let met = h.cols.iter().fold(0, |a, &c| a | c);
+                    let mut each = m;
+                    while each != 0 {
+                        let r = each.trailing_zeros() as usize;
+                        each &= each - 1;
+                        if child != 0 || met & (1 << r) != 0 {
+                            counts[r].nodes += 1;
+                        }
                     }
                 }
-                let cols = transpose8(rows);
-                let mut kids = nonzero_bytes(cols);
+                let (cols, near) = (h.cols, h.near);
+                let mut kids = h.kids;
                 if kids != 0 {
                     if counting {
                         // A counted packet is an estimate's sample: its children are cold.
@@ -158,7 +172,7 @@ impl Bvh {
                     macro_rules! push {
                         ($k:expr) => {{
                             let k: usize = $k;
-                            let rays = (cols >> (8 * k)) as u32 & 0xFF;
+                            let rays = cols[k];
                             // The stack holds at most `WIDTH - 1` entries per wide level.
                             stack[sp].write((node.child[k], node.count[k], rays, near[k]));
                             sp += 1;
@@ -171,7 +185,7 @@ impl Bvh {
                     // shuffled AO rays: 4-9 % faster on Sibenik, the bunny, Conference and
                     // the dragon; ordering by the box's distance from a shared origin, once a
                     // node, gained nothing). Closest-hit rays take the nearest first and push
-                    // the others farthest first, keys compared as bits, as `min_entry` made
+                    // the others farthest first, keys compared as bits, as `packet_node` made
                     // them.
                     let first = if any {
                         let first = kids.trailing_zeros() as usize;
@@ -203,7 +217,7 @@ impl Bvh {
                     };
                     child = node.child[first];
                     count = node.count[first];
-                    m = (cols >> (8 * first)) as u32 & 0xFF;
+                    m = cols[first];
                     continue;
                 }
             } else {
@@ -262,27 +276,6 @@ impl Bvh {
     }
 }
 
-/// `rows` with byte `r` bit `k` moved to byte `k` bit `r`: the rays that hit child `k`, from
-/// the children each ray hits (three delta swaps, Hacker's Delight 7-3).
-#[inline(always)]
-pub(super) fn transpose8(mut x: u64) -> u64 {
-    let t = (x ^ (x >> 7)) & 0x00AA_00AA_00AA_00AA;
-    x ^= t ^ (t << 7);
-    let t = (x ^ (x >> 14)) & 0x0000_CCCC_0000_CCCC;
-    x ^= t ^ (t << 14);
-    let t = (x ^ (x >> 28)) & 0x0000_0000_F0F0_F0F0;
-    x ^ t ^ (t << 28)
-}
-
-/// A bit per non-zero byte of `x`.
-#[inline(always)]
-pub(super) fn nonzero_bytes(x: u64) -> u32 {
-    let mut t = x | (x >> 4);
-    t |= t >> 2;
-    t |= t >> 1;
-    ((t & 0x0101_0101_0101_0101).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
-}
-
 #[cfg(test)]
 mod tests {
     use glam::Vec3;
@@ -332,21 +325,6 @@ mod tests {
             "{hits} of {}",
             rays.len()
         );
-    }
-
-    #[test]
-    fn the_transpose_moves_every_bit_and_the_byte_flags_match() {
-        let mut rng = crate::Rng::new(crate::testkit::seed(23));
-        for _ in 0..2_000 {
-            let x = rng.next_u64();
-            let y = transpose8(x);
-            for r in 0..8 {
-                for k in 0..8 {
-                    assert_eq!((x >> (8 * r + k)) & 1, (y >> (8 * k + r)) & 1, "{x:#x}");
-                }
-                assert_eq!(nonzero_bytes(x) >> r & 1 != 0, (x >> (8 * r)) & 0xFF != 0);
-            }
-        }
     }
 
     /// Primary rays (one origin, Morton order) with runs of other rays mixed in: other

@@ -112,19 +112,6 @@ impl Box8Ray {
         }
     }
 
-    /// [`Box8Ray::hit8`] of a node whose planes, less this ray's origin, are `rel`
-    /// ([`relative`]): the same operations on the same values, so the same bits, less the
-    /// subtraction that rays of one origin share.
-    ///
-    /// # Safety
-    /// The CPU must have AVX2, and `rel` be taken from this ray's origin, bit for bit.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    pub(crate) unsafe fn hit8_from(&self, rel: &Planes8, tmin: f32, tmax: f32) -> Hits8 {
-        // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
-        unsafe { x86::hit8_from_avx2(self, rel, tmin, tmax) }
-    }
-
     /// [`Box8Ray::hit8`] lane by lane, as [`crate::slab`]'s scalar test does it.
     #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
     pub(crate) fn hit8_scalar(&self, node: &Node8, tmin: f32, tmax: f32) -> Hits8 {
@@ -150,9 +137,16 @@ impl Box8Ray {
 }
 
 /// A node's box planes less a point, by row as in [`Node8::planes`]: the first step of the
-/// box test of every ray from that point, taken once for all of them ([`Box8Ray::hit8_from`]).
+/// box test of every ray from that point, taken once for all of them ([`packet_node`]).
 #[repr(C, align(32))]
 pub(crate) struct Planes8([[f32; WIDTH]; 6]);
+
+impl Planes8 {
+    /// The rows, as [`Node8::planes`] holds a node's own.
+    pub(crate) fn rows(&self) -> &[[f32; WIDTH]; 6] {
+        &self.0
+    }
+}
 
 /// `node`'s planes less `org` ([`Planes8`]).
 ///
@@ -163,6 +157,35 @@ pub(crate) struct Planes8([[f32; WIDTH]; 6]);
 pub(crate) unsafe fn relative(node: &Node8, org: &[f32; 3]) -> Planes8 {
     // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
     unsafe { x86::relative_avx2(node, org) }
+}
+
+/// A packet's test of one node's eight children: the children any ray hits (`kids`), the
+/// rays that hit each (`cols[k]`, a bit per ray) and, where asked, each child's nearest entry
+/// over those rays (`near`, as bits: non-negative floats order as their bits).
+pub(crate) struct PacketHits {
+    pub(crate) kids: u32,
+    pub(crate) cols: [u32; WIDTH],
+    pub(crate) near: [f32; WIDTH],
+}
+
+/// Every ray of `rays` (a bit per ray of `boxes`) tested against the eight boxes whose planes
+/// are `p` (with `SUB`, a node's own planes; without, its planes less the rays' one origin,
+/// [`relative`]), each with its own `[tmin, bound]`: each ray's [`Box8Ray::hit8`], bit for bit,
+/// gathered by child in vector lanes instead of a mask per ray. `NEAR` folds the entries.
+///
+/// # Safety
+/// The CPU must have AVX2; without `SUB`, `p` must be taken from every ray's origin.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) unsafe fn packet_node<const SUB: bool, const NEAR: bool>(
+    boxes: &[Box8Ray; 8],
+    rays: u32,
+    p: &[[f32; WIDTH]; 6],
+    tmin: &[f32; 8],
+    bound: &[f32; 8],
+) -> PacketHits {
+    // SAFETY: as the caller states (see `# Safety`).
+    unsafe { x86::packet_node_avx2::<SUB, NEAR>(boxes, rays, p, tmin, bound) }
 }
 
 /// The slot of the nearest child among those `mask` sets (the first slot on a tie); `mask`
@@ -180,19 +203,6 @@ pub(crate) unsafe fn nearest<const AVX2: bool>(mask: u32, near: &[f32; WIDTH]) -
         return unsafe { x86::nearest_avx2(mask, near) };
     }
     nearest_scalar(mask, near)
-}
-
-/// Folds a box test's entry distances into `acc`, lane by lane, as the bits of the nearer float
-/// (`acc` starts as `u32::MAX`; lanes not in `mask` leave it as it is): the nearest entry into
-/// each child over several rays, for [`nearest`] (non-negative floats order as their bits).
-///
-/// # Safety
-/// The CPU must have AVX2.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-pub(crate) unsafe fn min_entry(acc: &mut [f32; WIDTH], mask: u32, near: &[f32; WIDTH]) {
-    // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
-    unsafe { x86::min_entry_avx2(acc, mask, near) }
 }
 
 /// The lanes whose `bound` is at or beyond `t`, as a bit each: the rays of a packet whose
@@ -429,15 +439,16 @@ mod x86 {
         _mm_cmplt_ps, _mm_load_ps, _mm_loadu_ps, _mm_max_ps, _mm_min_ps, _mm_movemask_ps,
         _mm_mul_ps, _mm_or_ps, _mm_set1_epi32, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps,
         _mm_sub_ps, _mm_xor_ps, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_andnot_ps,
-        _mm256_andnot_si256, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32,
-        _mm256_cvtsi256_si32, _mm256_load_ps, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_ps,
-        _mm256_min_epu32, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps,
-        _mm256_or_si256, _mm256_permute2x128_si256, _mm256_set_m128, _mm256_set1_epi32,
-        _mm256_set1_ps, _mm256_setr_epi32, _mm256_setzero_ps, _mm256_shuffle_epi32,
+        _mm256_andnot_si256, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
+        _mm256_cmpeq_epi32, _mm256_cmpgt_epi32, _mm256_cvtsi256_si32, _mm256_load_ps,
+        _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_ps, _mm256_min_epu32, _mm256_min_ps,
+        _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_or_si256,
+        _mm256_permute2x128_si256, _mm256_set_m128, _mm256_set1_epi32, _mm256_set1_ps,
+        _mm256_setr_epi32, _mm256_setzero_ps, _mm256_setzero_si256, _mm256_shuffle_epi32,
         _mm256_store_ps, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_xor_ps,
     };
 
-    use super::{Box8Ray, Hits8, Planes8, Shear4, TriHits, WIDTH};
+    use super::{Box8Ray, Hits8, PacketHits, Planes8, Shear4, TriHits, WIDTH};
     use crate::bvh::wide::{Node8, Tri4};
 
     #[inline(always)]
@@ -491,17 +502,6 @@ mod x86 {
         unsafe { slabs_avx2::<true>(r, &node.planes, tmin, tmax) }
     }
 
-    /// [`super::Box8Ray::hit8_from`].
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub(super) unsafe fn hit8_from_avx2(r: &Box8Ray, rel: &Planes8, tmin: f32, tmax: f32) -> Hits8 {
-        // SAFETY: as the caller states (see `# Safety`).
-        unsafe { slabs_avx2::<false>(r, &rel.0, tmin, tmax) }
-    }
-
     /// [`super::relative`].
     ///
     /// # Safety
@@ -528,12 +528,12 @@ mod x86 {
     /// The CPU must have AVX2.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn slabs_avx2<const SUB: bool>(
+    unsafe fn slab_lanes_avx2<const SUB: bool>(
         r: &Box8Ray,
         p: &[[f32; WIDTH]; 6],
         tmin: f32,
         tmax: f32,
-    ) -> Hits8 {
+    ) -> (__m256, __m256) {
         let mut t0 = _mm256_set1_ps(tmin);
         let mut t1 = _mm256_set1_ps(f32::INFINITY);
         for a in 0..3 {
@@ -565,11 +565,84 @@ mod x86 {
             _mm256_mul_ps(t1, _mm256_set1_ps(r.scale)),
             _mm256_set1_ps(tmax),
         );
-        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
+        (_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1), t0)
+    }
+
+    /// The slab test of eight boxes, their planes `p` by row as in [`Node8::planes`]: with
+    /// `SUB` the planes themselves, less the ray's origin here; without, already less it.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn slabs_avx2<const SUB: bool>(
+        r: &Box8Ray,
+        p: &[[f32; WIDTH]; 6],
+        tmin: f32,
+        tmax: f32,
+    ) -> Hits8 {
+        // SAFETY: as the caller states (see `# Safety`).
+        let (hit, t0) = unsafe { slab_lanes_avx2::<SUB>(r, p, tmin, tmax) };
         let mut near = [0f32; WIDTH];
         // SAFETY: `near` is eight writable floats.
         unsafe { _mm256_storeu_ps(near.as_mut_ptr(), t0) };
-        (mask, near)
+        (_mm256_movemask_ps(hit) as u32, near)
+    }
+
+    /// [`super::packet_node`].
+    ///
+    /// # Safety
+    /// As [`super::packet_node`] states.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn packet_node_avx2<const SUB: bool, const NEAR: bool>(
+        boxes: &[Box8Ray; 8],
+        rays: u32,
+        p: &[[f32; WIDTH]; 6],
+        tmin: &[f32; 8],
+        bound: &[f32; 8],
+    ) -> PacketHits {
+        let mut cols = _mm256_setzero_si256();
+        let mut near = _mm256_set1_epi32(-1);
+        let mut each = rays;
+        while each != 0 {
+            let r = each.trailing_zeros() as usize;
+            each &= each - 1;
+            // SAFETY: `r < 8`, as `rays` is a byte; the caller vouches for the CPU and `p`.
+            let (hit, t0) = unsafe {
+                slab_lanes_avx2::<SUB>(
+                    boxes.get_unchecked(r),
+                    p,
+                    *tmin.get_unchecked(r),
+                    *bound.get_unchecked(r),
+                )
+            };
+            let hit = _mm256_castps_si256(hit);
+            cols = _mm256_or_si256(cols, _mm256_and_si256(hit, _mm256_set1_epi32(1 << r)));
+            if NEAR {
+                // Non-negative floats order as their bits; lanes missed keep the accumulator.
+                let t = _mm256_or_si256(
+                    _mm256_castps_si256(t0),
+                    _mm256_andnot_si256(hit, _mm256_set1_epi32(-1)),
+                );
+                near = _mm256_min_epu32(near, t);
+            }
+        }
+        let kids = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(
+            cols,
+            _mm256_setzero_si256(),
+        ))) as u32;
+        let mut out = PacketHits {
+            kids,
+            cols: [0; WIDTH],
+            near: [0.0; WIDTH],
+        };
+        // SAFETY: both arrays are eight writable words.
+        unsafe {
+            _mm256_storeu_si256(out.cols.as_mut_ptr().cast(), cols);
+            _mm256_storeu_si256(out.near.as_mut_ptr().cast(), near);
+        }
+        out
     }
 
     /// [`super::nearest`] in 256-bit registers: each lane's distance as an integer key, its
@@ -614,22 +687,6 @@ mod x86 {
         // SAFETY: `bound` is eight readable floats.
         let b = unsafe { _mm256_loadu_ps(bound.as_ptr()) };
         _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_set1_ps(t), b)) as u32
-    }
-
-    /// [`super::min_entry`].
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub(super) unsafe fn min_entry_avx2(acc: &mut [f32; WIDTH], mask: u32, near: &[f32; WIDTH]) {
-        // SAFETY: `acc` and `near` are eight floats each.
-        unsafe {
-            let t = _mm256_loadu_si256(near.as_ptr().cast());
-            let t = _mm256_or_si256(t, _mm256_andnot_si256(lanes(mask), _mm256_set1_epi32(-1)));
-            let a = _mm256_loadu_si256(acc.as_ptr().cast());
-            _mm256_storeu_si256(acc.as_mut_ptr().cast(), _mm256_min_epu32(a, t));
-        }
     }
 
     /// The lane operations of the watertight kernel at one width, each compiled for the
@@ -955,11 +1012,23 @@ mod tests {
             if avx2() {
                 // SAFETY: AVX2 was just detected.
                 kernels.push(unsafe { br.hit8::<true>(&node, ray.tmin, ray.tmax) });
-                // SAFETY: as above; the planes are taken from this ray's origin.
-                kernels.push(unsafe {
+                // A packet of this ray in every lane, testing the node's planes and the planes
+                // less the ray's origin: each lane's bits and entries are the ray's own.
+                let (tmin, tmax) = ([ray.tmin; 8], [ray.tmax; 8]);
+                // SAFETY: as above; the planes are taken from every ray's origin.
+                let packets = unsafe {
                     let rel = relative(&node, &ray.origin.to_array());
-                    br.hit8_from(&rel, ray.tmin, ray.tmax)
-                });
+                    [
+                        packet_node::<true, true>(&[br; 8], 0xFF, &node.planes, &tmin, &tmax),
+                        packet_node::<false, true>(&[br; 8], 0xFF, rel.rows(), &tmin, &tmax),
+                    ]
+                };
+                for p in packets {
+                    let m = (0..WIDTH).fold(0, |m, k| m | u32::from(p.cols[k] != 0) << k);
+                    assert_eq!(p.kids, m);
+                    assert!(p.cols.iter().all(|&c| c == 0 || c == 0xFF));
+                    kernels.push((m, p.near));
+                }
             }
             for (m, t) in kernels {
                 assert_eq!(m, ms, "{ray:?} {node:?} (COBALT_SEED={seed})");
