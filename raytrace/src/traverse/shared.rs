@@ -280,7 +280,6 @@ impl Bvh {
 mod tests {
     use glam::Vec3;
 
-    use super::*;
     use crate::traverse::{Layout, any_hits, closest_hits};
     use crate::{Ray, RayBatch, testkit, workload};
 
