@@ -2,8 +2,8 @@
 //! of their box and triangle tests set up for all of them at once ([`Setup`]).
 //!
 //! Set up one ray at a time, a packet's rays cost six scalar divisions each, and the choice
-//! of each ray's shear axes; for short AO rays that was a quarter of the whole trace. Here every step is one AVX2 operation for the eight
-//! lanes, the same IEEE operation as the scalar set-up's ([`Box8Ray::new`],
+//! of each ray's shear axes; for short AO rays that was a quarter of the whole trace. Here
+//! every step is one AVX2 operation for eight lanes, the same IEEE operation as the scalar set-up's ([`Box8Ray::new`],
 //! [`RayShear::new`]), so every lane's values equal the scalar ones bit for bit (a test below
 //! checks it).
 //!
@@ -21,9 +21,12 @@ use std::arch::x86_64::{
 use crate::ray::{Ray, RayBatch};
 use crate::traverse::simd::{Box8Ray, Shear4};
 
-/// Rays walked together at most: one bit each in a byte of a node's masks
-/// ([`crate::traverse::shared`]), one lane each of an AVX2 register here.
-pub(crate) const PACKET: usize = 8;
+/// Rays walked together at most: one bit each in a node's masks
+/// ([`crate::traverse::shared`]), one lane each of two AVX2 registers here.
+pub(crate) const PACKET: usize = 16;
+
+/// The eight-lane halves of a packet: an AVX2 register's worth each.
+pub(crate) const HALVES: usize = PACKET / 8;
 
 /// Up to [`PACKET`] rays, each field a row of lanes.
 #[derive(Clone, Copy)]
@@ -75,13 +78,14 @@ impl Lanes {
             == [self.o[0][0], self.o[1][0], self.o[2][0]].map(f32::to_bits)
     }
 
-    /// Lane 0's origin, and whether the first `n` lanes all start there, bit for bit.
+    /// Each eight-lane half's first origin, and whether the first `n` lanes all start at
+    /// their half's, bit for bit.
     #[inline(always)]
-    pub(crate) fn one_origin(&self, n: usize) -> ([f32; 3], bool) {
-        let first = [self.o[0][0], self.o[1][0], self.o[2][0]];
-        let same = (1..n).all(|r| {
-            [self.o[0][r], self.o[1][r], self.o[2][r]].map(f32::to_bits) == first.map(f32::to_bits)
-        });
+    pub(crate) fn half_origins(&self, n: usize) -> ([[f32; 3]; HALVES], bool) {
+        let at = |r: usize| [self.o[0][r], self.o[1][r], self.o[2][r]];
+        let first: [[f32; 3]; HALVES] = std::array::from_fn(|h| at(8 * h));
+        let same =
+            (0..n.min(PACKET)).all(|r| at(r).map(f32::to_bits) == first[r / 8].map(f32::to_bits));
         (first, same)
     }
 }
@@ -115,11 +119,6 @@ impl Setup {
     pub(crate) unsafe fn new(l: &Lanes, n: usize) -> Self {
         // No closures here: they would not be compiled for AVX2, and the intrinsics in them
         // would not inline.
-        let o = [load(&l.o[0]), load(&l.o[1]), load(&l.o[2])];
-        let d = [load(&l.d[0]), load(&l.d[1]), load(&l.d[2])];
-        let zero = _mm256_setzero_ps();
-        let one = _mm256_set1_ps(1.0);
-        let ones = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
         let mut s = Setup {
             org: l.o,
             inv: [[0.0; PACKET]; 3],
@@ -130,59 +129,69 @@ impl Setup {
             shear: [[0.0; PACKET]; 3],
             valid: 0,
         };
-        // The box test: `1 / d`, and the near plane the max row where `d`'s sign bit is set.
-        for (a, &da) in d.iter().enumerate() {
-            let neg = _mm256_and_si256(
-                _mm256_srai_epi32::<31>(_mm256_castps_si256(da)),
-                _mm256_set1_epi32(3),
+        // Eight lanes a step.
+        for h in (0..PACKET).step_by(8) {
+            let o = [load(&l.o[0], h), load(&l.o[1], h), load(&l.o[2], h)];
+            let d = [load(&l.d[0], h), load(&l.d[1], h), load(&l.d[2], h)];
+            let zero = _mm256_setzero_ps();
+            let one = _mm256_set1_ps(1.0);
+            let ones = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+            // The box test: `1 / d`, and the near plane the max row where `d`'s sign bit is set.
+            for (a, &da) in d.iter().enumerate() {
+                let neg = _mm256_and_si256(
+                    _mm256_srai_epi32::<31>(_mm256_castps_si256(da)),
+                    _mm256_set1_epi32(3),
+                );
+                let row = _mm256_set1_epi32(a as i32);
+                store(&mut s.inv[a], h, _mm256_div_ps(one, da));
+                store_i(&mut s.near[a], h, _mm256_add_epi32(row, neg));
+                let far = _mm256_sub_epi32(_mm256_add_epi32(row, _mm256_set1_epi32(3)), neg);
+                store_i(&mut s.far[a], h, far);
+            }
+            // The shear: the dominant axis `kz` (x on a tie with y or z, then y on a tie with z),
+            // `kx` and `ky` the next two, swapped where `d[kz] < 0`, as `RayShear::new` picks them.
+            let sign = _mm256_set1_ps(-0.0);
+            let (ax, ay, az) = (
+                _mm256_andnot_ps(sign, d[0]),
+                _mm256_andnot_ps(sign, d[1]),
+                _mm256_andnot_ps(sign, d[2]),
             );
-            let row = _mm256_set1_epi32(a as i32);
-            store(&mut s.inv[a], _mm256_div_ps(one, da));
-            store_i(&mut s.near[a], _mm256_add_epi32(row, neg));
-            let far = _mm256_sub_epi32(_mm256_add_epi32(row, _mm256_set1_epi32(3)), neg);
-            store_i(&mut s.far[a], far);
+            let x_wins = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GE_OQ>(ax, ay),
+                _mm256_cmp_ps::<_CMP_GE_OQ>(ax, az),
+            );
+            let y_wins = _mm256_cmp_ps::<_CMP_GE_OQ>(ay, az);
+            let k = Pick {
+                y: _mm256_andnot_ps(x_wins, y_wins),
+                z: _mm256_andnot_ps(x_wins, _mm256_andnot_ps(y_wins, ones)),
+                swap: zero,
+            };
+            let dz = k.of(d[0], d[1], d[2]);
+            let k = Pick {
+                swap: _mm256_cmp_ps::<_CMP_LT_OQ>(dz, zero),
+                ..k
+            };
+            let (dx, dy) = k.next(d);
+            let (ox, oy) = k.next(o);
+            let axes = [int(0), int(1), int(2)];
+            let (kx, ky) = k.next(axes);
+            store(&mut s.shear_org[0], h, ox);
+            store(&mut s.shear_org[1], h, oy);
+            store(&mut s.shear_org[2], h, k.of(o[0], o[1], o[2]));
+            store(&mut s.shear[0], h, _mm256_div_ps(dx, dz));
+            store(&mut s.shear[1], h, _mm256_div_ps(dy, dz));
+            store(&mut s.shear[2], h, _mm256_div_ps(one, dz));
+            store_i(&mut s.axis[0], h, _mm256_castps_si256(kx));
+            store_i(&mut s.axis[1], h, _mm256_castps_si256(ky));
+            store_i(
+                &mut s.axis[2],
+                h,
+                _mm256_castps_si256(k.of(axes[0], axes[1], axes[2])),
+            );
+            let ok = traced(&o, &d, load(&l.tmin, h), load(&l.tmax, h));
+            s.valid |= (_mm256_movemask_ps(ok) as u32) << h;
         }
-        // The shear: the dominant axis `kz` (x on a tie with y or z, then y on a tie with z),
-        // `kx` and `ky` the next two, swapped where `d[kz] < 0`, as `RayShear::new` picks them.
-        let sign = _mm256_set1_ps(-0.0);
-        let (ax, ay, az) = (
-            _mm256_andnot_ps(sign, d[0]),
-            _mm256_andnot_ps(sign, d[1]),
-            _mm256_andnot_ps(sign, d[2]),
-        );
-        let x_wins = _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_GE_OQ>(ax, ay),
-            _mm256_cmp_ps::<_CMP_GE_OQ>(ax, az),
-        );
-        let y_wins = _mm256_cmp_ps::<_CMP_GE_OQ>(ay, az);
-        let k = Pick {
-            y: _mm256_andnot_ps(x_wins, y_wins),
-            z: _mm256_andnot_ps(x_wins, _mm256_andnot_ps(y_wins, ones)),
-            swap: zero,
-        };
-        let dz = k.of(d[0], d[1], d[2]);
-        let k = Pick {
-            swap: _mm256_cmp_ps::<_CMP_LT_OQ>(dz, zero),
-            ..k
-        };
-        let (dx, dy) = k.next(d);
-        let (ox, oy) = k.next(o);
-        let axes = [int(0), int(1), int(2)];
-        let (kx, ky) = k.next(axes);
-        store(&mut s.shear_org[0], ox);
-        store(&mut s.shear_org[1], oy);
-        store(&mut s.shear_org[2], k.of(o[0], o[1], o[2]));
-        store(&mut s.shear[0], _mm256_div_ps(dx, dz));
-        store(&mut s.shear[1], _mm256_div_ps(dy, dz));
-        store(&mut s.shear[2], _mm256_div_ps(one, dz));
-        store_i(&mut s.axis[0], _mm256_castps_si256(kx));
-        store_i(&mut s.axis[1], _mm256_castps_si256(ky));
-        store_i(
-            &mut s.axis[2],
-            _mm256_castps_si256(k.of(axes[0], axes[1], axes[2])),
-        );
-        let ok = traced(&o, &d, load(&l.tmin), load(&l.tmax));
-        s.valid = _mm256_movemask_ps(ok) as u32 & ((1u32 << n.min(PACKET)) - 1);
+        s.valid &= (1u32 << n.min(PACKET)) - 1;
         s
     }
 
@@ -274,25 +283,25 @@ fn int(k: i32) -> __m256 {
 /// Eight lanes from a row.
 #[target_feature(enable = "avx2")]
 #[inline]
-fn load(a: &[f32; PACKET]) -> __m256 {
-    // SAFETY: `a` is eight readable floats.
-    unsafe { _mm256_loadu_ps(a.as_ptr()) }
+fn load(a: &[f32; PACKET], h: usize) -> __m256 {
+    // SAFETY: lanes `h..h + 8` of `a` are readable (the callers step `h` by eight).
+    unsafe { _mm256_loadu_ps(a[h..h + 8].as_ptr()) }
 }
 
 /// Eight lanes into a row.
 #[target_feature(enable = "avx2")]
 #[inline]
-fn store(out: &mut [f32; PACKET], v: __m256) {
-    // SAFETY: `out` is eight writable floats.
-    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) }
+fn store(out: &mut [f32; PACKET], h: usize, v: __m256) {
+    // SAFETY: lanes `h..h + 8` of `out` are writable.
+    unsafe { _mm256_storeu_ps(out[h..h + 8].as_mut_ptr(), v) }
 }
 
 /// Eight integer lanes into a row.
 #[target_feature(enable = "avx2")]
 #[inline]
-fn store_i(out: &mut [u32; PACKET], v: __m256i) {
-    // SAFETY: `out` is eight writable `u32`s.
-    unsafe { _mm256_storeu_si256(out.as_mut_ptr().cast(), v) }
+fn store_i(out: &mut [u32; PACKET], h: usize, v: __m256i) {
+    // SAFETY: lanes `h..h + 8` of `out` are writable.
+    unsafe { _mm256_storeu_si256(out[h..h + 8].as_mut_ptr().cast(), v) }
 }
 
 #[cfg(test)]
@@ -305,7 +314,7 @@ mod tests {
 
     /// Every lane's set-up equals the scalar one bit for bit, and a lane is valid exactly where
     /// the single walk traces its ray: random rays, and rays with zero, negative-zero, tied,
-    /// infinite and NaN components, and empty and NaN ranges, in packets of one to eight.
+    /// infinite and NaN components, and empty and NaN ranges, in packets of one to sixteen.
     #[test]
     fn lanes_set_up_as_each_ray_alone() {
         let mut rng = Rng::new(testkit::seed(41));

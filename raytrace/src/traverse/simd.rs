@@ -169,23 +169,25 @@ pub(crate) struct PacketHits {
 }
 
 /// Every ray of `rays` (a bit per ray of `boxes`) tested against the eight boxes whose planes
-/// are `p` (with `SUB`, a node's own planes; without, its planes less the rays' one origin,
-/// [`relative`]), each with its own `[tmin, bound]`: each ray's [`Box8Ray::hit8`], bit for bit,
+/// are `p` (with `SUB`, a node's own planes; without, its planes less the rays' origin,
+/// [`relative`]: with `APART`, `p[h]` for the rays of half `h` of the packet, else `p[0]` for
+/// all), each with its own `[tmin, bound]`: each ray's [`Box8Ray::hit8`], bit for bit,
 /// gathered by child in vector lanes instead of a mask per ray. `NEAR` folds the entries.
 ///
 /// # Safety
-/// The CPU must have AVX2; without `SUB`, `p` must be taken from every ray's origin.
+/// The CPU must have AVX2; without `SUB`, the planes a ray reads must be taken from its
+/// origin.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(crate) unsafe fn packet_node<const SUB: bool, const NEAR: bool>(
-    boxes: &[Box8Ray; 8],
+pub(crate) unsafe fn packet_node<const SUB: bool, const APART: bool, const NEAR: bool>(
+    boxes: &[Box8Ray; crate::traverse::lanes::PACKET],
     rays: u32,
-    p: &[[f32; WIDTH]; 6],
-    tmin: &[f32; 8],
-    bound: &[f32; 8],
+    p: [&[[f32; WIDTH]; 6]; crate::traverse::lanes::HALVES],
+    tmin: &[f32; crate::traverse::lanes::PACKET],
+    bound: &[f32; crate::traverse::lanes::PACKET],
 ) -> PacketHits {
     // SAFETY: as the caller states (see `# Safety`).
-    unsafe { x86::packet_node_avx2::<SUB, NEAR>(boxes, rays, p, tmin, bound) }
+    unsafe { x86::packet_node_avx2::<SUB, APART, NEAR>(boxes, rays, p, tmin, bound) }
 }
 
 /// The slot of the nearest child among those `mask` sets (the first slot on a tie); `mask`
@@ -212,7 +214,7 @@ pub(crate) unsafe fn nearest<const AVX2: bool>(mask: u32, near: &[f32; WIDTH]) -
 /// The CPU must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(crate) unsafe fn within(t: f32, bound: &[f32; WIDTH]) -> u32 {
+pub(crate) unsafe fn within(t: f32, bound: &[f32; crate::traverse::lanes::PACKET]) -> u32 {
     // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
     unsafe { x86::within_avx2(t, bound) }
 }
@@ -595,12 +597,12 @@ mod x86 {
     /// As [`super::packet_node`] states.
     #[target_feature(enable = "avx2")]
     #[inline]
-    pub(super) unsafe fn packet_node_avx2<const SUB: bool, const NEAR: bool>(
-        boxes: &[Box8Ray; 8],
+    pub(super) unsafe fn packet_node_avx2<const SUB: bool, const APART: bool, const NEAR: bool>(
+        boxes: &[Box8Ray; crate::traverse::lanes::PACKET],
         rays: u32,
-        p: &[[f32; WIDTH]; 6],
-        tmin: &[f32; 8],
-        bound: &[f32; 8],
+        p: [&[[f32; WIDTH]; 6]; crate::traverse::lanes::HALVES],
+        tmin: &[f32; crate::traverse::lanes::PACKET],
+        bound: &[f32; crate::traverse::lanes::PACKET],
     ) -> PacketHits {
         let mut cols = _mm256_setzero_si256();
         let mut near = _mm256_set1_epi32(-1);
@@ -608,7 +610,9 @@ mod x86 {
         while each != 0 {
             let r = each.trailing_zeros() as usize;
             each &= each - 1;
-            // SAFETY: `r < 8`, as `rays` is a byte; the caller vouches for the CPU and `p`.
+            // Rays of one origin read one set of planes, not one per half.
+            let p = if APART { p[r / 8] } else { p[0] };
+            // SAFETY: `r` is a lane of the packet; the caller vouches for the CPU and `p`.
             let (hit, t0) = unsafe {
                 slab_lanes_avx2::<SUB>(
                     boxes.get_unchecked(r),
@@ -683,10 +687,15 @@ mod x86 {
     /// The CPU must have AVX2.
     #[target_feature(enable = "avx2")]
     #[inline]
-    pub(super) unsafe fn within_avx2(t: f32, bound: &[f32; WIDTH]) -> u32 {
-        // SAFETY: `bound` is eight readable floats.
-        let b = unsafe { _mm256_loadu_ps(bound.as_ptr()) };
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_set1_ps(t), b)) as u32
+    pub(super) unsafe fn within_avx2(t: f32, bound: &[f32; crate::traverse::lanes::PACKET]) -> u32 {
+        let mut m = 0;
+        for h in (0..bound.len()).step_by(8) {
+            // SAFETY: lanes `h..h + 8` of `bound` are readable.
+            let b = unsafe { _mm256_loadu_ps(bound[h..h + 8].as_ptr()) };
+            m |=
+                (_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_set1_ps(t), b)) as u32) << h;
+        }
+        m
     }
 
     /// The lane operations of the watertight kernel at one width, each compiled for the
@@ -1013,20 +1022,25 @@ mod tests {
                 // SAFETY: AVX2 was just detected.
                 kernels.push(unsafe { br.hit8::<true>(&node, ray.tmin, ray.tmax) });
                 // A packet of this ray in every lane, testing the node's planes and the planes
-                // less the ray's origin: each lane's bits and entries are the ray's own.
-                let (tmin, tmax) = ([ray.tmin; 8], [ray.tmax; 8]);
+                // less the ray's origin (one set, and one a half): each lane's bits and
+                // entries are the ray's own.
+                use crate::traverse::lanes::{HALVES, PACKET};
+                let (tmin, tmax) = ([ray.tmin; PACKET], [ray.tmax; PACKET]);
+                let all = (1u32 << PACKET) - 1;
                 // SAFETY: as above; the planes are taken from every ray's origin.
                 let packets = unsafe {
                     let rel = relative(&node, &ray.origin.to_array());
+                    let (p, r) = ([&node.planes; HALVES], [rel.rows(); HALVES]);
                     [
-                        packet_node::<true, true>(&[br; 8], 0xFF, &node.planes, &tmin, &tmax),
-                        packet_node::<false, true>(&[br; 8], 0xFF, rel.rows(), &tmin, &tmax),
+                        packet_node::<true, false, true>(&[br; PACKET], all, p, &tmin, &tmax),
+                        packet_node::<false, false, true>(&[br; PACKET], all, r, &tmin, &tmax),
+                        packet_node::<false, true, true>(&[br; PACKET], all, r, &tmin, &tmax),
                     ]
                 };
                 for p in packets {
                     let m = (0..WIDTH).fold(0, |m, k| m | u32::from(p.cols[k] != 0) << k);
                     assert_eq!(p.kids, m);
-                    assert!(p.cols.iter().all(|&c| c == 0 || c == 0xFF));
+                    assert!(p.cols.iter().all(|&c| c == 0 || c == all));
                     kernels.push((m, p.near));
                 }
             }

@@ -17,11 +17,11 @@
 //! ([`simd::nearest`]), to within eight units in the last place, instead of a loop whose
 //! compares mispredict.
 //!
-//! A batch of any-hit queries walks every eight consecutive rays together where AVX2 runs
+//! A batch of any-hit queries walks every sixteen consecutive rays together where AVX2 runs
 //! ([`crate::traverse::shared`]): the AO rays of one hit point wait on the same nodes, which
 //! the packet fetches once, and rays of other origins share at least the upper levels (two
 //! threads, shuffled AO rays: 10–15 % faster than packets of one origin only). Closest-hit
-//! batches walk each run of up to eight consecutive rays of one origin together: a pinhole
+//! batches walk each run of up to sixteen consecutive rays of one origin together: a pinhole
 //! camera's neighbouring rays enter mostly the same
 //! nodes, and their box tests overlap instead of each waiting on its own (single-thread CPU
 //! time, primary rays: 5–22 % less on every scene measured).
@@ -143,7 +143,10 @@ impl Bvh {
         mut put: impl FnMut(usize, Option<Hit>, Counts),
     ) {
         let any = MODE == ANY || MODE == ANY_COUNTED;
-        // The run so far: its rays, by lane, and the queries they answer.
+        let counting = MODE == COUNTED || MODE == ANY_COUNTED;
+        // The run so far: its rays, by lane, and the queries they answer, and the batch index
+        // of its last ray.
+        let mut last = 0usize;
         let mut run = Lanes::ZERO;
         let mut slot = [0usize; PACKET];
         let mut len = 0usize;
@@ -202,13 +205,17 @@ impl Bvh {
                     len = 0;
                 }
             }
-            if len == PACKET {
+            // A counted packet is an estimate's sample, whose runs of adjacent rays stand for
+            // the trace's packets: rays of two runs never walk together, so that a run's
+            // counts do not depend on which run the sample puts beside it.
+            if len == PACKET || (counting && len > 0 && i != last + 1) {
                 flush!();
                 len = 0;
             }
             run.set(len, rays, i);
             slot[len] = k;
             len += 1;
+            last = i;
         }
         if len > 0 {
             flush!();
