@@ -2,9 +2,9 @@
 //! (rayon, in chunks of rays), and the trace left once a sample's rays are known.
 //!
 //! Hit batches walk the wide tree a chunk of rays per call ([`Bvh::wide_each`]), so that
-//! neighbouring rays walk together where AVX2 runs: any-hit rays sixteen at a time whatever
-//! their origins, closest-hit rays in runs of one origin. Reduced counts walk in AVX2 packets
-//! (`packet.rs`).
+//! neighbouring rays walk together where AVX2 runs: any-hit rays thirty-two at a time
+//! whatever their origins, closest-hit rays in runs of one origin. Reduced counts walk in
+//! AVX2 packets (`packet.rs`).
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
@@ -84,7 +84,7 @@ fn wide_hits_of<const MODE: u8>(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
     out
 }
 
-/// Any hits of all rays, walked sixteen at a time whatever their origins
+/// Any hits of all rays, walked thirty-two at a time whatever their origins
 /// ([`Bvh::wide_each`]). A batch that mostly comes in runs of rays from one point (the AO rays
 /// of each hit in turn) is walked as it is; any other in the order of its origins' cells
 /// ([`origin_cells`]), its answers gathered back after: rays from nearby points enter the same
@@ -226,7 +226,7 @@ pub fn closest_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
     wide_hits_of::<CLOSEST>(bvh, rays)
 }
 
-/// Any hits of all rays, in parallel (`t` is the distance of the hit found), walked sixteen
+/// Any hits of all rays, in parallel (`t` is the distance of the hit found), walked thirty-two
 /// rays at a time whatever their origins: as they come where they mostly come in runs of one
 /// origin, else in the order of their origins' cells in the scene. Each ray's answer, hit or
 /// miss, is its own walk's; which triangle an occluded ray reports may differ with its

@@ -3,9 +3,9 @@
 //!
 //! Set up one ray at a time, a packet's rays cost six scalar divisions each, and the choice
 //! of each ray's shear axes; for short AO rays that was a quarter of the whole trace. Here
-//! every step is one AVX2 operation for eight lanes, the same IEEE operation as the scalar set-up's ([`Box8Ray::new`],
-//! [`RayShear::new`]), so every lane's values equal the scalar ones bit for bit (a test below
-//! checks it).
+//! every step is one AVX2 operation for eight lanes, the same IEEE operation as the scalar
+//! set-up's ([`Box8Ray::new`], [`RayShear::new`]), so every lane's values equal the scalar
+//! ones bit for bit (a test below checks it).
 //!
 //! [`Box8Ray::new`]: crate::traverse::simd::Box8Ray::new
 //! [`RayShear::new`]: crate::triangle::RayShear::new
@@ -22,11 +22,11 @@ use crate::ray::{Ray, RayBatch};
 use crate::traverse::simd::{Box8Ray, Shear4};
 
 /// Rays walked together at most: one bit each in a node's masks
-/// ([`crate::traverse::shared`]), one lane each of two AVX2 registers here.
-pub(crate) const PACKET: usize = 16;
+/// ([`crate::traverse::shared`]), one lane each of four AVX2 registers here.
+pub(crate) const PACKET: usize = 32;
 
-/// The eight-lane halves of a packet: an AVX2 register's worth each.
-pub(crate) const HALVES: usize = PACKET / 8;
+/// The groups of eight lanes of a packet: an AVX2 register's worth each.
+pub(crate) const GROUPS: usize = PACKET / 8;
 
 /// Up to [`PACKET`] rays, each field a row of lanes.
 #[derive(Clone, Copy)]
@@ -78,12 +78,12 @@ impl Lanes {
             == [self.o[0][0], self.o[1][0], self.o[2][0]].map(f32::to_bits)
     }
 
-    /// Each eight-lane half's first origin, and whether the first `n` lanes all start at
-    /// their half's, bit for bit.
+    /// Each group of eight lanes' first origin, and whether the first `n` lanes all start at
+    /// their group's, bit for bit.
     #[inline(always)]
-    pub(crate) fn half_origins(&self, n: usize) -> ([[f32; 3]; HALVES], bool) {
+    pub(crate) fn group_origins(&self, n: usize) -> ([[f32; 3]; GROUPS], bool) {
         let at = |r: usize| [self.o[0][r], self.o[1][r], self.o[2][r]];
-        let first: [[f32; 3]; HALVES] = std::array::from_fn(|h| at(8 * h));
+        let first: [[f32; 3]; GROUPS] = std::array::from_fn(|g| at(8 * g));
         let same =
             (0..n.min(PACKET)).all(|r| at(r).map(f32::to_bits) == first[r / 8].map(f32::to_bits));
         (first, same)
@@ -191,7 +191,7 @@ impl Setup {
             let ok = traced(&o, &d, load(&l.tmin, h), load(&l.tmax, h));
             s.valid |= (_mm256_movemask_ps(ok) as u32) << h;
         }
-        s.valid &= (1u32 << n.min(PACKET)) - 1;
+        s.valid &= ((1u64 << n.min(PACKET)) - 1) as u32;
         s
     }
 
@@ -314,7 +314,7 @@ mod tests {
 
     /// Every lane's set-up equals the scalar one bit for bit, and a lane is valid exactly where
     /// the single walk traces its ray: random rays, and rays with zero, negative-zero, tied,
-    /// infinite and NaN components, and empty and NaN ranges, in packets of one to sixteen.
+    /// infinite and NaN components, and empty and NaN ranges, in packets of one to [`PACKET`].
     #[test]
     fn lanes_set_up_as_each_ray_alone() {
         let mut rng = Rng::new(testkit::seed(41));
@@ -370,7 +370,7 @@ mod tests {
                     assert_eq!(setup.boxes(r).bits(), Box8Ray::new(&ray).bits(), "{ray:?}");
                 }
             }
-            assert_eq!(setup.valid >> n, 0);
+            assert_eq!(u64::from(setup.valid) >> n, 0);
         }
         assert!(valid > 300, "{valid} valid rays");
     }

@@ -9,15 +9,15 @@
 //! once for all of them and their box tests, which do not depend on each other, overlap; rays
 //! of one origin, bit for bit, also share each test's first step, the planes less the origin
 //! (primary rays 7 %, AO rays 3 % faster on the bunny); AO probes come eight to a hit point,
-//! so each half of a packet keeps its own origin. The rays come gathered by lane, and their
+//! so each eight lanes of a packet keep their own origin. The rays come gathered by lane, and their
 //! set-up is made eight at once ([`crate::traverse::lanes`]), then laid out per ray as the box
 //! test reads it at every node.
 //!
-//! A packet holds sixteen rays: the node's fetch, the choice of child and the stack are paid
-//! once for twice as many rays as eight would, and the box tests that overlap are twice as
-//! many (single thread, against eight: camera rays 1.01-1.09x, AO probes 1.01-1.07x, shuffled
-//! AO rays 1.00-1.09x on Sibenik, the bunny, Conference and the dragon; four rays measured
-//! 0.77-0.82x of eight on camera rays).
+//! A packet holds thirty-two rays: the node's fetch, the choice of child and the stack are
+//! paid once for four times as many rays as eight would, and four times as many box tests
+//! overlap (single thread, against eight: camera rays 1.02-1.12x, AO probes 1.01-1.13x,
+//! shuffled AO rays 1.06-1.15x on Sibenik, the bunny, Conference and the dragon; sixteen
+//! gained about half as much, and four measured 0.77-0.82x of eight on camera rays).
 //!
 //! Each ray still makes exactly the box tests it makes alone: a node is entered with the set
 //! of rays that hit its box in its parent's test (a bit per ray), and each of
@@ -40,7 +40,7 @@ use crate::bvh::wide::WIDTH;
 use crate::ray::Hit;
 use crate::traverse::closest::cull_bound;
 use crate::traverse::counts::Counts;
-use crate::traverse::lanes::{HALVES, Lanes, PACKET, Setup};
+use crate::traverse::lanes::{GROUPS, Lanes, PACKET, Setup};
 use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
 use crate::traverse::simd::{self, leaf_hits};
 
@@ -84,9 +84,12 @@ impl Bvh {
         // Only rays that trace at all (`setup.valid`) are ever in a node's set, so every ray
         // met below has a meaningful set-up.
         // Rays of one origin, bit for bit, share the first step of every box test.
-        let (origins, one_origin) = lanes.half_origins(n);
-        // Whether the second half holds rays of another origin than the first's.
-        let halves_apart = n > 8 && origins[0].map(f32::to_bits) != origins[1].map(f32::to_bits);
+        let (origins, one_origin) = lanes.group_origins(n);
+        // Whether a later group of eight holds rays of another origin than the first's.
+        let groups_apart = origins
+            .iter()
+            .enumerate()
+            .any(|(g, o)| n > 8 * g && o.map(f32::to_bits) != origins[0].map(f32::to_bits));
         let mut best: [Option<Hit>; PACKET] = [None; PACKET];
         let mut cull = tmax.map(cull_bound);
         let nodes = &wide.nodes[..];
@@ -136,12 +139,12 @@ impl Bvh {
                         ($near:literal) => {
                             if one_origin {
                                 let rel = simd::relative(node, &origins[0]);
-                                if halves_apart {
-                                    let other = simd::relative(node, &origins[1]);
+                                if groups_apart {
+                                    let rels = origins.map(|o| simd::relative(node, &o));
                                     simd::packet_node::<false, true, $near>(
                                         &boxes,
                                         m,
-                                        [rel.rows(), other.rows()],
+                                        std::array::from_fn(|h| rels[h].rows()),
                                         &tmin,
                                         &cull,
                                     )
@@ -149,7 +152,7 @@ impl Bvh {
                                     simd::packet_node::<false, false, $near>(
                                         &boxes,
                                         m,
-                                        [rel.rows(); HALVES],
+                                        [rel.rows(); GROUPS],
                                         &tmin,
                                         &cull,
                                     )
@@ -158,7 +161,7 @@ impl Bvh {
                                 simd::packet_node::<true, false, $near>(
                                     &boxes,
                                     m,
-                                    [&node.planes; HALVES],
+                                    [&node.planes; GROUPS],
                                     &tmin,
                                     &cull,
                                 )

@@ -170,7 +170,7 @@ pub(crate) struct PacketHits {
 
 /// Every ray of `rays` (a bit per ray of `boxes`) tested against the eight boxes whose planes
 /// are `p` (with `SUB`, a node's own planes; without, its planes less the rays' origin,
-/// [`relative`]: with `APART`, `p[h]` for the rays of half `h` of the packet, else `p[0]` for
+/// [`relative`]: with `APART`, `p[g]` for the rays of group `g` of eight lanes, else `p[0]` for
 /// all), each with its own `[tmin, bound]`: each ray's [`Box8Ray::hit8`], bit for bit,
 /// gathered by child in vector lanes instead of a mask per ray. `NEAR` folds the entries.
 ///
@@ -182,7 +182,7 @@ pub(crate) struct PacketHits {
 pub(crate) unsafe fn packet_node<const SUB: bool, const APART: bool, const NEAR: bool>(
     boxes: &[Box8Ray; crate::traverse::lanes::PACKET],
     rays: u32,
-    p: [&[[f32; WIDTH]; 6]; crate::traverse::lanes::HALVES],
+    p: [&[[f32; WIDTH]; 6]; crate::traverse::lanes::GROUPS],
     tmin: &[f32; crate::traverse::lanes::PACKET],
     bound: &[f32; crate::traverse::lanes::PACKET],
 ) -> PacketHits {
@@ -442,12 +442,12 @@ mod x86 {
         _mm_mul_ps, _mm_or_ps, _mm_set1_epi32, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps,
         _mm_sub_ps, _mm_xor_ps, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_andnot_ps,
         _mm256_andnot_si256, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
-        _mm256_cmpeq_epi32, _mm256_cmpgt_epi32, _mm256_cvtsi256_si32, _mm256_load_ps,
-        _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_ps, _mm256_min_epu32, _mm256_min_ps,
-        _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_or_si256,
-        _mm256_permute2x128_si256, _mm256_set_m128, _mm256_set1_epi32, _mm256_set1_ps,
-        _mm256_setr_epi32, _mm256_setzero_ps, _mm256_setzero_si256, _mm256_shuffle_epi32,
-        _mm256_store_ps, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_xor_ps,
+        _mm256_cmpeq_epi32, _mm256_cvtsi256_si32, _mm256_load_ps, _mm256_loadu_ps,
+        _mm256_loadu_si256, _mm256_max_ps, _mm256_min_epu32, _mm256_min_ps, _mm256_movemask_ps,
+        _mm256_mul_ps, _mm256_or_ps, _mm256_or_si256, _mm256_permute2x128_si256, _mm256_set_m128,
+        _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32, _mm256_setzero_ps,
+        _mm256_setzero_si256, _mm256_shuffle_epi32, _mm256_store_ps, _mm256_storeu_ps,
+        _mm256_storeu_si256, _mm256_sub_ps, _mm256_xor_ps,
     };
 
     use super::{Box8Ray, Hits8, PacketHits, Planes8, Shear4, TriHits, WIDTH};
@@ -600,7 +600,7 @@ mod x86 {
     pub(super) unsafe fn packet_node_avx2<const SUB: bool, const APART: bool, const NEAR: bool>(
         boxes: &[Box8Ray; crate::traverse::lanes::PACKET],
         rays: u32,
-        p: [&[[f32; WIDTH]; 6]; crate::traverse::lanes::HALVES],
+        p: [&[[f32; WIDTH]; 6]; crate::traverse::lanes::GROUPS],
         tmin: &[f32; crate::traverse::lanes::PACKET],
         bound: &[f32; crate::traverse::lanes::PACKET],
     ) -> PacketHits {
@@ -610,7 +610,7 @@ mod x86 {
         while each != 0 {
             let r = each.trailing_zeros() as usize;
             each &= each - 1;
-            // Rays of one origin read one set of planes, not one per half.
+            // Rays of one origin read one set of planes, not one per group.
             let p = if APART { p[r / 8] } else { p[0] };
             // SAFETY: `r` is a lane of the packet; the caller vouches for the CPU and `p`.
             let (hit, t0) = unsafe {
@@ -632,10 +632,10 @@ mod x86 {
                 near = _mm256_min_epu32(near, t);
             }
         }
-        let kids = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(
-            cols,
-            _mm256_setzero_si256(),
-        ))) as u32;
+        // Every lane is a set of rays; a lane not empty is a child hit (a set with the top bit
+        // is negative, so not a signed compare against zero).
+        let empty = _mm256_cmpeq_epi32(cols, _mm256_setzero_si256());
+        let kids = !(_mm256_movemask_ps(_mm256_castsi256_ps(empty)) as u32) & 0xFF;
         let mut out = PacketHits {
             kids,
             cols: [0; WIDTH],
@@ -1022,15 +1022,15 @@ mod tests {
                 // SAFETY: AVX2 was just detected.
                 kernels.push(unsafe { br.hit8::<true>(&node, ray.tmin, ray.tmax) });
                 // A packet of this ray in every lane, testing the node's planes and the planes
-                // less the ray's origin (one set, and one a half): each lane's bits and
+                // less the ray's origin (one set, and one a group): each lane's bits and
                 // entries are the ray's own.
-                use crate::traverse::lanes::{HALVES, PACKET};
+                use crate::traverse::lanes::{GROUPS, PACKET};
                 let (tmin, tmax) = ([ray.tmin; PACKET], [ray.tmax; PACKET]);
-                let all = (1u32 << PACKET) - 1;
+                let all = ((1u64 << PACKET) - 1) as u32;
                 // SAFETY: as above; the planes are taken from every ray's origin.
                 let packets = unsafe {
                     let rel = relative(&node, &ray.origin.to_array());
-                    let (p, r) = ([&node.planes; HALVES], [rel.rows(); HALVES]);
+                    let (p, r) = ([&node.planes; GROUPS], [rel.rows(); GROUPS]);
                     [
                         packet_node::<true, false, true>(&[br; PACKET], all, p, &tmin, &tmax),
                         packet_node::<false, false, true>(&[br; PACKET], all, r, &tmin, &tmax),

@@ -17,14 +17,14 @@
 //! ([`simd::nearest`]), to within eight units in the last place, instead of a loop whose
 //! compares mispredict.
 //!
-//! A batch of any-hit queries walks every sixteen consecutive rays together where AVX2 runs
-//! ([`crate::traverse::shared`]): the AO rays of one hit point wait on the same nodes, which
-//! the packet fetches once, and rays of other origins share at least the upper levels (two
-//! threads, shuffled AO rays: 10–15 % faster than packets of one origin only). Closest-hit
-//! batches walk each run of up to sixteen consecutive rays of one origin together: a pinhole
-//! camera's neighbouring rays enter mostly the same
-//! nodes, and their box tests overlap instead of each waiting on its own (single-thread CPU
-//! time, primary rays: 5–22 % less on every scene measured).
+//! A batch of any-hit queries walks every thirty-two consecutive rays together where AVX2
+//! runs ([`crate::traverse::shared`]): the AO rays of one hit point wait on the same nodes,
+//! which the packet fetches once, and rays of other origins share at least the upper levels
+//! (two threads, shuffled AO rays: 10–15 % faster than packets of one origin only).
+//! Closest-hit batches walk each run of up to thirty-two consecutive rays of one origin
+//! together: a pinhole camera's neighbouring rays enter mostly the same nodes, and their box
+//! tests overlap instead of each waiting on its own (single-thread CPU time, primary rays:
+//! 5–22 % less on every scene measured).
 //!
 //! `B` counts nodes entered as in the binary traversal: the root, if one of its children's
 //! boxes is hit, and every child (inner or leaf) taken from the stack, whose boxes are the
