@@ -141,7 +141,7 @@ impl Bvh {
                                 let rel = simd::relative(node, &origins[0]);
                                 if groups_apart {
                                     let rels = origins.map(|o| simd::relative(node, &o));
-                                    simd::packet_node::<false, true, $near>(
+                                    simd::packet_node::<false, true, $near, PACKET, GROUPS>(
                                         &boxes,
                                         m,
                                         std::array::from_fn(|h| rels[h].rows()),
@@ -149,7 +149,7 @@ impl Bvh {
                                         &cull,
                                     )
                                 } else {
-                                    simd::packet_node::<false, false, $near>(
+                                    simd::packet_node::<false, false, $near, PACKET, GROUPS>(
                                         &boxes,
                                         m,
                                         [rel.rows(); GROUPS],
@@ -158,7 +158,7 @@ impl Bvh {
                                     )
                                 }
                             } else {
-                                simd::packet_node::<true, false, $near>(
+                                simd::packet_node::<true, false, $near, PACKET, GROUPS>(
                                     &boxes,
                                     m,
                                     [&node.planes; GROUPS],

@@ -179,15 +179,27 @@ pub(crate) struct PacketHits {
 /// origin.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(crate) unsafe fn packet_node<const SUB: bool, const APART: bool, const NEAR: bool>(
-    boxes: &[Box8Ray; crate::traverse::lanes::PACKET],
+pub(crate) unsafe fn packet_node<
+    const SUB: bool,
+    const APART: bool,
+    const NEAR: bool,
+    const N: usize,
+    const G: usize,
+>(
+    boxes: &[Box8Ray; N],
     rays: u32,
-    p: [&[[f32; WIDTH]; 6]; crate::traverse::lanes::GROUPS],
-    tmin: &[f32; crate::traverse::lanes::PACKET],
-    bound: &[f32; crate::traverse::lanes::PACKET],
+    p: [&[[f32; WIDTH]; 6]; G],
+    tmin: &[f32; N],
+    bound: &[f32; N],
 ) -> PacketHits {
+    const {
+        assert!(
+            N <= 32 && G * 8 >= N,
+            "a bit per ray, a set of planes per eight"
+        )
+    };
     // SAFETY: as the caller states (see `# Safety`).
-    unsafe { x86::packet_node_avx2::<SUB, APART, NEAR>(boxes, rays, p, tmin, bound) }
+    unsafe { x86::packet_node_avx2::<SUB, APART, NEAR, N, G>(boxes, rays, p, tmin, bound) }
 }
 
 /// The slot of the nearest child among those `mask` sets (the first slot on a tie); `mask`
@@ -214,7 +226,8 @@ pub(crate) unsafe fn nearest<const AVX2: bool>(mask: u32, near: &[f32; WIDTH]) -
 /// The CPU must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(crate) unsafe fn within(t: f32, bound: &[f32; crate::traverse::lanes::PACKET]) -> u32 {
+pub(crate) unsafe fn within<const N: usize>(t: f32, bound: &[f32; N]) -> u32 {
+    const { assert!(N <= 32 && N.is_multiple_of(8), "a bit per ray, eight lanes a step") };
     // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
     unsafe { x86::within_avx2(t, bound) }
 }
@@ -597,12 +610,18 @@ mod x86 {
     /// As [`super::packet_node`] states.
     #[target_feature(enable = "avx2")]
     #[inline]
-    pub(super) unsafe fn packet_node_avx2<const SUB: bool, const APART: bool, const NEAR: bool>(
-        boxes: &[Box8Ray; crate::traverse::lanes::PACKET],
+    pub(super) unsafe fn packet_node_avx2<
+        const SUB: bool,
+        const APART: bool,
+        const NEAR: bool,
+        const N: usize,
+        const G: usize,
+    >(
+        boxes: &[Box8Ray; N],
         rays: u32,
-        p: [&[[f32; WIDTH]; 6]; crate::traverse::lanes::GROUPS],
-        tmin: &[f32; crate::traverse::lanes::PACKET],
-        bound: &[f32; crate::traverse::lanes::PACKET],
+        p: [&[[f32; WIDTH]; 6]; G],
+        tmin: &[f32; N],
+        bound: &[f32; N],
     ) -> PacketHits {
         let mut cols = _mm256_setzero_si256();
         let mut near = _mm256_set1_epi32(-1);
@@ -687,7 +706,7 @@ mod x86 {
     /// The CPU must have AVX2.
     #[target_feature(enable = "avx2")]
     #[inline]
-    pub(super) unsafe fn within_avx2(t: f32, bound: &[f32; crate::traverse::lanes::PACKET]) -> u32 {
+    pub(super) unsafe fn within_avx2<const N: usize>(t: f32, bound: &[f32; N]) -> u32 {
         let mut m = 0;
         for h in (0..bound.len()).step_by(8) {
             // SAFETY: lanes `h..h + 8` of `bound` are readable.
@@ -1024,7 +1043,9 @@ mod tests {
                 // A packet of this ray in every lane, testing the node's planes and the planes
                 // less the ray's origin (one set, and one a group): each lane's bits and
                 // entries are the ray's own.
-                use crate::traverse::lanes::{GROUPS, PACKET};
+                // As a packet of `traverse::lanes` holds them.
+                const PACKET: usize = 32;
+                const GROUPS: usize = PACKET / 8;
                 let (tmin, tmax) = ([ray.tmin; PACKET], [ray.tmax; PACKET]);
                 let all = ((1u64 << PACKET) - 1) as u32;
                 // SAFETY: as above; the planes are taken from every ray's origin.
@@ -1032,9 +1053,27 @@ mod tests {
                     let rel = relative(&node, &ray.origin.to_array());
                     let (p, r) = ([&node.planes; GROUPS], [rel.rows(); GROUPS]);
                     [
-                        packet_node::<true, false, true>(&[br; PACKET], all, p, &tmin, &tmax),
-                        packet_node::<false, false, true>(&[br; PACKET], all, r, &tmin, &tmax),
-                        packet_node::<false, true, true>(&[br; PACKET], all, r, &tmin, &tmax),
+                        packet_node::<true, false, true, PACKET, GROUPS>(
+                            &[br; PACKET],
+                            all,
+                            p,
+                            &tmin,
+                            &tmax,
+                        ),
+                        packet_node::<false, false, true, PACKET, GROUPS>(
+                            &[br; PACKET],
+                            all,
+                            r,
+                            &tmin,
+                            &tmax,
+                        ),
+                        packet_node::<false, true, true, PACKET, GROUPS>(
+                            &[br; PACKET],
+                            all,
+                            r,
+                            &tmin,
+                            &tmax,
+                        ),
                     ]
                 };
                 for p in packets {
