@@ -227,7 +227,12 @@ pub(crate) unsafe fn nearest<const AVX2: bool>(mask: u32, near: &[f32; WIDTH]) -
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 pub(crate) unsafe fn within<const N: usize>(t: f32, bound: &[f32; N]) -> u32 {
-    const { assert!(N <= 32 && N.is_multiple_of(8), "a bit per ray, eight lanes a step") };
+    const {
+        assert!(
+            N <= 32 && N.is_multiple_of(8),
+            "a bit per ray, eight lanes a step"
+        )
+    };
     // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
     unsafe { x86::within_avx2(t, bound) }
 }
