@@ -9,9 +9,9 @@
 //! once for all of them and their box tests, which do not depend on each other, overlap; rays
 //! of one origin, bit for bit, also share each test's first step, the planes less the origin
 //! (primary rays 7 %, AO rays 3 % faster on the bunny); AO probes come eight to a hit point,
-//! so each eight lanes of a packet keep their own origin. The rays come gathered by lane, and their
-//! set-up is made eight at once ([`crate::traverse::lanes`]), then laid out per ray as the box
-//! test reads it at every node.
+//! so each eight lanes of a packet keep their own origin. The rays come gathered by lane, and
+//! their set-up is made eight at once ([`crate::traverse::lanes`]), then laid out per ray as
+//! the box test reads it at every node.
 //!
 //! A packet holds thirty-two rays: the node's fetch, the choice of child and the stack are
 //! paid once for four times as many rays as eight would, and four times as many box tests
@@ -20,8 +20,8 @@
 //! gained about half as much, and four measured 0.77-0.82x of eight on camera rays).
 //!
 //! Each ray still makes exactly the box tests it makes alone: a node is entered with the set
-//! of rays that hit its box in its parent's test (a bit per ray), and each of
-//! those tests the node's eight children with its own range and culling bound.
+//! of rays that hit its box in its parent's test (a bit per ray), and each of those tests the
+//! node's eight children with its own range and culling bound.
 //! - Any hit: a ray leaves every set once it has found a hit. So the packet's answer for each
 //!   ray, hit or miss, is the single walk's; which triangle an occluded ray reports may
 //!   differ, since the order differs, as any-hit queries allow.
@@ -138,7 +138,6 @@ impl Bvh {
                     macro_rules! test {
                         ($near:literal) => {
                             if one_origin {
-                                let rel = simd::relative(node, &origins[0]);
                                 if groups_apart {
                                     let rels = origins.map(|o| simd::relative(node, &o));
                                     simd::packet_node::<false, true, $near, PACKET, GROUPS>(
@@ -149,6 +148,7 @@ impl Bvh {
                                         &cull,
                                     )
                                 } else {
+                                    let rel = simd::relative(node, &origins[0]);
                                     simd::packet_node::<false, false, $near, PACKET, GROUPS>(
                                         &boxes,
                                         m,
