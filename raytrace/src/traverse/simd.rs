@@ -519,7 +519,11 @@ mod x86 {
     #[inline]
     pub(super) unsafe fn hit8_avx2(r: &Box8Ray, node: &Node8, tmin: f32, tmax: f32) -> Hits8 {
         // SAFETY: as the caller states (see `# Safety`).
-        unsafe { slabs_avx2::<true>(r, &node.planes, tmin, tmax) }
+        let (hit, t0) = unsafe { slab_lanes_avx2::<true>(r, &node.planes, tmin, tmax) };
+        let mut near = [0f32; WIDTH];
+        // SAFETY: `near` is eight writable floats.
+        unsafe { _mm256_storeu_ps(near.as_mut_ptr(), t0) };
+        (_mm256_movemask_ps(hit) as u32, near)
     }
 
     /// [`super::relative`].
@@ -543,6 +547,7 @@ mod x86 {
 
     /// The slab test of eight boxes, their planes `p` by row as in [`Node8::planes`]: with
     /// `SUB` the planes themselves, less the ray's origin here; without, already less it.
+    /// Returns the lanes hit (all ones) and the entry distances, in registers.
     ///
     /// # Safety
     /// The CPU must have AVX2.
@@ -586,27 +591,6 @@ mod x86 {
             _mm256_set1_ps(tmax),
         );
         (_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1), t0)
-    }
-
-    /// The slab test of eight boxes, their planes `p` by row as in [`Node8::planes`]: with
-    /// `SUB` the planes themselves, less the ray's origin here; without, already less it.
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn slabs_avx2<const SUB: bool>(
-        r: &Box8Ray,
-        p: &[[f32; WIDTH]; 6],
-        tmin: f32,
-        tmax: f32,
-    ) -> Hits8 {
-        // SAFETY: as the caller states (see `# Safety`).
-        let (hit, t0) = unsafe { slab_lanes_avx2::<SUB>(r, p, tmin, tmax) };
-        let mut near = [0f32; WIDTH];
-        // SAFETY: `near` is eight writable floats.
-        unsafe { _mm256_storeu_ps(near.as_mut_ptr(), t0) };
-        (_mm256_movemask_ps(hit) as u32, near)
     }
 
     /// [`super::packet_node`].
@@ -1045,10 +1029,9 @@ mod tests {
             if avx2() {
                 // SAFETY: AVX2 was just detected.
                 kernels.push(unsafe { br.hit8::<true>(&node, ray.tmin, ray.tmax) });
-                // A packet of this ray in every lane, testing the node's planes and the planes
-                // less the ray's origin (one set, and one a group): each lane's bits and
-                // entries are the ray's own.
-                // As a packet of `traverse::lanes` holds them.
+                // A packet of this ray in every lane, as wide as `traverse::lanes` makes one,
+                // testing the node's planes and the planes less the ray's origin (one set, and
+                // one a group): each lane's bits and entries are the ray's own.
                 const PACKET: usize = 32;
                 const GROUPS: usize = PACKET / 8;
                 let (tmin, tmax) = ([ray.tmin; PACKET], [ray.tmax; PACKET]);
