@@ -18,7 +18,7 @@ use std::arch::x86_64::{
     _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps,
 };
 
-use crate::ray::{Ray, RayBatch};
+use crate::ray::RayBatch;
 use crate::traverse::simd::{Box8Ray, Shear4};
 
 /// Rays walked together at most: one bit each in a node's masks
@@ -45,37 +45,59 @@ impl Lanes {
         tmax: [0.0; PACKET],
     };
 
-    /// Lane `r` (below [`PACKET`]) becomes ray `i` of `rays`.
-    #[inline(always)]
-    pub(crate) fn set(&mut self, r: usize, rays: &RayBatch, i: usize) {
-        let r = r % PACKET;
-        self.o[0][r] = rays.ox[i];
-        self.o[1][r] = rays.oy[i];
-        self.o[2][r] = rays.oz[i];
-        self.d[0][r] = rays.dx[i];
-        self.d[1][r] = rays.dy[i];
-        self.d[2][r] = rays.dz[i];
-        self.tmin[r] = rays.tmin[i];
-        self.tmax[r] = rays.tmax[i];
+    /// Lanes `0..idx.len()` become rays `idx[0], idx[1], …` of `rays` (at most [`PACKET`] of
+    /// them). A run of consecutive rays, the usual case, is copied a column at a time.
+    ///
+    /// Out of line: inlined into both of a caller's walks, it pushed the box test's kernels
+    /// out of line there.
+    ///
+    /// # Panics
+    /// Panics if an index is out of `rays`' bounds.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    pub(crate) unsafe fn gather(&mut self, rays: &RayBatch, idx: &[usize]) {
+        let n = idx.len().min(PACKET);
+        let [ox, oy, oz] = &mut self.o;
+        let [dx, dy, dz] = &mut self.d;
+        let columns = [
+            (ox, &rays.ox),
+            (oy, &rays.oy),
+            (oz, &rays.oz),
+            (dx, &rays.dx),
+            (dy, &rays.dy),
+            (dz, &rays.dz),
+            (&mut self.tmin, &rays.tmin),
+            (&mut self.tmax, &rays.tmax),
+        ];
+        let first = idx.first().copied().unwrap_or(0);
+        // A whole packet's run: fixed-length copies, which compile to the vector loads and
+        // stores that the set-up's loads then read whole.
+        if n == PACKET && idx.iter().enumerate().all(|(r, &i)| i == first + r) {
+            for (lanes, column) in columns {
+                lanes.copy_from_slice(&column[first..first + PACKET]);
+            }
+        } else {
+            for (lanes, column) in columns {
+                for (lane, &i) in lanes.iter_mut().zip(idx) {
+                    *lane = column[i];
+                }
+            }
+        }
     }
 
     /// The ray in lane `r`.
-    #[inline(always)]
-    pub(crate) fn ray(&self, r: usize) -> Ray {
+    #[cfg(test)]
+    pub(crate) fn ray(&self, r: usize) -> crate::ray::Ray {
         let r = r % PACKET;
-        Ray {
+        crate::ray::Ray {
             origin: glam::Vec3::new(self.o[0][r], self.o[1][r], self.o[2][r]),
             dir: glam::Vec3::new(self.d[0][r], self.d[1][r], self.d[2][r]),
             tmin: self.tmin[r],
             tmax: self.tmax[r],
         }
-    }
-
-    /// Whether ray `i` of `rays` starts where lane 0's ray does, bit for bit.
-    #[inline(always)]
-    pub(crate) fn starts_with(&self, rays: &RayBatch, i: usize) -> bool {
-        [rays.ox[i], rays.oy[i], rays.oz[i]].map(f32::to_bits)
-            == [self.o[0][0], self.o[1][0], self.o[2][0]].map(f32::to_bits)
     }
 
     /// Each group of eight lanes' first origin, and whether the first `n` lanes all start at
@@ -310,7 +332,7 @@ mod tests {
 
     use super::*;
     use crate::triangle::RayShear;
-    use crate::{Rng, testkit};
+    use crate::{Ray, Rng, testkit};
 
     /// Every lane's set-up equals the scalar one bit for bit, and a lane is valid exactly where
     /// the single walk traces its ray: random rays, and rays with zero, negative-zero, tied,
@@ -345,18 +367,24 @@ mod tests {
         let mut valid = 0;
         for first in (0..rays.len()).step_by(7) {
             let n = 1 + first % PACKET;
-            let mut lanes = Lanes::ZERO;
-            for r in 0..n.min(rays.len() - first) {
-                lanes.set(r, &rays, first + r);
-            }
             let n = n.min(rays.len() - first);
+            let mut lanes = Lanes::ZERO;
+            // Every other packet gathered ray by ray, the others as a run.
+            let idx: Vec<usize> = if first % 2 == 0 {
+                (first..first + n).collect()
+            } else {
+                (first..first + n).rev().collect()
+            };
             if !crate::traverse::simd::avx2() {
                 return;
             }
             // SAFETY: the CPU has AVX2, just checked.
-            let setup = unsafe { Setup::new(&lanes, n) };
-            for r in 0..n {
-                let ray = rays.get(first + r);
+            let setup = unsafe {
+                lanes.gather(&rays, &idx);
+                Setup::new(&lanes, n)
+            };
+            for (r, &i) in idx.iter().enumerate() {
+                let ray = rays.get(i);
                 let ranged = ray.tmin.partial_cmp(&ray.tmax).is_some_and(|o| o.is_le());
                 let shear = RayShear::new(ray.origin, ray.dir).filter(|_| ranged);
                 assert_eq!(setup.valid >> r & 1 == 1, shear.is_some(), "{ray:?}");

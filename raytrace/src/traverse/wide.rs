@@ -144,10 +144,10 @@ impl Bvh {
     ) {
         let any = MODE == ANY || MODE == ANY_COUNTED;
         let counting = MODE == COUNTED || MODE == ANY_COUNTED;
-        // The run so far: its rays, by lane, and the queries they answer, and the batch index
-        // of its last ray.
-        let mut last = 0usize;
+        // The run so far: its rays' batch indices and the queries they answer; its rays are
+        // gathered into lanes when it is walked.
         let mut run = Lanes::ZERO;
+        let mut idx = [0usize; PACKET];
         let mut slot = [0usize; PACKET];
         let mut len = 0usize;
         // A macro, not a closure: a closure is not compiled for AVX2, so the kernels would
@@ -157,10 +157,12 @@ impl Bvh {
                 if len == 1 {
                     // SAFETY: as the caller states (see `# Safety`).
                     let (hit, counts) = unsafe {
-                        self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&run.ray(0))
+                        self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&rays.get(idx[0]))
                     };
                     put(slot[0], hit, counts);
                 } else {
+                    // SAFETY: as the caller states (see `# Safety`).
+                    unsafe { run.gather(rays, &idx[..len]) };
                     let mut out = [None; PACKET];
                     let mut counts = [Counts::default(); PACKET];
                     // SAFETY: as the caller states; the stack is sized as the single walk's,
@@ -200,7 +202,8 @@ impl Bvh {
                 // Closest-hit runs keep to one origin (a camera's), whose shared box planes
                 // and nearest-first order pay there; any-hit rays of other origins still
                 // share the upper nodes, fetched once for the packet.
-                if len > 0 && !run.starts_with(rays, i) {
+                let o = |i: usize| [rays.ox[i], rays.oy[i], rays.oz[i]].map(f32::to_bits);
+                if len > 0 && o(i) != o(idx[0]) {
                     flush!();
                     len = 0;
                 }
@@ -208,14 +211,13 @@ impl Bvh {
             // A counted packet is an estimate's sample, whose runs of adjacent rays stand for
             // the trace's packets: rays of two runs never walk together, so that a run's
             // counts do not depend on which run the sample puts beside it.
-            if len == PACKET || (counting && len > 0 && i != last + 1) {
+            if len == PACKET || (counting && len > 0 && i != idx[len - 1] + 1) {
                 flush!();
                 len = 0;
             }
-            run.set(len, rays, i);
+            idx[len] = i;
             slot[len] = k;
             len += 1;
-            last = i;
         }
         if len > 0 {
             flush!();
