@@ -132,25 +132,31 @@ pub(crate) struct Setup {
 }
 
 impl Setup {
-    /// The set-up of the first `n` lanes of `l`.
+    /// A set-up to fill with [`Setup::set`].
+    pub(crate) const ZERO: Self = Setup {
+        org: [[0.0; PACKET]; 3],
+        inv: [[0.0; PACKET]; 3],
+        near: [[0; PACKET]; 3],
+        far: [[0; PACKET]; 3],
+        shear_org: [[0.0; PACKET]; 3],
+        axis: [[0; PACKET]; 3],
+        shear: [[0.0; PACKET]; 3],
+        valid: 0,
+    };
+
+    /// Becomes the set-up of the first `n` lanes of `l`, every lane overwritten: one set-up
+    /// serves packet after packet, not cleared and copied out for each.
     ///
     /// # Safety
     /// The CPU must have AVX2.
     #[target_feature(enable = "avx2")]
     #[inline]
-    pub(crate) unsafe fn new(l: &Lanes, n: usize) -> Self {
+    pub(crate) unsafe fn set(&mut self, l: &Lanes, n: usize) {
         // No closures here: they would not be compiled for AVX2, and the intrinsics in them
         // would not inline.
-        let mut s = Setup {
-            org: l.o,
-            inv: [[0.0; PACKET]; 3],
-            near: [[0; PACKET]; 3],
-            far: [[0; PACKET]; 3],
-            shear_org: [[0.0; PACKET]; 3],
-            axis: [[0; PACKET]; 3],
-            shear: [[0.0; PACKET]; 3],
-            valid: 0,
-        };
+        let s = self;
+        s.org = l.o;
+        s.valid = 0;
         // Eight lanes a step.
         for h in (0..PACKET).step_by(8) {
             let o = [load(&l.o[0], h), load(&l.o[1], h), load(&l.o[2], h)];
@@ -214,7 +220,6 @@ impl Setup {
             s.valid |= (_mm256_movemask_ps(ok) as u32) << h;
         }
         s.valid &= ((1u64 << n.min(PACKET)) - 1) as u32;
-        s
     }
 
     /// Lane `r`'s part of the box test.
@@ -381,7 +386,9 @@ mod tests {
             // SAFETY: the CPU has AVX2, just checked.
             let setup = unsafe {
                 lanes.gather(&rays, &idx);
-                Setup::new(&lanes, n)
+                let mut setup = Setup::ZERO;
+                setup.set(&lanes, n);
+                setup
             };
             for (r, &i) in idx.iter().enumerate() {
                 let ray = rays.get(i);

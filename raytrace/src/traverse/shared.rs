@@ -46,7 +46,7 @@ use crate::traverse::simd::{self, leaf_hits};
 
 impl Bvh {
     /// The hits `MODE` asks for (closest or any, counted or not) of the first `n` rays of
-    /// `lanes` (one to [`PACKET`]) into `out[..n]`,
+    /// `lanes` (one to [`PACKET`]) into `out[..n]`, their set-up made in `setup`,
     /// each `None` on a miss, and, where `MODE` counts, each ray's counts added to `counts`
     /// as the single walk keeps them: every node a ray enters, the root only if one of its
     /// children's boxes is hit, and the triangles it tests (for any hit, until its hit).
@@ -61,18 +61,23 @@ impl Bvh {
         &self,
         lanes: &Lanes,
         n: usize,
+        setup: &mut Setup,
         out: &mut [Option<Hit>; PACKET],
         counts: &mut [Counts; PACKET],
     ) {
         let any = MODE == ANY || MODE == ANY_COUNTED;
         let counting = MODE == COUNTED || MODE == ANY_COUNTED;
         let n = n.min(PACKET);
+        // The nearest hit so far of each ray, which the walk keeps in place.
+        let best = out;
+        best[..n].fill(None);
         let wide = &self.wide;
         if wide.nodes.is_empty() || n == 0 {
             return;
         }
         // SAFETY: the CPU has AVX2 (see `# Safety`).
-        let setup = unsafe { Setup::new(lanes, n) };
+        unsafe { setup.set(lanes, n) };
+        let setup = &*setup;
         let mut live = setup.valid;
         // Each ray's part of the box test, laid out as the test reads it: it is read at every
         // node the ray enters.
@@ -90,7 +95,6 @@ impl Bvh {
             .iter()
             .enumerate()
             .any(|(g, o)| n > 8 * g && o.map(f32::to_bits) != origins[0].map(f32::to_bits));
-        let mut best: [Option<Hit>; PACKET] = [None; PACKET];
         let mut cull = tmax.map(cull_bound);
         let nodes = &wide.nodes[..];
         let groups = &wide.groups[..];
@@ -295,7 +299,6 @@ impl Bvh {
                 }
             }
         }
-        out[..n].copy_from_slice(&best[..n]);
     }
 }
 

@@ -42,7 +42,7 @@ use crate::ray::{Hit, Ray, RayBatch};
 use crate::traverse::closest::cull_bound;
 use crate::traverse::counts::Counts;
 #[cfg(target_arch = "x86_64")]
-use crate::traverse::lanes::{Lanes, PACKET};
+use crate::traverse::lanes::{Lanes, PACKET, Setup};
 use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
 use crate::traverse::simd::{self, Box8Ray, Shear4, leaf_hits};
 use crate::triangle::RayShear;
@@ -150,6 +150,10 @@ impl Bvh {
         let mut idx = [0usize; PACKET];
         let mut slot = [0usize; PACKET];
         let mut len = 0usize;
+        // Each packet's set-up and answers, kept between packets rather than made anew.
+        let mut setup = Setup::ZERO;
+        let mut out = [None; PACKET];
+        let mut counts = [Counts::default(); PACKET];
         // A macro, not a closure: a closure is not compiled for AVX2, so the kernels would
         // not inline into it.
         macro_rules! flush {
@@ -163,14 +167,16 @@ impl Bvh {
                 } else {
                     // SAFETY: as the caller states (see `# Safety`).
                     unsafe { run.gather(rays, &idx[..len]) };
-                    let mut out = [None; PACKET];
-                    let mut counts = [Counts::default(); PACKET];
+                    if counting {
+                        counts[..len].fill(Counts::default());
+                    }
                     // SAFETY: as the caller states; the stack is sized as the single walk's,
                     // and a closest-hit run's rays have `tmin`s with the sign bit clear.
                     unsafe {
                         self.walk_shared::<MODE, { stack_for(SHALLOW) }>(
                             &run,
                             len,
+                            &mut setup,
                             &mut out,
                             &mut counts,
                         )
