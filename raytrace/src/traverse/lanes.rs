@@ -370,12 +370,17 @@ mod tests {
             ));
         }
         let mut valid = 0;
-        for first in (0..rays.len()).step_by(7) {
-            let n = 1 + first % PACKET;
+        for (k, first) in (0..rays.len()).step_by(7).enumerate() {
+            // Whole packets and shorter ones, their rays in order (a whole packet's are
+            // copied as a run) or reversed (gathered ray by ray).
+            let n = if k % 3 == 0 {
+                PACKET
+            } else {
+                1 + first % PACKET
+            };
             let n = n.min(rays.len() - first);
             let mut lanes = Lanes::ZERO;
-            // Every other packet gathered ray by ray, the others as a run.
-            let idx: Vec<usize> = if first % 2 == 0 {
+            let idx: Vec<usize> = if k % 2 == 0 {
                 (first..first + n).collect()
             } else {
                 (first..first + n).rev().collect()
