@@ -172,6 +172,16 @@ impl RayBatch {
         ]
     }
 
+    /// Whether rays `i` and `j` start at the same point, bit for bit.
+    ///
+    /// # Panics
+    /// Panics if either is out of bounds.
+    #[inline(always)]
+    pub(crate) fn same_origin(&self, i: usize, j: usize) -> bool {
+        let o = |k: usize| [self.ox[k], self.oy[k], self.oz[k]].map(f32::to_bits);
+        o(i) == o(j)
+    }
+
     /// Appends all rays of `other`.
     pub fn extend(&mut self, other: &RayBatch) {
         self.ox.extend_from_slice(&other.ox);

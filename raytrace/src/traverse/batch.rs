@@ -132,12 +132,10 @@ fn wide_any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
 
 /// Whether at least half of the rays start where the ray before them does, bit for bit.
 fn in_runs(rays: &RayBatch) -> bool {
-    let same = |i: usize| {
-        rays.ox[i].to_bits() == rays.ox[i - 1].to_bits()
-            && rays.oy[i].to_bits() == rays.oy[i - 1].to_bits()
-            && rays.oz[i].to_bits() == rays.oz[i - 1].to_bits()
-    };
-    2 * (1..rays.len()).into_par_iter().filter(|&i| same(i)).count() >= rays.len()
+    let same = (1..rays.len())
+        .into_par_iter()
+        .filter(|&i| rays.same_origin(i, i - 1));
+    2 * same.count() >= rays.len()
 }
 
 /// Cells per side of the scene's box, as bits: 32³ cells, sorted in one counting pass over

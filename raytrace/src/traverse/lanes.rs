@@ -62,16 +62,9 @@ impl Lanes {
         let n = idx.len().min(PACKET);
         let [ox, oy, oz] = &mut self.o;
         let [dx, dy, dz] = &mut self.d;
-        let columns = [
-            (ox, &rays.ox),
-            (oy, &rays.oy),
-            (oz, &rays.oz),
-            (dx, &rays.dx),
-            (dy, &rays.dy),
-            (dz, &rays.dz),
-            (&mut self.tmin, &rays.tmin),
-            (&mut self.tmax, &rays.tmax),
-        ];
+        // In the order of `RayBatch::columns`.
+        let rows = [ox, oy, oz, dx, dy, dz, &mut self.tmin, &mut self.tmax];
+        let columns = rows.into_iter().zip(rays.columns());
         let first = idx.first().copied().unwrap_or(0);
         // A whole packet's run: fixed-length copies, which compile to the vector loads and
         // stores that the set-up's loads then read whole.

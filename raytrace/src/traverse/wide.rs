@@ -208,8 +208,7 @@ impl Bvh {
                 // Closest-hit runs keep to one origin (a camera's), whose shared box planes
                 // and nearest-first order pay there; any-hit rays of other origins still
                 // share the upper nodes, fetched once for the packet.
-                let o = |i: usize| [rays.ox[i], rays.oy[i], rays.oz[i]].map(f32::to_bits);
-                if len > 0 && o(i) != o(idx[0]) {
+                if len > 0 && !rays.same_origin(i, idx[0]) {
                     flush!();
                     len = 0;
                 }
