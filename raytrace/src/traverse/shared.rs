@@ -36,13 +36,13 @@
 use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
-use crate::bvh::wide::WIDTH;
+use crate::bvh::wide::{Tri4, WIDTH};
 use crate::ray::Hit;
 use crate::traverse::closest::cull_bound;
 use crate::traverse::counts::Counts;
 use crate::traverse::lanes::{GROUPS, Lanes, PACKET, Setup};
 use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
-use crate::traverse::simd::{self, leaf_hits};
+use crate::traverse::simd::{self, Rel8, fold, leaf_hits, pair_prim};
 
 impl Bvh {
     /// The hits `MODE` asks for (closest or any, counted or not) of the first `n` rays of
@@ -253,25 +253,51 @@ impl Bvh {
                 // SAFETY: a leaf's `ceil(count / 4)` groups from `child` were pushed by
                 // `WideBvh::collapse` when it wrote the leaf.
                 let leaf = unsafe { groups.get_unchecked(first..first + g) };
-                let mut each = m;
+                // The rays whose nearest hit the leaf changed.
+                let changed = if one_origin {
+                    // SAFETY: the CPU has AVX2 (see `# Safety`); each group of eight rays
+                    // starts at its entry of `origins`, bit for bit.
+                    unsafe {
+                        leaf_of_one_origin::<MODE>(
+                            setup,
+                            leaf,
+                            count,
+                            (&origins, groups_apart),
+                            m,
+                            (&tmin, &tmax),
+                            best,
+                            counts,
+                        )
+                    }
+                } else {
+                    let mut changed = 0;
+                    let mut each = m;
+                    while each != 0 {
+                        let r = each.trailing_zeros() as usize;
+                        each &= each - 1;
+                        let s = setup.shear(r);
+                        // SAFETY: the CPU has AVX2 (see `# Safety`).
+                        let (hit, tested) = unsafe {
+                            leaf_hits::<true>(any, &s, leaf, tmin[r], tmax[r], count, &mut best[r])
+                        };
+                        if counting {
+                            counts[r].nodes += 1;
+                            counts[r].tris += tested;
+                        }
+                        changed |= u32::from(hit) << r;
+                    }
+                    changed
+                };
+                let mut each = changed;
                 while each != 0 {
                     let r = each.trailing_zeros() as usize;
                     each &= each - 1;
-                    let s = setup.shear(r);
-                    // SAFETY: the CPU has AVX2 (see `# Safety`).
-                    let (changed, tested) = unsafe {
-                        leaf_hits::<true>(any, &s, leaf, tmin[r], tmax[r], count, &mut best[r])
-                    };
-                    if counting {
-                        counts[r].nodes += 1;
-                        counts[r].tris += tested;
-                    }
-                    if let (true, Some(hit)) = (changed, best[r]) {
+                    if let Some(hit) = best[r] {
                         cull[r] = cull_bound(hit.t);
-                        if any {
-                            live &= !(1 << r);
-                        }
                     }
+                }
+                if any {
+                    live &= !changed;
                 }
             }
             if live == 0 {
@@ -300,6 +326,104 @@ impl Bvh {
             }
         }
     }
+}
+
+/// A leaf tested by the rays `m` of a packet whose groups of eight each start at one origin
+/// (`origins`, one per group where `apart`, else the first for all): for each pair of the
+/// leaf's triangle groups, the vertices less an origin are taken once for all the rays from
+/// it ([`Rel8`]), where two or more of them are still testing it, so each ray's test starts
+/// from its shear. Each ray makes the single walk's tests in its order, with its bits: a pair
+/// at a time, an any-hit ray stopping at its first hit; its hits fold into `best` and its
+/// counts into `counts` as [`leaf_hits`] does. Returns the rays whose `best` changed.
+///
+/// # Safety
+/// The CPU must have AVX2, and each ray of `m` start at its group's origin, bit for bit.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+unsafe fn leaf_of_one_origin<const MODE: u8>(
+    setup: &Setup,
+    leaf: &[Tri4],
+    count: u32,
+    (origins, apart): (&[[f32; 3]; GROUPS], bool),
+    m: u32,
+    (tmin, tmax): (&[f32; PACKET], &[f32; PACKET]),
+    best: &mut [Option<Hit>; PACKET],
+    counts: &mut [Counts; PACKET],
+) -> u32 {
+    let any = MODE == ANY || MODE == ANY_COUNTED;
+    let counting = MODE == COUNTED || MODE == ANY_COUNTED;
+    if counting {
+        let mut each = m;
+        while each != 0 {
+            counts[each.trailing_zeros() as usize].nodes += 1;
+            each &= each - 1;
+        }
+    }
+    // The rays still testing the leaf (any-hit rays leave it at their hit), and those whose
+    // nearest hit changed.
+    let (mut each, mut changed) = (m, 0u32);
+    let n = leaf.len();
+    let mut j = 0;
+    while j < n && each != 0 {
+        if j + 1 < n {
+            let (a, b) = (&leaf[j], &leaf[j + 1]);
+            let tested = (count - 4 * j as u32).min(8);
+            let mut rows = [const { MaybeUninit::<Rel8>::uninit() }; GROUPS];
+            let mut made = 0u32;
+            let mut rays = each;
+            while rays != 0 {
+                let r = rays.trailing_zeros() as usize;
+                rays &= rays - 1;
+                let g = if apart { r / 8 } else { 0 };
+                let group = if apart { 0xff << (8 * g) } else { u32::MAX };
+                let s = setup.shear(r);
+                // SAFETY: the CPU has AVX2 (see `# Safety`); a group's rows are made from its
+                // origin, which each of its rays starts at.
+                let h = unsafe {
+                    if made & (1 << g) != 0 {
+                        s.intersect8_rel(rows[g].assume_init_ref(), tmin[r], tmax[r])
+                    } else if (rays & group) != 0 {
+                        // Another ray of the group will test the pair: share its first step.
+                        made |= 1 << g;
+                        let rel = rows[g].write(Rel8::new(a, b, &origins[g]));
+                        s.intersect8_rel(rel, tmin[r], tmax[r])
+                    } else {
+                        s.intersect8(a, b, tmin[r], tmax[r])
+                    }
+                };
+                if counting {
+                    counts[r].tris += tested;
+                }
+                if fold(any, &h, |k| pair_prim(a, b, k), &mut best[r]) {
+                    changed |= 1 << r;
+                    if any {
+                        each &= !(1 << r);
+                    }
+                }
+            }
+            j += 2;
+        } else {
+            let g = &leaf[j];
+            let tested = (count - 4 * j as u32).min(4);
+            let mut rays = each;
+            while rays != 0 {
+                let r = rays.trailing_zeros() as usize;
+                rays &= rays - 1;
+                if counting {
+                    counts[r].tris += tested;
+                }
+                let h = setup.shear(r).intersect4(g, tmin[r], tmax[r]);
+                if fold(any, &h, |k| g.prim[k], &mut best[r]) {
+                    changed |= 1 << r;
+                    if any {
+                        each &= !(1 << r);
+                    }
+                }
+            }
+            j += 1;
+        }
+    }
+    changed
 }
 
 #[cfg(test)]

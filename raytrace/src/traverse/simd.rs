@@ -300,6 +300,28 @@ impl<const N: usize> TriHits<N> {
     }
 }
 
+/// Two triangle groups' vertices less one origin, by vertex, axis and lane (the first group in
+/// lanes 0–3): the first step of the triangle test of every ray from that origin, taken once
+/// for all of them ([`Shear4::intersect8_rel`]). The subtraction is the test's own, so each ray
+/// gets the bits it would get alone.
+#[cfg(target_arch = "x86_64")]
+pub(crate) struct Rel8 {
+    rows: [[[f32; 8]; 3]; 3],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Rel8 {
+    /// The vertices of `a` and `b` less `org`.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[inline(always)]
+    pub(crate) unsafe fn new(a: &Tri4, b: &Tri4, org: &[f32; 3]) -> Self {
+        // SAFETY: as the caller states (see `# Safety`).
+        unsafe { x86::rel8_avx2(a, b, org) }
+    }
+}
+
 impl Shear4 {
     #[inline(always)]
     pub(crate) fn new(s: RayShear) -> Self {
@@ -359,6 +381,17 @@ impl Shear4 {
         unsafe { x86::intersect8_avx2(self, a, b, tmin, tmax) }
     }
 
+    /// [`Shear4::intersect8`] of the groups whose vertices less this ray's origin are `rel`.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2, and `rel` be taken from this ray's origin, bit for bit.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn intersect8_rel(&self, rel: &Rel8, tmin: f32, tmax: f32) -> TriHits<8> {
+        // SAFETY: as the caller states (see `# Safety`).
+        unsafe { x86::intersect8_rel_avx2(self, rel, tmin, tmax) }
+    }
+
     /// [`Shear4::intersect4`] by calling the scalar test per lane.
     #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
     pub(crate) fn intersect4_scalar(&self, g: &Tri4, tmin: f32, tmax: f32) -> TriHits<4> {
@@ -401,23 +434,6 @@ pub(crate) unsafe fn leaf_hits<const AVX2: bool>(
     best: &mut Option<Hit>,
 ) -> (bool, u32) {
     let (mut changed, mut tested) = (false, 0);
-    macro_rules! take {
-        ($h:expr, $k:expr, $prim:expr) => {{
-            let (t, u, v) = $h.hit($k);
-            if better(t, $prim, *best) {
-                *best = Some(Hit {
-                    t,
-                    prim: $prim,
-                    u,
-                    v,
-                });
-                changed = true;
-                if any {
-                    return (changed, tested);
-                }
-            }
-        }};
-    }
     let n = leaf.len();
     let mut j = 0;
     while j < n {
@@ -427,12 +443,11 @@ pub(crate) unsafe fn leaf_hits<const AVX2: bool>(
             tested += (count - 4 * j as u32).min(8);
             // SAFETY: as the caller states (see `# Safety`).
             let h = unsafe { shear.intersect8(a, b, tmin, tmax) };
-            let mut m = h.mask;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                let prim = if k < 4 { a.prim[k] } else { b.prim[k - 4] };
-                take!(h, k, prim);
+            if fold(any, &h, |k| pair_prim(a, b, k), best) {
+                changed = true;
+                if any {
+                    return (changed, tested);
+                }
             }
             j += 2;
             continue;
@@ -440,15 +455,49 @@ pub(crate) unsafe fn leaf_hits<const AVX2: bool>(
         let g = &leaf[j];
         tested += (count - 4 * j as u32).min(4);
         let h = shear.intersect4(g, tmin, tmax);
-        let mut m = h.mask;
-        while m != 0 {
-            let k = m.trailing_zeros() as usize;
-            m &= m - 1;
-            take!(h, k, g.prim[k]);
+        if fold(any, &h, |k| g.prim[k], best) {
+            changed = true;
+            if any {
+                return (changed, tested);
+            }
         }
         j += 1;
     }
     (changed, tested)
+}
+
+/// Folds the lanes of `h` that hit into `best` as every walk does (the smallest
+/// `(t, primitive id)`, `prim` giving a lane's id; with `any`, the first hit, lowest lane,
+/// ends it), and returns whether `best` changed. A lane pays for its divisions only here.
+#[inline(always)]
+pub(crate) fn fold<const N: usize>(
+    any: bool,
+    h: &TriHits<N>,
+    prim: impl Fn(usize) -> u32,
+    best: &mut Option<Hit>,
+) -> bool {
+    let mut changed = false;
+    let mut m = h.mask;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let (t, u, v) = h.hit(k);
+        let prim = prim(k);
+        if better(t, prim, *best) {
+            *best = Some(Hit { t, prim, u, v });
+            changed = true;
+            if any {
+                break;
+            }
+        }
+    }
+    changed
+}
+
+/// The primitive id of lane `k` of two groups tested side by side, `a` in lanes 0–3.
+#[inline(always)]
+pub(crate) fn pair_prim(a: &Tri4, b: &Tri4, k: usize) -> u32 {
+    if k < 4 { a.prim[k] } else { b.prim[k % 4] }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -468,7 +517,7 @@ mod x86 {
         _mm256_storeu_si256, _mm256_sub_ps, _mm256_xor_ps,
     };
 
-    use super::{Box8Ray, Hits8, PacketHits, Planes8, Shear4, TriHits, WIDTH};
+    use super::{Box8Ray, Hits8, PacketHits, Planes8, Rel8, Shear4, TriHits, WIDTH};
     use crate::bvh::wide::{Node8, Tri4};
 
     #[inline(always)]
@@ -758,13 +807,12 @@ mod x86 {
                 unsafe { $storeu(a.as_mut_ptr(), v) };
                 a
             }
-            /// A vertex (rows `x`, `y`, `z` along `kx`, `ky`, `kz`) minus the origin `o`,
-            /// sheared.
+            /// A vertex less the origin (rows `x`, `y`, `z` along `kx`, `ky`, `kz`) sheared:
+            /// its `x` and `y` in ray space.
             #[target_feature(enable = $feature)]
             #[inline]
-            pub(super) fn rel(x: V, y: V, z: V, o: [V; 3], sx: V, sy: V) -> (V, V, V) {
-                let (x, y, z) = (sub(x, o[0]), sub(y, o[1]), sub(z, o[2]));
-                (sub(x, mul(sx, z)), sub(y, mul(sy, z)), z)
+            pub(super) fn shear(x: V, y: V, z: V, sx: V, sy: V) -> (V, V) {
+                (sub(x, mul(sx, z)), sub(y, mul(sy, z)))
             }
         };
         (@binary $feature:literal, $($name:ident $op:path),*) => {
@@ -851,42 +899,58 @@ mod x86 {
     }
 
     /// The watertight test of `$l::N` triangles, one per lane: [`crate::triangle::intersect_parts`]
-    /// operation for operation, on the groups `$g` (`$l::vert` loads their rows).
-    /// Written once for both lane widths, so that they cannot drift apart.
+    /// operation for operation. Its vertices come either as the groups `$g` (`$l::vert` loads
+    /// their rows, less the ray's origin) or as [`Rel8`] rows, already less the origin.
+    /// Written once for both lane widths and both sources, so that they cannot drift apart.
     macro_rules! watertight {
-        ($l:ident, $s:expr, ($($g:expr),+), $tmin:expr, $tmax:expr) => {{
+        ($l:ident, $s:expr, groups ($($g:expr),+), $tmin:expr, $tmax:expr) => {{
             use $l as l;
             let s: &Shear4 = $s;
             let [kx, ky, kz] = s.axis.map(|k| usize::from(k) % 3);
             let o = [l::splat(s.org[0]), l::splat(s.org[1]), l::splat(s.org[2])];
+            // Vertex minus origin along kx, ky, kz, as the scalar test does. No closures: they
+            // would not be compiled for the lane width's target features, and the lane
+            // operations would not inline into them.
+            let row = [
+                [
+                    l::sub(l::vert($($g),+, 0, kx), o[0]),
+                    l::sub(l::vert($($g),+, 0, ky), o[1]),
+                    l::sub(l::vert($($g),+, 0, kz), o[2]),
+                ],
+                [
+                    l::sub(l::vert($($g),+, 1, kx), o[0]),
+                    l::sub(l::vert($($g),+, 1, ky), o[1]),
+                    l::sub(l::vert($($g),+, 1, kz), o[2]),
+                ],
+                [
+                    l::sub(l::vert($($g),+, 2, kx), o[0]),
+                    l::sub(l::vert($($g),+, 2, ky), o[1]),
+                    l::sub(l::vert($($g),+, 2, kz), o[2]),
+                ],
+            ];
+            watertight!(@sheared $l, s, row, $tmin, $tmax)
+        }};
+        ($l:ident, $s:expr, rows $r:expr, $tmin:expr, $tmax:expr) => {{
+            use $l as l;
+            let s: &Shear4 = $s;
+            let r: &Rel8 = $r;
+            let [kx, ky, kz] = s.axis.map(|k| usize::from(k) % 3);
+            // Written out, not mapped: a closure would not inline the lane operations.
+            let row = [
+                [l::load(&r.rows[0][kx]), l::load(&r.rows[0][ky]), l::load(&r.rows[0][kz])],
+                [l::load(&r.rows[1][kx]), l::load(&r.rows[1][ky]), l::load(&r.rows[1][kz])],
+                [l::load(&r.rows[2][kx]), l::load(&r.rows[2][ky]), l::load(&r.rows[2][kz])],
+            ];
+            watertight!(@sheared $l, s, row, $tmin, $tmax)
+        }};
+        (@sheared $l:ident, $s:expr, $row:expr, $tmin:expr, $tmax:expr) => {{
+            use $l as l;
+            let s: &Shear4 = $s;
             let (sx, sy, sz) = (l::splat(s.sx), l::splat(s.sy), l::splat(s.sz));
-            // Vertex minus origin along kx, ky, kz, then sheared, as the scalar test does. No
-            // closures: they would not be compiled for the lane width's target features, and
-            // the lane operations would not inline into them.
-            let (ax, ay, az) = l::rel(
-                l::vert($($g),+, 0, kx),
-                l::vert($($g),+, 0, ky),
-                l::vert($($g),+, 0, kz),
-                o,
-                sx,
-                sy,
-            );
-            let (bx, by, bz) = l::rel(
-                l::vert($($g),+, 1, kx),
-                l::vert($($g),+, 1, ky),
-                l::vert($($g),+, 1, kz),
-                o,
-                sx,
-                sy,
-            );
-            let (cx, cy, cz) = l::rel(
-                l::vert($($g),+, 2, kx),
-                l::vert($($g),+, 2, ky),
-                l::vert($($g),+, 2, kz),
-                o,
-                sx,
-                sy,
-            );
+            let [[ax, ay, az], [bx, by, bz], [cx, cy, cz]] = $row;
+            let (ax, ay) = l::shear(ax, ay, az, sx, sy);
+            let (bx, by) = l::shear(bx, by, bz, sx, sy);
+            let (cx, cy) = l::shear(cx, cy, cz, sx, sy);
             let mut u = l::sub(l::mul(cx, by), l::mul(cy, bx));
             let mut v = l::sub(l::mul(ax, cy), l::mul(ay, cx));
             let mut w = l::sub(l::mul(bx, ay), l::mul(by, ax));
@@ -956,7 +1020,7 @@ mod x86 {
     pub(super) fn intersect4(s: &Shear4, g: &Tri4, tmin: f32, tmax: f32) -> TriHits<4> {
         // SAFETY: the four-lane operations need SSE2, part of the x86_64 baseline. The kernel
         // is expanded here rather than called, so that it inlines into the traversal.
-        unsafe { watertight!(l4, s, (g), tmin, tmax) }
+        unsafe { watertight!(l4, s, groups(g), tmin, tmax) }
     }
 
     /// # Safety
@@ -971,7 +1035,34 @@ mod x86 {
         tmax: f32,
     ) -> TriHits<8> {
         // SAFETY: the eight-lane operations need AVX2, which the caller has checked.
-        unsafe { watertight!(l8, s, (a, b), tmin, tmax) }
+        unsafe { watertight!(l8, s, groups(a, b), tmin, tmax) }
+    }
+
+    /// # Safety
+    /// The CPU must have AVX2, and `r` be taken from the ray's origin.
+    #[inline(always)]
+    pub(super) unsafe fn intersect8_rel_avx2(
+        s: &Shear4,
+        r: &Rel8,
+        tmin: f32,
+        tmax: f32,
+    ) -> TriHits<8> {
+        // SAFETY: the eight-lane operations need AVX2, which the caller has checked.
+        unsafe { watertight!(l8, s, rows r, tmin, tmax) }
+    }
+
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) fn rel8_avx2(a: &Tri4, b: &Tri4, org: &[f32; 3]) -> Rel8 {
+        let mut rows = [[[0f32; 8]; 3]; 3];
+        for (i, vertex) in rows.iter_mut().enumerate() {
+            for (axis, row) in vertex.iter_mut().enumerate() {
+                *row = l8::store(l8::sub(l8::vert(a, b, i, axis), l8::splat(org[axis])));
+            }
+        }
+        Rel8 { rows }
     }
 }
 
@@ -1118,6 +1209,18 @@ mod tests {
                 // four-lane test of its group.
                 // SAFETY: AVX2 was just detected.
                 let h8 = unsafe { s.intersect8(&prev, &g, ray.tmin, ray.tmax) };
+                // The same pass from the vertices less the origin, taken beforehand.
+                // SAFETY: as above; the rows are taken from the ray's origin.
+                let hr = unsafe {
+                    let rel = Rel8::new(&prev, &g, &ray.origin.to_array());
+                    s.intersect8_rel(&rel, ray.tmin, ray.tmax)
+                };
+                assert_eq!(hr.mask, h8.mask, "{ray:?} {prev:?} {g:?}");
+                for k in 0..8 {
+                    if h8.mask & (1 << k) != 0 {
+                        assert_eq!(bits(hr.hit(k)), bits(h8.hit(k)), "{ray:?} {g:?}");
+                    }
+                }
                 let hp = s.intersect4(&prev, ray.tmin, ray.tmax);
                 for k in 0..4 {
                     let (lo, hi) = (1 << k, 1 << (4 + k));
