@@ -42,7 +42,7 @@ use crate::traverse::closest::cull_bound;
 use crate::traverse::counts::Counts;
 use crate::traverse::lanes::{GROUPS, Lanes, PACKET, Setup};
 use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
-use crate::traverse::simd::{self, Rel8, fold, leaf_hits, pair_prim};
+use crate::traverse::simd::{self, Rel8, fold, pair_prim};
 
 impl Bvh {
     /// The hits `MODE` asks for (closest or any, counted or not) of the first `n` rays of
@@ -143,7 +143,14 @@ impl Bvh {
                         ($near:literal) => {
                             if one_origin {
                                 if groups_apart {
-                                    let rels = origins.map(|o| simd::relative(node, &o));
+                                    // Written out: through a closure, the first step
+                                    // would not be inlined, as it is not compiled for AVX2.
+                                    let rels = [
+                                        simd::relative(node, &origins[0]),
+                                        simd::relative(node, &origins[1]),
+                                        simd::relative(node, &origins[2]),
+                                        simd::relative(node, &origins[3]),
+                                    ];
                                     simd::packet_node::<false, true, $near, PACKET, GROUPS>(
                                         &boxes,
                                         m,
@@ -253,40 +260,19 @@ impl Bvh {
                 // SAFETY: a leaf's `ceil(count / 4)` groups from `child` were pushed by
                 // `WideBvh::collapse` when it wrote the leaf.
                 let leaf = unsafe { groups.get_unchecked(first..first + g) };
-                // The rays whose nearest hit the leaf changed.
-                let changed = if one_origin {
-                    // SAFETY: the CPU has AVX2 (see `# Safety`); each group of eight rays
-                    // starts at its entry of `origins`, bit for bit.
-                    unsafe {
-                        leaf_of_one_origin::<MODE>(
-                            setup,
-                            leaf,
-                            count,
-                            (&origins, groups_apart),
-                            m,
-                            (&tmin, &tmax),
-                            best,
-                            counts,
-                        )
-                    }
-                } else {
-                    let mut changed = 0;
-                    let mut each = m;
-                    while each != 0 {
-                        let r = each.trailing_zeros() as usize;
-                        each &= each - 1;
-                        let s = setup.shear(r);
-                        // SAFETY: the CPU has AVX2 (see `# Safety`).
-                        let (hit, tested) = unsafe {
-                            leaf_hits::<true>(any, &s, leaf, tmin[r], tmax[r], count, &mut best[r])
-                        };
-                        if counting {
-                            counts[r].nodes += 1;
-                            counts[r].tris += tested;
-                        }
-                        changed |= u32::from(hit) << r;
-                    }
-                    changed
+                // SAFETY: the CPU has AVX2 (see `# Safety`); with `one_origin`, each group of
+                // eight rays starts at its entry of `origins`, bit for bit.
+                let changed = unsafe {
+                    packet_leaf::<MODE>(
+                        setup,
+                        leaf,
+                        count,
+                        one_origin.then_some((&origins, groups_apart)),
+                        m,
+                        (&tmin, &tmax),
+                        best,
+                        counts,
+                    )
                 };
                 let mut each = changed;
                 while each != 0 {
@@ -328,23 +314,27 @@ impl Bvh {
     }
 }
 
-/// A leaf tested by the rays `m` of a packet whose groups of eight each start at one origin
-/// (`origins`, one per group where `apart`, else the first for all): for each pair of the
-/// leaf's triangle groups, the vertices less an origin are taken once for all the rays from
-/// it ([`Rel8`]), where two or more of them are still testing it, so each ray's test starts
-/// from its shear. Each ray makes the single walk's tests in its order, with its bits: a pair
-/// at a time, an any-hit ray stopping at its first hit; its hits fold into `best` and its
-/// counts into `counts` as [`leaf_hits`] does. Returns the rays whose `best` changed.
+/// A leaf tested by the rays `m` of a packet. Each ray makes the single walk's tests in its
+/// order, with its bits, a pair of triangle groups at a time (an any-hit ray stopping at its
+/// first hit); its hits fold into `best` and its counts into `counts` as [`leaf_hits`] does.
+/// Returns the rays whose `best` changed.
+///
+/// Rays share what the tests allow. Where the packet's groups of eight each start at one origin
+/// (`shared`: the origins, one per group where apart, else the first for all), a pair's
+/// vertices less an origin are taken once for the rays from it ([`Rel8`]) where two or more
+/// still test the pair. A lone group (most of a small mesh's leaves hold four triangles or
+/// fewer) is tested by two rays in one eight-lane pass.
 ///
 /// # Safety
-/// The CPU must have AVX2, and each ray of `m` start at its group's origin, bit for bit.
+/// The CPU must have AVX2, and with `shared`, each ray of `m` start at its group's origin, bit
+/// for bit.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-unsafe fn leaf_of_one_origin<const MODE: u8>(
+unsafe fn packet_leaf<const MODE: u8>(
     setup: &Setup,
     leaf: &[Tri4],
     count: u32,
-    (origins, apart): (&[[f32; 3]; GROUPS], bool),
+    shared: Option<(&[[f32; 3]; GROUPS], bool)>,
     m: u32,
     (tmin, tmax): (&[f32; PACKET], &[f32; PACKET]),
     best: &mut [Option<Hit>; PACKET],
@@ -362,6 +352,21 @@ unsafe fn leaf_of_one_origin<const MODE: u8>(
     // The rays still testing the leaf (any-hit rays leave it at their hit), and those whose
     // nearest hit changed.
     let (mut each, mut changed) = (m, 0u32);
+    // A macro, not a closure: a closure is not compiled for AVX2.
+    macro_rules! fold {
+        ($r:expr, $h:expr, $lanes:expr, $prim:expr, $tested:expr) => {{
+            let r: usize = $r;
+            if counting {
+                counts[r].tris += $tested;
+            }
+            if fold(any, $h, $lanes, $prim, &mut best[r]) {
+                changed |= 1 << r;
+                if any {
+                    each &= !(1 << r);
+                }
+            }
+        }};
+    }
     let n = leaf.len();
     let mut j = 0;
     while j < n && each != 0 {
@@ -374,32 +379,30 @@ unsafe fn leaf_of_one_origin<const MODE: u8>(
             while rays != 0 {
                 let r = rays.trailing_zeros() as usize;
                 rays &= rays - 1;
-                let g = if apart { r / 8 } else { 0 };
-                let group = if apart { 0xff << (8 * g) } else { u32::MAX };
                 let s = setup.shear(r);
                 // SAFETY: the CPU has AVX2 (see `# Safety`); a group's rows are made from its
                 // origin, which each of its rays starts at.
                 let h = unsafe {
-                    if made & (1 << g) != 0 {
-                        s.intersect8_rel(rows[g].assume_init_ref(), tmin[r], tmax[r])
-                    } else if (rays & group) != 0 {
-                        // Another ray of the group will test the pair: share its first step.
-                        made |= 1 << g;
-                        let rel = rows[g].write(Rel8::new(a, b, &origins[g]));
-                        s.intersect8_rel(rel, tmin[r], tmax[r])
-                    } else {
-                        s.intersect8(a, b, tmin[r], tmax[r])
+                    match shared {
+                        Some((origins, apart)) => {
+                            let g = if apart { r / 8 } else { 0 };
+                            let group = if apart { 0xff << (8 * g) } else { u32::MAX };
+                            if made & (1 << g) != 0 {
+                                s.intersect8_rel(rows[g].assume_init_ref(), tmin[r], tmax[r])
+                            } else if rays & group != 0 {
+                                // Another ray of the group will test the pair: share the
+                                // first step.
+                                made |= 1 << g;
+                                let rel = rows[g].write(Rel8::new(a, b, &origins[g]));
+                                s.intersect8_rel(rel, tmin[r], tmax[r])
+                            } else {
+                                s.intersect8(a, b, tmin[r], tmax[r])
+                            }
+                        }
+                        None => s.intersect8(a, b, tmin[r], tmax[r]),
                     }
                 };
-                if counting {
-                    counts[r].tris += tested;
-                }
-                if fold(any, &h, |k| pair_prim(a, b, k), &mut best[r]) {
-                    changed |= 1 << r;
-                    if any {
-                        each &= !(1 << r);
-                    }
-                }
+                fold!(r, &h, u32::MAX, |k| pair_prim(a, b, k), tested);
             }
             j += 2;
         } else {
@@ -409,16 +412,20 @@ unsafe fn leaf_of_one_origin<const MODE: u8>(
             while rays != 0 {
                 let r = rays.trailing_zeros() as usize;
                 rays &= rays - 1;
-                if counting {
-                    counts[r].tris += tested;
+                if rays == 0 {
+                    let h = setup.shear(r).intersect4(g, tmin[r], tmax[r]);
+                    fold!(r, &h, u32::MAX, |k| g.prim[k], tested);
+                    break;
                 }
-                let h = setup.shear(r).intersect4(g, tmin[r], tmax[r]);
-                if fold(any, &h, |k| g.prim[k], &mut best[r]) {
-                    changed |= 1 << r;
-                    if any {
-                        each &= !(1 << r);
-                    }
-                }
+                let q = rays.trailing_zeros() as usize;
+                rays &= rays - 1;
+                // SAFETY: the CPU has AVX2 (see `# Safety`).
+                let h = unsafe {
+                    let (sr, sq) = (setup.shear(r), setup.shear(q));
+                    sr.intersect_two(&sq, g, [tmin[r], tmin[q]], [tmax[r], tmax[q]])
+                };
+                fold!(r, &h, 0xf, |k| g.prim[k % 4], tested);
+                fold!(q, &h, 0xf0, |k| g.prim[k % 4], tested);
             }
             j += 1;
         }

@@ -1,6 +1,8 @@
 //! Lane kernels of the wide traversal: the conservative box test of a node's eight children
 //! ([`Box8Ray::hit8`]), the watertight test of four or eight triangles
-//! ([`Shear4::intersect4`], [`Shear4::intersect8`]), and a leaf's triangles tested with them
+//! ([`Shear4::intersect4`], [`Shear4::intersect8`]; for a packet's rays, eight triangles whose
+//! vertices less the rays' origin are taken once, [`Shear4::intersect8_rel`], and four
+//! triangles by two rays, [`Shear4::intersect_two`]), and a leaf's triangles tested with them
 //! ([`leaf_hits`]).
 //!
 //! Each lane does exactly what the scalar tests do ([`crate::slab`] and
@@ -348,6 +350,12 @@ impl Shear4 {
         }
     }
 
+    /// `kx`, `ky`, `kz` as indices below 3 (as they are), so that rows index without checks.
+    #[inline(always)]
+    fn axes(&self) -> [usize; 3] {
+        self.axis.map(|k| usize::from(k).min(2))
+    }
+
     /// Every field's bits, for tests that compare set-ups.
     #[cfg(test)]
     pub(crate) fn bits(&self) -> Vec<u32> {
@@ -379,6 +387,25 @@ impl Shear4 {
     pub(crate) unsafe fn intersect8(&self, a: &Tri4, b: &Tri4, tmin: f32, tmax: f32) -> TriHits<8> {
         // SAFETY: the caller has checked that the CPU has AVX2 (see `# Safety`).
         unsafe { x86::intersect8_avx2(self, a, b, tmin, tmax) }
+    }
+
+    /// [`Shear4::intersect4`] of one group by two rays in one AVX2 pass: this ray's in lanes
+    /// 0–3, `other`'s in 4–7, each with its own range (`tmin`, `tmax`: this ray's, then the
+    /// other's).
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn intersect_two(
+        &self,
+        other: &Shear4,
+        g: &Tri4,
+        tmin: [f32; 2],
+        tmax: [f32; 2],
+    ) -> TriHits<8> {
+        // SAFETY: as the caller states (see `# Safety`).
+        unsafe { x86::intersect_two_avx2(self, other, g, tmin, tmax) }
     }
 
     /// [`Shear4::intersect8`] of the groups whose vertices less this ray's origin are `rel`.
@@ -443,7 +470,7 @@ pub(crate) unsafe fn leaf_hits<const AVX2: bool>(
             tested += (count - 4 * j as u32).min(8);
             // SAFETY: as the caller states (see `# Safety`).
             let h = unsafe { shear.intersect8(a, b, tmin, tmax) };
-            if fold(any, &h, |k| pair_prim(a, b, k), best) {
+            if fold(any, &h, u32::MAX, |k| pair_prim(a, b, k), best) {
                 changed = true;
                 if any {
                     return (changed, tested);
@@ -455,7 +482,7 @@ pub(crate) unsafe fn leaf_hits<const AVX2: bool>(
         let g = &leaf[j];
         tested += (count - 4 * j as u32).min(4);
         let h = shear.intersect4(g, tmin, tmax);
-        if fold(any, &h, |k| g.prim[k], best) {
+        if fold(any, &h, u32::MAX, |k| g.prim[k], best) {
             changed = true;
             if any {
                 return (changed, tested);
@@ -466,18 +493,19 @@ pub(crate) unsafe fn leaf_hits<const AVX2: bool>(
     (changed, tested)
 }
 
-/// Folds the lanes of `h` that hit into `best` as every walk does (the smallest
+/// Folds the lanes of `h` among `lanes` that hit into `best` as every walk does (the smallest
 /// `(t, primitive id)`, `prim` giving a lane's id; with `any`, the first hit, lowest lane,
 /// ends it), and returns whether `best` changed. A lane pays for its divisions only here.
 #[inline(always)]
 pub(crate) fn fold<const N: usize>(
     any: bool,
     h: &TriHits<N>,
+    lanes: u32,
     prim: impl Fn(usize) -> u32,
     best: &mut Option<Hit>,
 ) -> bool {
     let mut changed = false;
-    let mut m = h.mask;
+    let mut m = h.mask & lanes;
     while m != 0 {
         let k = m.trailing_zeros() as usize;
         m &= m - 1;
@@ -890,6 +918,12 @@ mod x86 {
         pub(super) fn load2(lo: &[f32; 4], hi: &[f32; 4]) -> V {
             _mm256_set_m128(super::l4::load(hi), super::l4::load(lo))
         }
+        /// `lo` in lanes 0–3 and `hi` in 4–7.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn halves(lo: f32, hi: f32) -> V {
+            _mm256_set_m128(_mm_set1_ps(hi), _mm_set1_ps(lo))
+        }
         /// Row `axis` of vertex `i` of `a` and then `b`.
         #[target_feature(enable = "avx2")]
         #[inline]
@@ -899,14 +933,15 @@ mod x86 {
     }
 
     /// The watertight test of `$l::N` triangles, one per lane: [`crate::triangle::intersect_parts`]
-    /// operation for operation. Its vertices come either as the groups `$g` (`$l::vert` loads
-    /// their rows, less the ray's origin) or as [`Rel8`] rows, already less the origin.
-    /// Written once for both lane widths and both sources, so that they cannot drift apart.
+    /// operation for operation. One ray's vertices come either as the groups `$g` (`$l::vert`
+    /// loads their rows, less the ray's origin) or as [`Rel8`] rows, already less the origin;
+    /// or two rays test one group, the first in lanes 0–3. Written once for both lane widths
+    /// and every source, so that they cannot drift apart.
     macro_rules! watertight {
         ($l:ident, $s:expr, groups ($($g:expr),+), $tmin:expr, $tmax:expr) => {{
             use $l as l;
             let s: &Shear4 = $s;
-            let [kx, ky, kz] = s.axis.map(|k| usize::from(k) % 3);
+            let [kx, ky, kz] = s.axes();
             let o = [l::splat(s.org[0]), l::splat(s.org[1]), l::splat(s.org[2])];
             // Vertex minus origin along kx, ky, kz, as the scalar test does. No closures: they
             // would not be compiled for the lane width's target features, and the lane
@@ -928,25 +963,58 @@ mod x86 {
                     l::sub(l::vert($($g),+, 2, kz), o[2]),
                 ],
             ];
-            watertight!(@sheared $l, s, row, $tmin, $tmax)
+            let shear = [l::splat(s.sx), l::splat(s.sy), l::splat(s.sz)];
+            watertight!(@sheared $l, shear, row, l::splat($tmin), l::splat($tmax))
         }};
         ($l:ident, $s:expr, rows $r:expr, $tmin:expr, $tmax:expr) => {{
             use $l as l;
             let s: &Shear4 = $s;
             let r: &Rel8 = $r;
-            let [kx, ky, kz] = s.axis.map(|k| usize::from(k) % 3);
+            let [kx, ky, kz] = s.axes();
             // Written out, not mapped: a closure would not inline the lane operations.
             let row = [
                 [l::load(&r.rows[0][kx]), l::load(&r.rows[0][ky]), l::load(&r.rows[0][kz])],
                 [l::load(&r.rows[1][kx]), l::load(&r.rows[1][ky]), l::load(&r.rows[1][kz])],
                 [l::load(&r.rows[2][kx]), l::load(&r.rows[2][ky]), l::load(&r.rows[2][kz])],
             ];
-            watertight!(@sheared $l, s, row, $tmin, $tmax)
+            let shear = [l::splat(s.sx), l::splat(s.sy), l::splat(s.sz)];
+            watertight!(@sheared $l, shear, row, l::splat($tmin), l::splat($tmax))
         }};
-        (@sheared $l:ident, $s:expr, $row:expr, $tmin:expr, $tmax:expr) => {{
+        (two ($a:expr, $b:expr), $g:expr, ($tmin_a:expr, $tmin_b:expr),
+            ($tmax_a:expr, $tmax_b:expr)) => {{
+            use l8 as l;
+            let (a, b, g): (&Shear4, &Shear4, &Tri4) = ($a, $b, $g);
+            let ([ax, ay, az], [bx, by, bz]) = (a.axes(), b.axes());
+            let o = [
+                l::halves(a.org[0], b.org[0]),
+                l::halves(a.org[1], b.org[1]),
+                l::halves(a.org[2], b.org[2]),
+            ];
+            // Each ray's rows in its half.
+            let row = [
+                [
+                    l::sub(l::load2(&g.v[0][ax], &g.v[0][bx]), o[0]),
+                    l::sub(l::load2(&g.v[0][ay], &g.v[0][by]), o[1]),
+                    l::sub(l::load2(&g.v[0][az], &g.v[0][bz]), o[2]),
+                ],
+                [
+                    l::sub(l::load2(&g.v[1][ax], &g.v[1][bx]), o[0]),
+                    l::sub(l::load2(&g.v[1][ay], &g.v[1][by]), o[1]),
+                    l::sub(l::load2(&g.v[1][az], &g.v[1][bz]), o[2]),
+                ],
+                [
+                    l::sub(l::load2(&g.v[2][ax], &g.v[2][bx]), o[0]),
+                    l::sub(l::load2(&g.v[2][ay], &g.v[2][by]), o[1]),
+                    l::sub(l::load2(&g.v[2][az], &g.v[2][bz]), o[2]),
+                ],
+            ];
+            let shear = [l::halves(a.sx, b.sx), l::halves(a.sy, b.sy), l::halves(a.sz, b.sz)];
+            let (tmin, tmax) = (l::halves($tmin_a, $tmin_b), l::halves($tmax_a, $tmax_b));
+            watertight!(@sheared l8, shear, row, tmin, tmax)
+        }};
+        (@sheared $l:ident, $shear:expr, $row:expr, $tmin:expr, $tmax:expr) => {{
             use $l as l;
-            let s: &Shear4 = $s;
-            let (sx, sy, sz) = (l::splat(s.sx), l::splat(s.sy), l::splat(s.sz));
+            let [sx, sy, sz] = $shear;
             let [[ax, ay, az], [bx, by, bz], [cx, cy, cz]] = $row;
             let (ax, ay) = l::shear(ax, ay, az, sx, sy);
             let (bx, by) = l::shear(bx, by, bz, sx, sy);
@@ -998,8 +1066,8 @@ mod x86 {
             reject = l::or(
                 reject,
                 l::or(
-                    l::lt(t_scaled, l::mul(l::splat($tmin), det_abs)),
-                    l::gt(t_scaled, l::mul(l::splat($tmax), det_abs)),
+                    l::lt(t_scaled, l::mul($tmin, det_abs)),
+                    l::gt(t_scaled, l::mul($tmax, det_abs)),
                 ),
             );
             let mask = l::movemask(l::andnot(reject, l::ones())) & all;
@@ -1036,6 +1104,20 @@ mod x86 {
     ) -> TriHits<8> {
         // SAFETY: the eight-lane operations need AVX2, which the caller has checked.
         unsafe { watertight!(l8, s, groups(a, b), tmin, tmax) }
+    }
+
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[inline(always)]
+    pub(super) unsafe fn intersect_two_avx2(
+        a: &Shear4,
+        b: &Shear4,
+        g: &Tri4,
+        tmin: [f32; 2],
+        tmax: [f32; 2],
+    ) -> TriHits<8> {
+        // SAFETY: the eight-lane operations need AVX2, which the caller has checked.
+        unsafe { watertight!(two(a, b), g, (tmin[0], tmin[1]), (tmax[0], tmax[1])) }
     }
 
     /// # Safety
@@ -1090,6 +1172,8 @@ mod tests {
         let (mut box_hits, mut tri_hits) = (0, 0);
         let bits = |(t, u, v): (f32, f32, f32)| [t, u, v].map(f32::to_bits);
         let mut prev = Tri4::zeroed();
+        // The previous ray that can hit anything, its shear and range.
+        let mut prev_ray: Option<(Shear4, f32, f32)> = None;
         for _ in 0..20_000 {
             let mut node = Node8::zeroed();
             for k in 0..WIDTH {
@@ -1234,6 +1318,26 @@ mod tests {
                     }
                 }
             }
+            #[cfg(target_arch = "x86_64")]
+            if let (true, Some((p, pmin, pmax))) = (avx2(), prev_ray) {
+                // Two rays testing this group in one pass: each half is its ray's four-lane
+                // test.
+                // SAFETY: AVX2 was just detected.
+                let two = unsafe { s.intersect_two(&p, &g, [ray.tmin, pmin], [ray.tmax, pmax]) };
+                let hp = p.intersect4(&g, pmin, pmax);
+                for k in 0..4 {
+                    let (lo, hi) = (1 << k, 1 << (4 + k));
+                    assert_eq!(two.mask & lo != 0, h.mask & lo != 0, "{ray:?} {g:?}");
+                    assert_eq!(two.mask & hi != 0, hp.mask & lo != 0, "{g:?}");
+                    if two.mask & lo != 0 {
+                        assert_eq!(bits(two.hit(k)), bits(h.hit(k)), "{ray:?} {g:?}");
+                    }
+                    if two.mask & hi != 0 {
+                        assert_eq!(bits(two.hit(4 + k)), bits(hp.hit(k)), "{g:?}");
+                    }
+                }
+            }
+            prev_ray = Some((s, ray.tmin, ray.tmax));
             prev = g;
             tri_hits += h.mask.count_ones();
         }
