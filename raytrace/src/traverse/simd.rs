@@ -36,14 +36,19 @@ pub(crate) fn avx2() -> bool {
     }
 }
 
+/// Floats in a row of box planes.
+const ROW: u32 = WIDTH as u32;
+
 /// The per-ray part of the eight-box test.
 #[derive(Clone, Copy)]
 pub(crate) struct Box8Ray {
     org: [f32; 3],
     inv: [f32; 3],
-    /// Plane row of the near side per axis ([`Node8::planes`]).
-    near: [usize; 3],
-    far: [usize; 3],
+    /// Where the plane row of the near side starts per axis, in floats from the first row of
+    /// [`Node8::planes`] (the row times [`WIDTH`]): the eight-lane test loads it at that offset
+    /// without scaling the row first, once for each box test of each ray.
+    near: [u32; 3],
+    far: [u32; 3],
     scale: f32,
 }
 
@@ -59,8 +64,8 @@ impl Box8Ray {
         Self {
             org: r.origin.to_array(),
             inv: [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]],
-            near: [0, 1, 2].map(|a| if neg[a] { 3 + a } else { a }),
-            far: [0, 1, 2].map(|a| if neg[a] { a } else { 3 + a }),
+            near: [0u32, 1, 2].map(|a| ROW * if neg[a as usize] { 3 + a } else { a }),
+            far: [0u32, 1, 2].map(|a| ROW * if neg[a as usize] { a } else { 3 + a }),
             scale: far_scale(),
         }
     }
@@ -72,8 +77,8 @@ impl Box8Ray {
         Self {
             org,
             inv,
-            near: near.map(|r| r as usize),
-            far: far.map(|r| r as usize),
+            near: near.map(|r| ROW * r),
+            far: far.map(|r| ROW * r),
             scale: far_scale(),
         }
     }
@@ -82,7 +87,7 @@ impl Box8Ray {
     #[cfg(test)]
     pub(crate) fn bits(&self) -> Vec<u32> {
         let f = self.org.iter().chain(&self.inv).chain([&self.scale]);
-        let rows = self.near.iter().chain(&self.far).map(|&r| r as u32);
+        let rows = self.near.iter().chain(&self.far).map(|&r| r / ROW);
         f.map(|x| x.to_bits()).chain(rows).collect()
     }
 
@@ -123,8 +128,8 @@ impl Box8Ray {
             let mut t0 = tmin;
             let mut t1 = f32::INFINITY;
             for a in 0..3 {
-                let n = (p[self.near[a]][k] - self.org[a]) * self.inv[a];
-                let f = (p[self.far[a]][k] - self.org[a]) * self.inv[a];
+                let n = (p[(self.near[a] / ROW) as usize][k] - self.org[a]) * self.inv[a];
+                let f = (p[(self.far[a] / ROW) as usize][k] - self.org[a]) * self.inv[a];
                 // Keep the accumulator where the slab is NaN (as `maxps`/`minps` do).
                 t0 = if n > t0 { n } else { t0 };
                 t1 = if f < t1 { f } else { t1 };
@@ -545,7 +550,7 @@ mod x86 {
         _mm256_storeu_si256, _mm256_sub_ps, _mm256_xor_ps,
     };
 
-    use super::{Box8Ray, Hits8, PacketHits, Planes8, Rel8, Shear4, TriHits, WIDTH};
+    use super::{Box8Ray, Hits8, PacketHits, Planes8, ROW, Rel8, Shear4, TriHits, WIDTH};
     use crate::bvh::wide::{Node8, Tri4};
 
     #[inline(always)]
@@ -571,8 +576,9 @@ mod x86 {
                 let mut t1 = _mm_set1_ps(f32::INFINITY);
                 for a in 0..3 {
                     let (o, inv) = (_mm_set1_ps(r.org[a]), _mm_set1_ps(r.inv[a]));
-                    let n = _mm_load_ps(p[r.near[a] % 6][lanes.clone()].as_ptr());
-                    let f = _mm_load_ps(p[r.far[a] % 6][lanes.clone()].as_ptr());
+                    let (near, far) = ((r.near[a] / ROW) as usize, (r.far[a] / ROW) as usize);
+                    let n = _mm_load_ps(p[near % 6][lanes.clone()].as_ptr());
+                    let f = _mm_load_ps(p[far % 6][lanes.clone()].as_ptr());
                     let n = _mm_mul_ps(_mm_sub_ps(n, o), inv);
                     let f = _mm_mul_ps(_mm_sub_ps(f, o), inv);
                     // `max_ps(x, acc)` returns `acc` where `x` is NaN: NaN slabs are ignored.
@@ -641,15 +647,15 @@ mod x86 {
         for a in 0..3 {
             let (o, inv) = (_mm256_set1_ps(r.org[a]), _mm256_set1_ps(r.inv[a]));
             // SAFETY: `Node8` and `Planes8` are aligned to 32 bytes or more and their rows are
-            // 32 bytes each, so every row
-            // is a 32-byte aligned run of eight floats for `_mm256_load_ps`. `Box8Ray::new`
-            // writes row indices below 6 only. Unchecked rather than `% 6`: where the ray's
-            // part is not hoisted out of the walk (rays walked together), the remainders
-            // were six multiplications a test.
+            // 32 bytes each, so every row is a 32-byte aligned run of eight floats for
+            // `_mm256_load_ps`. `Box8Ray` holds row starts (a row below 6 times `ROW`) only.
+            // Unchecked rather than `% 6`: where the ray's part is not hoisted out of the walk
+            // (rays walked together), the remainders were six multiplications a test.
             let (n, f) = unsafe {
+                let first = p.as_ptr().cast::<f32>();
                 (
-                    _mm256_load_ps(p.get_unchecked(r.near[a]).as_ptr()),
-                    _mm256_load_ps(p.get_unchecked(r.far[a]).as_ptr()),
+                    _mm256_load_ps(first.add(r.near[a] as usize)),
+                    _mm256_load_ps(first.add(r.far[a] as usize)),
                 )
             };
             let (n, f) = if SUB {
