@@ -120,13 +120,21 @@ fn wide_any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
                 }
             });
         });
+    // Back in the batch's order, a chunk of answers a work item (rayon's `unzip` of the
+    // gathered pairs took twice as long).
     let mut out = HitBatch {
-        t: Vec::with_capacity(n),
-        prim: Vec::with_capacity(n),
+        t: vec![0.0; n],
+        prim: vec![0; n],
     };
-    rank.par_iter()
-        .map(|&k| (t[k as usize], prim[k as usize]))
-        .unzip_into_vecs(&mut out.t, &mut out.prim);
+    (out.t
+        .par_chunks_mut(CHUNK)
+        .zip(out.prim.par_chunks_mut(CHUNK)))
+    .zip(rank.par_chunks(CHUNK))
+    .for_each(|((ts, ps), ranks)| {
+        for ((t_out, p_out), &k) in ts.iter_mut().zip(ps).zip(ranks) {
+            (*t_out, *p_out) = (t[k as usize], prim[k as usize]);
+        }
+    });
     out
 }
 
@@ -168,20 +176,21 @@ fn origin_cells(bounds: &Aabb, rays: &RayBatch) -> (Vec<u32>, Vec<u32>) {
             (part[cell], sum) = (sum, sum + part[cell]);
         }
     }
+    // Each ray's place, and the ray at each place, in one pass: the places are all different,
+    // so each entry of `order` is written once (relaxed stores are plain stores).
+    let order: Vec<AtomicU32> = (0..n).into_par_iter().map(|_| AtomicU32::new(0)).collect();
     let mut rank = vec![0u32; n];
     rank.par_chunks_mut(size)
         .zip(keys.par_chunks(size))
         .zip(starts.par_iter_mut())
-        .for_each(|((ranks, part), start)| {
-            for (r, &k) in ranks.iter_mut().zip(part) {
+        .enumerate()
+        .for_each(|(p, ((ranks, part), start))| {
+            for (j, (r, &k)) in ranks.iter_mut().zip(part).enumerate() {
                 *r = start[k as usize];
                 start[k as usize] += 1;
+                order[*r as usize].store((p * size + j) as u32, Ordering::Relaxed);
             }
         });
-    let order: Vec<AtomicU32> = (0..n).into_par_iter().map(|_| AtomicU32::new(0)).collect();
-    rank.par_iter()
-        .enumerate()
-        .for_each(|(i, &r)| order[r as usize].store(i as u32, Ordering::Relaxed));
     (order.into_iter().map(AtomicU32::into_inner).collect(), rank)
 }
 
@@ -202,9 +211,19 @@ fn cell_keys(bounds: &Aabb, rays: &RayBatch) -> Vec<u16> {
     // `min` takes a NaN (a non-finite origin, or an infinite extent times zero) to the last
     // cell, and `as` saturates what lies outside.
     let axis = |x: f32, a: usize| spread_of[((x - lo[a]) * scale[a]).min(cells) as usize];
-    (rays.ox.par_iter().zip(&rays.oy).zip(&rays.oz))
-        .map(|((&x, &y), &z)| axis(x, 0) | axis(y, 1) << 1 | axis(z, 2) << 2)
-        .collect()
+    // A chunk of keys a work item, in a plain loop: through rayon's `map`, the key was a call
+    // a ray.
+    let mut keys = vec![0u16; rays.len()];
+    keys.par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(c, part)| {
+            let at = c * CHUNK..c * CHUNK + part.len();
+            let (xs, ys, zs) = (&rays.ox[at.clone()], &rays.oy[at.clone()], &rays.oz[at]);
+            for (((k, &x), &y), &z) in part.iter_mut().zip(xs).zip(ys).zip(zs) {
+                *k = axis(x, 0) | axis(y, 1) << 1 | axis(z, 2) << 2;
+            }
+        });
+    keys
 }
 
 /// The low [`CELL_BITS`] bits of `x`, two zero bits after each: one axis of a Morton key.
