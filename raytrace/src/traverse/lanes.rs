@@ -14,8 +14,8 @@ use std::arch::x86_64::{
     __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ, _mm256_add_epi32,
     _mm256_and_ps, _mm256_and_si256, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps_si256,
     _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_div_ps, _mm256_loadu_ps, _mm256_movemask_ps,
-    _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_srai_epi32,
-    _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps,
+    _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_slli_epi32,
+    _mm256_srai_epi32, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps,
 };
 
 use crate::ray::RayBatch;
@@ -110,7 +110,7 @@ impl Lanes {
 pub(crate) struct Setup {
     org: [[f32; PACKET]; 3],
     inv: [[f32; PACKET]; 3],
-    /// Plane rows of the near and far side per axis.
+    /// Where the plane rows of the near and far side start per axis, in floats.
     near: [[u32; PACKET]; 3],
     far: [[u32; PACKET]; 3],
     /// The shear's origin along `kx`, `ky`, `kz`, those axes, and `sx`, `sy`, `sz`.
@@ -165,9 +165,11 @@ impl Setup {
                 );
                 let row = _mm256_set1_epi32(a as i32);
                 store(&mut s.inv[a], h, _mm256_div_ps(one, da));
-                store_i(&mut s.near[a], h, _mm256_add_epi32(row, neg));
+                // Rows as the box test reads them: where each starts, eight floats a row.
+                let near = _mm256_add_epi32(row, neg);
+                store_i(&mut s.near[a], h, _mm256_slli_epi32::<3>(near));
                 let far = _mm256_sub_epi32(_mm256_add_epi32(row, _mm256_set1_epi32(3)), neg);
-                store_i(&mut s.far[a], h, far);
+                store_i(&mut s.far[a], h, _mm256_slli_epi32::<3>(far));
             }
             // The shear: the dominant axis `kz` (x on a tie with y or z, then y on a tie with z),
             // `kx` and `ky` the next two, swapped where `d[kz] < 0`, as `RayShear::new` picks them.

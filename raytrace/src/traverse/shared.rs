@@ -81,10 +81,7 @@ impl Bvh {
         let mut live = setup.valid;
         // Each ray's part of the box test, laid out as the test reads it: it is read at every
         // node the ray enters.
-        let mut boxes = [setup.boxes(0); PACKET];
-        for (r, b) in boxes.iter_mut().enumerate().skip(1) {
-            *b = setup.boxes(r);
-        }
+        let boxes: [_; PACKET] = std::array::from_fn(|r| setup.boxes(r));
         let (tmin, tmax) = (lanes.tmin, lanes.tmax);
         // Only rays that trace at all (`setup.valid`) are ever in a node's set, so every ray
         // met below has a meaningful set-up.

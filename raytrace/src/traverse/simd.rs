@@ -70,15 +70,16 @@ impl Box8Ray {
         }
     }
 
-    /// The set-up [`Box8Ray::new`] makes, from its parts: the origin, `1 / dir`, and each
-    /// axis's near and far plane row (`crate::traverse::lanes` makes them eight at a time).
+    /// The set-up [`Box8Ray::new`] makes, from its parts: the origin, `1 / dir`, and where
+    /// each axis's near and far plane rows start, in floats (`crate::traverse::lanes` makes
+    /// them eight at a time).
     #[inline(always)]
     pub(crate) fn from_parts(org: [f32; 3], inv: [f32; 3], near: [u32; 3], far: [u32; 3]) -> Self {
         Self {
             org,
             inv,
-            near: near.map(|r| ROW * r),
-            far: far.map(|r| ROW * r),
+            near,
+            far,
             scale: far_scale(),
         }
     }
