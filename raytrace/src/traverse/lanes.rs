@@ -108,7 +108,9 @@ impl Lanes {
 /// The per-ray parts of the box test ([`Box8Ray`]) and of the triangle test ([`Shear4`]) of
 /// every lane, by lane, and the lanes that trace at all.
 pub(crate) struct Setup {
-    org: [[f32; PACKET]; 3],
+    /// Each ray's part of the box test, laid out as the test reads it at every node the ray
+    /// enters; made from the columns below.
+    boxes: [Box8Ray; PACKET],
     inv: [[f32; PACKET]; 3],
     /// Where the plane rows of the near and far side start per axis, in floats.
     near: [[u32; PACKET]; 3],
@@ -127,7 +129,7 @@ pub(crate) struct Setup {
 impl Setup {
     /// A set-up to fill with [`Setup::set`].
     pub(crate) const ZERO: Self = Setup {
-        org: [[0.0; PACKET]; 3],
+        boxes: [Box8Ray::ZERO; PACKET],
         inv: [[0.0; PACKET]; 3],
         near: [[0; PACKET]; 3],
         far: [[0; PACKET]; 3],
@@ -148,7 +150,6 @@ impl Setup {
         // No closures here: they would not be compiled for AVX2, and the intrinsics in them
         // would not inline.
         let s = self;
-        s.org = l.o;
         s.valid = 0;
         // Eight lanes a step.
         for h in (0..PACKET).step_by(8) {
@@ -215,18 +216,20 @@ impl Setup {
             s.valid |= (_mm256_movemask_ps(ok) as u32) << h;
         }
         s.valid &= ((1u64 << n.min(PACKET)) - 1) as u32;
+        for r in 0..n.min(PACKET) {
+            s.boxes[r] = Box8Ray::from_parts(
+                [l.o[0][r], l.o[1][r], l.o[2][r]],
+                [s.inv[0][r], s.inv[1][r], s.inv[2][r]],
+                [s.near[0][r], s.near[1][r], s.near[2][r]],
+                [s.far[0][r], s.far[1][r], s.far[2][r]],
+            );
+        }
     }
 
-    /// Lane `r`'s part of the box test.
+    /// Each lane's part of the box test; meaningful where its `valid` bit is set.
     #[inline(always)]
-    pub(crate) fn boxes(&self, r: usize) -> Box8Ray {
-        let r = r % PACKET;
-        Box8Ray::from_parts(
-            [self.org[0][r], self.org[1][r], self.org[2][r]],
-            [self.inv[0][r], self.inv[1][r], self.inv[2][r]],
-            [self.near[0][r], self.near[1][r], self.near[2][r]],
-            [self.far[0][r], self.far[1][r], self.far[2][r]],
-        )
+    pub(crate) fn boxes(&self) -> &[Box8Ray; PACKET] {
+        &self.boxes
     }
 
     /// Lane `r`'s part of the triangle test; meaningful where its `valid` bit is set.
@@ -402,7 +405,11 @@ mod tests {
                 if let Some(s) = shear {
                     valid += 1;
                     assert_eq!(setup.shear(r).bits(), Shear4::new(s).bits(), "{ray:?}");
-                    assert_eq!(setup.boxes(r).bits(), Box8Ray::new(&ray).bits(), "{ray:?}");
+                    assert_eq!(
+                        setup.boxes()[r].bits(),
+                        Box8Ray::new(&ray).bits(),
+                        "{ray:?}"
+                    );
                 }
             }
             assert_eq!(u64::from(setup.valid) >> n, 0);

@@ -79,9 +79,7 @@ impl Bvh {
         unsafe { setup.set(lanes, n) };
         let setup = &*setup;
         let mut live = setup.valid;
-        // Each ray's part of the box test, laid out as the test reads it: it is read at every
-        // node the ray enters.
-        let boxes: [_; PACKET] = std::array::from_fn(|r| setup.boxes(r));
+        let boxes = setup.boxes();
         let (tmin, tmax) = (lanes.tmin, lanes.tmax);
         // Only rays that trace at all (`setup.valid`) are ever in a node's set, so every ray
         // met below has a meaningful set-up.
@@ -149,7 +147,7 @@ impl Bvh {
                                         simd::relative(node, &origins[3]),
                                     ];
                                     simd::packet_node::<false, true, $near, PACKET, GROUPS>(
-                                        &boxes,
+                                        boxes,
                                         m,
                                         std::array::from_fn(|h| rels[h].rows()),
                                         &tmin,
@@ -158,7 +156,7 @@ impl Bvh {
                                 } else {
                                     let rel = simd::relative(node, &origins[0]);
                                     simd::packet_node::<false, false, $near, PACKET, GROUPS>(
-                                        &boxes,
+                                        boxes,
                                         m,
                                         [rel.rows(); GROUPS],
                                         &tmin,
@@ -167,7 +165,7 @@ impl Bvh {
                                 }
                             } else {
                                 simd::packet_node::<true, false, $near, PACKET, GROUPS>(
-                                    &boxes,
+                                    boxes,
                                     m,
                                     [&node.planes; GROUPS],
                                     &tmin,

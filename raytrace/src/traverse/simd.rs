@@ -57,6 +57,15 @@ pub(crate) struct Box8Ray {
 pub(crate) type Hits8 = (u32, [f32; WIDTH]);
 
 impl Box8Ray {
+    /// A placeholder, to be overwritten before it is read.
+    pub(crate) const ZERO: Self = Self {
+        org: [0.0; 3],
+        inv: [0.0; 3],
+        near: [0; 3],
+        far: [0; 3],
+        scale: 0.0,
+    };
+
     #[inline(always)]
     pub(crate) fn new(r: &Ray) -> Self {
         let d = r.dir.to_array();
