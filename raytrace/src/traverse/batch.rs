@@ -138,13 +138,22 @@ fn wide_any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
     out
 }
 
-/// Whether at least half of the rays start where the ray before them does, bit for bit.
+/// Whether at least half of the rays start where the ray before them does, bit for bit,
+/// judged on up to [`RUN_SAMPLES`] rays spread evenly over the batch: it picks a path, not an
+/// answer, and reading every origin cost about 3 % of the walk of the bunny's AO probes.
 fn in_runs(rays: &RayBatch) -> bool {
-    let same = (1..rays.len())
-        .into_par_iter()
-        .filter(|&i| rays.same_origin(i, i - 1));
-    2 * same.count() >= rays.len()
+    let n = rays.len();
+    let step = (n / RUN_SAMPLES).max(1);
+    let (mut same, mut seen) = (0, 0);
+    for i in (1..n).step_by(step) {
+        same += usize::from(rays.same_origin(i, i - 1));
+        seen += 1;
+    }
+    2 * same >= seen.max(1)
 }
+
+/// How many rays [`in_runs`] looks at.
+const RUN_SAMPLES: usize = 1024;
 
 /// Cells per side of the scene's box, as bits: 32³ cells, sorted in one counting pass over
 /// their Morton keys. Rays of one cell need not share an origin (the packets do not ask it),
