@@ -109,12 +109,8 @@ impl Lanes {
 /// every lane, by lane, and the lanes that trace at all.
 pub(crate) struct Setup {
     /// Each ray's part of the box test, laid out as the test reads it at every node the ray
-    /// enters; made from the columns below.
+    /// enters.
     boxes: [Box8Ray; PACKET],
-    inv: [[f32; PACKET]; 3],
-    /// Where the plane rows of the near and far side start per axis, in floats.
-    near: [[u32; PACKET]; 3],
-    far: [[u32; PACKET]; 3],
     /// The shear's origin along `kx`, `ky`, `kz`, those axes, and `sx`, `sy`, `sz`.
     shear_org: [[f32; PACKET]; 3],
     axis: [[u32; PACKET]; 3],
@@ -130,9 +126,6 @@ impl Setup {
     /// A set-up to fill with [`Setup::set`].
     pub(crate) const ZERO: Self = Setup {
         boxes: [Box8Ray::ZERO; PACKET],
-        inv: [[0.0; PACKET]; 3],
-        near: [[0; PACKET]; 3],
-        far: [[0; PACKET]; 3],
         shear_org: [[0.0; PACKET]; 3],
         axis: [[0; PACKET]; 3],
         shear: [[0.0; PACKET]; 3],
@@ -158,20 +151,24 @@ impl Setup {
             let zero = _mm256_setzero_ps();
             let one = _mm256_set1_ps(1.0);
             let ones = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
-            // The box test: `1 / d`, and the near plane the max row where `d`'s sign bit is set.
+            // The box test: `1 / d`, and the near plane the max row where `d`'s sign bit is set,
+            // each row as the test reads it, where it starts (eight floats a row).
+            let (mut inv, mut near, mut far) = ([zero; 3], [zero; 3], [zero; 3]);
             for (a, &da) in d.iter().enumerate() {
                 let neg = _mm256_and_si256(
                     _mm256_srai_epi32::<31>(_mm256_castps_si256(da)),
                     _mm256_set1_epi32(3),
                 );
                 let row = _mm256_set1_epi32(a as i32);
-                store(&mut s.inv[a], h, _mm256_div_ps(one, da));
-                // Rows as the box test reads them: where each starts, eight floats a row.
-                let near = _mm256_add_epi32(row, neg);
-                store_i(&mut s.near[a], h, _mm256_slli_epi32::<3>(near));
-                let far = _mm256_sub_epi32(_mm256_add_epi32(row, _mm256_set1_epi32(3)), neg);
-                store_i(&mut s.far[a], h, _mm256_slli_epi32::<3>(far));
+                inv[a] = _mm256_div_ps(one, da);
+                let n = _mm256_add_epi32(row, neg);
+                near[a] = _mm256_castsi256_ps(_mm256_slli_epi32::<3>(n));
+                let f = _mm256_sub_epi32(_mm256_add_epi32(row, _mm256_set1_epi32(3)), neg);
+                far[a] = _mm256_castsi256_ps(_mm256_slli_epi32::<3>(f));
             }
+            let boxes: &mut [Box8Ray; 8] = (&mut s.boxes[h..h + 8]).try_into().expect("8 lanes");
+            // SAFETY: this function runs on AVX2 (see `# Safety`).
+            unsafe { Box8Ray::set8(boxes, o, inv, near, far) };
             // The shear: the dominant axis `kz` (x on a tie with y or z, then y on a tie with z),
             // `kx` and `ky` the next two, swapped where `d[kz] < 0`, as `RayShear::new` picks them.
             let sign = _mm256_set1_ps(-0.0);
@@ -216,14 +213,6 @@ impl Setup {
             s.valid |= (_mm256_movemask_ps(ok) as u32) << h;
         }
         s.valid &= ((1u64 << n.min(PACKET)) - 1) as u32;
-        for r in 0..n.min(PACKET) {
-            s.boxes[r] = Box8Ray::from_parts(
-                [l.o[0][r], l.o[1][r], l.o[2][r]],
-                [s.inv[0][r], s.inv[1][r], s.inv[2][r]],
-                [s.near[0][r], s.near[1][r], s.near[2][r]],
-                [s.far[0][r], s.far[1][r], s.far[2][r]],
-            );
-        }
     }
 
     /// Each lane's part of the box test; meaningful where its `valid` bit is set.

@@ -17,6 +17,9 @@
 //! that hit need their distance, and most groups have none or one, so dividing every lane
 //! would cost two vector divisions per group for nothing.
 
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::__m256;
+
 use crate::bvh::wide::{Node8, Tri4, WIDTH};
 use crate::ray::{Hit, Ray};
 use crate::slab::far_scale;
@@ -39,8 +42,10 @@ pub(crate) fn avx2() -> bool {
 /// Floats in a row of box planes.
 const ROW: u32 = WIDTH as u32;
 
-/// The per-ray part of the eight-box test.
+/// The per-ray part of the eight-box test: 64 bytes, two AVX2 stores
+/// ([`Box8Ray::set8`] writes eight at a time).
 #[derive(Clone, Copy)]
+#[repr(C, align(32))]
 pub(crate) struct Box8Ray {
     org: [f32; 3],
     inv: [f32; 3],
@@ -50,7 +55,10 @@ pub(crate) struct Box8Ray {
     near: [u32; 3],
     far: [u32; 3],
     scale: f32,
+    pad: [f32; 3],
 }
+
+const _: () = assert!(size_of::<Box8Ray>() == 64);
 
 /// The box test's answer: a bit per child whose box the ray meets, and each child's entry
 /// distance (meaningful where the bit is set).
@@ -64,6 +72,7 @@ impl Box8Ray {
         near: [0; 3],
         far: [0; 3],
         scale: 0.0,
+        pad: [0.0; 3],
     };
 
     #[inline(always)]
@@ -76,21 +85,28 @@ impl Box8Ray {
             near: [0u32, 1, 2].map(|a| ROW * if neg[a as usize] { 3 + a } else { a }),
             far: [0u32, 1, 2].map(|a| ROW * if neg[a as usize] { a } else { 3 + a }),
             scale: far_scale(),
+            pad: [0.0; 3],
         }
     }
 
-    /// The set-up [`Box8Ray::new`] makes, from its parts: the origin, `1 / dir`, and where
-    /// each axis's near and far plane rows start, in floats (`crate::traverse::lanes` makes
-    /// them eight at a time).
+    /// The set-ups [`Box8Ray::new`] makes of eight rays, from their parts by lane: the
+    /// origins, `1 / dir`, and where each axis's near and far plane rows start, in floats
+    /// (bits, in float lanes). `crate::traverse::lanes` makes them eight at a time; here they
+    /// are turned from lanes into rays, two 8 × 8 transposes.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    pub(crate) fn from_parts(org: [f32; 3], inv: [f32; 3], near: [u32; 3], far: [u32; 3]) -> Self {
-        Self {
-            org,
-            inv,
-            near,
-            far,
-            scale: far_scale(),
-        }
+    pub(crate) unsafe fn set8(
+        out: &mut [Box8Ray; 8],
+        org: [__m256; 3],
+        inv: [__m256; 3],
+        near: [__m256; 3],
+        far: [__m256; 3],
+    ) {
+        // SAFETY: as the caller states (see `# Safety`).
+        unsafe { x86::set8_avx2(out, org, inv, near, far) }
     }
 
     /// Every field's bits, for tests that compare set-ups.
@@ -554,14 +570,16 @@ mod x86 {
         _mm256_andnot_si256, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
         _mm256_cmpeq_epi32, _mm256_cvtsi256_si32, _mm256_load_ps, _mm256_loadu_ps,
         _mm256_loadu_si256, _mm256_max_ps, _mm256_min_epu32, _mm256_min_ps, _mm256_movemask_ps,
-        _mm256_mul_ps, _mm256_or_ps, _mm256_or_si256, _mm256_permute2x128_si256, _mm256_set_m128,
-        _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32, _mm256_setzero_ps,
-        _mm256_setzero_si256, _mm256_shuffle_epi32, _mm256_store_ps, _mm256_storeu_ps,
-        _mm256_storeu_si256, _mm256_sub_ps, _mm256_xor_ps,
+        _mm256_mul_ps, _mm256_or_ps, _mm256_or_si256, _mm256_permute2f128_ps,
+        _mm256_permute2x128_si256, _mm256_set_m128, _mm256_set1_epi32, _mm256_set1_ps,
+        _mm256_setr_epi32, _mm256_setzero_ps, _mm256_setzero_si256, _mm256_shuffle_epi32,
+        _mm256_shuffle_ps, _mm256_store_ps, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps,
+        _mm256_unpackhi_ps, _mm256_unpacklo_ps, _mm256_xor_ps,
     };
 
     use super::{Box8Ray, Hits8, PacketHits, Planes8, ROW, Rel8, Shear4, TriHits, WIDTH};
     use crate::bvh::wide::{Node8, Tri4};
+    use crate::slab::far_scale;
 
     #[inline(always)]
     fn store(v: __m128) -> [f32; 4] {
@@ -684,6 +702,71 @@ mod x86 {
             _mm256_set1_ps(tmax),
         );
         (_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1), t0)
+    }
+
+    /// Eight rows of eight lanes turned into eight rows of eight: `out[i]` holds lane `i` of
+    /// every row, in row order.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn transpose8(r: [__m256; 8]) -> [__m256; 8] {
+        let t = [
+            _mm256_unpacklo_ps(r[0], r[1]),
+            _mm256_unpackhi_ps(r[0], r[1]),
+            _mm256_unpacklo_ps(r[2], r[3]),
+            _mm256_unpackhi_ps(r[2], r[3]),
+            _mm256_unpacklo_ps(r[4], r[5]),
+            _mm256_unpackhi_ps(r[4], r[5]),
+            _mm256_unpacklo_ps(r[6], r[7]),
+            _mm256_unpackhi_ps(r[6], r[7]),
+        ];
+        let u = [
+            _mm256_shuffle_ps::<0x44>(t[0], t[2]),
+            _mm256_shuffle_ps::<0xEE>(t[0], t[2]),
+            _mm256_shuffle_ps::<0x44>(t[1], t[3]),
+            _mm256_shuffle_ps::<0xEE>(t[1], t[3]),
+            _mm256_shuffle_ps::<0x44>(t[4], t[6]),
+            _mm256_shuffle_ps::<0xEE>(t[4], t[6]),
+            _mm256_shuffle_ps::<0x44>(t[5], t[7]),
+            _mm256_shuffle_ps::<0xEE>(t[5], t[7]),
+        ];
+        [
+            _mm256_permute2f128_ps::<0x20>(u[0], u[4]),
+            _mm256_permute2f128_ps::<0x20>(u[1], u[5]),
+            _mm256_permute2f128_ps::<0x20>(u[2], u[6]),
+            _mm256_permute2f128_ps::<0x20>(u[3], u[7]),
+            _mm256_permute2f128_ps::<0x31>(u[0], u[4]),
+            _mm256_permute2f128_ps::<0x31>(u[1], u[5]),
+            _mm256_permute2f128_ps::<0x31>(u[2], u[6]),
+            _mm256_permute2f128_ps::<0x31>(u[3], u[7]),
+        ]
+    }
+
+    /// [`Box8Ray::set8`].
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) fn set8_avx2(
+        out: &mut [Box8Ray; 8],
+        org: [__m256; 3],
+        inv: [__m256; 3],
+        near: [__m256; 3],
+        far: [__m256; 3],
+    ) {
+        let scale = _mm256_set1_ps(far_scale());
+        let zero = _mm256_setzero_ps();
+        // The first 32 bytes of each ray (`org`, `inv`, two `near` rows), then the rest.
+        let lo = transpose8([
+            org[0], org[1], org[2], inv[0], inv[1], inv[2], near[0], near[1],
+        ]);
+        let hi = transpose8([near[2], far[0], far[1], far[2], scale, zero, zero, zero]);
+        for (b, (lo, hi)) in out.iter_mut().zip(lo.into_iter().zip(hi)) {
+            let at = (b as *mut Box8Ray).cast::<f32>();
+            // SAFETY: `Box8Ray` is `repr(C)`, 64 bytes aligned to 32, of plain 4-byte fields in
+            // this order, so its two aligned halves take any bits.
+            unsafe {
+                _mm256_store_ps(at, lo);
+                _mm256_store_ps(at.add(8), hi);
+            }
+        }
     }
 
     /// [`super::packet_node`].
