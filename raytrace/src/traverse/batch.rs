@@ -210,22 +210,36 @@ fn cell_keys(bounds: &Aabb, rays: &RayBatch) -> Vec<u16> {
             0.0
         }
     });
-    // One axis of a key: `min` takes a NaN (a non-finite origin, or an infinite extent times
-    // zero) to the last cell, and `max` what lies below the box to the first.
-    let axis = |x: f32, a: usize| spread(((x - lo[a]) * scale[a]).min(cells).max(0.0) as u32);
-    // A chunk of keys a work item, in a plain loop: through rayon's `map`, the key was a call
-    // a ray.
+    let (lo, scale) = (lo.to_array(), scale);
     let mut keys = vec![0u16; rays.len()];
+    // A chunk of keys a work item, in a plain loop over scalars, which vectorises: through
+    // rayon's `map`, or with the box read through the closure's references, it was a call or
+    // sixty instructions a ray.
     keys.par_chunks_mut(CHUNK)
         .enumerate()
         .for_each(|(c, part)| {
             let at = c * CHUNK..c * CHUNK + part.len();
             let (xs, ys, zs) = (&rays.ox[at.clone()], &rays.oy[at.clone()], &rays.oz[at]);
+            let ([lx, ly, lz], [sx, sy, sz]) = (lo, scale);
             for (((k, &x), &y), &z) in part.iter_mut().zip(xs).zip(ys).zip(zs) {
-                *k = (axis(x, 0) | axis(y, 1) << 1 | axis(z, 2) << 2) as u16;
+                let key = axis_key(x, lx, sx, cells)
+                    | axis_key(y, ly, sy, cells) << 1
+                    | axis_key(z, lz, sz, cells) << 2;
+                *k = key as u16;
             }
         });
     keys
+}
+
+/// One axis of a cell key: the cell of `x` on a grid from `lo` with `scale` cells a unit and
+/// `cells` the last, its bits spread ([`spread`]). `min` takes a NaN (a non-finite origin, or
+/// an infinite extent times zero) to the last cell, and `max` what lies below to the first.
+#[inline(always)]
+fn axis_key(x: f32, lo: f32, scale: f32, cells: f32) -> u32 {
+    let c = ((x - lo) * scale).min(cells).max(0.0);
+    // SAFETY: `c` is finite and in `0..=cells`, which `u32` holds: `min` and `max` left no
+    // NaN. (The checked cast's NaN and range tests kept the loop from vectorising.)
+    spread(unsafe { c.to_int_unchecked::<u32>() })
 }
 
 /// The low [`CELL_BITS`] bits of `x`, two zero bits after each: one axis of a Morton key.
