@@ -13,9 +13,10 @@
 use std::arch::x86_64::{
     __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ, _mm256_add_epi32,
     _mm256_and_ps, _mm256_and_si256, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps_si256,
-    _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_div_ps, _mm256_loadu_ps, _mm256_movemask_ps,
-    _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_slli_epi32,
-    _mm256_srai_epi32, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps,
+    _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_div_ps, _mm256_loadu_ps,
+    _mm256_movemask_ps, _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps,
+    _mm256_slli_epi32, _mm256_srai_epi32, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32,
+    _mm256_sub_ps,
 };
 
 use crate::ray::RayBatch;
@@ -93,15 +94,10 @@ impl Lanes {
         }
     }
 
-    /// Each group of eight lanes' first origin, and whether the first `n` lanes all start at
-    /// their group's, bit for bit.
+    /// Each group of eight lanes' first origin.
     #[inline(always)]
-    pub(crate) fn group_origins(&self, n: usize) -> ([[f32; 3]; GROUPS], bool) {
-        let at = |r: usize| [self.o[0][r], self.o[1][r], self.o[2][r]];
-        let first: [[f32; 3]; GROUPS] = std::array::from_fn(|g| at(8 * g));
-        let same =
-            (0..n.min(PACKET)).all(|r| at(r).map(f32::to_bits) == first[r / 8].map(f32::to_bits));
-        (first, same)
+    pub(crate) fn group_origins(&self) -> [[f32; 3]; GROUPS] {
+        std::array::from_fn(|g| [self.o[0][8 * g], self.o[1][8 * g], self.o[2][8 * g]])
     }
 }
 
@@ -120,6 +116,9 @@ pub(crate) struct Setup {
     ///
     /// [`RayShear::new`]: crate::triangle::RayShear::new
     pub(crate) valid: u32,
+    /// Whether the first `n` lanes each start where the first lane of their group of eight
+    /// does, bit for bit ([`Lanes::group_origins`]).
+    pub(crate) one_origin: bool,
 }
 
 impl Setup {
@@ -130,6 +129,7 @@ impl Setup {
         axis: [[0; PACKET]; 3],
         shear: [[0.0; PACKET]; 3],
         valid: 0,
+        one_origin: false,
     };
 
     /// Becomes the set-up of the first `n` lanes of `l`, every lane overwritten: one set-up
@@ -144,6 +144,8 @@ impl Setup {
         // would not inline.
         let s = self;
         s.valid = 0;
+        // The lanes that start where their group's first lane does.
+        let mut same = 0u32;
         // Eight lanes a step.
         for h in (0..PACKET).step_by(8) {
             let o = [load(&l.o[0], h), load(&l.o[1], h), load(&l.o[2], h)];
@@ -211,8 +213,17 @@ impl Setup {
             );
             let ok = traced(&o, &d, load(&l.tmin, h), load(&l.tmax, h));
             s.valid |= (_mm256_movemask_ps(ok) as u32) << h;
+            let mut at = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+            for (a, &oa) in o.iter().enumerate() {
+                let first = _mm256_set1_epi32(l.o[a][h].to_bits() as i32);
+                let equal = _mm256_cmpeq_epi32(_mm256_castps_si256(oa), first);
+                at = _mm256_and_ps(at, _mm256_castsi256_ps(equal));
+            }
+            same |= (_mm256_movemask_ps(at) as u32) << h;
         }
-        s.valid &= ((1u64 << n.min(PACKET)) - 1) as u32;
+        let first_n = ((1u64 << n.min(PACKET)) - 1) as u32;
+        s.valid &= first_n;
+        s.one_origin = same & first_n == first_n;
     }
 
     /// Each lane's part of the box test; meaningful where its `valid` bit is set.
@@ -376,20 +387,39 @@ mod tests {
                 return;
             }
             // SAFETY: the CPU has AVX2, just checked.
+            unsafe { lanes.gather(&rays, &idx) };
+            if k % 4 == 1 {
+                // Groups of one origin each, one lane moved by a unit in the last place in
+                // half of them.
+                for r in 0..n {
+                    for a in 0..3 {
+                        lanes.o[a][r] = lanes.o[a][r - r % 8];
+                    }
+                }
+                if k % 8 == 5 {
+                    let r = n - 1;
+                    lanes.o[1][r] = f32::from_bits(lanes.o[1][r].to_bits() ^ 1);
+                }
+            }
+            let one_origin = (0..n).all(|r| {
+                (0..3).all(|a| lanes.o[a][r].to_bits() == lanes.o[a][r - r % 8].to_bits())
+            });
+            // SAFETY: as above.
             let setup = unsafe {
-                lanes.gather(&rays, &idx);
                 let mut setup = Setup::ZERO;
                 setup.set(&lanes, n);
                 setup
             };
+            assert_eq!(setup.one_origin, one_origin, "lanes {idx:?}");
             for (r, &i) in idx.iter().enumerate() {
-                let ray = rays.get(i);
+                // The gathered ray (its origin moved where its group's was).
+                let ray = lanes.ray(r);
                 let ranged = ray.tmin.partial_cmp(&ray.tmax).is_some_and(|o| o.is_le());
                 let shear = RayShear::new(ray.origin, ray.dir).filter(|_| ranged);
                 assert_eq!(setup.valid >> r & 1 == 1, shear.is_some(), "{ray:?}");
                 assert_eq!(
-                    lanes.ray(r).dir.to_array().map(f32::to_bits),
-                    ray.dir.to_array().map(f32::to_bits)
+                    ray.dir.to_array().map(f32::to_bits),
+                    rays.get(i).dir.to_array().map(f32::to_bits)
                 );
                 if let Some(s) = shear {
                     valid += 1;

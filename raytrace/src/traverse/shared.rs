@@ -84,7 +84,7 @@ impl Bvh {
         // Only rays that trace at all (`setup.valid`) are ever in a node's set, so every ray
         // met below has a meaningful set-up.
         // Rays of one origin, bit for bit, share the first step of every box test.
-        let (origins, one_origin) = lanes.group_origins(n);
+        let (origins, one_origin) = (lanes.group_origins(), setup.one_origin);
         // Whether a later group of eight holds rays of another origin than the first's.
         let groups_apart = origins
             .iter()
