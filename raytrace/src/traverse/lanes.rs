@@ -67,11 +67,15 @@ impl Lanes {
         let rows = [ox, oy, oz, dx, dy, dz, &mut self.tmin, &mut self.tmax];
         let columns = rows.into_iter().zip(rays.columns());
         let first = idx.first().copied().unwrap_or(0);
+        // Whether the rays are one run: every index compared, without stopping at the first
+        // that differs, so that the comparison vectorises (a fifth of the copy's time as a
+        // loop that could stop).
+        let run = idx
+            .iter()
+            .enumerate()
+            .fold(true, |run, (r, &i)| run & (i == first + r));
         // A whole packet's run: fixed-length copies, which compile to the vector loads and
         // stores that the set-up's loads then read whole.
-        // Every index compared, without stopping at the first that differs, so that the
-        // comparison vectorises (a fifth of the copy's time as a loop that could stop).
-        let run = idx.iter().enumerate().fold(true, |run, (r, &i)| run & (i == first + r));
         if n == PACKET && run {
             for (lanes, column) in columns {
                 lanes.copy_from_slice(&column[first..first + PACKET]);

@@ -1255,6 +1255,20 @@ mod tests {
     use super::*;
     use crate::Rng;
 
+    /// Lanes 0–3 of `h8` are `lo`'s four and lanes 4–7 `hi`'s, hit for hit and bit for bit.
+    fn halves_are(h8: &TriHits<8>, lo: &TriHits<4>, hi: &TriHits<4>, what: &str) {
+        let bits = |(t, u, v): (f32, f32, f32)| [t, u, v].map(f32::to_bits);
+        for (half, four) in [(0, lo), (4, hi)] {
+            for k in 0..4 {
+                let hit = four.mask & (1 << k) != 0;
+                assert_eq!(h8.mask & (1 << (half + k)) != 0, hit, "{what}");
+                if hit {
+                    assert_eq!(bits(h8.hit(half + k)), bits(four.hit(k)), "{what}");
+                }
+            }
+        }
+    }
+
     /// The SIMD lanes equal the scalar tests bit for bit, on small-integer coordinates that put
     /// origins on planes and rays through edges and vertices, with zeros of both signs.
     #[test]
@@ -1405,17 +1419,7 @@ mod tests {
                     }
                 }
                 let hp = s.intersect4(&prev, ray.tmin, ray.tmax);
-                for k in 0..4 {
-                    let (lo, hi) = (1 << k, 1 << (4 + k));
-                    assert_eq!(h8.mask & lo != 0, hp.mask & lo != 0, "{ray:?} {prev:?}");
-                    assert_eq!(h8.mask & hi != 0, h.mask & lo != 0, "{ray:?} {g:?}");
-                    if h8.mask & lo != 0 {
-                        assert_eq!(bits(h8.hit(k)), bits(hp.hit(k)), "{ray:?} {prev:?}");
-                    }
-                    if h8.mask & hi != 0 {
-                        assert_eq!(bits(h8.hit(4 + k)), bits(h.hit(k)), "{ray:?} {g:?}");
-                    }
-                }
+                halves_are(&h8, &hp, &h, &format!("{ray:?} {prev:?} {g:?}"));
             }
             #[cfg(target_arch = "x86_64")]
             if let (true, Some((p, pmin, pmax))) = (avx2(), prev_ray) {
@@ -1424,17 +1428,7 @@ mod tests {
                 // SAFETY: AVX2 was just detected.
                 let two = unsafe { s.intersect_two(&p, &g, [ray.tmin, pmin], [ray.tmax, pmax]) };
                 let hp = p.intersect4(&g, pmin, pmax);
-                for k in 0..4 {
-                    let (lo, hi) = (1 << k, 1 << (4 + k));
-                    assert_eq!(two.mask & lo != 0, h.mask & lo != 0, "{ray:?} {g:?}");
-                    assert_eq!(two.mask & hi != 0, hp.mask & lo != 0, "{g:?}");
-                    if two.mask & lo != 0 {
-                        assert_eq!(bits(two.hit(k)), bits(h.hit(k)), "{ray:?} {g:?}");
-                    }
-                    if two.mask & hi != 0 {
-                        assert_eq!(bits(two.hit(4 + k)), bits(hp.hit(k)), "{g:?}");
-                    }
-                }
+                halves_are(&two, &h, &hp, &format!("{ray:?} {g:?}"));
             }
             prev_ray = Some((s, ray.tmin, ray.tmax));
             prev = g;
