@@ -311,7 +311,8 @@ impl Bvh {
 
 /// A leaf tested by the rays `m` of a packet. Each ray makes the single walk's tests in its
 /// order, with its bits, a pair of triangle groups at a time (an any-hit ray stopping at its
-/// first hit); its hits fold into `best` and its counts into `counts` as [`leaf_hits`] does.
+/// first hit); its hits fold into `best` and its counts into `counts` as
+/// [`simd::leaf_hits`] does.
 /// Returns the rays whose `best` changed.
 ///
 /// Rays share what the tests allow. Where the packet's groups of eight each start at one origin
