@@ -296,7 +296,7 @@ fn bin(input: &Input, prims: &[u32], slabs: &Slabs) -> Box<Bins> {
 /// The tests of `n` triangles, as the wide tree tests them: a group of four at a time, so a
 /// leaf of three costs what one of four does. (Counted one by one, the trees had more leaves
 /// of one to three triangles; counted in eights, the pair the AVX2 test takes at once, they
-/// traced 4-8 % slower on the bunny, Sibenik and the knot.)
+/// mostly traced 5-13 % slower on the bunny and Sibenik.)
 fn blocks(n: u32) -> f32 {
     (n.div_ceil(4) * 4) as f32
 }

@@ -66,6 +66,7 @@ pub(crate) type Hits8 = (u32, [f32; WIDTH]);
 
 impl Box8Ray {
     /// A placeholder, to be overwritten before it is read.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(crate) const ZERO: Self = Self {
         org: [0.0; 3],
         inv: [0.0; 3],
@@ -382,6 +383,7 @@ impl Shear4 {
     }
 
     /// `kx`, `ky`, `kz` as indices below 3 (as they are), so that rows index without checks.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     #[inline(always)]
     fn axes(&self) -> [usize; 3] {
         self.axis.map(|k| usize::from(k).min(2))
