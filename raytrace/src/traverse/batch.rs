@@ -99,17 +99,12 @@ fn wide_any_hits(bvh: &Bvh, rays: &RayBatch) -> HitBatch {
     }
     let n = rays.len();
     let order = origin_cells(&bvh.bounds(), rays);
-    // Each answer goes straight to its ray's place in the batch (the places are all
-    // different, and relaxed stores are plain stores): putting them back in a pass after,
-    // reading the walk's answers by each ray's place, cost 8 % of a small mesh's walk.
-    let t: Vec<AtomicU32> = (0..n)
-        .into_par_iter()
-        .map(|_| AtomicU32::new(f32::INFINITY.to_bits()))
-        .collect();
-    let prim: Vec<AtomicU32> = (0..n)
-        .into_par_iter()
-        .map(|_| AtomicU32::new(u32::MAX))
-        .collect();
+    // Each answer goes straight to its ray's place in the batch: putting them back in a pass
+    // after, reading the walk's answers by each ray's place, cost 8 % of a small mesh's walk.
+    let (t, prim) = (
+        places(n, f32::INFINITY.to_bits()),
+        places(n, HitBatch::MISS),
+    );
     order.par_chunks(CHUNK).for_each(|part| {
         let at = |k: usize| {
             // The rays lie scattered in the batch now, where the hardware prefetchers, which
@@ -182,9 +177,8 @@ fn origin_cells(bounds: &Aabb, rays: &RayBatch) -> Vec<u32> {
             (part[cell], sum) = (sum, sum + part[cell]);
         }
     }
-    // The places are all different, so each entry is written once (relaxed stores are plain
-    // stores).
-    let order: Vec<AtomicU32> = (0..n).into_par_iter().map(|_| AtomicU32::new(0)).collect();
+    // The places are all different, so each entry is written once.
+    let order = places(n, 0);
     keys.par_chunks(size)
         .zip(starts.par_iter_mut())
         .enumerate()
@@ -196,6 +190,15 @@ fn origin_cells(bounds: &Aabb, rays: &RayBatch) -> Vec<u32> {
             }
         });
     order.into_iter().map(AtomicU32::into_inner).collect()
+}
+
+/// `n` words of `bits`, for a parallel pass to fill at places that are all different (relaxed
+/// stores are plain stores).
+fn places(n: usize, bits: u32) -> Vec<AtomicU32> {
+    (0..n)
+        .into_par_iter()
+        .map(|_| AtomicU32::new(bits))
+        .collect()
 }
 
 /// Each ray's origin cell: its Morton key on a grid of [`CELL_BITS`] bits a side over `bounds`
