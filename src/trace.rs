@@ -107,10 +107,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let (hits, seconds, adapter, nodes) = match args.device {
         Device::Cpu => {
             let mut best = f64::INFINITY;
-            let mut hits = HitBatch::misses(0);
+            // One batch for every repeat, as a renderer keeps one from frame to frame.
+            let mut hits = HitBatch::default();
             for _ in 0..args.repeats {
                 let tracing = Instant::now();
-                hits = traverse::hits_in(&bvh, &rays, args.any_hit, layout);
+                traverse::hits_into(&bvh, &rays, args.any_hit, layout, &mut hits);
                 best = best.min(tracing.elapsed().as_secs_f64());
             }
             (hits, best, None, None)

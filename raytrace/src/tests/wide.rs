@@ -73,6 +73,19 @@ fn differential(name: &str, preset: BuildPreset, seed: u64) {
     }
     let closest = crate::traverse::closest_hits(&bvh, &batch);
     let any = crate::traverse::any_hits(&bvh, &batch);
+    // Traced into a batch that held other answers, longer and shorter: the fresh batch's.
+    let mut kept = crate::HitBatch {
+        t: vec![1.0; rays.len() + 9],
+        prim: vec![7; rays.len() + 9],
+    };
+    for _ in 0..2 {
+        for (query, fresh) in [(true, &any), (false, &closest)] {
+            crate::traverse::hits_into(&bvh, &batch, query, Layout::Wide, &mut kept);
+            assert!(&kept == fresh, "{name}: kept batch, any hit {query}");
+        }
+        kept.t.truncate(9);
+        kept.prim.truncate(9);
+    }
     for (i, r) in rays.iter().enumerate() {
         let one = bvh.closest_hit(r).map(|h| (h.t.to_bits(), h.prim));
         let got = closest.get(i).map(|(t, p)| (t.to_bits(), p));

@@ -37,7 +37,8 @@ mod wide;
 
 pub use batch::{
     any_hits, any_hits_counted, closest_hits, closest_hits_counted, fill_skipping, hits_counted_in,
-    hits_in, hits_skipping, hits_skipping_in, reduced_counts, reduced_counts_at, slices, traced_at,
+    hits_in, hits_into, hits_skipping, hits_skipping_in, reduced_counts, reduced_counts_at, slices,
+    traced_at,
 };
 pub use counts::Counts;
 pub use layout::Layout;
