@@ -10,6 +10,8 @@
 //! [`Box8Ray::new`]: crate::traverse::simd::Box8Ray::new
 //! [`RayShear::new`]: crate::triangle::RayShear::new
 
+use std::mem::MaybeUninit;
+
 use std::arch::x86_64::{
     __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ, _mm256_add_epi32,
     _mm256_and_ps, _mm256_and_si256, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps_si256,
@@ -20,7 +22,8 @@ use std::arch::x86_64::{
 };
 
 use crate::ray::RayBatch;
-use crate::traverse::simd::{Box8Ray, Shear4};
+use crate::traverse::simd::{Box8Ray, Shear4, transpose8};
+use crate::traverse::source::{Record, record};
 
 /// Rays walked together at most: one bit each in a node's masks
 /// ([`crate::traverse::shared`]), one lane each of four AVX2 registers here.
@@ -89,6 +92,38 @@ impl Lanes {
         }
     }
 
+    /// [`Lanes::gather`] from records: eight lanes at a time, one 8 × 8 transpose of the
+    /// eight rays' blocks (a lane past `idx` repeats the first ray).
+    ///
+    /// # Panics
+    /// Panics if an index is out of `records`' bounds.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    pub(crate) unsafe fn gather_records(&mut self, records: &[Record], idx: &[usize]) {
+        let n = idx.len().min(PACKET);
+        if n == 0 {
+            return;
+        }
+        for h in (0..n).step_by(8) {
+            let mut rows = [_mm256_setzero_ps(); 8];
+            for (k, row) in rows.iter_mut().enumerate() {
+                let i = if h + k < n { idx[h + k] } else { idx[0] };
+                // SAFETY: a record is eight readable floats.
+                *row = unsafe { _mm256_loadu_ps(records[i].as_ptr()) };
+            }
+            let lanes = transpose8(rows);
+            let [ox, oy, oz] = &mut self.o;
+            let [dx, dy, dz] = &mut self.d;
+            let rows = [ox, oy, oz, dx, dy, dz, &mut self.tmin, &mut self.tmax];
+            for (row, lane) in rows.into_iter().zip(lanes) {
+                store(row, h, lane);
+            }
+        }
+    }
+
     /// The ray in lane `r`.
     #[cfg(test)]
     pub(crate) fn ray(&self, r: usize) -> crate::ray::Ray {
@@ -105,6 +140,35 @@ impl Lanes {
     #[inline(always)]
     pub(crate) fn group_origins(&self) -> [[f32; 3]; GROUPS] {
         std::array::from_fn(|g| [self.o[0][8 * g], self.o[1][8 * g], self.o[2][8 * g]])
+    }
+}
+
+/// Rays `first..first + out.len()` of `rays` as records, eight at a time by one 8 × 8
+/// transpose of the eight columns.
+///
+/// # Panics
+/// Panics if the rays are out of `rays`' bounds.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn records(rays: &RayBatch, first: usize, out: &mut [MaybeUninit<Record>]) {
+    let columns = rays.columns();
+    let whole = out.len() / 8 * 8;
+    for h in (0..whole).step_by(8) {
+        let mut rows = [_mm256_setzero_ps(); 8];
+        for (row, column) in rows.iter_mut().zip(columns) {
+            let at = &column[first + h..first + h + 8];
+            // SAFETY: `at` is eight readable floats.
+            *row = unsafe { _mm256_loadu_ps(at.as_ptr()) };
+        }
+        for (to, record) in out[h..h + 8].iter_mut().zip(transpose8(rows)) {
+            // SAFETY: a record is eight writable floats.
+            unsafe { _mm256_storeu_ps(to.as_mut_ptr().cast(), record) };
+        }
+    }
+    for (j, to) in out.iter_mut().enumerate().skip(whole) {
+        to.write(record(rays, first + j));
     }
 }
 
@@ -359,7 +423,7 @@ mod tests {
             }
         };
         let mut rays = RayBatch::default();
-        for _ in 0..4000 {
+        for _ in 0..4003 {
             let o = Vec3::new(any(&mut rng), any(&mut rng), any(&mut rng));
             let mut d = Vec3::new(any(&mut rng), any(&mut rng), any(&mut rng));
             if rng.below(5) == 0 {
@@ -373,6 +437,12 @@ mod tests {
                 a.min(b),
                 if rng.below(6) == 0 { a } else { a.max(b) },
             ));
+        }
+        // Records made in chunks with a tail that is not a whole eight.
+        let records = crate::traverse::source::records(&rays);
+        assert_eq!(records.len(), rays.len());
+        for (i, r) in records.iter().enumerate() {
+            assert_eq!(r.map(f32::to_bits), record_bits(&rays.get(i)), "ray {i}");
         }
         let mut valid = 0;
         for (k, first) in (0..rays.len()).step_by(7).enumerate() {
@@ -395,6 +465,14 @@ mod tests {
             }
             // SAFETY: the CPU has AVX2, just checked.
             unsafe { lanes.gather(&rays, &idx) };
+            // The same rays gathered from their records, bit for bit.
+            let mut from_records = Lanes::ZERO;
+            // SAFETY: the CPU has AVX2, just checked.
+            unsafe { from_records.gather_records(&records, &idx) };
+            for r in 0..n {
+                let bits = |l: &Lanes| record_bits(&l.ray(r));
+                assert_eq!(bits(&from_records), bits(&lanes), "lane {r} of {idx:?}");
+            }
             if k % 4 == 1 {
                 // Groups of one origin each, one lane moved by a unit in the last place in
                 // half of them.
@@ -441,5 +519,12 @@ mod tests {
             assert_eq!(u64::from(setup.valid) >> n, 0);
         }
         assert!(valid > 300, "{valid} valid rays");
+    }
+
+    /// A ray's eight floats as bits, in the order of a record.
+    fn record_bits(r: &Ray) -> [u32; 8] {
+        let [ox, oy, oz] = r.origin.to_array();
+        let [dx, dy, dz] = r.dir.to_array();
+        [ox, oy, oz, dx, dy, dz, r.tmin, r.tmax].map(f32::to_bits)
     }
 }

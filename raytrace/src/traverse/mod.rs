@@ -15,7 +15,8 @@
 //! - `wide.rs`: the 8-wide tree, eight boxes and four triangles a step (`simd.rs` holds the
 //!   lane kernels), and runs of rays sharing an origin handed to
 //! - `shared.rs`: any-hit and closest-hit rays sharing an origin walked together (AVX2),
-//!   thirty-two at a time, gathered and set up eight lanes a step by `lanes.rs`;
+//!   thirty-two at a time, gathered and set up eight lanes a step by `lanes.rs`, from a
+//!   batch's columns or its rays' records (`source.rs`);
 //! - `packet.rs`: reduced and first-leaf walks of eight rays at once (AVX2);
 //! - `batch.rs`: the batch queries over a [`crate::RayBatch`], in parallel.
 
@@ -32,6 +33,7 @@ mod packet;
 mod shared;
 mod simd;
 mod single;
+mod source;
 pub(crate) mod walk;
 mod wide;
 

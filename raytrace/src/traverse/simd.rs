@@ -561,6 +561,11 @@ pub(crate) fn pair_prim(a: &Tri4, b: &Tri4, k: usize) -> u32 {
     if k < 4 { a.prim[k] } else { b.prim[k % 4] }
 }
 
+/// Eight rows of eight lanes turned into eight rows of eight: `out[i]` holds lane `i` of every
+/// row, in row order.
+#[cfg(target_arch = "x86_64")]
+pub(crate) use x86::transpose8;
+
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use std::arch::x86_64::{
@@ -710,7 +715,7 @@ mod x86 {
     /// every row, in row order.
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn transpose8(r: [__m256; 8]) -> [__m256; 8] {
+    pub(crate) fn transpose8(r: [__m256; 8]) -> [__m256; 8] {
         let t = [
             _mm256_unpacklo_ps(r[0], r[1]),
             _mm256_unpackhi_ps(r[0], r[1]),

@@ -38,13 +38,14 @@ use std::mem::MaybeUninit;
 
 use crate::bvh::Bvh;
 use crate::bvh::wide::WIDTH;
-use crate::ray::{Hit, Ray, RayBatch};
+use crate::ray::{Hit, Ray};
 use crate::traverse::closest::cull_bound;
 use crate::traverse::counts::Counts;
 #[cfg(target_arch = "x86_64")]
 use crate::traverse::lanes::{Lanes, PACKET, Setup};
 use crate::traverse::mode::{ANY, ANY_COUNTED, COUNTED};
 use crate::traverse::simd::{self, Box8Ray, Shear4, leaf_hits};
+use crate::traverse::source::Source;
 use crate::triangle::RayShear;
 
 /// Wide levels the common traversal's stack is sized for (under 4 KiB of entries); deeper
@@ -89,25 +90,25 @@ impl Bvh {
     #[inline(always)]
     pub(crate) fn wide_each<const MODE: u8>(
         &self,
-        rays: &RayBatch,
+        rays: &(impl Source + ?Sized),
         n: usize,
         at: impl FnMut(usize) -> Option<usize>,
         put: impl FnMut(usize, Option<Hit>, Counts),
     ) {
         if self.wide.depth <= SHALLOW && simd::avx2() {
             // SAFETY: the CPU has AVX2, just checked, and the tree is shallow.
-            unsafe { self.wide_each_avx2::<MODE>(rays, n, at, put) }
+            unsafe { self.wide_each_avx2::<MODE, _>(rays, n, at, put) }
         } else {
-            each(n, at, put, |i| self.run_wide::<MODE>(&rays.get(i)));
+            each(n, at, put, |i| self.run_wide::<MODE>(&rays.ray(i)));
         }
     }
 
     /// # Safety
     /// The CPU must have AVX2, and the tree be no deeper than [`SHALLOW`].
     #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2"))]
-    unsafe fn wide_each_avx2<const MODE: u8>(
+    unsafe fn wide_each_avx2<const MODE: u8, S: Source + ?Sized>(
         &self,
-        rays: &RayBatch,
+        rays: &S,
         n: usize,
         at: impl FnMut(usize) -> Option<usize>,
         put: impl FnMut(usize, Option<Hit>, Counts),
@@ -117,12 +118,12 @@ impl Bvh {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: as the caller states (see `# Safety`).
         unsafe {
-            self.shared_runs::<MODE>(rays, n, at, put)
+            self.shared_runs::<MODE, S>(rays, n, at, put)
         }
         #[cfg(not(target_arch = "x86_64"))]
         each(n, at, put, |i| {
             // SAFETY: as the caller states (see `# Safety`).
-            unsafe { self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&rays.get(i)) }
+            unsafe { self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&rays.ray(i)) }
         });
     }
 
@@ -135,9 +136,9 @@ impl Bvh {
     /// The CPU must have AVX2, and the tree be no deeper than [`SHALLOW`].
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn shared_runs<const MODE: u8>(
+    unsafe fn shared_runs<const MODE: u8, S: Source + ?Sized>(
         &self,
-        rays: &RayBatch,
+        rays: &S,
         n: usize,
         mut at: impl FnMut(usize) -> Option<usize>,
         mut put: impl FnMut(usize, Option<Hit>, Counts),
@@ -161,12 +162,12 @@ impl Bvh {
                 if len == 1 {
                     // SAFETY: as the caller states (see `# Safety`).
                     let (hit, counts) = unsafe {
-                        self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&rays.get(idx[0]))
+                        self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&rays.ray(idx[0]))
                     };
                     put(slot[0], hit, counts);
                 } else {
                     // SAFETY: as the caller states (see `# Safety`).
-                    unsafe { run.gather(rays, &idx[..len]) };
+                    unsafe { rays.gather(&mut run, &idx[..len]) };
                     if counting {
                         counts[..len].fill(Counts::default());
                     }
@@ -193,14 +194,14 @@ impl Bvh {
                 // A closest-hit packet culls the nodes it leaves waiting by the entry
                 // distances' bits, which order as the floats only where they are not
                 // negative: a ray that starts behind its origin (or at -0) walks alone.
-                if rays.tmin[i].is_sign_negative() {
+                if rays.tmin(i).is_sign_negative() {
                     if len > 0 {
                         flush!();
                         len = 0;
                     }
                     // SAFETY: as the caller states (see `# Safety`).
                     let (hit, counts) = unsafe {
-                        self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&rays.get(i))
+                        self.traverse_wide::<MODE, true, { stack_for(SHALLOW) }>(&rays.ray(i))
                     };
                     put(k, hit, counts);
                     continue;

@@ -1,0 +1,119 @@
+//! Where a walk reads its rays ([`Source`]): a batch's columns, or [`Record`]s, each ray's
+//! eight floats in one block.
+
+#[cfg(target_arch = "x86_64")]
+use crate::traverse::lanes::Lanes;
+use rayon::prelude::*;
+
+use crate::{Ray, RayBatch};
+
+/// One ray's origin, direction, `tmin` and `tmax`, in the order of [`RayBatch::columns`].
+pub(crate) type Record = [f32; 8];
+
+/// Ray `i` of `rays` as a [`Record`].
+#[inline(always)]
+pub(crate) fn record(rays: &RayBatch, i: usize) -> Record {
+    [
+        rays.ox[i],
+        rays.oy[i],
+        rays.oz[i],
+        rays.dx[i],
+        rays.dy[i],
+        rays.dz[i],
+        rays.tmin[i],
+        rays.tmax[i],
+    ]
+}
+
+/// The rays of `rays` as records, in parallel.
+pub(crate) fn records(rays: &RayBatch) -> Vec<Record> {
+    let n = rays.len();
+    let mut out = Vec::with_capacity(n);
+    out.spare_capacity_mut()[..n]
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(c, part)| {
+            #[cfg(target_arch = "x86_64")]
+            if crate::traverse::simd::avx2() {
+                // SAFETY: the CPU has AVX2, just checked.
+                unsafe { crate::traverse::lanes::records(rays, c * CHUNK, part) };
+                return;
+            }
+            for (j, to) in part.iter_mut().enumerate() {
+                to.write(record(rays, c * CHUNK + j));
+            }
+        });
+    // SAFETY: every record of `0..n` was written above.
+    unsafe { out.set_len(n) };
+    out
+}
+
+/// Records made a chunk at a time.
+const CHUNK: usize = 1024;
+
+/// Rays a walk reads by index.
+pub(crate) trait Source {
+    /// Ray `i`.
+    fn ray(&self, i: usize) -> Ray;
+
+    /// Ray `i`'s `tmin`.
+    fn tmin(&self, i: usize) -> f32;
+
+    /// Whether rays `i` and `j` start at the same point, bit for bit.
+    fn same_origin(&self, i: usize, j: usize) -> bool;
+
+    /// Lanes `0..idx.len()` become rays `idx[0], idx[1], …` (at most
+    /// [`crate::traverse::lanes::PACKET`] of them).
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn gather(&self, lanes: &mut Lanes, idx: &[usize]);
+}
+
+impl Source for RayBatch {
+    fn ray(&self, i: usize) -> Ray {
+        self.get(i)
+    }
+
+    fn tmin(&self, i: usize) -> f32 {
+        self.tmin[i]
+    }
+
+    fn same_origin(&self, i: usize, j: usize) -> bool {
+        RayBatch::same_origin(self, i, j)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn gather(&self, lanes: &mut Lanes, idx: &[usize]) {
+        // SAFETY: as the caller states (see `# Safety`).
+        unsafe { lanes.gather(self, idx) }
+    }
+}
+
+impl Source for [Record] {
+    fn ray(&self, i: usize) -> Ray {
+        let r = &self[i];
+        Ray {
+            origin: glam::Vec3::new(r[0], r[1], r[2]),
+            dir: glam::Vec3::new(r[3], r[4], r[5]),
+            tmin: r[6],
+            tmax: r[7],
+        }
+    }
+
+    fn tmin(&self, i: usize) -> f32 {
+        self[i][6]
+    }
+
+    fn same_origin(&self, i: usize, j: usize) -> bool {
+        let o = |k: usize| [self[k][0], self[k][1], self[k][2]].map(f32::to_bits);
+        o(i) == o(j)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn gather(&self, lanes: &mut Lanes, idx: &[usize]) {
+        // SAFETY: as the caller states (see `# Safety`).
+        unsafe { lanes.gather_records(self, idx) }
+    }
+}
