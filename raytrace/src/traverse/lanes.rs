@@ -16,9 +16,9 @@ use std::arch::x86_64::{
     __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ, _mm256_add_epi32,
     _mm256_and_ps, _mm256_and_si256, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps_si256,
     _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_div_ps, _mm256_loadu_ps,
-    _mm256_movemask_ps, _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps,
-    _mm256_slli_epi32, _mm256_srai_epi32, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32,
-    _mm256_sub_ps,
+    _mm256_movemask_ps, _mm256_or_ps, _mm256_permutevar8x32_epi32, _mm256_set1_epi32,
+    _mm256_set1_ps, _mm256_setr_epi32, _mm256_setzero_ps, _mm256_slli_epi32, _mm256_srai_epi32,
+    _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps,
 };
 
 use crate::ray::RayBatch;
@@ -141,6 +141,12 @@ impl Lanes {
     pub(crate) fn group_origins(&self) -> [[f32; 3]; GROUPS] {
         std::array::from_fn(|g| [self.o[0][8 * g], self.o[1][8 * g], self.o[2][8 * g]])
     }
+
+    /// Each four lanes' first origin.
+    #[inline(always)]
+    pub(crate) fn quad_origins(&self) -> [[f32; 3]; PACKET / 4] {
+        std::array::from_fn(|q| [self.o[0][4 * q], self.o[1][4 * q], self.o[2][4 * q]])
+    }
 }
 
 /// Rays `first..first + out.len()` of `rays` as records, eight at a time by one 8 × 8
@@ -190,6 +196,9 @@ pub(crate) struct Setup {
     /// Whether the first `n` lanes each start where the first lane of their group of eight
     /// does, bit for bit ([`Lanes::group_origins`]).
     pub(crate) one_origin: bool,
+    /// Whether the first `n` lanes each start where the first lane of their four does, bit
+    /// for bit ([`Lanes::quad_origins`]).
+    pub(crate) quad_origin: bool,
 }
 
 impl Setup {
@@ -201,6 +210,7 @@ impl Setup {
         shear: [[0.0; PACKET]; 3],
         valid: 0,
         one_origin: false,
+        quad_origin: false,
     };
 
     /// Becomes the set-up of the first `n` lanes of `l`, every lane overwritten: one set-up
@@ -215,8 +225,9 @@ impl Setup {
         // would not inline.
         let s = self;
         s.valid = 0;
-        // The lanes that start where their group's first lane does.
-        let mut same = 0u32;
+        // The lanes that start where their group's first lane does, and where the first lane
+        // of their four does.
+        let (mut same, mut same4) = (0u32, 0u32);
         // Eight lanes a step.
         for h in (0..PACKET).step_by(8) {
             let o = [load(&l.o[0], h), load(&l.o[1], h), load(&l.o[2], h)];
@@ -285,16 +296,25 @@ impl Setup {
             let ok = traced(&o, &d, load(&l.tmin, h), load(&l.tmax, h));
             s.valid |= (_mm256_movemask_ps(ok) as u32) << h;
             let mut at = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+            let mut at4 = at;
             for (a, &oa) in o.iter().enumerate() {
+                let oa = _mm256_castps_si256(oa);
                 let first = _mm256_set1_epi32(l.o[a][h].to_bits() as i32);
-                let equal = _mm256_cmpeq_epi32(_mm256_castps_si256(oa), first);
+                let equal = _mm256_cmpeq_epi32(oa, first);
                 at = _mm256_and_ps(at, _mm256_castsi256_ps(equal));
+                // Each lane against the first of its four.
+                let first4 =
+                    _mm256_permutevar8x32_epi32(oa, _mm256_setr_epi32(0, 0, 0, 0, 4, 4, 4, 4));
+                let equal4 = _mm256_cmpeq_epi32(oa, first4);
+                at4 = _mm256_and_ps(at4, _mm256_castsi256_ps(equal4));
             }
             same |= (_mm256_movemask_ps(at) as u32) << h;
+            same4 |= (_mm256_movemask_ps(at4) as u32) << h;
         }
         let first_n = ((1u64 << n.min(PACKET)) - 1) as u32;
         s.valid &= first_n;
         s.one_origin = same & first_n == first_n;
+        s.quad_origin = same4 & first_n == first_n;
     }
 
     /// Each lane's part of the box test; meaningful where its `valid` bit is set.
@@ -473,22 +493,26 @@ mod tests {
                 let bits = |l: &Lanes| record_bits(&l.ray(r));
                 assert_eq!(bits(&from_records), bits(&lanes), "lane {r} of {idx:?}");
             }
-            if k % 4 == 1 {
-                // Groups of one origin each, one lane moved by a unit in the last place in
-                // half of them.
+            if k % 4 == 1 || k % 4 == 3 {
+                // Groups of eight (or four) of one origin each, one lane moved by a unit in
+                // the last place in half of them.
+                let group = if k % 4 == 1 { 8 } else { 4 };
                 for r in 0..n {
                     for a in 0..3 {
-                        lanes.o[a][r] = lanes.o[a][r - r % 8];
+                        lanes.o[a][r] = lanes.o[a][r - r % group];
                     }
                 }
-                if k % 8 == 5 {
+                if k % 8 == 5 || k % 8 == 7 {
                     let r = n - 1;
                     lanes.o[1][r] = f32::from_bits(lanes.o[1][r].to_bits() ^ 1);
                 }
             }
-            let one_origin = (0..n).all(|r| {
-                (0..3).all(|a| lanes.o[a][r].to_bits() == lanes.o[a][r - r % 8].to_bits())
-            });
+            let from = |lanes: &Lanes, group: usize| {
+                (0..n).all(|r| {
+                    (0..3).all(|a| lanes.o[a][r].to_bits() == lanes.o[a][r - r % group].to_bits())
+                })
+            };
+            let (one_origin, quad_origin) = (from(&lanes, 8), from(&lanes, 4));
             // SAFETY: as above.
             let setup = unsafe {
                 let mut setup = Setup::ZERO;
@@ -496,6 +520,7 @@ mod tests {
                 setup
             };
             assert_eq!(setup.one_origin, one_origin, "lanes {idx:?}");
+            assert_eq!(setup.quad_origin, quad_origin, "lanes {idx:?}");
             for (r, &i) in idx.iter().enumerate() {
                 // The gathered ray (its origin moved where its group's was).
                 let ray = lanes.ray(r);

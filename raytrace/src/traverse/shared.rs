@@ -90,6 +90,17 @@ impl Bvh {
             .iter()
             .enumerate()
             .any(|(g, o)| n > 8 * g && o.map(f32::to_bits) != origins[0].map(f32::to_bits));
+        // The origins a leaf's pairs are taken less once for their rays, and the shift from a
+        // lane to its group: one origin for all, one per eight lanes, or one per four (the AO
+        // rays of a hit four at a time).
+        let quads = lanes.quad_origins();
+        let shared: Option<(&[[f32; 3]], u32)> = if one_origin {
+            Some((&origins, if groups_apart { 3 } else { 5 }))
+        } else if setup.quad_origin {
+            Some((&quads, 2))
+        } else {
+            None
+        };
         let mut cull = tmax.map(cull_bound);
         let nodes = &wide.nodes[..];
         let groups = &wide.groups[..];
@@ -255,19 +266,10 @@ impl Bvh {
                 // SAFETY: a leaf's `ceil(count / 4)` groups from `child` were pushed by
                 // `WideBvh::collapse` when it wrote the leaf.
                 let leaf = unsafe { groups.get_unchecked(first..first + g) };
-                // SAFETY: the CPU has AVX2 (see `# Safety`); with `one_origin`, each group of
-                // eight rays starts at its entry of `origins`, bit for bit.
+                // SAFETY: the CPU has AVX2 (see `# Safety`); each ray of `shared`'s groups
+                // starts at its group's origin, bit for bit (`one_origin`, `quad_origin`).
                 let changed = unsafe {
-                    packet_leaf::<MODE>(
-                        setup,
-                        leaf,
-                        count,
-                        one_origin.then_some((&origins, groups_apart)),
-                        m,
-                        (&tmin, &tmax),
-                        best,
-                        counts,
-                    )
+                    packet_leaf::<MODE>(setup, leaf, count, shared, m, (&tmin, &tmax), best, counts)
                 };
                 let mut each = changed;
                 while each != 0 {
@@ -315,10 +317,10 @@ impl Bvh {
 /// [`simd::leaf_hits`] does.
 /// Returns the rays whose `best` changed.
 ///
-/// Rays share what the tests allow. Where the packet's groups of eight each start at one origin
-/// (`shared`: the origins, one per group where apart, else the first for all), a pair's
-/// vertices less an origin are taken once for the rays from it ([`Rel8`]) where two or more
-/// still test the pair. A lone group (most of a small mesh's leaves hold four triangles or
+/// Rays share what the tests allow. Where the packet's groups of lanes each start at one origin
+/// (`shared`: the groups' origins, and the shift from a lane to its group: 5 for one group of
+/// all, 3 for groups of eight, 2 for groups of four), a pair's vertices less an origin are
+/// taken once for the rays from it ([`Rel8`]) where two or more still test the pair. A lone group (most of a small mesh's leaves hold four triangles or
 /// fewer) is tested by two rays in one eight-lane pass.
 ///
 /// # Safety
@@ -330,7 +332,7 @@ unsafe fn packet_leaf<const MODE: u8>(
     setup: &Setup,
     leaf: &[Tri4],
     count: u32,
-    shared: Option<(&[[f32; 3]; GROUPS], bool)>,
+    shared: Option<(&[[f32; 3]], u32)>,
     m: u32,
     (tmin, tmax): (&[f32; PACKET], &[f32; PACKET]),
     best: &mut [Option<Hit>; PACKET],
@@ -369,7 +371,7 @@ unsafe fn packet_leaf<const MODE: u8>(
         if j + 1 < n {
             let (a, b) = (&leaf[j], &leaf[j + 1]);
             let tested = (count - 4 * j as u32).min(8);
-            let mut rows = [const { MaybeUninit::<Rel8>::uninit() }; GROUPS];
+            let mut rows = [const { MaybeUninit::<Rel8>::uninit() }; PACKET / 4];
             let mut made = 0u32;
             let mut rays = each;
             while rays != 0 {
@@ -380,9 +382,9 @@ unsafe fn packet_leaf<const MODE: u8>(
                 // origin, which each of its rays starts at.
                 let h = unsafe {
                     match shared {
-                        Some((origins, apart)) => {
-                            let g = if apart { r / 8 } else { 0 };
-                            let group = if apart { 0xff << (8 * g) } else { u32::MAX };
+                        Some((origins, shift)) => {
+                            let g = r >> shift;
+                            let group = (((1u64 << (1 << shift)) - 1) << (g << shift)) as u32;
                             if made & (1 << g) != 0 {
                                 s.intersect8_rel(rows[g].assume_init_ref(), tmin[r], tmax[r])
                             } else if rays & group != 0 {
