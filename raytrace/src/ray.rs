@@ -172,6 +172,24 @@ impl RayBatch {
         ]
     }
 
+    /// Ray `i` as a [`Record`].
+    ///
+    /// # Panics
+    /// Panics if `i` is out of bounds.
+    #[inline(always)]
+    pub(crate) fn record(&self, i: usize) -> Record {
+        [
+            self.ox[i],
+            self.oy[i],
+            self.oz[i],
+            self.dx[i],
+            self.dy[i],
+            self.dz[i],
+            self.tmin[i],
+            self.tmax[i],
+        ]
+    }
+
     /// Whether rays `i` and `j` start at the same point, bit for bit.
     ///
     /// # Panics
@@ -332,6 +350,10 @@ impl std::str::FromStr for RayKind {
             })
     }
 }
+
+/// One ray's origin, direction, `tmin` and `tmax` in one block, in the order of
+/// [`RayBatch::columns`]: what a walk in an order other than the batch's reads a ray from.
+pub(crate) type Record = [f32; 8];
 
 /// Starts loading `column[i]` into the cache; nothing where `i` is beyond the column or the
 /// CPU has no prefetch instruction.

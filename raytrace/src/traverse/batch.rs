@@ -44,8 +44,8 @@ fn misses(n: usize) -> HitBatch {
 
 /// `out` made `n` misses in its own buffers, written in parallel. Kept buffers spare the
 /// trace a fresh batch's pages, which the kernel maps and zeroes on their first touch: a
-/// small mesh's AO probes traced again into a batch of the same size measured 1.06x faster
-/// on one thread, 1.1x on two. Where the batch is fresh, its pages are first touched here,
+/// small mesh's AO probes traced again into a batch of the same size measured 1.05x faster
+/// on one thread, 1.07-1.09x on two. Where the batch is fresh, its pages are first touched here,
 /// and mapping them is work one thread alone would otherwise do while the others wait.
 fn reset(out: &mut HitBatch, n: usize) {
     out.t.clear();
@@ -96,8 +96,8 @@ fn wide_hits_into<const MODE: u8>(bvh: &Bvh, rays: &RayBatch, out: &mut HitBatch
 /// ([`origin_cells`]), each answer written to its ray's place: rays from nearby points enter
 /// the same nodes, which the cache then holds (a large tree's shuffled AO rays walked as they
 /// come measured 1.2-1.5x slower on the dragon and the hairball). The sort is part of the
-/// call's time. Each ray's answer, hit or miss, is its own walk's; which triangle an occluded ray
-/// reports may differ with its neighbours, as any-hit queries allow.
+/// call's time. Each ray's answer, hit or miss, is its own walk's; which triangle an occluded
+/// ray reports may differ with its neighbours, as any-hit queries allow.
 fn wide_any_hits_into(bvh: &Bvh, rays: &RayBatch, out: &mut HitBatch) {
     check(rays);
     if in_runs(rays) {

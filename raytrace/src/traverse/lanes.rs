@@ -1,5 +1,6 @@
-//! A packet's rays by lane ([`Lanes`]), gathered from a batch's columns, and the per-ray parts
-//! of their box and triangle tests set up for all of them at once ([`Setup`]).
+//! A packet's rays by lane ([`Lanes`]), gathered from a batch's columns or from records (a
+//! ray's eight floats in one block, made here by [`records`]), and the per-ray parts of their
+//! box and triangle tests set up for all of them at once ([`Setup`]).
 //!
 //! Set up one ray at a time, a packet's rays cost six scalar divisions each, and the choice
 //! of each ray's shear axes; for short AO rays that was a quarter of the whole trace. Here
@@ -10,8 +11,6 @@
 //! [`Box8Ray::new`]: crate::traverse::simd::Box8Ray::new
 //! [`RayShear::new`]: crate::triangle::RayShear::new
 
-use std::mem::MaybeUninit;
-
 use std::arch::x86_64::{
     __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ, _mm256_add_epi32,
     _mm256_and_ps, _mm256_and_si256, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps_si256,
@@ -20,10 +19,10 @@ use std::arch::x86_64::{
     _mm256_set1_ps, _mm256_setr_epi32, _mm256_setzero_ps, _mm256_slli_epi32, _mm256_srai_epi32,
     _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps,
 };
+use std::mem::MaybeUninit;
 
-use crate::ray::RayBatch;
+use crate::ray::{RayBatch, Record};
 use crate::traverse::simd::{Box8Ray, Shear4, transpose8};
-use crate::traverse::source::{Record, record};
 
 /// Rays walked together at most: one bit each in a node's masks
 /// ([`crate::traverse::shared`]), one lane each of four AVX2 registers here.
@@ -174,7 +173,7 @@ pub(crate) unsafe fn records(rays: &RayBatch, first: usize, out: &mut [MaybeUnin
         }
     }
     for (j, to) in out.iter_mut().enumerate().skip(whole) {
-        to.write(record(rays, first + j));
+        to.write(rays.record(first + j));
     }
 }
 
@@ -458,12 +457,21 @@ mod tests {
                 if rng.below(6) == 0 { a } else { a.max(b) },
             ));
         }
-        // Records made in chunks with a tail that is not a whole eight.
-        let records = crate::traverse::source::records(&rays);
-        assert_eq!(records.len(), rays.len());
-        for (i, r) in records.iter().enumerate() {
-            assert_eq!(r.map(f32::to_bits), record_bits(&rays.get(i)), "ray {i}");
+        // Records made eight at a time by transposes, from starts that are not a multiple of
+        // eight and with tails that are not a whole eight.
+        if !crate::traverse::simd::avx2() {
+            return;
         }
+        let mut records = vec![MaybeUninit::<Record>::uninit(); rays.len()];
+        for (first, end) in [(0, 1000), (1000, 1003), (1003, 2995), (2995, rays.len())] {
+            // SAFETY: the CPU has AVX2, just checked.
+            unsafe { super::records(&rays, first, &mut records[first..end]) };
+        }
+        // SAFETY: the four ranges above cover every record, and each was written.
+        let records: Vec<Record> = records
+            .into_iter()
+            .map(|r| unsafe { r.assume_init() })
+            .collect();
         let mut valid = 0;
         for (k, first) in (0..rays.len()).step_by(7).enumerate() {
             // Whole packets and shorter ones, their rays in order (a whole packet's are
@@ -480,16 +488,18 @@ mod tests {
             } else {
                 (first..first + n).rev().collect()
             };
-            if !crate::traverse::simd::avx2() {
-                return;
-            }
-            // SAFETY: the CPU has AVX2, just checked.
+            // SAFETY: the CPU has AVX2, checked above.
             unsafe { lanes.gather(&rays, &idx) };
             // The same rays gathered from their records, bit for bit.
             let mut from_records = Lanes::ZERO;
-            // SAFETY: the CPU has AVX2, just checked.
+            // SAFETY: the CPU has AVX2, checked above.
             unsafe { from_records.gather_records(&records, &idx) };
-            for r in 0..n {
+            for (r, &i) in idx.iter().enumerate() {
+                assert_eq!(
+                    records[i].map(f32::to_bits),
+                    record_bits(&rays.get(i)),
+                    "ray {i}"
+                );
                 let bits = |l: &Lanes| record_bits(&l.ray(r));
                 assert_eq!(bits(&from_records), bits(&lanes), "lane {r} of {idx:?}");
             }

@@ -320,8 +320,9 @@ impl Bvh {
 /// Rays share what the tests allow. Where the packet's groups of lanes each start at one origin
 /// (`shared`: the groups' origins, and the shift from a lane to its group: 5 for one group of
 /// all, 3 for groups of eight, 2 for groups of four), a pair's vertices less an origin are
-/// taken once for the rays from it ([`Rel8`]) where two or more still test the pair. A lone group (most of a small mesh's leaves hold four triangles or
-/// fewer) is tested by two rays in one eight-lane pass.
+/// taken once for the rays from it ([`Rel8`]) where two or more still test the pair. A lone
+/// group (most of a small mesh's leaves hold four triangles or fewer) is tested by two rays in
+/// one eight-lane pass.
 ///
 /// # Safety
 /// The CPU must have AVX2, and with `shared`, each ray of `m` start at its group's origin, bit

@@ -561,8 +561,6 @@ pub(crate) fn pair_prim(a: &Tri4, b: &Tri4, k: usize) -> u32 {
     if k < 4 { a.prim[k] } else { b.prim[k % 4] }
 }
 
-/// Eight rows of eight lanes turned into eight rows of eight: `out[i]` holds lane `i` of every
-/// row, in row order.
 #[cfg(target_arch = "x86_64")]
 pub(crate) use x86::transpose8;
 
