@@ -45,8 +45,8 @@ fn misses(n: usize) -> HitBatch {
 /// `out` made `n` misses in its own buffers, written in parallel. Kept buffers spare the
 /// trace a fresh batch's pages, which the kernel maps and zeroes on their first touch: a
 /// small mesh's AO probes traced again into a batch of the same size measured 1.05x faster
-/// on one thread, 1.07-1.09x on two. Where the batch is fresh, its pages are first touched here,
-/// and mapping them is work one thread alone would otherwise do while the others wait.
+/// on one thread, 1.07-1.09x on two. Where the batch is fresh, its pages are first touched
+/// here, and mapping them is work one thread alone would otherwise do while the others wait.
 fn reset(out: &mut HitBatch, n: usize) {
     out.t.clear();
     out.prim.clear();
@@ -184,30 +184,23 @@ fn origin_cells(bounds: &Aabb, rays: &RayBatch) -> Vec<u32> {
         }
     }
     // The places are all different, so each entry is written once.
-    let order = places(n, 0);
+    let mut order = vec![0u32; n];
+    let places = atomic(&mut order);
     keys.par_chunks(size)
         .zip(starts.par_iter_mut())
         .enumerate()
         .for_each(|(p, (part, start))| {
             for (j, &k) in part.iter().enumerate() {
                 let place = &mut start[k as usize];
-                order[*place as usize].store((p * size + j) as u32, Ordering::Relaxed);
+                places[*place as usize].store((p * size + j) as u32, Ordering::Relaxed);
                 *place += 1;
             }
         });
-    order.into_iter().map(AtomicU32::into_inner).collect()
+    order
 }
 
-/// `n` words of `bits`, for a parallel pass to fill at places that are all different (relaxed
-/// stores are plain stores).
-fn places(n: usize, bits: u32) -> Vec<AtomicU32> {
-    (0..n)
-        .into_par_iter()
-        .map(|_| AtomicU32::new(bits))
-        .collect()
-}
-
-/// `words` as atomic words, for a parallel pass to fill at places that are all different.
+/// `words` as atomic words, for a parallel pass to fill at places that are all different
+/// (relaxed stores are plain stores).
 fn atomic(words: &mut [u32]) -> &[AtomicU32] {
     const { assert!(align_of::<AtomicU32>() == align_of::<u32>()) };
     // SAFETY: `AtomicU32` has the size, alignment and bit validity of `u32`, and the

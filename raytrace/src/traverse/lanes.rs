@@ -63,11 +63,7 @@ impl Lanes {
     #[inline(never)]
     pub(crate) unsafe fn gather(&mut self, rays: &RayBatch, idx: &[usize]) {
         let n = idx.len().min(PACKET);
-        let [ox, oy, oz] = &mut self.o;
-        let [dx, dy, dz] = &mut self.d;
-        // In the order of `RayBatch::columns`.
-        let rows = [ox, oy, oz, dx, dy, dz, &mut self.tmin, &mut self.tmax];
-        let columns = rows.into_iter().zip(rays.columns());
+        let columns = self.rows().into_iter().zip(rays.columns());
         let first = idx.first().copied().unwrap_or(0);
         // Whether the rays are one run: every index compared, without stopping at the first
         // that differs, so that the comparison vectorises (a fifth of the copy's time as a
@@ -113,11 +109,7 @@ impl Lanes {
                 // SAFETY: a record is eight readable floats.
                 *row = unsafe { _mm256_loadu_ps(records[i].as_ptr()) };
             }
-            let lanes = transpose8(rows);
-            let [ox, oy, oz] = &mut self.o;
-            let [dx, dy, dz] = &mut self.d;
-            let rows = [ox, oy, oz, dx, dy, dz, &mut self.tmin, &mut self.tmax];
-            for (row, lane) in rows.into_iter().zip(lanes) {
+            for (row, lane) in self.rows().into_iter().zip(transpose8(rows)) {
                 store(row, h, lane);
             }
         }
@@ -135,16 +127,24 @@ impl Lanes {
         }
     }
 
-    /// Each group of eight lanes' first origin.
+    /// The first origin of each of `G` groups of `PACKET / G` lanes.
     #[inline(always)]
-    pub(crate) fn group_origins(&self) -> [[f32; 3]; GROUPS] {
-        std::array::from_fn(|g| [self.o[0][8 * g], self.o[1][8 * g], self.o[2][8 * g]])
+    pub(crate) fn group_origins<const G: usize>(&self) -> [[f32; 3]; G] {
+        let step = PACKET / G;
+        std::array::from_fn(|g| {
+            [
+                self.o[0][step * g],
+                self.o[1][step * g],
+                self.o[2][step * g],
+            ]
+        })
     }
 
-    /// Each four lanes' first origin.
-    #[inline(always)]
-    pub(crate) fn quad_origins(&self) -> [[f32; 3]; PACKET / 4] {
-        std::array::from_fn(|q| [self.o[0][4 * q], self.o[1][4 * q], self.o[2][4 * q]])
+    /// Every row of lanes, in the order of a record and of [`RayBatch::columns`].
+    fn rows(&mut self) -> [&mut [f32; PACKET]; 8] {
+        let [ox, oy, oz] = &mut self.o;
+        let [dx, dy, dz] = &mut self.d;
+        [ox, oy, oz, dx, dy, dz, &mut self.tmin, &mut self.tmax]
     }
 }
 
@@ -193,10 +193,10 @@ pub(crate) struct Setup {
     /// [`RayShear::new`]: crate::triangle::RayShear::new
     pub(crate) valid: u32,
     /// Whether the first `n` lanes each start where the first lane of their group of eight
-    /// does, bit for bit ([`Lanes::group_origins`]).
+    /// does, bit for bit ([`Lanes::group_origins`] of [`GROUPS`]).
     pub(crate) one_origin: bool,
     /// Whether the first `n` lanes each start where the first lane of their four does, bit
-    /// for bit ([`Lanes::quad_origins`]).
+    /// for bit ([`Lanes::group_origins`] of eight fours).
     pub(crate) quad_origin: bool,
 }
 

@@ -84,7 +84,7 @@ impl Bvh {
         // Only rays that trace at all (`setup.valid`) are ever in a node's set, so every ray
         // met below has a meaningful set-up.
         // Rays of one origin, bit for bit, share the first step of every box test.
-        let (origins, one_origin) = (lanes.group_origins(), setup.one_origin);
+        let (origins, one_origin) = (lanes.group_origins::<GROUPS>(), setup.one_origin);
         // Whether a later group of eight holds rays of another origin than the first's.
         let groups_apart = origins
             .iter()
@@ -93,10 +93,11 @@ impl Bvh {
         // The origins a leaf's pairs are taken less once for their rays, and the shift from a
         // lane to its group: one origin for all, one per eight lanes, or one per four (the AO
         // rays of a hit four at a time).
-        let quads = lanes.quad_origins();
+        let quads;
         let shared: Option<(&[[f32; 3]], u32)> = if one_origin {
             Some((&origins, if groups_apart { 3 } else { 5 }))
         } else if setup.quad_origin {
+            quads = lanes.group_origins::<{ PACKET / 4 }>();
             Some((&quads, 2))
         } else {
             None
